@@ -1,0 +1,9 @@
+# Warnings for shrefract's own targets only. Applied PRIVATE so they never leak to consumers.
+function(shrefract_warnings target)
+  target_compile_options(${target} PRIVATE
+    $<$<COMPILE_LANGUAGE:CXX>:-Wall -Wextra -Wpedantic -Wshadow -Wconversion -Wno-sign-conversion
+      -Wnon-virtual-dtor -Wold-style-cast -Wnull-dereference -Wdouble-promotion -Wformat=2>)
+  if(SHREFRACT_WERROR)
+    target_compile_options(${target} PRIVATE $<$<COMPILE_LANGUAGE:CXX>:-Werror>)
+  endif()
+endfunction()
