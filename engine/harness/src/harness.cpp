@@ -1,0 +1,360 @@
+#include <shrefract/harness/harness.h>
+
+#include <cstdio>
+#include <cstring>
+#include <mutex>
+#include <string>
+
+namespace shrefract::harness {
+namespace {
+
+std::mutex gMessageMutex;  // the debug callback may be called from any thread
+
+Error vkError(const char* what, VkResult r) {
+  return makeError(ErrorCode::Vulkan, std::string(what) + " failed (VkResult " + std::to_string(r) + ")", r);
+}
+
+bool hasLayer(const char* name) {
+  uint32_t count = 0;
+  vkEnumerateInstanceLayerProperties(&count, nullptr);
+  std::vector<VkLayerProperties> layers(count);
+  vkEnumerateInstanceLayerProperties(&count, layers.data());
+  for (const auto& l : layers)
+    if (std::strcmp(l.layerName, name) == 0) return true;
+  return false;
+}
+
+}  // namespace
+
+VKAPI_ATTR VkBool32 VKAPI_CALL Harness::debugCallback(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
+                                                      VkDebugUtilsMessageTypeFlagsEXT type,
+                                                      const VkDebugUtilsMessengerCallbackDataEXT* data,
+                                                      void* user) {
+  auto* self = static_cast<Harness*>(user);
+  // General messages are loader chatter; info and verbose severities are not problems.
+  const bool relevantType = (type & (VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+                                     VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT)) != 0;
+  const bool relevantSeverity = severity >= VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT;
+  if (!relevantType || !relevantSeverity) return VK_FALSE;
+  std::string text = data && data->pMessage ? data->pMessage : "(no message)";
+  {
+    std::lock_guard<std::mutex> lock(gMessageMutex);
+    self->messages_.push_back(text);
+  }
+  self->messageCount_.fetch_add(1);
+  if (self->echo_) std::fprintf(stderr, "[vulkan validation] %s\n", text.c_str());
+  return VK_FALSE;
+}
+
+Result<std::unique_ptr<Harness>> Harness::create(const HarnessOptions& options, HarnessFailure* failure) {
+  auto fail = [&](HarnessFailure kind, Error e) -> Result<std::unique_ptr<Harness>> {
+    if (failure) *failure = kind;
+    return e;
+  };
+  if (failure) *failure = HarnessFailure::None;
+  std::unique_ptr<Harness> h(new Harness());
+  h->echo_ = options.echoMessages;
+
+  uint32_t apiVersion = 0;
+  if (vkEnumerateInstanceVersion(&apiVersion) != VK_SUCCESS || apiVersion < VK_API_VERSION_1_3)
+    return fail(HarnessFailure::NoDevice, makeError(ErrorCode::MissingFeature, "the Vulkan loader does not offer Vulkan 1.3"));
+
+  std::vector<const char*> layers;
+  std::vector<const char*> extensions = options.instanceExtensions;
+  if (options.enableValidation) {
+    if (!hasLayer("VK_LAYER_KHRONOS_validation"))
+      return fail(HarnessFailure::Other,
+                  makeError(ErrorCode::MissingFeature,
+                            "VK_LAYER_KHRONOS_validation is not installed (Debian: vulkan-validationlayers)"));
+    layers.push_back("VK_LAYER_KHRONOS_validation");
+    extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+  }
+
+  VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
+  app.pApplicationName = "shrefract";
+  app.pEngineName = "shrefract";
+  app.apiVersion = VK_API_VERSION_1_3;
+
+  VkDebugUtilsMessengerCreateInfoEXT messengerInfo{VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
+  messengerInfo.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT |
+                                  VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+  messengerInfo.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT |
+                              VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+                              VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
+  messengerInfo.pfnUserCallback = &Harness::debugCallback;
+  messengerInfo.pUserData = h.get();
+
+  VkInstanceCreateInfo ici{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
+  ici.pApplicationInfo = &app;
+  ici.enabledLayerCount = static_cast<uint32_t>(layers.size());
+  ici.ppEnabledLayerNames = layers.data();
+  ici.enabledExtensionCount = static_cast<uint32_t>(extensions.size());
+  ici.ppEnabledExtensionNames = extensions.data();
+  // Chained so that messages from vkCreateInstance/vkDestroyInstance are counted too.
+  if (options.enableValidation) ici.pNext = &messengerInfo;
+  VkResult r = vkCreateInstance(&ici, nullptr, &h->instance_);
+  if (r == VK_ERROR_INCOMPATIBLE_DRIVER)
+    return fail(HarnessFailure::NoDevice, vkError("vkCreateInstance (no Vulkan driver)", r));
+  if (r != VK_SUCCESS) return fail(HarnessFailure::Other, vkError("vkCreateInstance", r));
+
+  if (options.enableValidation) {
+    auto createMessenger = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
+        vkGetInstanceProcAddr(h->instance_, "vkCreateDebugUtilsMessengerEXT"));
+    if (!createMessenger || createMessenger(h->instance_, &messengerInfo, nullptr, &h->messenger_) != VK_SUCCESS)
+      return fail(HarnessFailure::Other, makeError(ErrorCode::Vulkan, "cannot create the debug-utils messenger"));
+  }
+
+  uint32_t count = 0;
+  vkEnumeratePhysicalDevices(h->instance_, &count, nullptr);
+  if (count == 0) return fail(HarnessFailure::NoDevice, makeError(ErrorCode::MissingFeature, "no Vulkan physical device"));
+  std::vector<VkPhysicalDevice> devices(count);
+  vkEnumeratePhysicalDevices(h->instance_, &count, devices.data());
+  if (options.deviceIndex >= static_cast<int>(count))
+    return fail(HarnessFailure::Other,
+                makeError(ErrorCode::InvalidArgument, "device index " + std::to_string(options.deviceIndex) +
+                                                          " out of range (" + std::to_string(count) + " devices)"));
+  std::vector<VkPhysicalDevice> candidates;
+  if (options.deviceIndex >= 0) candidates.push_back(devices[static_cast<size_t>(options.deviceIndex)]);
+  else candidates = devices;
+
+  for (VkPhysicalDevice pd : candidates) {
+    VkPhysicalDeviceProperties props{};
+    vkGetPhysicalDeviceProperties(pd, &props);
+    if (props.apiVersion < VK_API_VERSION_1_3) continue;
+    uint32_t qcount = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(pd, &qcount, nullptr);
+    std::vector<VkQueueFamilyProperties> qprops(qcount);
+    vkGetPhysicalDeviceQueueFamilyProperties(pd, &qcount, qprops.data());
+    for (uint32_t q = 0; q < qcount; ++q) {
+      const VkQueueFlags need = VK_QUEUE_GRAPHICS_BIT | VK_QUEUE_COMPUTE_BIT;
+      if ((qprops[q].queueFlags & need) == need) {
+        h->physicalDevice_ = pd;
+        h->properties_ = props;
+        h->queueFamily_ = q;
+        break;
+      }
+    }
+    if (h->physicalDevice_) break;
+  }
+  if (!h->physicalDevice_)
+    return fail(HarnessFailure::NoDevice,
+                makeError(ErrorCode::MissingFeature, "no Vulkan 1.3 device with a graphics+compute queue"));
+
+  float priority = 1.0f;
+  VkDeviceQueueCreateInfo qci{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
+  qci.queueFamilyIndex = h->queueFamily_;
+  qci.queueCount = 1;
+  qci.pQueuePriorities = &priority;
+
+  VkPhysicalDeviceVulkan13Features f13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
+  f13.dynamicRendering = VK_TRUE;
+  f13.synchronization2 = VK_TRUE;
+  VkPhysicalDeviceFeatures2 features{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+  features.pNext = &f13;
+
+  VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
+  dci.pNext = &features;
+  dci.queueCreateInfoCount = 1;
+  dci.pQueueCreateInfos = &qci;
+  dci.enabledExtensionCount = static_cast<uint32_t>(options.deviceExtensions.size());
+  dci.ppEnabledExtensionNames = options.deviceExtensions.data();
+  r = vkCreateDevice(h->physicalDevice_, &dci, nullptr, &h->device_);
+  if (r != VK_SUCCESS) return fail(HarnessFailure::Other, vkError("vkCreateDevice", r));
+  vkGetDeviceQueue(h->device_, h->queueFamily_, 0, &h->queue_);
+
+  VkCommandPoolCreateInfo pci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+  pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+  pci.queueFamilyIndex = h->queueFamily_;
+  if ((r = vkCreateCommandPool(h->device_, &pci, nullptr, &h->pool_)) != VK_SUCCESS)
+    return fail(HarnessFailure::Other, vkError("vkCreateCommandPool", r));
+  VkFenceCreateInfo fci{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+  if ((r = vkCreateFence(h->device_, &fci, nullptr, &h->fence_)) != VK_SUCCESS)
+    return fail(HarnessFailure::Other, vkError("vkCreateFence", r));
+  return h;
+}
+
+Harness::~Harness() {
+  if (device_) {
+    vkDeviceWaitIdle(device_);
+    if (fence_) vkDestroyFence(device_, fence_, nullptr);
+    if (pool_) vkDestroyCommandPool(device_, pool_, nullptr);
+    vkDestroyDevice(device_, nullptr);
+  }
+  if (messenger_) {
+    auto destroy = reinterpret_cast<PFN_vkDestroyDebugUtilsMessengerEXT>(
+        vkGetInstanceProcAddr(instance_, "vkDestroyDebugUtilsMessengerEXT"));
+    if (destroy) destroy(instance_, messenger_, nullptr);
+  }
+  if (instance_) vkDestroyInstance(instance_, nullptr);
+}
+
+Result<void> Harness::submitAndWait(const std::function<void(VkCommandBuffer)>& record) {
+  VkCommandBufferAllocateInfo ai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+  ai.commandPool = pool_;
+  ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  ai.commandBufferCount = 1;
+  VkCommandBuffer cmd = VK_NULL_HANDLE;
+  VkResult r = vkAllocateCommandBuffers(device_, &ai, &cmd);
+  if (r != VK_SUCCESS) return vkError("vkAllocateCommandBuffers", r);
+  VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+  bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+  vkBeginCommandBuffer(cmd, &bi);
+  record(cmd);
+  r = vkEndCommandBuffer(cmd);
+  if (r == VK_SUCCESS) {
+    VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+    si.commandBufferCount = 1;
+    si.pCommandBuffers = &cmd;
+    vkResetFences(device_, 1, &fence_);
+    r = vkQueueSubmit(queue_, 1, &si, fence_);
+    if (r == VK_SUCCESS) r = vkWaitForFences(device_, 1, &fence_, VK_TRUE, UINT64_MAX);
+  }
+  vkFreeCommandBuffers(device_, pool_, 1, &cmd);
+  if (r != VK_SUCCESS) return vkError("submitAndWait", r);
+  return {};
+}
+
+uint32_t Harness::findMemoryType(uint32_t typeBits, VkMemoryPropertyFlags required) const {
+  VkPhysicalDeviceMemoryProperties mp{};
+  vkGetPhysicalDeviceMemoryProperties(physicalDevice_, &mp);
+  for (uint32_t i = 0; i < mp.memoryTypeCount; ++i)
+    if ((typeBits & (1u << i)) && (mp.memoryTypes[i].propertyFlags & required) == required) return i;
+  return UINT32_MAX;
+}
+
+Result<Harness::Buffer> Harness::createHostBuffer(VkDeviceSize size, VkBufferUsageFlags usage) {
+  Buffer b;
+  b.size = size;
+  VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+  bci.size = size;
+  bci.usage = usage;
+  VkResult r = vkCreateBuffer(device_, &bci, nullptr, &b.buffer);
+  if (r != VK_SUCCESS) return vkError("vkCreateBuffer", r);
+  VkMemoryRequirements req{};
+  vkGetBufferMemoryRequirements(device_, b.buffer, &req);
+  VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+  mai.allocationSize = req.size;
+  mai.memoryTypeIndex =
+      findMemoryType(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
+  if (mai.memoryTypeIndex == UINT32_MAX) {
+    destroyBuffer(b);
+    return makeError(ErrorCode::MissingFeature, "no host-visible coherent memory type");
+  }
+  if ((r = vkAllocateMemory(device_, &mai, nullptr, &b.memory)) != VK_SUCCESS) {
+    destroyBuffer(b);
+    return vkError("vkAllocateMemory", r);
+  }
+  vkBindBufferMemory(device_, b.buffer, b.memory, 0);
+  vkMapMemory(device_, b.memory, 0, VK_WHOLE_SIZE, 0, &b.mapped);
+  return b;
+}
+
+void Harness::destroyBuffer(Buffer& b) {
+  if (b.buffer) vkDestroyBuffer(device_, b.buffer, nullptr);
+  if (b.memory) vkFreeMemory(device_, b.memory, nullptr);
+  b = Buffer{};
+}
+
+Result<Harness::Image> Harness::createImage(uint32_t width, uint32_t height, VkFormat format,
+                                            VkImageUsageFlags usage, VkImageAspectFlags aspect) {
+  Image img;
+  img.format = format;
+  img.width = width;
+  img.height = height;
+  VkImageCreateInfo ici{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+  ici.imageType = VK_IMAGE_TYPE_2D;
+  ici.format = format;
+  ici.extent = {width, height, 1};
+  ici.mipLevels = 1;
+  ici.arrayLayers = 1;
+  ici.samples = VK_SAMPLE_COUNT_1_BIT;
+  ici.tiling = VK_IMAGE_TILING_OPTIMAL;
+  ici.usage = usage;
+  ici.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  VkResult r = vkCreateImage(device_, &ici, nullptr, &img.image);
+  if (r != VK_SUCCESS) return vkError("vkCreateImage", r);
+  VkMemoryRequirements req{};
+  vkGetImageMemoryRequirements(device_, img.image, &req);
+  VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+  mai.allocationSize = req.size;
+  mai.memoryTypeIndex = findMemoryType(req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+  if (mai.memoryTypeIndex == UINT32_MAX) mai.memoryTypeIndex = findMemoryType(req.memoryTypeBits, 0);
+  if ((r = vkAllocateMemory(device_, &mai, nullptr, &img.memory)) != VK_SUCCESS) {
+    destroyImage(img);
+    return vkError("vkAllocateMemory", r);
+  }
+  vkBindImageMemory(device_, img.image, img.memory, 0);
+  VkImageViewCreateInfo vci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+  vci.image = img.image;
+  vci.viewType = VK_IMAGE_VIEW_TYPE_2D;
+  vci.format = format;
+  vci.subresourceRange = {aspect, 0, 1, 0, 1};
+  if ((r = vkCreateImageView(device_, &vci, nullptr, &img.view)) != VK_SUCCESS) {
+    destroyImage(img);
+    return vkError("vkCreateImageView", r);
+  }
+  return img;
+}
+
+void Harness::destroyImage(Image& img) {
+  if (img.view) vkDestroyImageView(device_, img.view, nullptr);
+  if (img.image) vkDestroyImage(device_, img.image, nullptr);
+  if (img.memory) vkFreeMemory(device_, img.memory, nullptr);
+  img = Image{};
+}
+
+Result<std::vector<float>> Harness::readbackColor(const Image& img, VkImageLayout layout) {
+  size_t texel = 0;
+  if (img.format == VK_FORMAT_R32G32B32A32_SFLOAT) texel = 16;
+  else if (img.format == VK_FORMAT_R8G8B8A8_UNORM) texel = 4;
+  else return makeError(ErrorCode::Unsupported, "readbackColor: unsupported format");
+  const VkDeviceSize bytes = VkDeviceSize(img.width) * img.height * texel;
+  auto staging = createHostBuffer(bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+  if (!staging) return staging.error();
+  Buffer buf = staging.value();
+  auto submitted = submitAndWait([&](VkCommandBuffer cmd) {
+    VkImageMemoryBarrier toSrc{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER};
+    toSrc.srcAccessMask = VK_ACCESS_MEMORY_WRITE_BIT;
+    toSrc.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+    toSrc.oldLayout = layout;
+    toSrc.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    toSrc.srcQueueFamilyIndex = toSrc.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    toSrc.image = img.image;
+    toSrc.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0,
+                         nullptr, 1, &toSrc);
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageExtent = {img.width, img.height, 1};
+    vkCmdCopyImageToBuffer(cmd, img.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, buf.buffer, 1, &region);
+    VkImageMemoryBarrier back = toSrc;
+    back.srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+    back.dstAccessMask = VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT;
+    back.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    back.newLayout = layout;
+    VkBufferMemoryBarrier hostRead{VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER};
+    hostRead.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    hostRead.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    hostRead.srcQueueFamilyIndex = hostRead.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    hostRead.buffer = buf.buffer;
+    hostRead.size = VK_WHOLE_SIZE;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                         VK_PIPELINE_STAGE_ALL_COMMANDS_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 0, nullptr, 1, &hostRead,
+                         1, &back);
+  });
+  if (!submitted) {
+    destroyBuffer(buf);
+    return submitted.error();
+  }
+  std::vector<float> out(size_t(img.width) * img.height * 4);
+  if (texel == 16) {
+    std::memcpy(out.data(), buf.mapped, out.size() * sizeof(float));
+  } else {
+    const auto* p = static_cast<const uint8_t*>(buf.mapped);
+    for (size_t i = 0; i < out.size(); ++i) out[i] = static_cast<float>(p[i]) / 255.0f;
+  }
+  destroyBuffer(buf);
+  return out;
+}
+
+}  // namespace shrefract::harness

@@ -1,0 +1,260 @@
+#include <shrefract/context.h>
+
+#include <cstring>
+#include <string>
+
+#include "core/context_impl.h"
+
+namespace shrefract {
+
+Error vulkanError(const char* what, VkResult result) {
+  return makeError(ErrorCode::Vulkan, std::string(what) + " failed (VkResult " + std::to_string(result) + ")", result);
+}
+
+DeviceRequirements deviceRequirements() { return DeviceRequirements{}; }
+
+Result<std::unique_ptr<Context>> Context::create(const ContextCreateInfo& info) {
+  if (!info.instance || !info.physicalDevice || !info.device || !info.queue || !info.getInstanceProcAddr)
+    return makeError(ErrorCode::InvalidArgument,
+                     "ContextCreateInfo: instance, physicalDevice, device, queue and getInstanceProcAddr are required");
+  if (info.framesInFlight < 1 || info.framesInFlight > 8)
+    return makeError(ErrorCode::InvalidArgument, "ContextCreateInfo: framesInFlight must be 1..8");
+
+  auto impl = std::make_unique<ContextImpl>();
+  impl->info = info;
+  if (const char* missing = impl->vk.load(info.getInstanceProcAddr, info.instance, info.device))
+    return makeError(ErrorCode::MissingFeature, std::string("Vulkan entry point not available: ") + missing);
+  impl->vk.vkGetPhysicalDeviceProperties(info.physicalDevice, &impl->properties);
+  impl->vk.vkGetPhysicalDeviceMemoryProperties(info.physicalDevice, &impl->memoryProperties);
+  if (impl->properties.apiVersion < VK_API_VERSION_1_3)
+    return makeError(ErrorCode::MissingFeature, "shrefract needs a Vulkan 1.3 device");
+
+  VkPhysicalDeviceVulkan13Features f13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
+  VkPhysicalDeviceFeatures2 f2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+  f2.pNext = &f13;
+  impl->vk.vkGetPhysicalDeviceFeatures2(info.physicalDevice, &f2);
+  if (!f13.dynamicRendering || !f13.synchronization2)
+    return makeError(ErrorCode::MissingFeature, "the device lacks dynamicRendering or synchronization2");
+
+  const VkDevice device = info.device;
+  const auto& vk = impl->vk;
+  VkSamplerCreateInfo sci{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+  sci.magFilter = VK_FILTER_LINEAR;
+  sci.minFilter = VK_FILTER_LINEAR;
+  sci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_LINEAR;
+  sci.addressModeU = VK_SAMPLER_ADDRESS_MODE_REPEAT;         // longitude wraps
+  sci.addressModeV = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;  // latitude stops at the poles
+  sci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  sci.maxLod = VK_LOD_CLAMP_NONE;
+  VkResult r = vk.vkCreateSampler(device, &sci, impl->alloc(), &impl->environmentSampler);
+  if (r != VK_SUCCESS) return vulkanError("vkCreateSampler", r);
+
+  VkDescriptorSetLayoutBinding binding{};
+  binding.binding = 0;
+  binding.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  binding.descriptorCount = 1;
+  binding.stageFlags = VK_SHADER_STAGE_FRAGMENT_BIT;
+  VkDescriptorSetLayoutCreateInfo lci{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+  lci.bindingCount = 1;
+  lci.pBindings = &binding;
+  r = vk.vkCreateDescriptorSetLayout(device, &lci, impl->alloc(), &impl->environmentSetLayout);
+  if (r != VK_SUCCESS) return vulkanError("vkCreateDescriptorSetLayout", r);
+
+  VkCommandPoolCreateInfo pci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+  pci.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
+  pci.queueFamilyIndex = info.queueFamilyIndex;
+  r = vk.vkCreateCommandPool(device, &pci, impl->alloc(), &impl->uploadPool);
+  if (r != VK_SUCCESS) return vulkanError("vkCreateCommandPool", r);
+  VkFenceCreateInfo fci{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+  r = vk.vkCreateFence(device, &fci, impl->alloc(), &impl->uploadFence);
+  if (r != VK_SUCCESS) return vulkanError("vkCreateFence", r);
+
+  return std::unique_ptr<Context>(new Context(std::move(impl)));
+}
+
+Context::Context(std::unique_ptr<ContextImpl> impl) : impl_(std::move(impl)) {}
+Context::~Context() = default;
+
+ContextImpl::~ContextImpl() {
+  // The context's destructor is the host's promise that the GPU is done with the engine's work.
+  for (auto& r : retired) r.release();
+  retired.clear();
+  if (!vk.vkDestroyFence) return;  // creation failed before the table was loaded
+  VkDevice d = info.device;
+  if (uploadFence) vk.vkDestroyFence(d, uploadFence, alloc());
+  if (uploadPool) vk.vkDestroyCommandPool(d, uploadPool, alloc());
+  if (environmentSetLayout) vk.vkDestroyDescriptorSetLayout(d, environmentSetLayout, alloc());
+  if (environmentSampler) vk.vkDestroySampler(d, environmentSampler, alloc());
+}
+
+void Context::beginFrame() {
+  ContextImpl& c = *impl_;
+  ++c.frame;
+  std::vector<ContextImpl::Retired> keep;
+  for (auto& r : c.retired) {
+    if (r.frame + c.info.framesInFlight <= c.frame) r.release();
+    else keep.push_back(std::move(r));
+  }
+  c.retired = std::move(keep);
+}
+
+void Context::releaseDeferred() {
+  for (auto& r : impl_->retired) r.release();
+  impl_->retired.clear();
+}
+
+Result<void> Context::uploadNow(const std::function<Result<void>(VkCommandBuffer)>& record) {
+  ContextImpl& c = *impl_;
+  const auto& vk = c.vk;
+  VkCommandBufferAllocateInfo ai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+  ai.commandPool = c.uploadPool;
+  ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  ai.commandBufferCount = 1;
+  VkCommandBuffer cmd = VK_NULL_HANDLE;
+  VkResult r = vk.vkAllocateCommandBuffers(c.device(), &ai, &cmd);
+  if (r != VK_SUCCESS) return vulkanError("vkAllocateCommandBuffers", r);
+  VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+  bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+  vk.vkBeginCommandBuffer(cmd, &bi);
+  Result<void> recorded = record(cmd);
+  r = vk.vkEndCommandBuffer(cmd);
+  if (recorded.ok() && r == VK_SUCCESS) {
+    VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+    si.commandBufferCount = 1;
+    si.pCommandBuffers = &cmd;
+    vk.vkResetFences(c.device(), 1, &c.uploadFence);
+    r = vk.vkQueueSubmit(c.info.queue, 1, &si, c.uploadFence);
+    if (r == VK_SUCCESS) r = vk.vkWaitForFences(c.device(), 1, &c.uploadFence, VK_TRUE, UINT64_MAX);
+  }
+  vk.vkFreeCommandBuffers(c.device(), c.uploadPool, 1, &cmd);
+  if (!recorded.ok()) return recorded;
+  if (r != VK_SUCCESS) return vulkanError("Context::uploadNow", r);
+  // The upload has completed: its staging buffers (retired this frame) can go now.
+  std::vector<ContextImpl::Retired> keep;
+  for (auto& item : c.retired) {
+    if (item.frame == c.frame) item.release();
+    else keep.push_back(std::move(item));
+  }
+  c.retired = std::move(keep);
+  return {};
+}
+
+uint32_t ContextImpl::findMemoryType(uint32_t typeBits, VkMemoryPropertyFlags required,
+                                     VkMemoryPropertyFlags preferred) const {
+  uint32_t fallback = UINT32_MAX;
+  for (uint32_t i = 0; i < memoryProperties.memoryTypeCount; ++i) {
+    if (!(typeBits & (1u << i))) continue;
+    const VkMemoryPropertyFlags flags = memoryProperties.memoryTypes[i].propertyFlags;
+    if ((flags & required) != required) continue;
+    if ((flags & preferred) == preferred) return i;
+    if (fallback == UINT32_MAX) fallback = i;
+  }
+  return fallback;
+}
+
+Result<BufferAllocation> ContextImpl::createBuffer(VkDeviceSize size, VkBufferUsageFlags usage, bool hostVisible) {
+  BufferAllocation b;
+  b.size = size;
+  VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+  bci.size = size;
+  bci.usage = usage;
+  VkResult r = vk.vkCreateBuffer(device(), &bci, alloc(), &b.buffer);
+  if (r != VK_SUCCESS) return vulkanError("vkCreateBuffer", r);
+  VkMemoryRequirements req{};
+  vk.vkGetBufferMemoryRequirements(device(), b.buffer, &req);
+  VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+  mai.allocationSize = req.size;
+  mai.memoryTypeIndex =
+      hostVisible ? findMemoryType(req.memoryTypeBits,
+                                   VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT, 0)
+                  : findMemoryType(req.memoryTypeBits, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+  if (mai.memoryTypeIndex == UINT32_MAX) {
+    destroyBuffer(b);
+    return makeError(ErrorCode::MissingFeature, "no suitable memory type for a buffer");
+  }
+  r = vk.vkAllocateMemory(device(), &mai, alloc(), &b.memory);
+  if (r != VK_SUCCESS) {
+    destroyBuffer(b);
+    return vulkanError("vkAllocateMemory", r);
+  }
+  vk.vkBindBufferMemory(device(), b.buffer, b.memory, 0);
+  if (hostVisible) {
+    r = vk.vkMapMemory(device(), b.memory, 0, VK_WHOLE_SIZE, 0, &b.mapped);
+    if (r != VK_SUCCESS) {
+      destroyBuffer(b);
+      return vulkanError("vkMapMemory", r);
+    }
+  }
+  return b;
+}
+
+void ContextImpl::destroyBuffer(BufferAllocation& b) {
+  if (b.buffer) vk.vkDestroyBuffer(device(), b.buffer, alloc());
+  if (b.memory) vk.vkFreeMemory(device(), b.memory, alloc());  // unmaps implicitly
+  b = BufferAllocation{};
+}
+
+Result<ImageAllocation> ContextImpl::createImage(const VkImageCreateInfo& ici, VkImageViewType viewType,
+                                                 VkImageAspectFlags aspect) {
+  ImageAllocation img;
+  VkResult r = vk.vkCreateImage(device(), &ici, alloc(), &img.image);
+  if (r != VK_SUCCESS) return vulkanError("vkCreateImage", r);
+  VkMemoryRequirements req{};
+  vk.vkGetImageMemoryRequirements(device(), img.image, &req);
+  VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+  mai.allocationSize = req.size;
+  mai.memoryTypeIndex = findMemoryType(req.memoryTypeBits, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+  if (mai.memoryTypeIndex == UINT32_MAX) {
+    destroyImage(img);
+    return makeError(ErrorCode::MissingFeature, "no suitable memory type for an image");
+  }
+  r = vk.vkAllocateMemory(device(), &mai, alloc(), &img.memory);
+  if (r != VK_SUCCESS) {
+    destroyImage(img);
+    return vulkanError("vkAllocateMemory", r);
+  }
+  vk.vkBindImageMemory(device(), img.image, img.memory, 0);
+  VkImageViewCreateInfo vci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+  vci.image = img.image;
+  vci.viewType = viewType;
+  vci.format = ici.format;
+  vci.subresourceRange = {aspect, 0, ici.mipLevels, 0, ici.arrayLayers};
+  r = vk.vkCreateImageView(device(), &vci, alloc(), &img.view);
+  if (r != VK_SUCCESS) {
+    destroyImage(img);
+    return vulkanError("vkCreateImageView", r);
+  }
+  return img;
+}
+
+void ContextImpl::destroyImage(ImageAllocation& img) {
+  if (img.view) vk.vkDestroyImageView(device(), img.view, alloc());
+  if (img.image) vk.vkDestroyImage(device(), img.image, alloc());
+  if (img.memory) vk.vkFreeMemory(device(), img.memory, alloc());
+  img = ImageAllocation{};
+}
+
+Result<VkShaderModule> ContextImpl::createShaderModule(const uint32_t* code, size_t bytes) {
+  VkShaderModuleCreateInfo smci{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+  smci.codeSize = bytes;
+  smci.pCode = code;
+  VkShaderModule module = VK_NULL_HANDLE;
+  VkResult r = vk.vkCreateShaderModule(device(), &smci, alloc(), &module);
+  if (r != VK_SUCCESS) return vulkanError("vkCreateShaderModule", r);
+  return module;
+}
+
+void ContextImpl::retire(std::function<void()> release) { retired.push_back({frame, std::move(release)}); }
+
+Result<void> ContextImpl::recordBufferUpload(VkCommandBuffer cmd, VkBuffer dst, const void* data, VkDeviceSize bytes) {
+  auto staging = createBuffer(bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
+  if (!staging) return staging.error();
+  BufferAllocation s = staging.value();
+  std::memcpy(s.mapped, data, bytes);
+  VkBufferCopy region{0, 0, bytes};
+  vk.vkCmdCopyBuffer(cmd, s.buffer, dst, 1, &region);
+  retire([this, s]() mutable { destroyBuffer(s); });
+  return {};
+}
+
+}  // namespace shrefract

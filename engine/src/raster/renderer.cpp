@@ -1,0 +1,317 @@
+#include <shrefract/renderer.h>
+
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/type_ptr.hpp>
+
+#include "core/context_impl.h"
+#include "engine_spirv.h"
+#include "environment/environment_impl.h"
+#include "shrefract/gpu_layout.h"
+
+namespace shrefract {
+
+// ---------------------------------------------------------------------------------------------
+// Object: vertex and index buffers of a static world-space mesh.
+
+struct ObjectImpl {
+  ContextImpl* context = nullptr;
+  BufferAllocation vertices;  // interleaved: position (3), normal (3), field uv (2)
+  BufferAllocation indices;
+  uint32_t indexCount = 0;
+};
+
+namespace {
+constexpr uint32_t kVertexFloats = 8;
+}
+
+Object::Object(std::unique_ptr<ObjectImpl> impl) : impl_(std::move(impl)) {}
+
+Object::~Object() {
+  ObjectImpl* o = impl_.release();
+  o->context->retire([o]() {
+    o->context->destroyBuffer(o->vertices);
+    o->context->destroyBuffer(o->indices);
+    delete o;
+  });
+}
+
+Result<std::unique_ptr<Object>> Object::create(Context& context, const MeshDesc& mesh, VkCommandBuffer cmd) {
+  if (!mesh.positions || !mesh.normals || !mesh.indices || mesh.vertexCount == 0 || mesh.indexCount == 0 ||
+      mesh.indexCount % 3 != 0)
+    return makeError(ErrorCode::InvalidArgument, "Object::create: a mesh needs positions, normals and a triangle list");
+  for (uint32_t i = 0; i < mesh.indexCount; ++i)
+    if (mesh.indices[i] >= mesh.vertexCount)
+      return makeError(ErrorCode::InvalidArgument, "Object::create: index " + std::to_string(i) + " is out of range");
+  std::vector<float> interleaved(size_t(mesh.vertexCount) * kVertexFloats);
+  for (uint32_t v = 0; v < mesh.vertexCount; ++v) {
+    float* out = &interleaved[size_t(v) * kVertexFloats];
+    for (int k = 0; k < 3; ++k) out[k] = mesh.positions[3 * v + k];
+    for (int k = 0; k < 3; ++k) out[3 + k] = mesh.normals[3 * v + k];
+    out[6] = mesh.fieldUvs ? mesh.fieldUvs[2 * v] : 0.0f;
+    out[7] = mesh.fieldUvs ? mesh.fieldUvs[2 * v + 1] : 0.0f;
+    for (int k = 0; k < 8; ++k)
+      if (!std::isfinite(out[k]))
+        return makeError(ErrorCode::InvalidArgument, "Object::create: vertex " + std::to_string(v) + " is not finite");
+  }
+  ContextImpl& c = context.impl();
+  auto impl = std::make_unique<ObjectImpl>();
+  impl->context = &c;
+  impl->indexCount = mesh.indexCount;
+  const VkDeviceSize vbytes = interleaved.size() * sizeof(float);
+  const VkDeviceSize ibytes = VkDeviceSize(mesh.indexCount) * sizeof(uint32_t);
+  auto vb = c.createBuffer(vbytes, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, false);
+  if (!vb) return vb.error();
+  impl->vertices = vb.value();
+  auto ib = c.createBuffer(ibytes, VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, false);
+  if (!ib) {
+    c.destroyBuffer(impl->vertices);
+    return ib.error();
+  }
+  impl->indices = ib.value();
+  std::unique_ptr<Object> object(new Object(std::move(impl)));
+  ObjectImpl& o = object->impl();
+  if (auto r = c.recordBufferUpload(cmd, o.vertices.buffer, interleaved.data(), vbytes); !r) return r.error();
+  if (auto r = c.recordBufferUpload(cmd, o.indices.buffer, mesh.indices, ibytes); !r) return r.error();
+  VkMemoryBarrier2 barrier{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
+  barrier.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+  barrier.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  barrier.dstStageMask = VK_PIPELINE_STAGE_2_VERTEX_INPUT_BIT | VK_PIPELINE_STAGE_2_INDEX_INPUT_BIT;
+  barrier.dstAccessMask = VK_ACCESS_2_VERTEX_ATTRIBUTE_READ_BIT | VK_ACCESS_2_INDEX_READ_BIT;
+  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+  dep.memoryBarrierCount = 1;
+  dep.pMemoryBarriers = &barrier;
+  c.vk.vkCmdPipelineBarrier2(cmd, &dep);
+  return object;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Renderer: pipelines of the background and object passes.
+
+struct RendererImpl {
+  ContextImpl* context = nullptr;
+  RendererCreateInfo info;
+  VkPipelineLayout backgroundLayout = VK_NULL_HANDLE;
+  VkPipelineLayout objectLayout = VK_NULL_HANDLE;
+  VkPipeline background = VK_NULL_HANDLE;
+  VkPipeline singleInterface = VK_NULL_HANDLE;
+
+  ~RendererImpl() {
+    if (!context) return;
+    ContextImpl& c = *context;
+    for (VkPipeline p : {background, singleInterface})
+      if (p) c.vk.vkDestroyPipeline(c.device(), p, c.alloc());
+    for (VkPipelineLayout l : {backgroundLayout, objectLayout})
+      if (l) c.vk.vkDestroyPipelineLayout(c.device(), l, c.alloc());
+  }
+};
+
+namespace {
+
+struct ShaderPair {
+  const uint32_t* vert;
+  size_t vertBytes;
+  const uint32_t* frag;
+  size_t fragBytes;
+};
+
+Result<VkPipeline> createGraphicsPipeline(ContextImpl& c, const RendererCreateInfo& info, VkPipelineLayout layout,
+                                          const ShaderPair& shaders, bool objectPass) {
+  auto vert = c.createShaderModule(shaders.vert, shaders.vertBytes);
+  if (!vert) return vert.error();
+  auto frag = c.createShaderModule(shaders.frag, shaders.fragBytes);
+  if (!frag) {
+    c.vk.vkDestroyShaderModule(c.device(), vert.value(), c.alloc());
+    return frag.error();
+  }
+  std::array<VkPipelineShaderStageCreateInfo, 2> stages{};
+  stages[0] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+  stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
+  stages[0].module = vert.value();
+  stages[0].pName = "main";
+  stages[1] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+  stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
+  stages[1].module = frag.value();
+  stages[1].pName = "main";
+
+  VkVertexInputBindingDescription binding{0, kVertexFloats * sizeof(float), VK_VERTEX_INPUT_RATE_VERTEX};
+  std::array<VkVertexInputAttributeDescription, 3> attributes{{
+      {0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0},
+      {1, 0, VK_FORMAT_R32G32B32_SFLOAT, 3 * sizeof(float)},
+      {2, 0, VK_FORMAT_R32G32_SFLOAT, 6 * sizeof(float)},
+  }};
+  VkPipelineVertexInputStateCreateInfo vertexInput{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+  if (objectPass) {
+    vertexInput.vertexBindingDescriptionCount = 1;
+    vertexInput.pVertexBindingDescriptions = &binding;
+    vertexInput.vertexAttributeDescriptionCount = static_cast<uint32_t>(attributes.size());
+    vertexInput.pVertexAttributeDescriptions = attributes.data();
+  }
+  VkPipelineInputAssemblyStateCreateInfo ia{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
+  ia.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+  VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
+  vp.viewportCount = 1;
+  vp.scissorCount = 1;
+  VkPipelineRasterizationStateCreateInfo rs{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
+  rs.polygonMode = VK_POLYGON_MODE_FILL;
+  // Only front faces: the field describes what is seen through the front surface.
+  rs.cullMode = objectPass ? VK_CULL_MODE_BACK_BIT : VK_CULL_MODE_NONE;
+  rs.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+  rs.lineWidth = 1.0f;
+  VkPipelineMultisampleStateCreateInfo ms{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
+  ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+  VkPipelineDepthStencilStateCreateInfo ds{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
+  const bool hasDepth = info.depthFormat != VK_FORMAT_UNDEFINED;
+  ds.depthTestEnable = hasDepth ? VK_TRUE : VK_FALSE;
+  ds.depthWriteEnable = (hasDepth && objectPass) ? VK_TRUE : VK_FALSE;
+  ds.depthCompareOp = objectPass ? VK_COMPARE_OP_LESS : VK_COMPARE_OP_LESS_OR_EQUAL;
+  VkPipelineColorBlendAttachmentState blend{};
+  blend.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT |
+                         VK_COLOR_COMPONENT_A_BIT;
+  VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
+  cb.attachmentCount = 1;
+  cb.pAttachments = &blend;
+  std::array<VkDynamicState, 2> dynamicStates{VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+  VkPipelineDynamicStateCreateInfo dyn{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
+  dyn.dynamicStateCount = static_cast<uint32_t>(dynamicStates.size());
+  dyn.pDynamicStates = dynamicStates.data();
+  VkPipelineRenderingCreateInfo rendering{VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO};
+  rendering.colorAttachmentCount = 1;
+  rendering.pColorAttachmentFormats = &info.colorFormat;
+  rendering.depthAttachmentFormat = info.depthFormat;
+
+  VkGraphicsPipelineCreateInfo gpci{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
+  gpci.pNext = &rendering;
+  gpci.stageCount = static_cast<uint32_t>(stages.size());
+  gpci.pStages = stages.data();
+  gpci.pVertexInputState = &vertexInput;
+  gpci.pInputAssemblyState = &ia;
+  gpci.pViewportState = &vp;
+  gpci.pRasterizationState = &rs;
+  gpci.pMultisampleState = &ms;
+  gpci.pDepthStencilState = &ds;
+  gpci.pColorBlendState = &cb;
+  gpci.pDynamicState = &dyn;
+  gpci.layout = layout;
+  VkPipeline pipeline = VK_NULL_HANDLE;
+  VkResult r = c.vk.vkCreateGraphicsPipelines(c.device(), c.info.pipelineCache, 1, &gpci, c.alloc(), &pipeline);
+  c.vk.vkDestroyShaderModule(c.device(), vert.value(), c.alloc());
+  c.vk.vkDestroyShaderModule(c.device(), frag.value(), c.alloc());
+  if (r != VK_SUCCESS) return vulkanError("vkCreateGraphicsPipelines", r);
+  return pipeline;
+}
+
+Result<VkPipelineLayout> createLayout(ContextImpl& c, uint32_t pushBytes) {
+  VkPushConstantRange range{VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, pushBytes};
+  VkPipelineLayoutCreateInfo plci{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+  plci.setLayoutCount = 1;
+  plci.pSetLayouts = &c.environmentSetLayout;
+  plci.pushConstantRangeCount = 1;
+  plci.pPushConstantRanges = &range;
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+  VkResult r = c.vk.vkCreatePipelineLayout(c.device(), &plci, c.alloc(), &layout);
+  if (r != VK_SUCCESS) return vulkanError("vkCreatePipelineLayout", r);
+  return layout;
+}
+
+glm::vec3 toVec3(const std::array<float, 3>& a) { return {a[0], a[1], a[2]}; }
+
+gpu::mat4 toGpu(const glm::mat4& m) {
+  gpu::mat4 out{};
+  std::memcpy(out.m, glm::value_ptr(m), sizeof(out.m));
+  return out;
+}
+
+// Vulkan clip space: y points down, depth in [0, 1].
+glm::mat4 clipFromView(const Camera& camera, VkExtent2D extent) {
+  const float aspect = extent.height ? float(extent.width) / float(extent.height) : 1.0f;
+  glm::mat4 p = glm::perspectiveRH_ZO(glm::radians(camera.verticalFovDegrees), aspect, camera.nearPlane,
+                                      camera.farPlane);
+  p[1][1] *= -1.0f;
+  return p;
+}
+
+glm::mat4 viewFromWorld(const Camera& camera) {
+  return glm::lookAtRH(toVec3(camera.eye), toVec3(camera.target), toVec3(camera.up));
+}
+
+}  // namespace
+
+Renderer::Renderer(std::unique_ptr<RendererImpl> impl) : impl_(std::move(impl)) {}
+Renderer::~Renderer() = default;
+
+Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, const RendererCreateInfo& info) {
+  ContextImpl& c = context.impl();
+  auto impl = std::make_unique<RendererImpl>();
+  impl->context = &c;
+  impl->info = info;
+  auto bl = createLayout(c, sizeof(gpu::BackgroundPushConstants));
+  if (!bl) return bl.error();
+  impl->backgroundLayout = bl.value();
+  auto ol = createLayout(c, sizeof(gpu::ObjectPushConstants));
+  if (!ol) return ol.error();
+  impl->objectLayout = ol.value();
+  auto bg = createGraphicsPipeline(c, info, impl->backgroundLayout,
+                                   {kSpirv_background_vert, sizeof(kSpirv_background_vert), kSpirv_background_frag,
+                                    sizeof(kSpirv_background_frag)},
+                                   false);
+  if (!bg) return bg.error();
+  impl->background = bg.value();
+  auto si = createGraphicsPipeline(c, info, impl->objectLayout,
+                                   {kSpirv_object_vert, sizeof(kSpirv_object_vert),
+                                    kSpirv_object_single_interface_frag, sizeof(kSpirv_object_single_interface_frag)},
+                                   true);
+  if (!si) return si.error();
+  impl->singleInterface = si.value();
+  return std::unique_ptr<Renderer>(new Renderer(std::move(impl)));
+}
+
+void Renderer::recordBackground(VkCommandBuffer cmd, const Environment& environment, const Camera& camera,
+                                VkExtent2D extent) {
+  RendererImpl& r = *impl_;
+  ContextImpl& c = *r.context;
+  glm::mat4 view = viewFromWorld(camera);
+  view[3] = glm::vec4(0.0f, 0.0f, 0.0f, 1.0f);  // directions only: drop the translation
+  gpu::BackgroundPushConstants push{toGpu(glm::inverse(clipFromView(camera, extent) * view))};
+  c.vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r.background);
+  c.vk.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r.backgroundLayout, 0, 1,
+                               &environment.impl().set, 0, nullptr);
+  c.vk.vkCmdPushConstants(cmd, r.backgroundLayout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
+                          sizeof(push), &push);
+  c.vk.vkCmdDraw(cmd, 3, 1, 0, 0);
+}
+
+void Renderer::recordObjects(VkCommandBuffer cmd, const Environment& environment, const Camera& camera,
+                             VkExtent2D extent, const std::vector<Object*>& objects, ShadingMode mode) {
+  RendererImpl& r = *impl_;
+  ContextImpl& c = *r.context;
+  const glm::mat4 clipFromWorld = clipFromView(camera, extent) * viewFromWorld(camera);
+  c.vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r.singleInterface);
+  c.vk.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r.objectLayout, 0, 1, &environment.impl().set,
+                               0, nullptr);
+  for (Object* object : objects) {
+    if (!object) continue;
+    ObjectImpl& o = object->impl();
+    const ObjectShading& s = object->shading;
+    gpu::ObjectPushConstants push{};
+    push.clipFromWorld = toGpu(clipFromWorld);
+    push.eyeWorld = {camera.eye[0], camera.eye[1], camera.eye[2], 0.0f};
+    push.medium = {s.ior, s.absorptionScale, s.reflection ? 1.0f : 0.0f, 0.0f};
+    push.tint = {s.tint[0], s.tint[1], s.tint[2], 0.0f};
+    push.params = {r.info.exposure, 0.0f, static_cast<float>(static_cast<uint32_t>(mode)), 0.0f};
+    c.vk.vkCmdPushConstants(cmd, r.objectLayout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
+                            sizeof(push), &push);
+    VkDeviceSize offset = 0;
+    c.vk.vkCmdBindVertexBuffers(cmd, 0, 1, &o.vertices.buffer, &offset);
+    c.vk.vkCmdBindIndexBuffer(cmd, o.indices.buffer, 0, VK_INDEX_TYPE_UINT32);
+    c.vk.vkCmdDrawIndexed(cmd, o.indexCount, 1, 0, 0, 0);
+  }
+}
+
+}  // namespace shrefract

@@ -1,0 +1,72 @@
+// Private side of Context: dispatch table, memory helpers, shared layouts, deferred destruction.
+#pragma once
+
+#include <shrefract/context.h>
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "core/dispatch.h"
+
+namespace shrefract {
+
+Error vulkanError(const char* what, VkResult result);
+
+struct BufferAllocation {
+  VkBuffer buffer = VK_NULL_HANDLE;
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+  VkDeviceSize size = 0;
+  void* mapped = nullptr;  // host-visible allocations only
+};
+
+struct ImageAllocation {
+  VkImage image = VK_NULL_HANDLE;
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+  VkImageView view = VK_NULL_HANDLE;
+};
+
+struct ContextImpl {
+  ContextCreateInfo info;
+  Dispatch vk;
+  VkPhysicalDeviceProperties properties{};
+  VkPhysicalDeviceMemoryProperties memoryProperties{};
+
+  // Shared by every raster pipeline: set 0 = environment sampler.
+  VkSampler environmentSampler = VK_NULL_HANDLE;
+  VkDescriptorSetLayout environmentSetLayout = VK_NULL_HANDLE;
+
+  // Own pool and fence, used only by Context::uploadNow().
+  VkCommandPool uploadPool = VK_NULL_HANDLE;
+  VkFence uploadFence = VK_NULL_HANDLE;
+
+  uint64_t frame = 0;
+  struct Retired {
+    uint64_t frame;
+    std::function<void()> release;
+  };
+  std::vector<Retired> retired;
+
+  ~ContextImpl();
+
+  const VkAllocationCallbacks* alloc() const { return info.allocator; }
+  VkDevice device() const { return info.device; }
+
+  uint32_t findMemoryType(uint32_t typeBits, VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred) const;
+  Result<BufferAllocation> createBuffer(VkDeviceSize size, VkBufferUsageFlags usage, bool hostVisible);
+  void destroyBuffer(BufferAllocation& buffer);
+  Result<ImageAllocation> createImage(const VkImageCreateInfo& imageInfo, VkImageViewType viewType,
+                                      VkImageAspectFlags aspect);
+  void destroyImage(ImageAllocation& image);
+  Result<VkShaderModule> createShaderModule(const uint32_t* code, size_t bytes);
+
+  // Defers `release` until the GPU can no longer be using what it frees.
+  void retire(std::function<void()> release);
+
+  // Uploads `bytes` into `dst` through a staging buffer; records the copy into `cmd` and retires
+  // the staging buffer.
+  Result<void> recordBufferUpload(VkCommandBuffer cmd, VkBuffer dst, const void* data, VkDeviceSize bytes);
+};
+
+}  // namespace shrefract
