@@ -1,0 +1,8 @@
+#pragma once
+
+namespace shrefract::cli {
+
+// Each command returns the process exit code: 0 success, 1 failure, 2 usage error.
+int renderCommand(int argc, char** argv);
+
+}  // namespace shrefract::cli

@@ -1,0 +1,38 @@
+// shrefract: the command line tool (bake, render, report, view, info).
+#include <cstdio>
+#include <cstring>
+#include <string>
+
+#include "cli/commands.h"
+
+namespace {
+
+void printUsage(FILE* out) {
+  std::fprintf(out,
+               "usage: shrefract COMMAND [ARGS]\n"
+               "commands:\n"
+               "  render SCENE -o OUT.png|exr   render a scene (builtin:NAME) over its environment\n"
+               "  help                          this text; `shrefract COMMAND --help` for a command\n"
+               "  version                       print the version\n");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    printUsage(stderr);
+    return 2;
+  }
+  const std::string command = argv[1];
+  if (command == "render") return shrefract::cli::renderCommand(argc, argv);
+  if (command == "help" || command == "--help" || command == "-h") {
+    printUsage(stdout);
+    return 0;
+  }
+  if (command == "version" || command == "--version") {
+    std::printf("shrefract 0.1.0\n");
+    return 0;
+  }
+  std::fprintf(stderr, "shrefract: unknown command '%s' (try `shrefract help`)\n", command.c_str());
+  return 2;
+}

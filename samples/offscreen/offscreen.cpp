@@ -1,0 +1,188 @@
+#include "offscreen/offscreen.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <glm/glm.hpp>
+
+namespace shrefract::offscreen {
+
+Session::~Session() {
+  // The engine's objects must go before the device they borrow.
+  if (harness && context) {
+    context->releaseDeferred();
+  }
+  context.reset();
+  harness.reset();
+}
+
+Result<std::unique_ptr<Session>> createSession(const harness::HarnessOptions& options,
+                                               harness::HarnessFailure* failure) {
+  auto h = harness::Harness::create(options, failure);
+  if (!h) return h.error();
+  auto session = std::make_unique<Session>();
+  session->harness = std::move(h).value();
+  const auto& hr = *session->harness;
+  ContextCreateInfo info;
+  info.instance = hr.instance();
+  info.physicalDevice = hr.physicalDevice();
+  info.device = hr.device();
+  info.queueFamilyIndex = hr.queueFamily();
+  info.queue = hr.queue();
+  info.getInstanceProcAddr = vkGetInstanceProcAddr;
+  auto context = Context::create(info);
+  if (!context) return context.error();
+  session->context = std::move(context).value();
+  return session;
+}
+
+Result<bake::Image> loadEnvironmentImage(const std::string& spec, uint32_t builtinWidth) {
+  if (spec.empty() || spec == "builtin") return bake::proceduralEnvironment(builtinWidth);
+  return bake::loadEnvironment(spec);
+}
+
+Result<std::unique_ptr<Environment>> uploadEnvironment(Session& session, const bake::Image& image) {
+  std::unique_ptr<Environment> env;
+  auto uploaded = session.context->uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
+    LatLongEnvironmentDesc desc{image.width, image.height, image.rgba.data()};
+    auto created = Environment::createLatLong(*session.context, desc, cmd);
+    if (!created) return created.error();
+    env = std::move(created).value();
+    return {};
+  });
+  if (!uploaded) return uploaded.error();
+  return env;
+}
+
+Result<std::vector<std::unique_ptr<Object>>> uploadScene(Session& session, const bake::Scene& scene) {
+  std::vector<std::unique_ptr<Object>> objects;
+  auto uploaded = session.context->uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
+    for (const bake::Surface& s : scene.surfaces) {
+      MeshDesc mesh;
+      mesh.positions = &s.positions[0].x;
+      mesh.normals = &s.normals[0].x;
+      mesh.fieldUvs = s.uvs.empty() ? nullptr : &s.uvs[0].x;
+      mesh.vertexCount = static_cast<uint32_t>(s.positions.size());
+      mesh.indices = s.indices.data();
+      mesh.indexCount = static_cast<uint32_t>(s.indices.size());
+      auto object = Object::create(*session.context, mesh, cmd);
+      if (!object) return object.error();
+      const float inner = scene.media[s.innerMedium].ior;
+      const float outer = scene.media[s.outerMedium].ior;
+      object.value()->shading.ior = inner / outer;
+      const glm::vec3 c = scene.media[s.innerMedium].color;
+      object.value()->shading.tint = {c.x, c.y, c.z};
+      objects.push_back(std::move(object).value());
+    }
+    return {};
+  });
+  if (!uploaded) return uploaded.error();
+  return objects;
+}
+
+Camera defaultCamera(const bake::Scene& scene, float verticalFovDegrees) {
+  const bake::Bounds b = bake::bounds(scene);
+  const glm::vec3 center = 0.5f * (b.min + b.max);
+  const float radius = std::max(0.5f * glm::length(b.max - b.min), 1e-6f);
+  const float distance = radius / std::sin(glm::radians(0.5f * verticalFovDegrees)) * 1.15f;
+  const glm::vec3 dir = glm::normalize(glm::vec3(0.25f, 0.35f, 1.0f));
+  const glm::vec3 eye = center + dir * distance;
+  Camera camera;
+  camera.eye = {eye.x, eye.y, eye.z};
+  camera.target = {center.x, center.y, center.z};
+  camera.verticalFovDegrees = verticalFovDegrees;
+  camera.nearPlane = distance * 1e-3f;
+  camera.farPlane = distance * 10.0f;
+  return camera;
+}
+
+Result<bake::Image> renderFrame(Session& session, const Environment& environment, const std::vector<Object*>& objects,
+                                const FrameSettings& settings) {
+  harness::Harness& h = *session.harness;
+  const VkFormat colorFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
+  const VkFormat depthFormat = VK_FORMAT_D32_SFLOAT;
+  RendererCreateInfo rci;
+  rci.colorFormat = colorFormat;
+  rci.depthFormat = depthFormat;
+  rci.exposure = settings.exposure;
+  auto renderer = Renderer::create(*session.context, rci);
+  if (!renderer) return renderer.error();
+  auto color = h.createImage(settings.width, settings.height, colorFormat,
+                             VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                             VK_IMAGE_ASPECT_COLOR_BIT);
+  if (!color) return color.error();
+  auto depth = h.createImage(settings.width, settings.height, depthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                             VK_IMAGE_ASPECT_DEPTH_BIT);
+  if (!depth) {
+    h.destroyImage(color.value());
+    return depth.error();
+  }
+  harness::Harness::Image colorImage = color.value();
+  harness::Harness::Image depthImage = depth.value();
+  const VkExtent2D extent{settings.width, settings.height};
+
+  auto submitted = h.submitAndWait([&](VkCommandBuffer cmd) {
+    std::array<VkImageMemoryBarrier2, 2> toAttachment{};
+    for (auto& b : toAttachment) {
+      b = {VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
+      b.srcStageMask = VK_PIPELINE_STAGE_2_NONE;
+      b.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+      b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    }
+    toAttachment[0].dstStageMask = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT;
+    toAttachment[0].dstAccessMask = VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT;
+    toAttachment[0].newLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    toAttachment[0].image = colorImage.image;
+    toAttachment[0].subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    toAttachment[1].dstStageMask =
+        VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
+    toAttachment[1].dstAccessMask =
+        VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT;
+    toAttachment[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    toAttachment[1].image = depthImage.image;
+    toAttachment[1].subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, 1};
+    VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+    dep.imageMemoryBarrierCount = 2;
+    dep.pImageMemoryBarriers = toAttachment.data();
+    vkCmdPipelineBarrier2(cmd, &dep);
+
+    VkRenderingAttachmentInfo colorAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+    colorAttachment.imageView = colorImage.view;
+    colorAttachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    colorAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    colorAttachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    VkRenderingAttachmentInfo depthAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+    depthAttachment.imageView = depthImage.view;
+    depthAttachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    depthAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    depthAttachment.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    depthAttachment.clearValue.depthStencil = {1.0f, 0};
+    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+    ri.renderArea = {{0, 0}, extent};
+    ri.layerCount = 1;
+    ri.colorAttachmentCount = 1;
+    ri.pColorAttachments = &colorAttachment;
+    ri.pDepthAttachment = &depthAttachment;
+    vkCmdBeginRendering(cmd, &ri);
+    VkViewport viewport{0.0f, 0.0f, float(extent.width), float(extent.height), 0.0f, 1.0f};
+    VkRect2D scissor{{0, 0}, extent};
+    vkCmdSetViewport(cmd, 0, 1, &viewport);
+    vkCmdSetScissor(cmd, 0, 1, &scissor);
+    renderer.value()->recordBackground(cmd, environment, settings.camera, extent);
+    renderer.value()->recordObjects(cmd, environment, settings.camera, extent, objects, settings.mode);
+    vkCmdEndRendering(cmd);
+  });
+  Result<std::vector<float>> pixels = submitted.ok()
+      ? h.readbackColor(colorImage, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL)
+      : Result<std::vector<float>>(submitted.error());
+  h.destroyImage(colorImage);
+  h.destroyImage(depthImage);
+  if (!pixels) return pixels.error();
+  bake::Image out;
+  out.width = settings.width;
+  out.height = settings.height;
+  out.rgba = std::move(pixels).value();
+  return out;
+}
+
+}  // namespace shrefract::offscreen

@@ -1,0 +1,15 @@
+#!/usr/bin/env bash
+# Fresh Debian 12 machine -> the main job: build the tool and render the default built-in scene
+# over the built-in environment. Output goes to out/ (override with OUT_DIR).
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+build="${BUILD_DIR:-$root/build}"
+out="${OUT_DIR:-$root/out}"
+bash "$root/scripts/setup-debian.sh"
+cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release
+cmake --build "$build" -j "$(nproc)" --target shrefract
+mkdir -p "$out"
+# Lavapipe by default, so the job runs the same on any machine; set VK_DRIVER_FILES to choose.
+export VK_DRIVER_FILES="${VK_DRIVER_FILES:-/usr/share/vulkan/icd.d/lvp_icd.x86_64.json}"
+"$build/samples/shrefract" render builtin:sphere --size 960x720 -o "$out/sphere.png"
+echo "main job done: look at $out/sphere.png"
