@@ -1,0 +1,158 @@
+// The refraction field: what the baker writes and the engine replays.
+//
+// For every surface sample s (a texel of the sample atlas) and every view direction w over the
+// hemisphere of the sample's local frame, the bake traced where the refracted path leaves the
+// object (world-space unit direction) and how much optical depth it crossed. Each of the four
+// channels (x, y, z of the exit direction, optical depth tau) is stored as real SH coefficients
+// of order L (see shrefract/sh.h for the convention).
+//
+// The local frame: w = normalize(M_s * (eye, 1)) where M_s (3 rows of 4 floats, `frames`) maps a
+// world-space eye position to the direction toward the eye in the sample's frame (z = normal).
+//
+// This header is the in-memory form; docs/field-format.md specifies the `.shrf` file.
+#pragma once
+
+#include <shrefract/result.h>
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace shrefract {
+
+inline constexpr uint32_t kFieldFormatVersion = 1;
+
+enum class SampleLayout : uint32_t {
+  Split = 0,   // revised technique: one texel patch per triangle, continuity-corrected gutters
+  Charts = 1,  // straightforward technique: samples are texels of a chart atlas (seams at borders)
+};
+
+enum class Quantization : uint32_t {
+  U8 = 0,   // 8 bits per channel with a per-basis-function, per-channel scale and bias
+  F16 = 1,  // IEEE binary16
+};
+
+enum class SmoothingWindow : uint32_t { None = 0, Hann = 1, Lanczos = 2 };
+
+const char* toString(SampleLayout layout);
+const char* toString(Quantization quantization);
+const char* toString(SmoothingWindow window);
+
+struct FieldMedium {
+  std::string name;
+  float ior = 1.0f;
+  float absorption = 0.0f;  // weight per unit length in the optical depth
+  std::array<float, 3> color{1.0f, 1.0f, 1.0f};
+};
+
+// How the field was baked. Stored in the file so that a field documents itself.
+struct BakeSettings {
+  std::string source;                // scene: "builtin:NAME" or the glTF path as given
+  uint32_t order = 8;                // SH order L
+  uint32_t directionsTheta = 32;     // hemisphere grid: rows in polar angle
+  uint32_t directionsPhi = 64;       // columns in azimuth
+  SampleLayout layout = SampleLayout::Split;
+  uint64_t sampleBudget = 0;         // requested total samples (0: not used)
+  float samplesPerUnitArea = 0.0f;   // requested density (0: not used)
+  uint32_t maxBounces = 16;          // cap on interactions after entering the object
+  SmoothingWindow window = SmoothingWindow::None;
+  uint32_t spatialNeighbours = 0;    // 0, 3 or 5
+  Quantization quantization = Quantization::U8;
+  float regularization = 0.0f;       // lambda of the hemisphere fit (docs/fitting.md)
+  uint32_t threads = 0;              // informational: does not change the data
+};
+
+// Timing fields (seconds, rays per second, memory) vary from run to run; everything else is
+// deterministic for a given scene and settings.
+struct BakeStatistics {
+  uint64_t samples = 0;              // texels that hold a traced sample
+  uint64_t uniqueSamples = 0;        // distinct surface points traced (shared edges traced once)
+  uint64_t directions = 0;           // directions per sample
+  uint64_t paths = 0;                // paths traced (samples x directions, plus held-out checks)
+  uint64_t rays = 0;                 // Embree ray queries
+  uint64_t trappedPaths = 0;         // paths that hit the interaction cap
+  double bakeSeconds = 0.0;
+  double traceSeconds = 0.0;
+  double fitSeconds = 0.0;
+  double raysPerSecond = 0.0;
+  uint64_t peakMemoryBytes = 0;
+  float fitRmsDegrees = 0.0f;        // angle between traced and reconstructed exit directions at the grid
+  float fitMaxDegrees = 0.0f;
+  float heldOutRmsDegrees = 0.0f;    // same at random directions not in the grid
+  float heldOutMaxDegrees = 0.0f;
+  float quantizationRmsDegrees = 0.0f;  // extra error of the quantized coefficients over the float fit
+  float quantizationMaxDegrees = 0.0f;
+};
+
+// The render mesh for the field's layout. Only surfaces facing the surrounding medium are here:
+// those are the ones an eye outside the object sees.
+struct FieldMesh {
+  std::vector<float> positions;  // 3 per vertex, world space
+  std::vector<float> normals;    // 3 per vertex, unit
+  std::vector<float> uvs;        // 2 per vertex: atlas coordinates in [0,1], texel centre i at (i+0.5)/size
+  std::vector<float> frontIor;   // 1 per vertex: n_inside / n_outside of the surface the eye sees
+  std::vector<uint32_t> indices; // triangle list
+};
+
+// Split layout continuity correction: after decompression, texel `target` is set to
+// value(a) + value(b) - value(c), so bilinear filtering along a triangle's hypotenuse is linear
+// between the samples on it (docs/sample-layouts.md).
+struct GutterTexel {
+  uint32_t target = 0, a = 0, b = 0, c = 0;  // texel indices y * width + x
+};
+
+// Texel roles in `texelKinds`.
+inline constexpr uint8_t kTexelEmpty = 0;   // no sample; frame is zero; decompresses to zero
+inline constexpr uint8_t kTexelSample = 1;  // holds a sample
+inline constexpr uint8_t kTexelGutter = 2;  // split layout: filled by a GutterTexel rule
+
+struct Field {
+  uint32_t width = 0;            // atlas size in texels
+  uint32_t height = 0;
+  uint32_t order = 0;            // SH order L: basisCount = (L+1)^2 layers
+  uint32_t channels = 4;         // 4: x, y, z, tau; 3: no medium absorbs, tau not stored
+  Quantization quantization = Quantization::U8;
+
+  // Coefficients, layer-major: index ((layer * height + y) * width + x) * channels + channel.
+  // U8: value = bias[layer * channels + c] + scale[layer * channels + c] * q / 255.
+  std::vector<uint8_t> coefficientsU8;
+  std::vector<uint16_t> coefficientsF16;  // binary16 bit patterns
+  std::vector<float> scale;               // basisCount * channels (U8 only)
+  std::vector<float> bias;                // basisCount * channels (U8 only)
+
+  std::vector<float> frames;        // width * height * 12: rows of M_s (zero for empty texels)
+  std::vector<uint8_t> texelKinds;  // width * height: kTexelEmpty, kTexelSample, kTexelGutter
+  std::vector<GutterTexel> gutters;
+
+  FieldMesh mesh;
+  std::vector<FieldMedium> media;  // media[0] surrounds the object
+  BakeSettings settings;
+  BakeStatistics statistics;
+
+  uint32_t basisCount() const { return (order + 1) * (order + 1); }
+  uint64_t texelCount() const { return uint64_t(width) * height; }
+};
+
+// Dequantized coefficient. Preconditions: validateField(field) succeeded, indices in range.
+float fieldCoefficient(const Field& field, uint32_t layer, uint64_t texel, uint32_t channel);
+
+// Encodes float coefficients (same indexing as the quantized arrays) into field.coefficientsU8 +
+// scale/bias or field.coefficientsF16, per field.quantization. A channel of zero range gets
+// scale 0 and decodes exactly to its bias. Precondition: all values finite, sizes match.
+Result<void> encodeCoefficients(Field& field, const std::vector<float>& coefficients);
+
+// Structural validation: sizes agree, values finite, indices and texel references in range,
+// UVs in [0,1], frames zero exactly for empty texels, order <= 32, channels 3 or 4.
+Result<void> validateField(const Field& field);
+
+// Serialization. parseField validates everything: magic, version (newer versions are rejected
+// as Unsupported), section sizes, checksum, then validateField. `name` is used in messages.
+std::vector<uint8_t> serializeField(const Field& field);
+Result<Field> parseField(const uint8_t* data, size_t size, const std::string& name);
+Result<Field> readField(const std::string& path);
+// Writes atomically: a temporary file in the same directory, then rename. No partial file remains
+// on failure.
+Result<void> writeField(const std::string& path, const Field& field);
+
+}  // namespace shrefract
