@@ -149,6 +149,7 @@ Result<std::unique_ptr<Harness>> Harness::create(const HarnessOptions& options, 
   VkPhysicalDeviceVulkan13Features f13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
   f13.dynamicRendering = VK_TRUE;
   f13.synchronization2 = VK_TRUE;
+  f13.maintenance4 = VK_TRUE;  // SPIR-V 1.6 compute shaders declare LocalSizeId
   VkPhysicalDeviceFeatures2 features{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
   features.pNext = &f13;
 

@@ -30,9 +30,11 @@ struct DeviceRequirements {
   uint32_t apiVersion = VK_API_VERSION_1_3;
   std::vector<const char*> deviceExtensions;  // none beyond Vulkan 1.3 today
   // Vulkan 1.3 features that must be VK_TRUE: dynamicRendering (raster pass into the host's
-  // attachments without render-pass objects), synchronization2 (barriers).
+  // attachments without render-pass objects), synchronization2 (barriers), maintenance4 (our
+  // shaders are SPIR-V 1.6, whose compute shaders declare their workgroup size with LocalSizeId).
   bool dynamicRendering = true;
   bool synchronization2 = true;
+  bool maintenance4 = true;
   // The queue the engine records for must support graphics and compute.
   VkQueueFlags queueFlags = VK_QUEUE_GRAPHICS_BIT | VK_QUEUE_COMPUTE_BIT;
 };

@@ -33,8 +33,8 @@ Result<std::unique_ptr<Context>> Context::create(const ContextCreateInfo& info) 
   VkPhysicalDeviceFeatures2 f2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
   f2.pNext = &f13;
   impl->vk.vkGetPhysicalDeviceFeatures2(info.physicalDevice, &f2);
-  if (!f13.dynamicRendering || !f13.synchronization2)
-    return makeError(ErrorCode::MissingFeature, "the device lacks dynamicRendering or synchronization2");
+  if (!f13.dynamicRendering || !f13.synchronization2 || !f13.maintenance4)
+    return makeError(ErrorCode::MissingFeature, "the device lacks dynamicRendering, synchronization2 or maintenance4");
 
   const VkDevice device = info.device;
   const auto& vk = impl->vk;
