@@ -1,0 +1,293 @@
+#include <shrefract/bake/bake.h>
+#include <shrefract/bake/fit.h>
+#include <shrefract/bake/layout.h>
+#include <shrefract/bake/sample_frame.h>
+#include <shrefract/bake/tracer.h>
+#include <shrefract/sh.h>
+
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <glm/geometric.hpp>
+
+namespace shrefract::bake {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+uint64_t peakResidentBytes() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<uint64_t>(usage.ru_maxrss) * 1024u;  // Linux reports kilobytes
+}
+
+// Angle in degrees between two directions; a zero-length reconstruction counts as 180 degrees.
+double angleDegrees(glm::vec3 a, glm::vec3 b) {
+  const float la = glm::length(a), lb = glm::length(b);
+  if (!(la > 0.0f) || !(lb > 0.0f)) return 180.0;
+  const double c = std::clamp(static_cast<double>(glm::dot(a, b) / (la * lb)), -1.0, 1.0);
+  return std::acos(c) * (180.0 / 3.14159265358979323846);
+}
+
+// SplitMix64: deterministic per-sample random directions for the held-out check.
+uint64_t splitmix(uint64_t& state) {
+  uint64_t z = (state += 0x9e3779b97f4a7c15ull);
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+  return z ^ (z >> 31);
+}
+float unitFloat(uint64_t& state) { return static_cast<float>(splitmix(state) >> 40) * (1.0f / 16777216.0f); }
+
+Result<void> checkSettings(const BakeSettings& s) {
+  auto bad = [](const std::string& m) { return makeError(ErrorCode::InvalidArgument, m); };
+  if (s.order > static_cast<uint32_t>(kMaxFitOrder))
+    return bad("--order must be 0.." + std::to_string(kMaxFitOrder) + ", got " + std::to_string(s.order));
+  if (s.directionsTheta < 1 || s.directionsTheta > 512 || s.directionsPhi < 1 || s.directionsPhi > 1024)
+    return bad("--directions must be ROWSxCOLUMNS with rows 1..512 and columns 1..1024");
+  if (s.spatialNeighbours != 0 && s.spatialNeighbours != 3 && s.spatialNeighbours != 5)
+    return bad("--spatial must be 0, 3 or 5, got " + std::to_string(s.spatialNeighbours));
+  if (s.maxBounces < 1 || s.maxBounces > 1024) return bad("--max-bounces must be 1..1024");
+  if (!(s.regularization >= 0.0f) || !std::isfinite(s.regularization)) return bad("regularization must be >= 0");
+  if (!(s.samplesPerUnitArea >= 0.0f) || !std::isfinite(s.samplesPerUnitArea))
+    return bad("sample density must be finite and >= 0");
+  return {};
+}
+
+struct SampleError {
+  double gridSquares = 0.0, gridMax = 0.0;
+  double heldSquares = 0.0, heldMax = 0.0;
+  uint32_t gridCount = 0, heldCount = 0;
+  uint64_t rays = 0, paths = 0, trapped = 0;
+};
+
+}  // namespace
+
+Result<Field> bakeField(const Scene& scene, const BakeOptions& options) {
+  const auto start = Clock::now();
+  BakeSettings settings = options.settings;
+  if (auto ok = checkSettings(settings); !ok) return ok.error();
+  if (auto ok = validateScene(scene); !ok) return ok.error();
+  if (settings.regularization == 0.0f) settings.regularization = static_cast<float>(kDefaultRegularization);
+  const uint32_t threads =
+      settings.threads ? settings.threads : std::max(1u, std::thread::hardware_concurrency());
+  settings.threads = threads;
+
+  LayoutOptions layoutOptions;
+  layoutOptions.sampleBudget = settings.sampleBudget;
+  layoutOptions.samplesPerUnitArea = settings.samplesPerUnitArea;
+  auto atlasResult = settings.layout == SampleLayout::Split ? buildSplitLayout(scene, layoutOptions)
+                                                             : buildChartsLayout(scene, layoutOptions);
+  if (!atlasResult) return atlasResult.error();
+  const SampleAtlas& atlas = atlasResult.value();
+
+  auto tracerResult = Tracer::create(scene);
+  if (!tracerResult) return tracerResult.error();
+  const Tracer& tracer = *tracerResult.value();
+
+  const DirectionGrid grid = makeHemisphereGrid(settings.directionsTheta, settings.directionsPhi);
+  const int order = static_cast<int>(settings.order);
+  auto fitResult = HemisphereFit::create(grid, order, static_cast<double>(settings.regularization));
+  if (!fitResult) return fitResult.error();
+  const HemisphereFit& fit = fitResult.value();
+
+  bool absorbs = false;
+  for (size_t m = 1; m < scene.media.size(); ++m) absorbs = absorbs || scene.media[m].absorption > 0.0f;
+  // Leave out what the scene does not need: without absorption the optical depth is always zero.
+  const uint32_t channels = absorbs ? 4u : 3u;
+  const int nb = sh::basisCount(order);
+  const size_t stride = size_t(nb) * channels;
+  const size_t sampleCount = atlas.samples.size();
+  const uint32_t nd = static_cast<uint32_t>(grid.directions.size());
+
+  std::vector<float> coeffs(sampleCount * stride, 0.0f);
+  std::vector<SampleError> errors(sampleCount);
+  TraceSettings traceSettings;
+  traceSettings.maxBounces = settings.maxBounces;
+
+  const auto traceStart = Clock::now();
+  std::atomic<size_t> next{0};
+  std::atomic<uint64_t> done{0}, raysSoFar{0};
+  constexpr size_t kChunk = 8;
+  auto worker = [&]() {
+    std::vector<float> values(size_t(nd) * channels);
+    std::vector<float> reconstructed(channels);
+    for (;;) {
+      const size_t begin = next.fetch_add(kChunk);
+      if (begin >= sampleCount) break;
+      const size_t end = std::min(sampleCount, begin + kChunk);
+      uint64_t chunkRays = 0;
+      for (size_t s = begin; s < end; ++s) {
+        const SurfacePoint& point = atlas.samples[s];
+        const LocalFrame frame = frameFromNormal(point.shadingNormal);
+        SampleError& err = errors[s];
+        std::vector<glm::vec3> traced(nd);
+        for (uint32_t d = 0; d < nd; ++d) {
+          // The eye looks along -w: the incident ray travels toward the surface.
+          const glm::vec3 incident = -localToWorld(frame, glm::vec3(grid.directions[d]));
+          const PathResult path = tracer.traceFromSurface(point, incident, traceSettings);
+          err.rays += path.rays;
+          err.paths += 1;
+          err.trapped += path.trapped ? 1u : 0u;
+          traced[d] = path.exitDirection;
+          float* v = &values[size_t(d) * channels];
+          v[0] = path.exitDirection.x;
+          v[1] = path.exitDirection.y;
+          v[2] = path.exitDirection.z;
+          if (channels == 4) v[3] = path.opticalDepth;
+        }
+        float* c = &coeffs[s * stride];
+        fit.fit(values.data(), channels, c);
+        for (uint32_t d = 0; d < nd; ++d) {
+          fit.reconstructAtGrid(c, channels, d, reconstructed.data());
+          const double a = angleDegrees(glm::vec3(reconstructed[0], reconstructed[1], reconstructed[2]), traced[d]);
+          err.gridSquares += a * a;
+          err.gridMax = std::max(err.gridMax, a);
+          ++err.gridCount;
+        }
+        uint64_t rng = 0x5348524546ull ^ (uint64_t(s) * 0x9e3779b97f4a7c15ull);
+        for (uint32_t h = 0; h < options.heldOutDirections; ++h) {
+          // Uniform over the hemisphere, away from the exact horizon.
+          const float z = 0.02f + 0.98f * unitFloat(rng);
+          const float phi = 6.28318530718f * unitFloat(rng);
+          const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+          const glm::vec3 w(r * std::cos(phi), r * std::sin(phi), z);
+          const PathResult path = tracer.traceFromSurface(point, -localToWorld(frame, w), traceSettings);
+          err.rays += path.rays;
+          err.paths += 1;
+          evaluateExpansion(order, c, channels, w, reconstructed.data());
+          const double a =
+              angleDegrees(glm::vec3(reconstructed[0], reconstructed[1], reconstructed[2]), path.exitDirection);
+          err.heldSquares += a * a;
+          err.heldMax = std::max(err.heldMax, a);
+          ++err.heldCount;
+        }
+        chunkRays += err.rays;
+      }
+      raysSoFar.fetch_add(chunkRays);
+      done.fetch_add(end - begin);
+    }
+  };
+  std::vector<std::thread> pool;
+  for (uint32_t t = 1; t < threads; ++t) pool.emplace_back(worker);
+  std::thread mainWorker(worker);
+  while (done.load() < sampleCount) {
+    if (options.progress)
+      options.progress({done.load(), sampleCount, raysSoFar.load(), secondsSince(start)});
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  mainWorker.join();
+  for (auto& t : pool) t.join();
+  const double traceSeconds = secondsSince(traceStart);
+  if (options.progress) options.progress({sampleCount, sampleCount, raysSoFar.load(), secondsSince(start)});
+
+  const auto fitStart = Clock::now();
+  if (settings.spatialNeighbours != 0) {
+    std::vector<glm::vec3> positions(sampleCount);
+    for (size_t s = 0; s < sampleCount; ++s) positions[s] = atlas.samples[s].position;
+    smoothSpatially(coeffs, stride, positions, atlas.neighbours, settings.spatialNeighbours);
+  }
+  if (settings.window != SmoothingWindow::None) {
+    const std::vector<double> weights = bandWindow(settings.window, order);
+    for (size_t s = 0; s < sampleCount; ++s)
+      sh::applyWindow(order, weights.data(), &coeffs[s * stride], static_cast<int>(channels));
+  }
+
+  Field field;
+  field.width = atlas.width;
+  field.height = atlas.height;
+  field.order = settings.order;
+  field.channels = channels;
+  field.quantization = settings.quantization;
+  field.texelKinds = atlas.texelKinds;
+  field.gutters = atlas.gutters;
+  field.mesh = atlas.mesh;
+  const size_t texels = size_t(atlas.width) * atlas.height;
+  field.frames.assign(texels * 12, 0.0f);
+  std::vector<float> texelCoeffs(size_t(nb) * texels * channels, 0.0f);
+  for (size_t t = 0; t < texels; ++t) {
+    if (atlas.texelKinds[t] != kTexelSample) continue;
+    const uint32_t s = atlas.texelSample[t];
+    const SurfacePoint& p = atlas.samples[s];
+    const auto rows = localFromWorldRows(p.position, frameFromNormal(p.shadingNormal));
+    std::copy(rows.begin(), rows.end(), &field.frames[t * 12]);
+    for (int i = 0; i < nb; ++i)
+      for (uint32_t c = 0; c < channels; ++c)
+        texelCoeffs[(size_t(i) * texels + t) * channels + c] = coeffs[size_t(s) * stride + size_t(i) * channels + c];
+  }
+  if (auto encoded = encodeCoefficients(field, texelCoeffs); !encoded) return encoded.error();
+
+  // Quantization error: the decoded direction from quantized coefficients against the float fit,
+  // at every grid direction of every 7th sample (deterministic subset).
+  double quantSquares = 0.0, quantMax = 0.0;
+  uint64_t quantCount = 0;
+  {
+    std::vector<float> dequantized(stride), a(channels), b(channels);
+    std::vector<uint64_t> texelOf(sampleCount, UINT64_MAX);
+    for (size_t t = 0; t < texels; ++t)
+      if (atlas.texelKinds[t] == kTexelSample && texelOf[atlas.texelSample[t]] == UINT64_MAX)
+        texelOf[atlas.texelSample[t]] = t;
+    for (size_t s = 0; s < sampleCount; s += 7) {
+      if (texelOf[s] == UINT64_MAX) continue;
+      for (int i = 0; i < nb; ++i)
+        for (uint32_t c = 0; c < channels; ++c)
+          dequantized[size_t(i) * channels + c] = fieldCoefficient(field, static_cast<uint32_t>(i), texelOf[s], c);
+      for (uint32_t d = 0; d < nd; d += 3) {
+        fit.reconstructAtGrid(&coeffs[s * stride], channels, d, a.data());
+        fit.reconstructAtGrid(dequantized.data(), channels, d, b.data());
+        const double angle = angleDegrees(glm::vec3(a[0], a[1], a[2]), glm::vec3(b[0], b[1], b[2]));
+        quantSquares += angle * angle;
+        quantMax = std::max(quantMax, angle);
+        ++quantCount;
+      }
+    }
+  }
+
+  for (size_t m = 0; m < scene.media.size(); ++m) {
+    const Medium& medium = scene.media[m];
+    field.media.push_back({medium.name, medium.ior, medium.absorption, {medium.color.x, medium.color.y, medium.color.z}});
+  }
+
+  BakeStatistics& st = field.statistics;
+  st.uniqueSamples = sampleCount;
+  for (size_t t = 0; t < texels; ++t) st.samples += atlas.texelKinds[t] == kTexelSample ? 1u : 0u;
+  st.directions = nd;
+  double gridSquares = 0, heldSquares = 0;
+  uint64_t gridCount = 0, heldCount = 0;
+  for (const SampleError& e : errors) {  // in sample order: deterministic sums
+    st.rays += e.rays;
+    st.paths += e.paths;
+    st.trappedPaths += e.trapped;
+    gridSquares += e.gridSquares;
+    heldSquares += e.heldSquares;
+    gridCount += e.gridCount;
+    heldCount += e.heldCount;
+    st.fitMaxDegrees = std::max(st.fitMaxDegrees, static_cast<float>(e.gridMax));
+    st.heldOutMaxDegrees = std::max(st.heldOutMaxDegrees, static_cast<float>(e.heldMax));
+  }
+  st.fitRmsDegrees = gridCount ? static_cast<float>(std::sqrt(gridSquares / double(gridCount))) : 0.0f;
+  st.heldOutRmsDegrees = heldCount ? static_cast<float>(std::sqrt(heldSquares / double(heldCount))) : 0.0f;
+  st.quantizationRmsDegrees = quantCount ? static_cast<float>(std::sqrt(quantSquares / double(quantCount))) : 0.0f;
+  st.quantizationMaxDegrees = static_cast<float>(quantMax);
+  st.traceSeconds = traceSeconds;
+  st.fitSeconds = secondsSince(fitStart);
+  st.bakeSeconds = secondsSince(start);
+  st.raysPerSecond = traceSeconds > 0.0 ? double(st.rays) / traceSeconds : 0.0;
+  st.peakMemoryBytes = peakResidentBytes();
+  field.settings = settings;
+
+  if (auto valid = validateField(field); !valid)
+    return makeError(ErrorCode::CorruptData, "bake produced an invalid field: " + valid.error().message);
+  return field;
+}
+
+}  // namespace shrefract::bake

@@ -4,5 +4,7 @@ namespace shrefract::cli {
 
 // Each command returns the process exit code: 0 success, 1 failure, 2 usage error.
 int renderCommand(int argc, char** argv);
+int bakeCommand(int argc, char** argv);
+int infoCommand(int argc, char** argv);
 
 }  // namespace shrefract::cli

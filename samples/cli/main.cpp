@@ -11,6 +11,8 @@ void printUsage(FILE* out) {
   std::fprintf(out,
                "usage: shrefract COMMAND [ARGS]\n"
                "commands:\n"
+               "  bake SCENE -o FILE.shrf       trace, fit and quantize a refraction field\n"
+               "  info FILE.shrf [--json]       print a field file's header, settings and statistics\n"
                "  render SCENE -o OUT.png|exr   render a scene (builtin:NAME) over its environment\n"
                "  help                          this text; `shrefract COMMAND --help` for a command\n"
                "  version                       print the version\n");
@@ -25,6 +27,8 @@ int main(int argc, char** argv) {
   }
   const std::string command = argv[1];
   if (command == "render") return shrefract::cli::renderCommand(argc, argv);
+  if (command == "bake") return shrefract::cli::bakeCommand(argc, argv);
+  if (command == "info") return shrefract::cli::infoCommand(argc, argv);
   if (command == "help" || command == "--help" || command == "-h") {
     printUsage(stdout);
     return 0;

@@ -1,0 +1,130 @@
+// End-to-end bakes of built-in scenes at small sizes: valid fields, deterministic across thread
+// counts, the attenuation channel dropped when nothing absorbs, error falling with the SH order.
+#include <gtest/gtest.h>
+#include <shrefract/bake/bake.h>
+
+#include <cmath>
+
+namespace shrefract::bake {
+namespace {
+
+Field bake(const std::string& name, BakeSettings s, int tessellation = 3) {
+  BuiltinSceneOptions so;
+  so.tessellation = tessellation;
+  auto scene = makeBuiltinScene(name, so);
+  EXPECT_TRUE(scene.ok());
+  BakeOptions options;
+  s.source = "builtin:" + name;
+  options.settings = s;
+  auto field = bakeField(scene.value(), options);
+  EXPECT_TRUE(field.ok()) << (field.ok() ? "" : field.error().message);
+  return field.ok() ? std::move(field).value() : Field{};
+}
+
+BakeSettings small() {
+  BakeSettings s;
+  s.order = 4;
+  s.directionsTheta = 8;
+  s.directionsPhi = 16;
+  s.sampleBudget = 400;
+  s.threads = 2;
+  return s;
+}
+
+// Timing statistics and the thread count are the only fields allowed to differ between runs.
+std::vector<uint8_t> dataBytes(Field f) {
+  f.statistics.bakeSeconds = f.statistics.traceSeconds = f.statistics.fitSeconds = f.statistics.raysPerSecond = 0;
+  f.statistics.peakMemoryBytes = 0;
+  f.settings.threads = 0;
+  return serializeField(f);
+}
+
+TEST(Bake, SphereFieldIsValidAndAccurate) {
+  const Field f = bake("sphere", small());
+  ASSERT_TRUE(validateField(f).ok());
+  EXPECT_EQ(f.channels, 3u) << "a clear sphere stores no optical depth";
+  EXPECT_EQ(f.order, 4u);
+  EXPECT_GT(f.statistics.samples, 100u);
+  EXPECT_EQ(f.statistics.directions, 128u);
+  EXPECT_GE(f.statistics.rays, f.statistics.paths);
+  EXPECT_TRUE(std::isfinite(f.statistics.fitRmsDegrees));
+  EXPECT_LT(f.statistics.fitRmsDegrees, 20.0f);
+  EXPECT_GT(f.statistics.heldOutRmsDegrees, 0.0f);
+  EXPECT_GT(f.mesh.indices.size(), 0u);
+}
+
+TEST(Bake, DeterministicAcrossThreadCounts) {
+  BakeSettings one = small(), two = small();
+  one.threads = 1;
+  two.threads = 2;
+  EXPECT_EQ(dataBytes(bake("torus", one, 2)), dataBytes(bake("torus", two, 2)));
+}
+
+TEST(Bake, AbsorbingMediaKeepTheOpticalDepthChannel) {
+  BakeSettings s = small();
+  s.sampleBudget = 300;
+  const Field f = bake("glass-of-water", s, 2);
+  EXPECT_EQ(f.channels, 4u);
+  EXPECT_EQ(f.media.size(), 3u);
+  // Some optical depth must have been recorded: the DC term of tau is positive somewhere.
+  float maxTau = 0.0f;
+  for (uint64_t t = 0; t < f.texelCount(); ++t)
+    if (f.texelKinds[t] == kTexelSample) maxTau = std::max(maxTau, fieldCoefficient(f, 0, t, 3));
+  EXPECT_GT(maxTau, 0.0f);
+}
+
+TEST(Bake, FitErrorFallsAsTheOrderRises) {
+  float previous = 1e9f;
+  for (uint32_t order : {1u, 4u, 8u}) {
+    BakeSettings s = small();
+    s.order = order;
+    s.directionsTheta = 16;
+    s.directionsPhi = 32;
+    s.sampleBudget = 200;
+    const Field f = bake("sphere", s, 4);
+    std::printf("sphere order %u: held-out RMS %.3f deg, grid RMS %.3f deg\n", order,
+                static_cast<double>(f.statistics.heldOutRmsDegrees), static_cast<double>(f.statistics.fitRmsDegrees));
+    EXPECT_LT(f.statistics.fitRmsDegrees, previous);
+    previous = f.statistics.fitRmsDegrees;
+  }
+}
+
+TEST(Bake, QuantizationAndLayoutsAndSmoothing) {
+  BakeSettings s = small();
+  s.quantization = Quantization::F16;
+  const Field f16 = bake("sphere", s);
+  s.quantization = Quantization::U8;
+  const Field u8 = bake("sphere", s);
+  EXPECT_LT(f16.statistics.quantizationRmsDegrees, u8.statistics.quantizationRmsDegrees);
+  EXPECT_TRUE(f16.coefficientsU8.empty());
+  EXPECT_FALSE(f16.coefficientsF16.empty());
+
+  s.layout = SampleLayout::Charts;
+  const Field charts = bake("cube", s, 1);
+  EXPECT_TRUE(validateField(charts).ok());
+  EXPECT_TRUE(charts.gutters.empty());
+
+  s.layout = SampleLayout::Split;
+  s.window = SmoothingWindow::Hann;
+  s.spatialNeighbours = 5;
+  const Field smooth = bake("sphere", s);
+  EXPECT_TRUE(validateField(smooth).ok());
+}
+
+TEST(Bake, RejectsBadSettings) {
+  auto scene = makeBuiltinScene("sphere");
+  ASSERT_TRUE(scene.ok());
+  BakeOptions o;
+  o.settings = small();
+  o.settings.spatialNeighbours = 4;
+  EXPECT_FALSE(bakeField(scene.value(), o).ok());
+  o.settings = small();
+  o.settings.order = 99;
+  EXPECT_FALSE(bakeField(scene.value(), o).ok());
+  o.settings = small();
+  o.settings.directionsTheta = 0;
+  EXPECT_FALSE(bakeField(scene.value(), o).ok());
+}
+
+}  // namespace
+}  // namespace shrefract::bake

@@ -1,0 +1,37 @@
+// The offline bake: lay out surface samples, trace every sample in every grid direction with
+// Embree, fit SH per sample, smooth, quantize, and assemble a Field ready to be written.
+#pragma once
+
+#include <shrefract/bake/scene.h>
+#include <shrefract/field.h>
+#include <shrefract/result.h>
+
+#include <cstdint>
+#include <functional>
+
+namespace shrefract::bake {
+
+struct BakeProgress {
+  uint64_t samplesDone = 0;
+  uint64_t samplesTotal = 0;
+  uint64_t rays = 0;
+  double seconds = 0.0;
+};
+
+struct BakeOptions {
+  // order, directions, layout, sample budget or density, max bounces, window, spatial neighbours,
+  // quantization, regularization (0: kDefaultRegularization) and the source name. `threads` 0
+  // means all hardware threads; it never changes the field's data.
+  BakeSettings settings;
+  // Random held-out directions traced per sample to measure the fit away from the grid (the
+  // statistics only; 0 disables).
+  uint32_t heldOutDirections = 4;
+  // Called from the calling thread about every 100 ms and once at the end.
+  std::function<void(const BakeProgress&)> progress;
+};
+
+// Bakes `scene`. Errors: invalid settings (order 0..24, directions 1..512 per axis, spatial 0/3/5),
+// an invalid scene, layout failures. The result passes validateField().
+Result<Field> bakeField(const Scene& scene, const BakeOptions& options);
+
+}  // namespace shrefract::bake

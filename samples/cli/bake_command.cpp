@@ -1,0 +1,196 @@
+// `shrefract bake SCENE -o FILE.shrf`: the offline bake, with progress and a summary.
+#include <shrefract/bake/bake.h>
+
+#include <cctype>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <unistd.h>
+
+#include "cli/args.h"
+#include "cli/commands.h"
+#include "cli/field_summary.h"
+#include "cli/progress.h"
+#include "cli/scene_source.h"
+
+namespace shrefract::cli {
+namespace {
+
+const std::vector<FlagSpec> kFlags = {
+    {"output", true, "output field file (.shrf); also -o"},
+    {"order", true, "SH order L, 0..24 (default 8)"},
+    {"directions", true, "hemisphere grid ROWSxCOLUMNS (default 32x64; 8x16 .. 128x256)"},
+    {"layout", true, "split (default; continuity-corrected) or charts (atlas with seams)"},
+    {"samples", true, "total surface sample budget (default 20000)"},
+    {"density", true, "samples per unit area instead of a budget"},
+    {"threads", true, "worker threads (default: all cores); never changes the result"},
+    {"max-bounces", true, "cap on interactions inside the object (default 16)"},
+    {"window", true, "frequency smoothing: none (default), hann, lanczos"},
+    {"spatial", true, "spatial smoothing with 0 (default), 3 or 5 neighbours"},
+    {"quant", true, "coefficient storage: u8 (default) or f16"},
+    {"regularization", true, "Tikhonov weight of the hemisphere fit (default 1e-5)"},
+    {"held-out", true, "random held-out directions per sample for the error estimate (default 4)"},
+    {"ior", true, "override the IOR of every medium but the surrounding one"},
+    {"absorption", true, "override the absorption of every medium but the surrounding one"},
+    {"tessellation", true, "tessellation level of a built-in scene (0..7)"},
+    {"allow-open", false, "accept open or inconsistently wound glTF meshes (with a warning)"},
+    {"json", false, "print the summary as JSON on stdout"},
+    {"help", false, "this text"},
+};
+
+int fail(const std::string& message, int code = 1) {
+  std::fprintf(stderr, "%s\n", message.c_str());
+  return code;
+}
+
+bool endsWith(std::string s, const std::string& tail) {
+  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
+}
+
+// Checked before a bake that may take minutes: the output directory exists and is writable.
+Result<void> checkWritable(const std::string& path) {
+  namespace fs = std::filesystem;
+  fs::path dir = fs::path(path).parent_path();
+  if (dir.empty()) dir = ".";
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return makeError(ErrorCode::Io, path + ": directory does not exist");
+  if (access(dir.c_str(), W_OK) != 0) return makeError(ErrorCode::Io, path + ": directory is not writable");
+  return {};
+}
+
+}  // namespace
+
+int bakeCommand(int argc, char** argv) {
+  auto parsed = Args::parse("bake", argc, argv, 2, kFlags);
+  if (!parsed) return fail(parsed.error().message, 2);
+  const Args& args = parsed.value();
+  if (args.has("help")) {
+    std::printf("usage: shrefract bake SCENE -o FILE.shrf [flags]\n  SCENE: builtin:NAME or a .gltf/.glb file\n%s",
+                usageLines(kFlags).c_str());
+    return 0;
+  }
+  if (args.positional().size() != 1) return fail("shrefract bake: expected exactly one SCENE argument", 2);
+  const auto output = args.get("output");
+  if (!output) return fail("shrefract bake: missing -o FILE.shrf", 2);
+  if (!endsWith(*output, ".shrf")) return fail(*output + ": the output must end in .shrf", 2);
+
+  BakeSettings s;
+  s.source = args.positional()[0];
+  s.sampleBudget = 20000;
+  auto order = args.integer("order");
+  auto samples = args.integer("samples");
+  auto density = args.number("density");
+  auto threads = args.integer("threads");
+  auto bounces = args.integer("max-bounces");
+  auto spatial = args.integer("spatial");
+  auto reg = args.number("regularization");
+  auto heldOut = args.integer("held-out");
+  auto ior = args.number("ior");
+  auto absorption = args.number("absorption");
+  auto tess = args.integer("tessellation");
+  auto dirs = args.size("directions");
+  for (const Error* e :
+       {order.ok() ? nullptr : &order.error(), samples.ok() ? nullptr : &samples.error(),
+        density.ok() ? nullptr : &density.error(), threads.ok() ? nullptr : &threads.error(),
+        bounces.ok() ? nullptr : &bounces.error(), spatial.ok() ? nullptr : &spatial.error(),
+        reg.ok() ? nullptr : &reg.error(), heldOut.ok() ? nullptr : &heldOut.error(), ior.ok() ? nullptr : &ior.error(),
+        absorption.ok() ? nullptr : &absorption.error(), tess.ok() ? nullptr : &tess.error(),
+        dirs.ok() ? nullptr : &dirs.error()})
+    if (e) return fail(e->message, 2);
+  auto inRange = [](const std::optional<int64_t>& v, int64_t lo, int64_t hi) { return !v || (*v >= lo && *v <= hi); };
+  if (!inRange(order.value(), 0, 24)) return fail("shrefract bake: --order must be 0..24", 2);
+  if (!inRange(samples.value(), 1, 100000000)) return fail("shrefract bake: --samples must be 1..1e8", 2);
+  if (!inRange(threads.value(), 1, 1024)) return fail("shrefract bake: --threads must be 1..1024", 2);
+  if (!inRange(bounces.value(), 1, 1024)) return fail("shrefract bake: --max-bounces must be 1..1024", 2);
+  if (spatial.value() && *spatial.value() != 0 && *spatial.value() != 3 && *spatial.value() != 5)
+    return fail("shrefract bake: --spatial must be 0, 3 or 5", 2);
+  if (!inRange(heldOut.value(), 0, 1024)) return fail("shrefract bake: --held-out must be 0..1024", 2);
+  if (density.value() && !(*density.value() > 0.0)) return fail("shrefract bake: --density must be > 0", 2);
+  if (reg.value() && !(*reg.value() >= 0.0)) return fail("shrefract bake: --regularization must be >= 0", 2);
+  if (density.value() && samples.value()) return fail("shrefract bake: give --samples or --density, not both", 2);
+  if (order.value()) s.order = static_cast<uint32_t>(*order.value());
+  if (samples.value()) s.sampleBudget = static_cast<uint64_t>(*samples.value());
+  if (density.value()) {
+    s.sampleBudget = 0;
+    s.samplesPerUnitArea = static_cast<float>(*density.value());
+  }
+  if (threads.value()) s.threads = static_cast<uint32_t>(*threads.value());
+  if (bounces.value()) s.maxBounces = static_cast<uint32_t>(*bounces.value());
+  if (spatial.value()) s.spatialNeighbours = static_cast<uint32_t>(*spatial.value());
+  if (reg.value()) s.regularization = static_cast<float>(*reg.value());
+  if (dirs.value()) {
+    s.directionsTheta = (*dirs.value())[0];
+    s.directionsPhi = (*dirs.value())[1];
+  }
+  const std::string layout = args.get("layout").value_or("split");
+  if (layout == "split") s.layout = SampleLayout::Split;
+  else if (layout == "charts") s.layout = SampleLayout::Charts;
+  else return fail("shrefract bake: --layout must be split or charts, got '" + layout + "'", 2);
+  const std::string window = args.get("window").value_or("none");
+  if (window == "none") s.window = SmoothingWindow::None;
+  else if (window == "hann") s.window = SmoothingWindow::Hann;
+  else if (window == "lanczos") s.window = SmoothingWindow::Lanczos;
+  else return fail("shrefract bake: --window must be none, hann or lanczos, got '" + window + "'", 2);
+  const std::string quant = args.get("quant").value_or("u8");
+  if (quant == "u8") s.quantization = Quantization::U8;
+  else if (quant == "f16") s.quantization = Quantization::F16;
+  else return fail("shrefract bake: --quant must be u8 or f16, got '" + quant + "'", 2);
+
+  if (auto writable = checkWritable(*output); !writable) return fail(writable.error().message);
+
+  SceneOverrides overrides;
+  if (ior.value()) overrides.ior = static_cast<float>(*ior.value());
+  if (absorption.value()) overrides.absorption = static_cast<float>(*absorption.value());
+  if (tess.value()) overrides.tessellation = static_cast<int>(*tess.value());
+  overrides.allowOpenMeshes = args.has("allow-open");
+  std::vector<std::string> warnings;
+  auto scene = loadScene(s.source, overrides, &warnings);
+  for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  if (!scene) return fail(scene.error().message);
+
+  bake::BakeOptions options;
+  options.settings = s;
+  if (heldOut.value()) options.heldOutDirections = static_cast<uint32_t>(*heldOut.value());
+  Progress progress("bake", stderr);
+  options.progress = [&](const bake::BakeProgress& p) {
+    progress.update(p.samplesDone, p.samplesTotal, p.seconds, p.seconds > 0 ? double(p.rays) / p.seconds : 0.0,
+                    "rays/s");
+  };
+  auto field = bake::bakeField(scene.value(), options);
+  progress.finish();
+  if (!field) return fail(s.source + ": " + field.error().message);
+  if (auto written = writeField(*output, field.value()); !written) return fail(written.error().message);
+  std::error_code ec;
+  const uint64_t bytes = std::filesystem::file_size(*output, ec);
+  if (args.has("json")) {
+    std::printf("%s\n", fieldSummaryJson(field.value(), bytes).c_str());
+  } else {
+    std::printf("%s", fieldSummaryText(field.value(), bytes).c_str());
+    std::printf("wrote %s\n", output->c_str());
+  }
+  return 0;
+}
+
+int infoCommand(int argc, char** argv) {
+  const std::vector<FlagSpec> flags = {{"json", false, "print as JSON"}, {"help", false, "this text"}};
+  auto parsed = Args::parse("info", argc, argv, 2, flags);
+  if (!parsed) return fail(parsed.error().message, 2);
+  const Args& args = parsed.value();
+  if (args.has("help")) {
+    std::printf("usage: shrefract info FILE.shrf [--json]\n%s", usageLines(flags).c_str());
+    return 0;
+  }
+  if (args.positional().size() != 1) return fail("shrefract info: expected exactly one FILE.shrf", 2);
+  const std::string path = args.positional()[0];
+  auto field = readField(path);
+  if (!field) return fail(field.error().message);
+  std::error_code ec;
+  const uint64_t bytes = std::filesystem::file_size(path, ec);
+  if (args.has("json")) std::printf("%s\n", fieldSummaryJson(field.value(), bytes).c_str());
+  else std::printf("%s: format version %u\n%s", path.c_str(), kFieldFormatVersion, fieldSummaryText(field.value(), bytes).c_str());
+  return 0;
+}
+
+}  // namespace shrefract::cli

@@ -1,0 +1,112 @@
+#include "cli/field_summary.h"
+
+#include <cinttypes>
+#include <cstdio>
+
+namespace shrefract::cli {
+
+std::string jsonEscape(const std::string& s) {
+  std::string out;
+  for (char ch : s) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += ch;
+    } else if (c < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", c);
+      out += buf;
+    } else {
+      out += ch;
+    }
+  }
+  return out;
+}
+
+namespace {
+
+std::string format(const char* fmt, auto... args) {
+  char buf[512];
+  std::snprintf(buf, sizeof buf, fmt, args...);
+  return buf;
+}
+
+std::string bytesText(uint64_t b) {
+  if (b >= (1ull << 30)) return format("%.2f GiB", double(b) / double(1ull << 30));
+  if (b >= (1ull << 20)) return format("%.2f MiB", double(b) / double(1ull << 20));
+  if (b >= (1ull << 10)) return format("%.1f KiB", double(b) / double(1ull << 10));
+  return format("%" PRIu64 " B", b);
+}
+
+}  // namespace
+
+std::string fieldSummaryText(const Field& f, uint64_t fileBytes) {
+  const BakeSettings& s = f.settings;
+  const BakeStatistics& st = f.statistics;
+  std::string out;
+  out += format("field: %ux%u texels, SH order %u (%u functions), %u channels%s, %s, layout %s\n", f.width, f.height,
+                f.order, f.basisCount(), f.channels, f.channels == 3 ? " (no absorption)" : "",
+                toString(f.quantization), toString(s.layout));
+  out += format("source: %s; %zu media; mesh %zu vertices, %zu triangles\n", s.source.c_str(), f.media.size(),
+                f.mesh.positions.size() / 3, f.mesh.indices.size() / 3);
+  out += format("settings: directions %ux%u, max bounces %u, window %s, spatial %u, regularization %g, threads %u\n",
+                s.directionsTheta, s.directionsPhi, s.maxBounces, toString(s.window), s.spatialNeighbours,
+                static_cast<double>(s.regularization), s.threads);
+  out += format("samples: %" PRIu64 " texels, %" PRIu64 " unique points, %" PRIu64 " directions\n", st.samples,
+                st.uniqueSamples, st.directions);
+  out += format("traced: %" PRIu64 " paths, %" PRIu64 " rays (%" PRIu64 " trapped at the cap), %.2f s, %.3g rays/s\n",
+                st.paths, st.rays, st.trappedPaths, st.traceSeconds, st.raysPerSecond);
+  out += format("bake: %.2f s wall, peak memory %s, file %s\n", st.bakeSeconds, bytesText(st.peakMemoryBytes).c_str(),
+                bytesText(fileBytes).c_str());
+  out += format("fit error (exit direction): grid RMS %.3f deg, max %.2f deg; held-out RMS %.3f deg, max %.2f deg\n",
+                static_cast<double>(st.fitRmsDegrees), static_cast<double>(st.fitMaxDegrees),
+                static_cast<double>(st.heldOutRmsDegrees), static_cast<double>(st.heldOutMaxDegrees));
+  out += format("quantization error: RMS %.4f deg, max %.3f deg\n", static_cast<double>(st.quantizationRmsDegrees),
+                static_cast<double>(st.quantizationMaxDegrees));
+  return out;
+}
+
+std::string fieldSummaryJson(const Field& f, uint64_t fileBytes) {
+  const BakeSettings& s = f.settings;
+  const BakeStatistics& st = f.statistics;
+  std::string media = "[";
+  for (size_t i = 0; i < f.media.size(); ++i) {
+    const auto& m = f.media[i];
+    media += format("%s{\"name\": \"%s\", \"ior\": %.9g, \"absorption\": %.9g, \"color\": [%.6g, %.6g, %.6g]}",
+                    i ? ", " : "", jsonEscape(m.name).c_str(), static_cast<double>(m.ior),
+                    static_cast<double>(m.absorption), static_cast<double>(m.color[0]),
+                    static_cast<double>(m.color[1]), static_cast<double>(m.color[2]));
+  }
+  media += "]";
+  std::string out = "{";
+  out += format("\"format_version\": %u, \"width\": %u, \"height\": %u, \"order\": %u, \"basis_functions\": %u, ",
+                kFieldFormatVersion, f.width, f.height, f.order, f.basisCount());
+  out += format("\"channels\": %u, \"quantization\": \"%s\", \"file_bytes\": %" PRIu64 ", ", f.channels,
+                toString(f.quantization), fileBytes);
+  out += format("\"mesh\": {\"vertices\": %zu, \"triangles\": %zu}, \"media\": %s, ", f.mesh.positions.size() / 3,
+                f.mesh.indices.size() / 3, media.c_str());
+  out += "\"settings\": {";
+  out += format("\"source\": \"%s\", \"layout\": \"%s\", \"directions\": [%u, %u], \"sample_budget\": %" PRIu64 ", ",
+                jsonEscape(s.source).c_str(), toString(s.layout), s.directionsTheta, s.directionsPhi, s.sampleBudget);
+  out += format("\"samples_per_unit_area\": %.9g, \"max_bounces\": %u, \"window\": \"%s\", \"spatial\": %u, ",
+                static_cast<double>(s.samplesPerUnitArea), s.maxBounces, toString(s.window), s.spatialNeighbours);
+  out += format("\"regularization\": %.9g, \"threads\": %u}, ", static_cast<double>(s.regularization), s.threads);
+  out += "\"statistics\": {";
+  out += format("\"samples\": %" PRIu64 ", \"unique_samples\": %" PRIu64 ", \"directions\": %" PRIu64 ", ", st.samples,
+                st.uniqueSamples, st.directions);
+  out += format("\"paths\": %" PRIu64 ", \"rays\": %" PRIu64 ", \"trapped_paths\": %" PRIu64 ", ", st.paths, st.rays,
+                st.trappedPaths);
+  out += format("\"bake_seconds\": %.6g, \"trace_seconds\": %.6g, \"fit_seconds\": %.6g, \"rays_per_second\": %.6g, ",
+                st.bakeSeconds, st.traceSeconds, st.fitSeconds, st.raysPerSecond);
+  out += format("\"peak_memory_bytes\": %" PRIu64 ", ", st.peakMemoryBytes);
+  out += format("\"fit_rms_degrees\": %.6g, \"fit_max_degrees\": %.6g, \"held_out_rms_degrees\": %.6g, "
+                "\"held_out_max_degrees\": %.6g, ",
+                static_cast<double>(st.fitRmsDegrees), static_cast<double>(st.fitMaxDegrees),
+                static_cast<double>(st.heldOutRmsDegrees), static_cast<double>(st.heldOutMaxDegrees));
+  out += format("\"quantization_rms_degrees\": %.6g, \"quantization_max_degrees\": %.6g}",
+                static_cast<double>(st.quantizationRmsDegrees), static_cast<double>(st.quantizationMaxDegrees));
+  out += "}";
+  return out;
+}
+
+}  // namespace shrefract::cli
