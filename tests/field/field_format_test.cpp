@@ -1,0 +1,799 @@
+// The .shrf format (docs/field-format.md): exact round trips, rejection of every truncation, of
+// corrupted bytes and of newer versions, structural validation, coefficient quantization, and the
+// atomic file write.
+#include <shrefract/field.h>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace shrefract {
+namespace {
+
+namespace fs = std::filesystem;
+
+// ---------------------------------------------------------------------------------------------
+// An independent CRC-32 (bitwise, no table) so the tests check the spec, not the implementation.
+uint32_t referenceCrc32(const uint8_t* data, size_t size) {
+  uint32_t c = 0xFFFFFFFFu;
+  for (size_t i = 0; i < size; ++i) {
+    c ^= data[i];
+    for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
+  }
+  return ~c;
+}
+
+TEST(FieldFormatChecksum, ReferenceCrcMatchesTheCheckValue) {
+  const std::string check = "123456789";
+  EXPECT_EQ(referenceCrc32(reinterpret_cast<const uint8_t*>(check.data()), check.size()), 0xCBF43926u);
+}
+
+uint32_t getU32(const std::vector<uint8_t>& b, size_t at) {
+  return static_cast<uint32_t>(b[at]) | (static_cast<uint32_t>(b[at + 1]) << 8) |
+         (static_cast<uint32_t>(b[at + 2]) << 16) | (static_cast<uint32_t>(b[at + 3]) << 24);
+}
+uint64_t getU64(const std::vector<uint8_t>& b, size_t at) {
+  return static_cast<uint64_t>(getU32(b, at)) | (static_cast<uint64_t>(getU32(b, at + 4)) << 32);
+}
+void putU32(std::vector<uint8_t>& b, size_t at, uint32_t v) {
+  for (size_t k = 0; k < 4; ++k) b[at + k] = static_cast<uint8_t>(v >> (8 * k));
+}
+void putU64(std::vector<uint8_t>& b, size_t at, uint64_t v) {
+  for (size_t k = 0; k < 8; ++k) b[at + k] = static_cast<uint8_t>(v >> (8 * k));
+}
+// Recomputes the trailing checksum after a test edits the bytes on purpose.
+void resign(std::vector<uint8_t>& b) { putU32(b, b.size() - 4, referenceCrc32(b.data(), b.size() - 4)); }
+
+// Offset of the payload of the section with `tag` (docs: sections follow the 40-byte header,
+// each as tag, u64 length, payload).
+size_t sectionPayload(const std::vector<uint8_t>& b, const char* tag) {
+  size_t pos = 40;
+  while (pos + 12 <= b.size() - 4) {
+    const uint64_t length = getU64(b, pos + 4);
+    if (std::memcmp(&b[pos], tag, 4) == 0) return pos + 12;
+    pos += 12 + static_cast<size_t>(length);
+  }
+  ADD_FAILURE() << "section " << tag << " not found";
+  return 0;
+}
+
+// ---------------------------------------------------------------------------------------------
+// A small synthetic field: 8x4 atlas, order 2 (9 layers), 3 gutter texels, 2 empty texels.
+
+constexpr uint32_t kWidth = 8, kHeight = 4, kOrder = 2, kLayers = 9;
+constexpr float kConstantLayer0Channel1 = 0.25f;  // a zero-range (layer, channel)
+
+struct Variant {
+  uint32_t channels;
+  Quantization quantization;
+};
+
+std::vector<float> syntheticCoefficients(uint32_t channels) {
+  const size_t texels = kWidth * kHeight;
+  std::vector<float> v(kLayers * texels * channels);
+  uint32_t state = 12345u;
+  for (float& x : v) {
+    state = state * 1664525u + 1013904223u;
+    x = static_cast<float>(state >> 8) / static_cast<float>(1u << 24) - 0.5f;  // [-0.5, 0.5)
+  }
+  for (size_t t = 0; t < texels; ++t) v[t * channels + 1] = kConstantLayer0Channel1;
+  return v;
+}
+
+Field makeField(Variant variant) {
+  Field f;
+  f.width = kWidth;
+  f.height = kHeight;
+  f.order = kOrder;
+  f.channels = variant.channels;
+  f.quantization = variant.quantization;
+
+  const uint32_t texels = kWidth * kHeight;
+  f.texelKinds.assign(texels, kTexelSample);
+  f.frames.assign(texels * 12, 0.0f);
+  f.texelKinds[7] = kTexelEmpty;
+  f.texelKinds[15] = kTexelEmpty;
+  for (uint32_t g : {14u, 23u, 31u}) f.texelKinds[g] = kTexelGutter;
+  f.gutters = {{14, 12, 13, 5}, {23, 20, 21, 22}, {31, 28, 29, 30}};
+  for (uint32_t t = 0; t < texels; ++t) {
+    if (f.texelKinds[t] != kTexelSample) continue;
+    const float x = static_cast<float>(t % kWidth), y = static_cast<float>(t / kWidth);
+    const std::array<float, 12> rows{1.0f, 0.0f, 0.0f, -x, 0.0f, 0.6f, 0.8f, -y, 0.0f, -0.8f, 0.6f, 0.1f * x};
+    std::copy(rows.begin(), rows.end(), f.frames.begin() + t * 12);
+  }
+
+  f.mesh.positions = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0.5f};
+  f.mesh.normals = {0, 0, 1, 0, 0, 1, 0, 0.6f, 0.8f, 0, 0, -1};
+  f.mesh.uvs = {0.0f, 0.0f, 1.0f, 0.0f, 1.0f, 1.0f, 0.0625f, 0.875f};
+  f.mesh.frontIor = {1.5f, 1.5f, 1.0f / 1.5f, 1.33f};
+  f.mesh.indices = {0, 1, 2, 0, 2, 3};
+
+  f.media.push_back({"air", 1.0f, 0.0f, {1.0f, 1.0f, 1.0f}});
+  f.media.push_back({"glass \xC3\xA9", 1.5f, variant.channels == 4 ? 0.3f : 0.0f, {0.9f, 0.95f, 1.0f}});
+
+  BakeSettings& s = f.settings;
+  s.source = "builtin:test";
+  s.order = kOrder;
+  s.directionsTheta = 8;
+  s.directionsPhi = 16;
+  s.layout = SampleLayout::Split;
+  s.sampleBudget = 123456789012ull;
+  s.samplesPerUnitArea = 12.5f;
+  s.maxBounces = 16;
+  s.window = SmoothingWindow::Hann;
+  s.spatialNeighbours = 3;
+  s.quantization = variant.quantization;
+  s.regularization = 1e-3f;
+  s.threads = 7;
+
+  BakeStatistics& t = f.statistics;
+  t.samples = 27;
+  t.uniqueSamples = 20;
+  t.directions = 128;
+  t.paths = 3456;
+  t.rays = 99999;
+  t.trappedPaths = 3;
+  t.bakeSeconds = 0.1;
+  t.traceSeconds = 5e-324;  // subnormal: must survive bit for bit
+  t.fitSeconds = 1e300;
+  t.raysPerSecond = 12345.678901234567;
+  t.peakMemoryBytes = 1ull << 40;
+  t.fitRmsDegrees = 0.1f;
+  t.fitMaxDegrees = 1e-40f;  // subnormal float
+  t.heldOutRmsDegrees = 2.5f;
+  t.heldOutMaxDegrees = 7.25f;
+  t.quantizationRmsDegrees = -0.0f;
+  t.quantizationMaxDegrees = 3.0e38f;
+
+  const Result<void> encoded = encodeCoefficients(f, syntheticCoefficients(variant.channels));
+  EXPECT_TRUE(encoded.ok()) << encoded.error().message;
+  return f;
+}
+
+std::vector<uint32_t> bits(const std::vector<float>& v) {
+  std::vector<uint32_t> out(v.size());
+  for (size_t i = 0; i < v.size(); ++i) out[i] = std::bit_cast<uint32_t>(v[i]);
+  return out;
+}
+uint32_t bits(float v) { return std::bit_cast<uint32_t>(v); }
+uint64_t bits(double v) { return std::bit_cast<uint64_t>(v); }
+
+// Field for field, floats compared bit for bit.
+void expectSameField(const Field& a, const Field& b) {
+  EXPECT_EQ(a.width, b.width);
+  EXPECT_EQ(a.height, b.height);
+  EXPECT_EQ(a.order, b.order);
+  EXPECT_EQ(a.channels, b.channels);
+  EXPECT_EQ(a.quantization, b.quantization);
+  EXPECT_EQ(a.coefficientsU8, b.coefficientsU8);
+  EXPECT_EQ(a.coefficientsF16, b.coefficientsF16);
+  EXPECT_EQ(bits(a.scale), bits(b.scale));
+  EXPECT_EQ(bits(a.bias), bits(b.bias));
+  EXPECT_EQ(bits(a.frames), bits(b.frames));
+  EXPECT_EQ(a.texelKinds, b.texelKinds);
+  ASSERT_EQ(a.gutters.size(), b.gutters.size());
+  for (size_t i = 0; i < a.gutters.size(); ++i) {
+    EXPECT_EQ(a.gutters[i].target, b.gutters[i].target);
+    EXPECT_EQ(a.gutters[i].a, b.gutters[i].a);
+    EXPECT_EQ(a.gutters[i].b, b.gutters[i].b);
+    EXPECT_EQ(a.gutters[i].c, b.gutters[i].c);
+  }
+  EXPECT_EQ(bits(a.mesh.positions), bits(b.mesh.positions));
+  EXPECT_EQ(bits(a.mesh.normals), bits(b.mesh.normals));
+  EXPECT_EQ(bits(a.mesh.uvs), bits(b.mesh.uvs));
+  EXPECT_EQ(bits(a.mesh.frontIor), bits(b.mesh.frontIor));
+  EXPECT_EQ(a.mesh.indices, b.mesh.indices);
+  ASSERT_EQ(a.media.size(), b.media.size());
+  for (size_t i = 0; i < a.media.size(); ++i) {
+    EXPECT_EQ(a.media[i].name, b.media[i].name);
+    EXPECT_EQ(bits(a.media[i].ior), bits(b.media[i].ior));
+    EXPECT_EQ(bits(a.media[i].absorption), bits(b.media[i].absorption));
+    for (size_t k = 0; k < 3; ++k) EXPECT_EQ(bits(a.media[i].color[k]), bits(b.media[i].color[k]));
+  }
+  const BakeSettings &s = a.settings, &u = b.settings;
+  EXPECT_EQ(s.source, u.source);
+  EXPECT_EQ(s.order, u.order);
+  EXPECT_EQ(s.directionsTheta, u.directionsTheta);
+  EXPECT_EQ(s.directionsPhi, u.directionsPhi);
+  EXPECT_EQ(s.layout, u.layout);
+  EXPECT_EQ(s.sampleBudget, u.sampleBudget);
+  EXPECT_EQ(bits(s.samplesPerUnitArea), bits(u.samplesPerUnitArea));
+  EXPECT_EQ(s.maxBounces, u.maxBounces);
+  EXPECT_EQ(s.window, u.window);
+  EXPECT_EQ(s.spatialNeighbours, u.spatialNeighbours);
+  EXPECT_EQ(s.quantization, u.quantization);
+  EXPECT_EQ(bits(s.regularization), bits(u.regularization));
+  EXPECT_EQ(s.threads, u.threads);
+  const BakeStatistics &t = a.statistics, &v = b.statistics;
+  EXPECT_EQ(t.samples, v.samples);
+  EXPECT_EQ(t.uniqueSamples, v.uniqueSamples);
+  EXPECT_EQ(t.directions, v.directions);
+  EXPECT_EQ(t.paths, v.paths);
+  EXPECT_EQ(t.rays, v.rays);
+  EXPECT_EQ(t.trappedPaths, v.trappedPaths);
+  EXPECT_EQ(bits(t.bakeSeconds), bits(v.bakeSeconds));
+  EXPECT_EQ(bits(t.traceSeconds), bits(v.traceSeconds));
+  EXPECT_EQ(bits(t.fitSeconds), bits(v.fitSeconds));
+  EXPECT_EQ(bits(t.raysPerSecond), bits(v.raysPerSecond));
+  EXPECT_EQ(t.peakMemoryBytes, v.peakMemoryBytes);
+  EXPECT_EQ(bits(t.fitRmsDegrees), bits(v.fitRmsDegrees));
+  EXPECT_EQ(bits(t.fitMaxDegrees), bits(v.fitMaxDegrees));
+  EXPECT_EQ(bits(t.heldOutRmsDegrees), bits(v.heldOutRmsDegrees));
+  EXPECT_EQ(bits(t.heldOutMaxDegrees), bits(v.heldOutMaxDegrees));
+  EXPECT_EQ(bits(t.quantizationRmsDegrees), bits(v.quantizationRmsDegrees));
+  EXPECT_EQ(bits(t.quantizationMaxDegrees), bits(v.quantizationMaxDegrees));
+}
+
+Result<Field> parse(const std::vector<uint8_t>& bytes, const std::string& name) {
+  return parseField(bytes.data(), bytes.size(), name);
+}
+
+bool contains(const std::string& haystack, const std::string& needle) {
+  return haystack.find(needle) != std::string::npos;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Serialization, for each of channels 3/4 x u8/f16.
+
+class FieldFormat : public ::testing::TestWithParam<Variant> {};
+
+TEST_P(FieldFormat, SyntheticFieldIsValid) {
+  const Field f = makeField(GetParam());
+  const Result<void> r = validateField(f);
+  EXPECT_TRUE(r.ok()) << r.error().message;
+}
+
+TEST_P(FieldFormat, RoundTripIsExact) {
+  const Field f = makeField(GetParam());
+  const std::vector<uint8_t> bytes = serializeField(f);
+  const Result<Field> parsed = parse(bytes, "round.shrf");
+  ASSERT_TRUE(parsed.ok()) << parsed.error().message;
+  expectSameField(f, parsed.value());
+  // Serialization is deterministic: the parsed field writes the same bytes.
+  EXPECT_EQ(serializeField(parsed.value()), bytes);
+}
+
+TEST_P(FieldFormat, HeaderMatchesTheSpec) {
+  const Field f = makeField(GetParam());
+  const std::vector<uint8_t> b = serializeField(f);
+  ASSERT_GE(b.size(), 44u);
+  EXPECT_EQ(std::string(b.begin(), b.begin() + 4), "SHRF");
+  EXPECT_EQ(getU32(b, 4), kFieldFormatVersion);
+  EXPECT_EQ(getU64(b, 8), b.size());
+  EXPECT_EQ(getU32(b, 16), kWidth);
+  EXPECT_EQ(getU32(b, 20), kHeight);
+  EXPECT_EQ(getU32(b, 24), kOrder);
+  EXPECT_EQ(getU32(b, 28), GetParam().channels);
+  EXPECT_EQ(getU32(b, 32), static_cast<uint32_t>(GetParam().quantization));
+  EXPECT_EQ(getU32(b, 36), 6u);
+  EXPECT_EQ(getU32(b, b.size() - 4), referenceCrc32(b.data(), b.size() - 4));
+  // The file size formula of the spec.
+  const uint64_t B = kLayers, T = kWidth * kHeight, C = GetParam().channels, V = f.mesh.positions.size() / 3;
+  uint64_t media = 4;
+  for (const FieldMedium& m : f.media) media += 24 + m.name.size();
+  const uint64_t expected = 40 + 6 * 12 + (164 + 4 + f.settings.source.size()) + media +
+                            (5 * 8 + 4 * 9 * V + 4 * f.mesh.indices.size()) +
+                            (8 + T + 8 + 48 * T + 8 + 16 * f.gutters.size()) +
+                            (GetParam().quantization == Quantization::U8 ? 16 + 8 * B * C + 16 + B * T * C
+                                                                         : 16 + 16 + 2 * B * T * C) +
+                            4;
+  EXPECT_EQ(b.size(), expected);
+  // Sections in their fixed order, ending exactly at the checksum.
+  size_t pos = 40;
+  for (const char* tag : {"SETS", "MDIA", "MESH", "ATLS", "QTBL", "COEF"}) {
+    ASSERT_LE(pos + 12, b.size() - 4);
+    EXPECT_EQ(std::string(b.begin() + static_cast<std::ptrdiff_t>(pos), b.begin() + static_cast<std::ptrdiff_t>(pos) + 4), tag);
+    pos += 12 + static_cast<size_t>(getU64(b, pos + 4));
+  }
+  EXPECT_EQ(pos, b.size() - 4);
+  // The settings section: 164 fixed bytes, then the source string.
+  const size_t sets = sectionPayload(b, "SETS");
+  EXPECT_EQ(getU64(b, sets - 8), 164u + 4u + f.settings.source.size());
+  EXPECT_EQ(getU32(b, sets), kOrder);
+  EXPECT_EQ(getU32(b, sets + 164), f.settings.source.size());
+  // The coefficient section: u8 array, then f16 array, each with a u64 count.
+  const size_t coef = sectionPayload(b, "COEF");
+  const uint64_t count = uint64_t(kLayers) * kWidth * kHeight * GetParam().channels;
+  if (GetParam().quantization == Quantization::U8) {
+    EXPECT_EQ(getU64(b, coef), count);
+    EXPECT_EQ(getU64(b, coef + 8 + count), 0u);
+  } else {
+    EXPECT_EQ(getU64(b, coef), 0u);
+    EXPECT_EQ(getU64(b, coef + 8), count);
+  }
+}
+
+TEST_P(FieldFormat, EveryTruncationIsRejected) {
+  const std::vector<uint8_t> bytes = serializeField(makeField(GetParam()));
+  for (size_t length = 0; length < bytes.size(); ++length) {
+    // A copy of exactly `length` bytes, so a read past the end is a real overrun under sanitizers.
+    const std::vector<uint8_t> cut(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(length));
+    const Result<Field> r = parseField(cut.data(), cut.size(), "cut.shrf");
+    ASSERT_FALSE(r.ok()) << "length " << length;
+    EXPECT_EQ(r.error().code, ErrorCode::CorruptData) << "length " << length;
+    EXPECT_TRUE(contains(r.error().message, "cut.shrf")) << r.error().message;
+    EXPECT_EQ(r.error().message.find('\n'), std::string::npos);
+  }
+}
+
+TEST_P(FieldFormat, CorruptedBytesAreRejected) {
+  const std::vector<uint8_t> bytes = serializeField(makeField(GetParam()));
+  constexpr size_t kPositions = 200;
+  for (size_t k = 0; k < kPositions; ++k) {
+    const size_t at = k * (bytes.size() - 1) / (kPositions - 1);
+    std::vector<uint8_t> bad = bytes;
+    // Alternate between a single flipped bit and a fully inverted byte.
+    bad[at] ^= (k % 2 == 0) ? static_cast<uint8_t>(1u << (k / 2 % 8)) : uint8_t{0xFF};
+    const Result<Field> r = parse(bad, "flip.shrf");
+    ASSERT_FALSE(r.ok()) << "byte " << at;
+    EXPECT_EQ(r.error().code, ErrorCode::CorruptData) << "byte " << at << ": " << r.error().message;
+    EXPECT_TRUE(contains(r.error().message, "flip.shrf")) << r.error().message;
+  }
+  // Past the header and its file size, the checksum is what catches a change.
+  std::vector<uint8_t> bad = bytes;
+  bad[bytes.size() / 2] ^= 0x10;
+  const Result<Field> r = parse(bad, "flip.shrf");
+  ASSERT_FALSE(r.ok());
+  EXPECT_TRUE(contains(r.error().message, "checksum")) << r.error().message;
+}
+
+INSTANTIATE_TEST_SUITE_P(Variants, FieldFormat,
+                         ::testing::Values(Variant{4, Quantization::U8}, Variant{3, Quantization::U8},
+                                           Variant{4, Quantization::F16}, Variant{3, Quantization::F16}),
+                         [](const ::testing::TestParamInfo<Variant>& p) {
+                           return std::to_string(p.param.channels) + "ch_" + toString(p.param.quantization);
+                         });
+
+TEST(FieldFormatHeader, NewerVersionIsUnsupported) {
+  std::vector<uint8_t> bytes = serializeField(makeField({4, Quantization::U8}));
+  putU32(bytes, 4, kFieldFormatVersion + 1);
+  resign(bytes);
+  const Result<Field> r = parse(bytes, "future.shrf");
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::Unsupported);
+  EXPECT_TRUE(contains(r.error().message, "future.shrf")) << r.error().message;
+  EXPECT_TRUE(contains(r.error().message, "version " + std::to_string(kFieldFormatVersion + 1))) << r.error().message;
+  EXPECT_TRUE(contains(r.error().message, "version " + std::to_string(kFieldFormatVersion))) << r.error().message;
+
+  // Unsigned: the checksum is verified first, so a damaged version field reads as corruption.
+  putU32(bytes, bytes.size() - 4, getU32(bytes, bytes.size() - 4) ^ 1u);
+  const Result<Field> damaged = parse(bytes, "future.shrf");
+  ASSERT_FALSE(damaged.ok());
+  EXPECT_EQ(damaged.error().code, ErrorCode::CorruptData);
+
+  // Version 0 never existed.
+  putU32(bytes, 4, 0);
+  resign(bytes);
+  const Result<Field> zero = parse(bytes, "zero.shrf");
+  ASSERT_FALSE(zero.ok());
+  EXPECT_EQ(zero.error().code, ErrorCode::CorruptData);
+}
+
+TEST(FieldFormatHeader, WrongMagicIsRejected) {
+  std::vector<uint8_t> bytes = serializeField(makeField({4, Quantization::U8}));
+  bytes[3] = 'G';
+  resign(bytes);
+  const Result<Field> r = parse(bytes, "magic.shrf");
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::CorruptData);
+  EXPECT_TRUE(contains(r.error().message, "magic.shrf")) << r.error().message;
+  EXPECT_TRUE(contains(r.error().message, "magic")) << r.error().message;
+
+  const std::vector<uint8_t> png{0x89, 'P', 'N', 'G', 0x0D, 0x0A, 0x1A, 0x0A};
+  const Result<Field> p = parse(png, "image.png");
+  ASSERT_FALSE(p.ok());
+  EXPECT_EQ(p.error().code, ErrorCode::CorruptData);
+  EXPECT_TRUE(contains(p.error().message, "image.png")) << p.error().message;
+}
+
+TEST(FieldFormatHeader, TrailingBytesAreRejected) {
+  std::vector<uint8_t> bytes = serializeField(makeField({4, Quantization::U8}));
+  bytes.push_back(0);
+  const Result<Field> r = parse(bytes, "long.shrf");
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::CorruptData);
+  EXPECT_TRUE(contains(r.error().message, "trailing")) << r.error().message;
+}
+
+// Lengths that a correctly checksummed but hostile file could carry: each is rejected before
+// anything is allocated for it.
+TEST(FieldFormatHeader, HostileLengthsAreRejected) {
+  const std::vector<uint8_t> good = serializeField(makeField({4, Quantization::F16}));
+  struct Edit {
+    const char* label;
+    std::function<void(std::vector<uint8_t>&)> apply;
+    const char* expected;  // part of the message
+  };
+  const std::vector<Edit> edits{
+      {"u8 coefficient count", [](auto& b) { putU64(b, sectionPayload(b, "COEF"), 1ull << 62); }, "truncated"},
+      {"f16 coefficient count", [](auto& b) { putU64(b, sectionPayload(b, "COEF") + 8, ~0ull); }, "truncated"},
+      {"frame count", [](auto& b) { putU64(b, sectionPayload(b, "ATLS") + 8 + kWidth * kHeight, 1ull << 40); }, "truncated"},
+      {"gutter count", [](auto& b) {
+         const size_t at = sectionPayload(b, "ATLS") + 8 + kWidth * kHeight;
+         putU64(b, at + 8 + 4 * getU64(b, at), 1ull << 60);
+       }, "truncated"},
+      {"mesh positions", [](auto& b) { putU64(b, sectionPayload(b, "MESH"), 1ull << 61); }, "truncated"},
+      {"media count", [](auto& b) { putU32(b, sectionPayload(b, "MDIA"), 0xFFFFFFFFu); }, "truncated"},
+      {"source length", [](auto& b) { putU32(b, sectionPayload(b, "SETS") + 164, 0x7FFFFFFFu); }, "cap"},
+      {"section length", [](auto& b) { putU64(b, sectionPayload(b, "COEF") - 8, 1ull << 50); }, "truncated"},
+      {"section length short", [](auto& b) { putU64(b, sectionPayload(b, "SETS") - 8, 100); }, "settings"},
+      {"width", [](auto& b) { putU32(b, 16, 16385); }, "16384"},
+      {"height", [](auto& b) { putU32(b, 20, 0); }, "atlas"},
+      {"order", [](auto& b) { putU32(b, 24, 1000); }, "order"},
+      {"section count", [](auto& b) { putU32(b, 36, 7); }, "sections"},
+      {"section tag", [](auto& b) { b[sectionPayload(b, "MESH") - 12] = 'X'; }, "tag"},
+  };
+  for (const Edit& edit : edits) {
+    std::vector<uint8_t> bad = good;
+    edit.apply(bad);
+    resign(bad);
+    const Result<Field> r = parse(bad, "hostile.shrf");
+    ASSERT_FALSE(r.ok()) << edit.label;
+    EXPECT_EQ(r.error().code, ErrorCode::CorruptData) << edit.label;
+    EXPECT_TRUE(contains(r.error().message, "hostile.shrf")) << edit.label << ": " << r.error().message;
+    EXPECT_TRUE(contains(r.error().message, edit.expected)) << edit.label << ": " << r.error().message;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Validation: each case breaks one rule of a valid field. The broken field must fail
+// validateField and, serialized anyway, fail parseField as corrupt data naming the file.
+
+struct Breakage {
+  const char* label;
+  Variant variant;
+  std::function<void(Field&)> apply;
+  const char* expected;  // part of the message
+};
+
+class FieldValidation : public ::testing::TestWithParam<Breakage> {};
+
+TEST_P(FieldValidation, IsRejected) {
+  const Breakage& b = GetParam();
+  Field f = makeField(b.variant);
+  ASSERT_TRUE(validateField(f).ok());
+  b.apply(f);
+  const Result<void> r = validateField(f);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::CorruptData);
+  EXPECT_TRUE(contains(r.error().message, b.expected)) << r.error().message;
+  EXPECT_EQ(r.error().message.find('\n'), std::string::npos);
+
+  const Result<Field> parsed = parse(serializeField(f), "broken.shrf");
+  ASSERT_FALSE(parsed.ok());
+  EXPECT_EQ(parsed.error().code, ErrorCode::CorruptData);
+  EXPECT_TRUE(contains(parsed.error().message, "broken.shrf")) << parsed.error().message;
+  EXPECT_TRUE(contains(parsed.error().message, b.expected)) << parsed.error().message;
+}
+
+constexpr Variant kU8{4, Quantization::U8};
+constexpr Variant kF16{4, Quantization::F16};
+const float kNaN = std::numeric_limits<float>::quiet_NaN();
+const float kInf = std::numeric_limits<float>::infinity();
+
+INSTANTIATE_TEST_SUITE_P(
+    Rules, FieldValidation,
+    ::testing::Values(
+        Breakage{"NaNInFrames", kU8, [](Field& f) { f.frames[12 * 3 + 5] = kNaN; }, "frame is not finite"},
+        Breakage{"InfInFrames", kU8, [](Field& f) { f.frames[11] = -kInf; }, "frame is not finite"},
+        Breakage{"EmptyTexelWithFrame", kU8, [](Field& f) { f.frames[12 * 7 + 3] = 1.0f; }, "empty"},
+        Breakage{"SampleTexelWithZeroFrame", kU8,
+                 [](Field& f) { std::fill(f.frames.begin() + 12 * 2, f.frames.begin() + 12 * 3, 0.0f); }, "zero"},
+        Breakage{"NaNCoefficientF16", kF16, [](Field& f) { f.coefficientsF16[40] = 0x7E00; }, "NaN"},
+        Breakage{"InfCoefficientF16", kF16, [](Field& f) { f.coefficientsF16[41] = 0x7C00; }, "Inf"},
+        Breakage{"NegativeInfCoefficientF16", kF16, [](Field& f) { f.coefficientsF16.back() = 0xFC00; }, "Inf"},
+        Breakage{"NaNScale", kU8, [](Field& f) { f.scale[3] = kNaN; }, "scale/bias"},
+        Breakage{"InfBias", kU8, [](Field& f) { f.bias[0] = kInf; }, "scale/bias"},
+        Breakage{"DecodedOverflow", kU8,
+                 [](Field& f) {
+                   f.bias[2] = 3e38f;
+                   f.scale[2] = 3e38f;
+                 },
+                 "scale/bias"},
+        Breakage{"IndexOutOfRange", kU8, [](Field& f) { f.mesh.indices[4] = 4; }, "out of range"},
+        Breakage{"IndicesNotTriangles", kU8, [](Field& f) { f.mesh.indices.push_back(0); }, "multiple of 3"},
+        Breakage{"UvAboveOne", kU8, [](Field& f) { f.mesh.uvs[3] = 1.0001f; }, "outside [0,1]"},
+        Breakage{"UvBelowZero", kU8, [](Field& f) { f.mesh.uvs[0] = -0.25f; }, "outside [0,1]"},
+        Breakage{"UvNaN", kU8, [](Field& f) { f.mesh.uvs[5] = kNaN; }, "outside [0,1]"},
+        Breakage{"NormalNaN", kU8, [](Field& f) { f.mesh.normals[4] = kNaN; }, "normal"},
+        Breakage{"PositionInf", kU8, [](Field& f) { f.mesh.positions[0] = kInf; }, "position"},
+        Breakage{"FrontIorZero", kU8, [](Field& f) { f.mesh.frontIor[1] = 0.0f; }, "frontIor"},
+        Breakage{"MeshSizes", kU8, [](Field& f) { f.mesh.normals.pop_back(); }, "mesh.normals"},
+        Breakage{"GutterSourceEmpty", kU8, [](Field& f) { f.gutters[1].a = 7; }, "does not hold a sample"},
+        Breakage{"GutterSourceGutter", kU8, [](Field& f) { f.gutters[1].c = 14; }, "does not hold a sample"},
+        Breakage{"GutterTargetEmpty", kU8, [](Field& f) { f.gutters[0].target = 15; }, "not a gutter texel"},
+        Breakage{"GutterOutOfRange", kU8, [](Field& f) { f.gutters[2].b = 32; }, "out of range"},
+        Breakage{"GutterWithoutRule", kU8, [](Field& f) { f.gutters.pop_back(); }, "no rule"},
+        Breakage{"GutterTwoRules", kU8, [](Field& f) { f.gutters.push_back(f.gutters[0]); }, "two rules"},
+        Breakage{"TexelKindInvalid", kU8, [](Field& f) { f.texelKinds[3] = 3; }, "kind 3"},
+        Breakage{"CoefficientCountU8", kU8, [](Field& f) { f.coefficientsU8.pop_back(); }, "coefficientsU8"},
+        Breakage{"CoefficientCountF16", kF16, [](Field& f) { f.coefficientsF16.push_back(0); }, "coefficientsF16"},
+        Breakage{"OtherArrayNotEmpty", kF16, [](Field& f) { f.coefficientsU8.push_back(0); }, "coefficientsU8"},
+        Breakage{"ScaleInF16", kF16, [](Field& f) { f.scale.push_back(1.0f); }, "scale/bias"},
+        Breakage{"ScaleCount", kU8, [](Field& f) { f.bias.pop_back(); }, "scale/bias"},
+        Breakage{"FrameCount", kU8, [](Field& f) { f.frames.resize(f.frames.size() - 12); }, "frames"},
+        Breakage{"TexelKindCount", kU8, [](Field& f) { f.texelKinds.push_back(0); }, "texelKinds"},
+        Breakage{"OrderOver32", kU8,
+                 [](Field& f) {
+                   f.order = 33;
+                   f.settings.order = 33;
+                 },
+                 "order 33"},
+        Breakage{"WidthZero", kU8, [](Field& f) { f.width = 0; }, "atlas"},
+        Breakage{"WidthOverCap", kU8, [](Field& f) { f.width = 16385; }, "16384"},
+        Breakage{"Channels", kU8, [](Field& f) { f.channels = 5; }, "channels"},
+        Breakage{"SettingsOrder", kU8, [](Field& f) { f.settings.order = 3; }, "settings.order"},
+        Breakage{"SettingsDirections", kU8, [](Field& f) { f.settings.directionsPhi = 0; }, "direction grid"},
+        Breakage{"SettingsSpatial", kU8, [](Field& f) { f.settings.spatialNeighbours = 4; }, "spatialNeighbours"},
+        Breakage{"SettingsLayout", kU8, [](Field& f) { f.settings.layout = static_cast<SampleLayout>(7); }, "layout"},
+        Breakage{"SettingsWindow", kU8, [](Field& f) { f.settings.window = static_cast<SmoothingWindow>(3); }, "window"},
+        Breakage{"SettingsQuantization", kU8, [](Field& f) { f.settings.quantization = Quantization::F16; },
+                 "settings.quantization"},
+        Breakage{"StatisticsNaN", kU8, [](Field& f) { f.statistics.fitSeconds = std::nan(""); }, "fitSeconds"},
+        Breakage{"StatisticsInf", kU8, [](Field& f) { f.statistics.heldOutMaxDegrees = kInf; }, "heldOutMaxDegrees"},
+        Breakage{"NoMedia", kU8, [](Field& f) { f.media.clear(); }, "media"},
+        Breakage{"IorZero", kU8, [](Field& f) { f.media[1].ior = 0.0f; }, "ior"},
+        Breakage{"IorNaN", kU8, [](Field& f) { f.media[0].ior = kNaN; }, "ior"},
+        Breakage{"AbsorptionNegative", kU8, [](Field& f) { f.media[1].absorption = -0.5f; }, "absorption"},
+        Breakage{"AbsorptionInf", kU8, [](Field& f) { f.media[1].absorption = kInf; }, "absorption"},
+        Breakage{"ColorNaN", kU8, [](Field& f) { f.media[1].color[2] = kNaN; }, "color"},
+        Breakage{"AbsorbingWithThreeChannels", Variant{3, Quantization::U8},
+                 [](Field& f) { f.media[1].absorption = 0.1f; }, "3 channels"}),
+    [](const ::testing::TestParamInfo<Breakage>& p) { return std::string(p.param.label); });
+
+// ---------------------------------------------------------------------------------------------
+// Quantization.
+
+TEST(EncodeCoefficients, U8ErrorIsHalfAStep) {
+  for (uint32_t channels : {3u, 4u}) {
+    const Field f = makeField({channels, Quantization::U8});
+    const std::vector<float> v = syntheticCoefficients(channels);
+    const uint64_t texels = f.texelCount();
+    ASSERT_EQ(f.scale.size(), kLayers * channels);
+    for (uint32_t layer = 0; layer < kLayers; ++layer)
+      for (uint64_t t = 0; t < texels; ++t)
+        for (uint32_t c = 0; c < channels; ++c) {
+          const float value = v[(layer * texels + t) * channels + c];
+          const float scale = f.scale[layer * channels + c];
+          // Rounding to the nearest of 256 levels: half a step, plus float rounding of the decode.
+          const float tolerance = scale / 510.0f + 1e-7f;
+          EXPECT_LE(std::fabs(fieldCoefficient(f, layer, t, c) - value), tolerance)
+              << "layer " << layer << " texel " << t << " channel " << c;
+        }
+    // The extremes of each (layer, channel) are the levels 0 and 255.
+    for (size_t i = 0; i < f.scale.size(); ++i) {
+      if (f.scale[i] == 0.0f) continue;
+      const uint32_t layer = static_cast<uint32_t>(i / channels), c = static_cast<uint32_t>(i % channels);
+      uint8_t lo = 255, hi = 0;
+      for (uint64_t t = 0; t < texels; ++t) {
+        const uint8_t q = f.coefficientsU8[(layer * texels + t) * channels + c];
+        lo = std::min(lo, q);
+        hi = std::max(hi, q);
+      }
+      EXPECT_EQ(lo, 0);
+      EXPECT_EQ(hi, 255);
+    }
+  }
+}
+
+TEST(EncodeCoefficients, U8ZeroRangeDecodesExactly) {
+  const Field f = makeField({4, Quantization::U8});
+  EXPECT_EQ(f.scale[1], 0.0f);
+  EXPECT_EQ(f.bias[1], kConstantLayer0Channel1);
+  for (uint64_t t = 0; t < f.texelCount(); ++t) {
+    EXPECT_EQ(f.coefficientsU8[t * 4 + 1], 0);
+    EXPECT_EQ(bits(fieldCoefficient(f, 0, t, 1)), bits(kConstantLayer0Channel1));
+  }
+  // A whole field of one value, zero included: no division by zero, exact decode.
+  Field g = makeField({3, Quantization::U8});
+  for (float constant : {0.0f, -3.5f, 1e-30f}) {
+    ASSERT_TRUE(encodeCoefficients(g, std::vector<float>(kLayers * 32 * 3, constant)).ok());
+    for (uint32_t layer = 0; layer < kLayers; ++layer)
+      EXPECT_EQ(bits(fieldCoefficient(g, layer, 9, 2)), bits(constant));
+  }
+}
+
+TEST(EncodeCoefficients, F16ErrorWithinHalfPrecision) {
+  Field f = makeField({4, Quantization::F16});
+  std::vector<float> v = syntheticCoefficients(4);
+  // Values across the half range: subnormal halves, exact halves, the largest finite half and
+  // values that round down to it.
+  const std::array<float, 12> special{0.0f, -0.0f, 1e-7f, -3e-6f, 6.1e-5f, 1.0f / 3.0f, 1000.1f, -2049.0f,
+                                      65504.0f, -65504.0f, 65519.0f, 1e-12f};
+  std::copy(special.begin(), special.end(), v.begin() + 100);
+  ASSERT_TRUE(encodeCoefficients(f, v).ok());
+  EXPECT_TRUE(f.coefficientsU8.empty());
+  EXPECT_TRUE(f.scale.empty() && f.bias.empty());
+  ASSERT_TRUE(validateField(f).ok());
+  const uint64_t texels = f.texelCount();
+  for (size_t i = 0; i < v.size(); ++i) {
+    const float decoded = fieldCoefficient(f, static_cast<uint32_t>(i / (texels * 4)), (i / 4) % texels,
+                                           static_cast<uint32_t>(i % 4));
+    // Round to nearest: half a unit in the last place, 2^-11 relative for normal halves and
+    // 2^-25 absolute (half the spacing 2^-24) for subnormal ones.
+    const float tolerance = std::max(std::fabs(v[i]) * 0x1p-11f, 0x1p-25f);
+    EXPECT_LE(std::fabs(decoded - v[i]), tolerance) << "value " << v[i];
+  }
+  EXPECT_EQ(fieldCoefficient(f, 0, 100 / 4 % texels, 100 % 4), 0.0f);
+  EXPECT_EQ(f.coefficientsF16[101], 0x8000);  // -0 keeps its sign
+  EXPECT_EQ(f.coefficientsF16[108], 0x7BFF);  // 65504
+  EXPECT_EQ(f.coefficientsF16[110], 0x7BFF);  // 65519 rounds to 65504, not Inf
+}
+
+TEST(EncodeCoefficients, OutOfHalfRangeIsRejected) {
+  for (float big : {65520.0f, -70000.0f, 1e30f}) {
+    Field f = makeField({4, Quantization::F16});
+    const std::vector<uint16_t> before = f.coefficientsF16;
+    std::vector<float> v = syntheticCoefficients(4);
+    const size_t at = 2 * 32 * 4 + 7;  // layer 2
+    v[at] = big;
+    const Result<void> r = encodeCoefficients(f, v);
+    ASSERT_FALSE(r.ok()) << big;
+    EXPECT_EQ(r.error().code, ErrorCode::InvalidArgument);
+    EXPECT_TRUE(contains(r.error().message, "layer 2")) << r.error().message;
+    EXPECT_EQ(f.coefficientsF16, before);  // unchanged on error
+  }
+}
+
+TEST(EncodeCoefficients, BadInputIsRejected) {
+  for (Quantization q : {Quantization::U8, Quantization::F16}) {
+    Field f = makeField({4, q});
+    for (float bad : {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity()}) {
+      std::vector<float> v = syntheticCoefficients(4);
+      v[17] = bad;
+      const Result<void> r = encodeCoefficients(f, v);
+      ASSERT_FALSE(r.ok());
+      EXPECT_EQ(r.error().code, ErrorCode::InvalidArgument);
+      EXPECT_TRUE(contains(r.error().message, "not finite")) << r.error().message;
+    }
+    std::vector<float> shortList = syntheticCoefficients(4);
+    shortList.pop_back();
+    const Result<void> r = encodeCoefficients(f, shortList);
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().code, ErrorCode::InvalidArgument);
+  }
+  // U8 with a range wider than float.
+  Field f = makeField({3, Quantization::U8});
+  std::vector<float> v = syntheticCoefficients(3);
+  v[0] = 3e38f;
+  v[3] = -3e38f;
+  const Result<void> r = encodeCoefficients(f, v);
+  ASSERT_FALSE(r.ok());
+  EXPECT_TRUE(contains(r.error().message, "layer 0")) << r.error().message;
+}
+
+TEST(EncodeCoefficients, SwitchingQuantizationClearsTheOtherArrays) {
+  Field f = makeField({4, Quantization::U8});
+  f.quantization = Quantization::F16;
+  f.settings.quantization = Quantization::F16;
+  ASSERT_TRUE(encodeCoefficients(f, syntheticCoefficients(4)).ok());
+  EXPECT_TRUE(f.coefficientsU8.empty() && f.scale.empty() && f.bias.empty());
+  EXPECT_TRUE(validateField(f).ok());
+}
+
+TEST(FieldEnums, ToString) {
+  EXPECT_STREQ(toString(SampleLayout::Split), "split");
+  EXPECT_STREQ(toString(SampleLayout::Charts), "charts");
+  EXPECT_STREQ(toString(Quantization::U8), "u8");
+  EXPECT_STREQ(toString(Quantization::F16), "f16");
+  EXPECT_STREQ(toString(SmoothingWindow::None), "none");
+  EXPECT_STREQ(toString(SmoothingWindow::Hann), "hann");
+  EXPECT_STREQ(toString(SmoothingWindow::Lanczos), "lanczos");
+  EXPECT_STREQ(toString(static_cast<Quantization>(9)), "unknown");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Files.
+
+class FieldFiles : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::random_device random;
+    dir_ = fs::temp_directory_path() /
+           ("shrefract_field_test_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) +
+            "_" + std::to_string(random()));
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+  // Every file in the directory, so a leftover temporary is noticed.
+  std::vector<std::string> listing() const {
+    std::vector<std::string> names;
+    for (const auto& entry : fs::directory_iterator(dir_)) names.push_back(entry.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+  }
+  fs::path dir_;
+};
+
+TEST_F(FieldFiles, WriteThenReadRoundTrips) {
+  const std::string path = (dir_ / "field.shrf").string();
+  for (Variant variant : {Variant{4, Quantization::U8}, Variant{3, Quantization::F16}}) {
+    const Field f = makeField(variant);
+    const Result<void> w = writeField(path, f);  // the second pass replaces the first file
+    ASSERT_TRUE(w.ok()) << w.error().message;
+    EXPECT_EQ(listing(), std::vector<std::string>{"field.shrf"});
+    EXPECT_EQ(fs::file_size(path), serializeField(f).size());
+    const Result<Field> r = readField(path);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    expectSameField(f, r.value());
+  }
+}
+
+TEST_F(FieldFiles, WriteToMissingDirectoryFails) {
+  const fs::path missing = dir_ / "no" / "such" / "dir";
+  const std::string path = (missing / "field.shrf").string();
+  const Result<void> r = writeField(path, makeField({4, Quantization::U8}));
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::Io);
+  EXPECT_TRUE(contains(r.error().message, path)) << r.error().message;
+  EXPECT_FALSE(fs::exists(missing));
+  EXPECT_TRUE(listing().empty());
+}
+
+TEST_F(FieldFiles, WriteOfInvalidFieldLeavesNoFile) {
+  Field f = makeField({4, Quantization::U8});
+  f.mesh.indices[0] = 99;
+  const std::string path = (dir_ / "bad.shrf").string();
+  const Result<void> r = writeField(path, f);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::InvalidArgument);
+  EXPECT_TRUE(contains(r.error().message, path)) << r.error().message;
+  EXPECT_TRUE(listing().empty());
+}
+
+TEST_F(FieldFiles, WriteOntoADirectoryFailsAndCleansUp) {
+  // The rename cannot replace a non-empty directory: the temporary must not remain.
+  const fs::path target = dir_ / "occupied";
+  fs::create_directories(target / "child");
+  const Result<void> r = writeField(target.string(), makeField({4, Quantization::U8}));
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::Io);
+  EXPECT_TRUE(contains(r.error().message, target.string())) << r.error().message;
+  EXPECT_EQ(listing(), std::vector<std::string>{"occupied"});
+}
+
+TEST_F(FieldFiles, ReadOfMissingFileFails) {
+  const std::string path = (dir_ / "absent.shrf").string();
+  const Result<Field> r = readField(path);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::Io);
+  EXPECT_TRUE(contains(r.error().message, path)) << r.error().message;
+}
+
+TEST_F(FieldFiles, ReadOfDirectoryFails) {
+  const Result<Field> r = readField(dir_.string());
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::Io);
+  EXPECT_TRUE(contains(r.error().message, dir_.string())) << r.error().message;
+}
+
+TEST_F(FieldFiles, ReadOfTruncatedFileNamesIt) {
+  const std::vector<uint8_t> bytes = serializeField(makeField({4, Quantization::U8}));
+  const std::string path = (dir_ / "short.shrf").string();
+  {
+    std::ofstream out(path, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size() / 2));
+  }
+  const Result<Field> r = readField(path);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::CorruptData);
+  EXPECT_TRUE(contains(r.error().message, path + ": truncated")) << r.error().message;
+}
+
+}  // namespace
+}  // namespace shrefract
