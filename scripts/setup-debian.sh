@@ -7,9 +7,9 @@ packages=(
   build-essential cmake ninja-build pkg-config
   libvulkan-dev vulkan-validationlayers mesa-vulkan-drivers glslang-tools
   libglm-dev libembree-dev libtinygltf-dev nlohmann-json3-dev
-  libopenimageio-dev openimageio-tools python3-imath libglfw3-dev libgtest-dev
+  libopenimageio-dev openimageio-tools python3-imath libopencv-core-dev libglfw3-dev libgtest-dev
   xvfb xauth
-  # openimageio-tools and python3-imath: Debian 12's OpenImageIO and Imath CMake configs
+  # openimageio-tools, python3-imath, libopencv-core-dev: Debian 12's OpenImageIO and Imath CMake configs
   # reference files from these packages and fail to import without them.
 )
 
