@@ -1,0 +1,965 @@
+// glTF import: files written here (JSON with data-URI buffers, and GLB from a minimal writer), so
+// the test needs nothing from outside the repository. Cubes have analytic volumes and normals.
+#include <shrefract/bake/gltf_import.h>
+#include <shrefract/bake/scene.h>
+
+#include <glm/geometric.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/mat3x3.hpp>
+#include <glm/mat4x4.hpp>
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <limits>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <unistd.h>
+
+namespace shrefract::bake {
+namespace {
+
+using nlohmann::json;
+
+constexpr int kFloat = 5126;
+constexpr int kUnsignedByte = 5121;
+constexpr int kUnsignedShort = 5123;
+constexpr int kUnsignedInt = 5125;
+
+// Float tolerance on positions and normals computed in double and stored as float.
+constexpr float kTolerance = 1e-5f;
+
+std::string base64(const std::vector<uint8_t>& bytes) {
+  static const char* kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  for (size_t i = 0; i < bytes.size(); i += 3) {
+    const uint32_t b0 = bytes[i];
+    const uint32_t b1 = i + 1 < bytes.size() ? bytes[i + 1] : 0u;
+    const uint32_t b2 = i + 2 < bytes.size() ? bytes[i + 2] : 0u;
+    const uint32_t triple = (b0 << 16) | (b1 << 8) | b2;
+    out += kAlphabet[(triple >> 18) & 63u];
+    out += kAlphabet[(triple >> 12) & 63u];
+    out += i + 1 < bytes.size() ? kAlphabet[(triple >> 6) & 63u] : '=';
+    out += i + 2 < bytes.size() ? kAlphabet[triple & 63u] : '=';
+  }
+  return out;
+}
+
+// Builds a glTF document with one binary buffer.
+class GltfWriter {
+ public:
+  GltfWriter() {
+    doc_["asset"] = {{"version", "2.0"}, {"generator", "shrefract gltf_import_test"}};
+  }
+
+  json& doc() { return doc_; }
+
+  // Appends raw bytes (4-byte aligned) as a buffer view; returns its index.
+  int addView(const void* data, size_t bytes, size_t stride = 0) {
+    while (bin_.size() % 4 != 0) {
+      bin_.push_back(0);
+    }
+    json view = {{"buffer", 0}, {"byteOffset", bin_.size()}, {"byteLength", bytes}};
+    if (stride != 0) {
+      view["byteStride"] = stride;
+    }
+    const auto* p = static_cast<const uint8_t*>(data);
+    bin_.insert(bin_.end(), p, p + bytes);
+    doc_["bufferViews"].push_back(view);
+    return static_cast<int>(doc_["bufferViews"].size()) - 1;
+  }
+
+  int addAccessor(int view, int componentType, size_t count, const char* type,
+                  size_t byteOffset = 0, bool normalized = false) {
+    json accessor = {{"bufferView", view},
+                     {"componentType", componentType},
+                     {"count", count},
+                     {"type", type}};
+    if (byteOffset != 0) {
+      accessor["byteOffset"] = byteOffset;
+    }
+    if (normalized) {
+      accessor["normalized"] = true;
+    }
+    doc_["accessors"].push_back(accessor);
+    return static_cast<int>(doc_["accessors"].size()) - 1;
+  }
+
+  int addVec3(const std::vector<glm::vec3>& values) {
+    const int view = addView(values.data(), values.size() * sizeof(glm::vec3));
+    const int accessor = addAccessor(view, kFloat, values.size(), "VEC3");
+    glm::vec3 lo = values.front();
+    glm::vec3 hi = values.front();
+    for (const glm::vec3& v : values) {
+      lo = glm::min(lo, v);
+      hi = glm::max(hi, v);
+    }
+    doc_["accessors"][static_cast<size_t>(accessor)]["min"] = {lo.x, lo.y, lo.z};
+    doc_["accessors"][static_cast<size_t>(accessor)]["max"] = {hi.x, hi.y, hi.z};
+    return accessor;
+  }
+
+  // Indices as u8, u16 or u32.
+  int addIndices(const std::vector<uint32_t>& indices, int componentType = kUnsignedInt) {
+    std::vector<uint8_t> bytes;
+    for (uint32_t index : indices) {
+      if (componentType == kUnsignedByte) {
+        bytes.push_back(static_cast<uint8_t>(index));
+      } else if (componentType == kUnsignedShort) {
+        const auto v = static_cast<uint16_t>(index);
+        bytes.insert(bytes.end(), {static_cast<uint8_t>(v & 0xFFu), static_cast<uint8_t>(v >> 8)});
+      } else {
+        uint8_t raw[4];
+        std::memcpy(raw, &index, 4);
+        bytes.insert(bytes.end(), raw, raw + 4);
+      }
+    }
+    const int view = addView(bytes.data(), bytes.size());
+    return addAccessor(view, componentType, indices.size(), "SCALAR");
+  }
+
+  int addMaterial(json material) {
+    doc_["materials"].push_back(std::move(material));
+    return static_cast<int>(doc_["materials"].size()) - 1;
+  }
+
+  int addMesh(json primitives, const std::string& name = "") {
+    json mesh = {{"primitives", std::move(primitives)}};
+    if (!name.empty()) {
+      mesh["name"] = name;
+    }
+    doc_["meshes"].push_back(mesh);
+    return static_cast<int>(doc_["meshes"].size()) - 1;
+  }
+
+  int addNode(json node) {
+    doc_["nodes"].push_back(std::move(node));
+    return static_cast<int>(doc_["nodes"].size()) - 1;
+  }
+
+  void setScene(const std::vector<int>& nodes) {
+    doc_["scenes"] = json::array({json{{"nodes", nodes}}});
+    doc_["scene"] = 0;
+  }
+
+  json finished(bool glb) const {
+    json out = doc_;
+    json buffer = {{"byteLength", bin_.size()}};
+    if (!glb) {
+      buffer["uri"] = "data:application/octet-stream;base64," + base64(bin_);
+    }
+    out["buffers"] = json::array({buffer});
+    return out;
+  }
+
+  std::string writeGltf(const std::filesystem::path& path) const {
+    std::ofstream(path, std::ios::binary) << finished(false).dump(1);
+    return path.string();
+  }
+
+  std::string writeGlb(const std::filesystem::path& path) const {
+    std::string text = finished(true).dump();
+    while (text.size() % 4 != 0) {
+      text += ' ';
+    }
+    std::vector<uint8_t> bin = bin_;
+    while (bin.size() % 4 != 0) {
+      bin.push_back(0);
+    }
+    std::vector<uint8_t> file;
+    auto u32 = [&file](uint32_t v) {
+      for (int i = 0; i < 4; ++i) {
+        file.push_back(static_cast<uint8_t>(v >> (8 * i)));
+      }
+    };
+    u32(0x46546C67u);  // "glTF"
+    u32(2);
+    u32(static_cast<uint32_t>(12 + 8 + text.size() + 8 + bin.size()));
+    u32(static_cast<uint32_t>(text.size()));
+    u32(0x4E4F534Au);  // "JSON"
+    file.insert(file.end(), text.begin(), text.end());
+    u32(static_cast<uint32_t>(bin.size()));
+    u32(0x004E4942u);  // "BIN\0"
+    file.insert(file.end(), bin.begin(), bin.end());
+    std::ofstream(path, std::ios::binary)
+        .write(reinterpret_cast<const char*>(file.data()),
+               static_cast<std::streamsize>(file.size()));
+    return path.string();
+  }
+
+ private:
+  json doc_;
+  std::vector<uint8_t> bin_;
+};
+
+// Cube of edge 2 * half centred at `center`: 8 corners (corner i has coordinate k at +half when
+// bit k of i is set), 12 triangles counter-clockwise seen from outside.
+struct Cube {
+  std::vector<glm::vec3> positions;
+  std::vector<glm::vec3> normals;  // corner normals: normalized corner directions
+  std::vector<uint32_t> indices;
+};
+
+Cube makeCube(float half = 1.0f, glm::vec3 center = glm::vec3(0.0f)) {
+  Cube cube;
+  for (uint32_t i = 0; i < 8; ++i) {
+    const glm::vec3 d((i & 1u) ? 1.0f : -1.0f, (i & 2u) ? 1.0f : -1.0f, (i & 4u) ? 1.0f : -1.0f);
+    cube.positions.push_back(center + half * d);
+    cube.normals.push_back(glm::normalize(d));
+  }
+  for (uint32_t axis = 0; axis < 3; ++axis) {
+    const uint32_t u = (axis + 1) % 3;
+    const uint32_t w = (axis + 2) % 3;
+    for (uint32_t side = 0; side < 2; ++side) {
+      const uint32_t base = side << axis;
+      const uint32_t c00 = base;
+      const uint32_t c10 = base | (1u << u);
+      const uint32_t c11 = base | (1u << u) | (1u << w);
+      const uint32_t c01 = base | (1u << w);
+      if (side == 1) {  // u x w = +axis: (c00, c10, c11) is counter-clockwise seen from +axis
+        cube.indices.insert(cube.indices.end(), {c00, c10, c11, c00, c11, c01});
+      } else {
+        cube.indices.insert(cube.indices.end(), {c00, c11, c10, c00, c01, c11});
+      }
+    }
+  }
+  return cube;
+}
+
+json glassMaterial(double ior, const std::string& name = "glass") {
+  return json{{"name", name},
+              {"extensions",
+               {{"KHR_materials_ior", {{"ior", ior}}},
+                {"KHR_materials_transmission", {{"transmissionFactor", 1.0}}},
+                {"KHR_materials_volume", {{"thicknessFactor", 1.0}}}}}};
+}
+
+// A writer holding one cube mesh (indexed, u32, with normals) on one node, material 0.
+struct CubeFile {
+  GltfWriter writer;
+  int mesh = -1;
+  int node = -1;
+};
+
+CubeFile cubeFile(const Cube& cube = makeCube(), json material = glassMaterial(1.5),
+                  json node = json::object(), bool withNormals = true,
+                  int indexType = kUnsignedInt) {
+  CubeFile f;
+  const int positions = f.writer.addVec3(cube.positions);
+  json attributes = {{"POSITION", positions}};
+  if (withNormals) {
+    attributes["NORMAL"] = f.writer.addVec3(cube.normals);
+  }
+  const int indices = f.writer.addIndices(cube.indices, indexType);
+  const int materialIndex = f.writer.addMaterial(std::move(material));
+  f.mesh = f.writer.addMesh(
+      json::array({json{
+          {"attributes", attributes}, {"indices", indices}, {"material", materialIndex}}}),
+      "cube");
+  node["mesh"] = f.mesh;
+  f.node = f.writer.addNode(node);
+  f.writer.setScene({f.node});
+  return f;
+}
+
+class GltfImport : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = std::filesystem::temp_directory_path() /
+           (std::string("shrefract_gltf_") + info->name() + "_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir_);
+  }
+  void TearDown() override {
+    std::error_code ec;
+    std::filesystem::remove_all(dir_, ec);
+  }
+
+  std::filesystem::path file(const std::string& name) const { return dir_ / name; }
+
+  // Imports and expects success.
+  Scene importOk(const std::string& path, const ImportOptions& options = {},
+                 ImportReport* report = nullptr) {
+    Result<Scene> scene = importGltf(path, options, report);
+    EXPECT_TRUE(scene.ok()) << (scene.ok() ? "" : scene.error().message);
+    return scene.ok() ? std::move(scene).value() : Scene{};
+  }
+
+  // Imports and expects an error of `code` whose one-line message names the file and contains
+  // every one of `words`.
+  void expectError(const std::string& path, ErrorCode code, const std::vector<std::string>& words,
+                   const ImportOptions& options = {}) {
+    Result<Scene> scene = importGltf(path, options);
+    ASSERT_FALSE(scene.ok()) << path;
+    EXPECT_EQ(scene.error().code, code) << scene.error().message;
+    const std::string& message = scene.error().message;
+    EXPECT_EQ(message.rfind(path + ": ", 0), 0u) << message;
+    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+    for (const std::string& word : words) {
+      EXPECT_NE(message.find(word), std::string::npos) << "'" << word << "' not in: " << message;
+    }
+  }
+
+  std::filesystem::path dir_;
+};
+
+std::string readFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  std::string bytes(static_cast<size_t>(in.tellg()), '\0');
+  in.seekg(0);
+  in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  return bytes;
+}
+
+bool anyWarningContains(const ImportReport& report, const std::string& text) {
+  return std::any_of(report.warnings.begin(), report.warnings.end(),
+                     [&text](const std::string& w) { return w.find(text) != std::string::npos; });
+}
+
+size_t triangles(const Scene& scene) {
+  size_t n = 0;
+  for (const Surface& s : scene.surfaces) {
+    n += s.indices.size() / 3;
+  }
+  return n;
+}
+
+// Every normal unit and pointing away from `center` (true for convex shapes around it).
+void expectOutwardUnitNormals(const Surface& surface, glm::vec3 center) {
+  ASSERT_EQ(surface.normals.size(), surface.positions.size());
+  for (size_t i = 0; i < surface.normals.size(); ++i) {
+    EXPECT_NEAR(glm::length(surface.normals[i]), 1.0f, kTolerance) << i;
+    EXPECT_GT(glm::dot(surface.normals[i], surface.positions[i] - center), 0.0f) << i;
+  }
+}
+
+TEST_F(GltfImport, CubeWithIorAndAttenuation) {
+  json material = glassMaterial(1.33, "water");
+  material["extensions"]["KHR_materials_volume"]["attenuationDistance"] = 2.0;
+  material["extensions"]["KHR_materials_volume"]["attenuationColor"] = {0.5, 0.25, 1.0};
+  CubeFile f = cubeFile(makeCube(), material);
+  ImportReport report;
+  const Scene scene = importOk(f.writer.writeGltf(file("cube.gltf")), {}, &report);
+  ASSERT_EQ(scene.surfaces.size(), 1u);
+  ASSERT_EQ(scene.media.size(), 2u);
+  EXPECT_EQ(scene.media[0].ior, 1.0f);
+  EXPECT_EQ(scene.media[0].absorption, 0.0f);
+  EXPECT_EQ(scene.media[1].name, "water");
+  EXPECT_FLOAT_EQ(scene.media[1].ior, 1.33f);
+  // Documented rule: absorption = mean over channels of -ln(c) / d, colour = c / max(c).
+  const double expected = (-std::log(0.5) - std::log(0.25) - std::log(1.0)) / 2.0 / 3.0;
+  EXPECT_NEAR(scene.media[1].absorption, expected, 1e-6);
+  EXPECT_NEAR(scene.media[1].color.x, 0.5f, 1e-6f);
+  EXPECT_NEAR(scene.media[1].color.y, 0.25f, 1e-6f);
+  EXPECT_NEAR(scene.media[1].color.z, 1.0f, 1e-6f);
+
+  const Surface& s = scene.surfaces[0];
+  EXPECT_EQ(s.innerMedium, 1u);
+  EXPECT_EQ(s.outerMedium, 0u);
+  EXPECT_EQ(s.positions.size(), 8u);
+  EXPECT_EQ(s.indices.size(), 36u);
+  EXPECT_TRUE(s.uvs.empty());
+  EXPECT_TRUE(checkSurface(s).closed());
+  EXPECT_TRUE(checkMediumClosure(scene, 1).closed());
+  EXPECT_NEAR(signedVolume(scene, 1), 8.0, 1e-9);
+  expectOutwardUnitNormals(s, glm::vec3(0.0f));
+  EXPECT_TRUE(validateScene(scene).ok());
+
+  EXPECT_EQ(report.meshes, 1u);
+  EXPECT_EQ(report.primitives, 1u);
+  EXPECT_EQ(report.triangles, 12u);
+  EXPECT_TRUE(report.warnings.empty()) << report.warnings.front();
+}
+
+TEST_F(GltfImport, GreyAttenuationGoesIntoAbsorptionOnly) {
+  json material = glassMaterial(1.5);
+  material["extensions"]["KHR_materials_volume"]["attenuationDistance"] = 4.0;
+  material["extensions"]["KHR_materials_volume"]["attenuationColor"] = {0.2, 0.4, 0.2};
+  CubeFile f = cubeFile(makeCube(), material);
+  const Scene scene = importOk(f.writer.writeGltf(file("grey.gltf")));
+  ASSERT_EQ(scene.media.size(), 2u);
+  const double expected = -(2.0 * std::log(0.2) + std::log(0.4)) / 4.0 / 3.0;
+  EXPECT_NEAR(scene.media[1].absorption, expected, 1e-6);
+  // The tint keeps the hue only: brightest channel 1.
+  EXPECT_NEAR(scene.media[1].color.x, 0.5f, 1e-6f);
+  EXPECT_NEAR(scene.media[1].color.y, 1.0f, 1e-6f);
+  EXPECT_NEAR(scene.media[1].color.z, 0.5f, 1e-6f);
+}
+
+TEST_F(GltfImport, NoAttenuationDistanceMeansClear) {
+  json material = glassMaterial(1.5);
+  material["extensions"]["KHR_materials_volume"]["attenuationColor"] = {0.5, 0.5, 0.5};
+  CubeFile f = cubeFile(makeCube(), material);
+  const Scene scene = importOk(f.writer.writeGltf(file("clear.gltf")));
+  ASSERT_EQ(scene.media.size(), 2u);
+  EXPECT_EQ(scene.media[1].absorption, 0.0f);
+  EXPECT_EQ(scene.media[1].color, glm::vec3(1.0f));
+}
+
+TEST_F(GltfImport, NodeTransformAppliesToPositionsAndNormals) {
+  const glm::dvec3 translation(1.0, 2.0, 3.0);
+  const glm::dquat rotation = glm::angleAxis(0.7, glm::normalize(glm::dvec3(1.0, 2.0, 0.5)));
+  const glm::dvec3 scale(2.0, 0.5, 1.5);
+  json node = {{"translation", {translation.x, translation.y, translation.z}},
+               {"rotation", {rotation.x, rotation.y, rotation.z, rotation.w}},
+               {"scale", {scale.x, scale.y, scale.z}}};
+  // The node sits under a parent that translates again: transforms compose.
+  const Cube cube = makeCube();
+  CubeFile f = cubeFile(cube, glassMaterial(1.5), node);
+  const int parent = f.writer.addNode({{"translation", {0.0, 0.0, -10.0}}, {"children", {f.node}}});
+  f.writer.setScene({parent});
+  const Scene scene = importOk(f.writer.writeGltf(file("transform.gltf")));
+  ASSERT_EQ(scene.surfaces.size(), 1u);
+  const Surface& s = scene.surfaces[0];
+  ASSERT_EQ(s.positions.size(), 8u);
+
+  const glm::dmat3 rs = glm::mat3_cast(rotation) * glm::dmat3(glm::dvec3(scale.x, 0, 0),
+                                                              glm::dvec3(0, scale.y, 0),
+                                                              glm::dvec3(0, 0, scale.z));
+  const glm::dmat3 normalMatrix = glm::transpose(glm::inverse(rs));
+  const glm::dvec3 offset = translation + glm::dvec3(0.0, 0.0, -10.0);
+  for (size_t i = 0; i < cube.positions.size(); ++i) {
+    const glm::vec3 expectedPosition(rs * glm::dvec3(cube.positions[i]) + offset);
+    const glm::vec3 expectedNormal(glm::normalize(normalMatrix * glm::dvec3(cube.normals[i])));
+    // Vertices may be reordered by the import: find the one at this position.
+    const auto it = std::find_if(s.positions.begin(), s.positions.end(), [&](glm::vec3 p) {
+      return glm::length(p - expectedPosition) < 1e-4f;
+    });
+    ASSERT_NE(it, s.positions.end()) << "corner " << i;
+    const glm::vec3 normal = s.normals[static_cast<size_t>(it - s.positions.begin())];
+    EXPECT_NEAR(normal.x, expectedNormal.x, kTolerance) << i;
+    EXPECT_NEAR(normal.y, expectedNormal.y, kTolerance) << i;
+    EXPECT_NEAR(normal.z, expectedNormal.z, kTolerance) << i;
+  }
+  // Volume scales with the determinant.
+  EXPECT_NEAR(signedVolume(scene, 1), 8.0 * scale.x * scale.y * scale.z, 1e-4);
+}
+
+TEST_F(GltfImport, MatrixNodeTransform) {
+  // Column-major: scale 3 and translate (5, 0, 0).
+  json node = {{"matrix", {3, 0, 0, 0, 0, 3, 0, 0, 0, 0, 3, 0, 5, 0, 0, 1}}};
+  CubeFile f = cubeFile(makeCube(), glassMaterial(1.5), node);
+  const Scene scene = importOk(f.writer.writeGltf(file("matrix.gltf")));
+  ASSERT_EQ(scene.surfaces.size(), 1u);
+  const Bounds b = bounds(scene);
+  EXPECT_NEAR(b.min.x, 2.0f, kTolerance);
+  EXPECT_NEAR(b.max.x, 8.0f, kTolerance);
+  EXPECT_NEAR(b.max.y, 3.0f, kTolerance);
+  EXPECT_NEAR(signedVolume(scene, 1), 216.0, 1e-3);
+}
+
+TEST_F(GltfImport, MirroredNodeKeepsOutwardWinding) {
+  CubeFile f = cubeFile(makeCube(1.0f, glm::vec3(2.0f, 0.0f, 0.0f)), glassMaterial(1.5),
+                        {{"scale", {-1.0, 1.0, 1.0}}});
+  ImportReport report;
+  const Scene scene = importOk(f.writer.writeGltf(file("mirror.gltf")), {}, &report);
+  ASSERT_EQ(scene.surfaces.size(), 1u);
+  EXPECT_GT(signedVolume(scene, 1), 7.99);
+  EXPECT_TRUE(checkMediumClosure(scene, 1).closed());
+  expectOutwardUnitNormals(scene.surfaces[0], glm::vec3(-2.0f, 0.0f, 0.0f));
+  // The mirror is handled by the transform, not by the inside-out repair.
+  EXPECT_FALSE(anyWarningContains(report, "inside out"));
+}
+
+TEST_F(GltfImport, InsideOutCubeIsTurnedOutward) {
+  Cube cube = makeCube();
+  for (size_t t = 0; t < cube.indices.size(); t += 3) {
+    std::swap(cube.indices[t + 1], cube.indices[t + 2]);
+  }
+  CubeFile f = cubeFile(cube, glassMaterial(1.5), json::object(), /*withNormals=*/false);
+  ImportReport report;
+  const Scene scene = importOk(f.writer.writeGltf(file("insideout.gltf")), {}, &report);
+  EXPECT_NEAR(signedVolume(scene, 1), 8.0, 1e-9);
+  EXPECT_TRUE(anyWarningContains(report, "inside out"));
+  expectOutwardUnitNormals(scene.surfaces[0], glm::vec3(0.0f));
+}
+
+TEST_F(GltfImport, NestedCubesTakeTheirContainerAsOuterMedium) {
+  GltfWriter w;
+  const Cube big = makeCube(2.0f);
+  const Cube small = makeCube(0.5f, glm::vec3(0.3f, -0.2f, 0.1f));
+  const int bigMaterial = w.addMaterial(glassMaterial(1.5, "glass"));
+  const int smallMaterial = w.addMaterial(glassMaterial(1.33, "water"));
+  auto mesh = [&w](const Cube& cube, int material, const std::string& name) {
+    const json attributes = {{"POSITION", w.addVec3(cube.positions)},
+                             {"NORMAL", w.addVec3(cube.normals)}};
+    return w.addMesh(json::array({json{{"attributes", attributes},
+                                       {"indices", w.addIndices(cube.indices)},
+                                       {"material", material}}}),
+                     name);
+  };
+  // The small cube first, so that the order of nodes does not decide nesting.
+  const int smallNode = w.addNode({{"mesh", mesh(small, smallMaterial, "small")}, {"name", "in"}});
+  const int bigNode = w.addNode({{"mesh", mesh(big, bigMaterial, "big")}, {"name", "out"}});
+  w.setScene({smallNode, bigNode});
+  const Scene scene = importOk(w.writeGltf(file("nested.gltf")));
+  ASSERT_EQ(scene.surfaces.size(), 2u);
+  ASSERT_EQ(scene.media.size(), 3u);
+  const Surface& inner = scene.surfaces[0];
+  const Surface& outer = scene.surfaces[1];
+  EXPECT_EQ(inner.name, "in/small");
+  EXPECT_EQ(outer.name, "out/big");
+  EXPECT_EQ(scene.media[inner.innerMedium].name, "water");
+  EXPECT_EQ(scene.media[outer.innerMedium].name, "glass");
+  EXPECT_EQ(inner.outerMedium, outer.innerMedium);
+  EXPECT_EQ(outer.outerMedium, 0u);
+  EXPECT_TRUE(checkMediumClosure(scene, outer.innerMedium).closed());
+  EXPECT_TRUE(checkMediumClosure(scene, inner.innerMedium).closed());
+  EXPECT_NEAR(signedVolume(scene, outer.innerMedium), 64.0 - 1.0, 1e-6);
+  EXPECT_NEAR(signedVolume(scene, inner.innerMedium), 1.0, 1e-6);
+}
+
+TEST_F(GltfImport, NestedVolumesOfOneMaterialAreAnError) {
+  GltfWriter w;
+  const Cube big = makeCube(2.0f);
+  const Cube small = makeCube(0.5f);
+  const int material = w.addMaterial(glassMaterial(1.5));
+  auto mesh = [&](const Cube& cube) {
+    return w.addMesh(json::array({json{{"attributes", {{"POSITION", w.addVec3(cube.positions)}}},
+                                       {"indices", w.addIndices(cube.indices)},
+                                       {"material", material}}}));
+  };
+  const int a = w.addNode({{"mesh", mesh(big)}});
+  const int b = w.addNode({{"mesh", mesh(small)}});
+  w.setScene({a, b});
+  expectError(w.writeGltf(file("same.gltf")), ErrorCode::InvalidArgument, {"same medium"});
+}
+
+TEST_F(GltfImport, SeparateVolumesOfOneMaterialShareAMedium) {
+  GltfWriter w;
+  const Cube cube = makeCube();
+  const int material = w.addMaterial(glassMaterial(1.5));
+  const int mesh =
+      w.addMesh(json::array({json{{"attributes", {{"POSITION", w.addVec3(cube.positions)}}},
+                                  {"indices", w.addIndices(cube.indices)},
+                                  {"material", material}}}));
+  const int a = w.addNode({{"mesh", mesh}, {"translation", {-3.0, 0.0, 0.0}}});
+  const int b = w.addNode({{"mesh", mesh}, {"translation", {3.0, 0.0, 0.0}}});
+  w.setScene({a, b});
+  ImportReport report;
+  const Scene scene = importOk(w.writeGltf(file("two.gltf")), {}, &report);
+  ASSERT_EQ(scene.surfaces.size(), 2u);
+  EXPECT_EQ(scene.media.size(), 2u);
+  EXPECT_EQ(scene.surfaces[0].outerMedium, 0u);
+  EXPECT_EQ(scene.surfaces[1].outerMedium, 0u);
+  EXPECT_NEAR(signedVolume(scene, 1), 16.0, 1e-6);
+  EXPECT_EQ(report.meshes, 2u);
+  EXPECT_EQ(report.triangles, 24u);
+}
+
+TEST_F(GltfImport, GlbRoundTrip) {
+  json material = glassMaterial(1.33);
+  material["extensions"]["KHR_materials_volume"]["attenuationDistance"] = 0.5;
+  CubeFile f = cubeFile(makeCube(), material);
+  const Scene fromGltf = importOk(f.writer.writeGltf(file("cube.gltf")));
+  // The extension is matched case-insensitively.
+  const Scene fromGlb = importOk(f.writer.writeGlb(file("cube.GLB")));
+  ASSERT_EQ(fromGlb.surfaces.size(), 1u);
+  ASSERT_EQ(fromGltf.surfaces.size(), 1u);
+  EXPECT_EQ(fromGlb.surfaces[0].positions, fromGltf.surfaces[0].positions);
+  EXPECT_EQ(fromGlb.surfaces[0].normals, fromGltf.surfaces[0].normals);
+  EXPECT_EQ(fromGlb.surfaces[0].indices, fromGltf.surfaces[0].indices);
+  EXPECT_EQ(fromGlb.media[1].ior, fromGltf.media[1].ior);
+  EXPECT_EQ(fromGlb.media[1].absorption, 0.0f);  // colour (1,1,1): -ln(1) = 0
+  EXPECT_TRUE(checkMediumClosure(fromGlb, 1).closed());
+}
+
+TEST_F(GltfImport, ExternalBufferFile) {
+  CubeFile f = cubeFile();
+  json doc = f.writer.finished(true);
+  // Recreate the buffer as an external .bin next to the .gltf.
+  const std::string glb = f.writer.writeGlb(file("tmp.glb"));
+  const std::string bytes = readFile(glb);
+  uint32_t jsonLength = 0;
+  std::memcpy(&jsonLength, bytes.data() + 12, 4);
+  const size_t binStart = 12 + 8 + jsonLength + 8;
+  std::ofstream(file("cube.bin"), std::ios::binary)
+      .write(bytes.data() + binStart, static_cast<std::streamsize>(bytes.size() - binStart));
+  doc["buffers"][0]["uri"] = "cube.bin";
+  std::ofstream(file("external.gltf")) << doc.dump();
+  const Scene scene = importOk(file("external.gltf").string());
+  ASSERT_EQ(scene.surfaces.size(), 1u);
+  EXPECT_EQ(triangles(scene), 12u);
+}
+
+TEST_F(GltfImport, NonIndexedFlatCube) {
+  const Cube cube = makeCube();
+  std::vector<glm::vec3> positions;
+  std::vector<glm::vec3> normals;
+  for (size_t t = 0; t < cube.indices.size(); t += 3) {
+    const glm::vec3 a = cube.positions[cube.indices[t]];
+    const glm::vec3 b = cube.positions[cube.indices[t + 1]];
+    const glm::vec3 c = cube.positions[cube.indices[t + 2]];
+    const glm::vec3 n = glm::normalize(glm::cross(b - a, c - a));
+    positions.insert(positions.end(), {a, b, c});
+    normals.insert(normals.end(), {n, n, n});
+  }
+  GltfWriter w;
+  const int material = w.addMaterial(glassMaterial(1.5));
+  const json attributes = {{"POSITION", w.addVec3(positions)}, {"NORMAL", w.addVec3(normals)}};
+  const int mesh =
+      w.addMesh(json::array({json{{"attributes", attributes}, {"material", material}}}));
+  w.setScene({w.addNode({{"mesh", mesh}})});
+  const Scene scene = importOk(w.writeGltf(file("flat.gltf")));
+  ASSERT_EQ(scene.surfaces.size(), 1u);
+  EXPECT_EQ(scene.surfaces[0].positions.size(), 36u);
+  EXPECT_EQ(triangles(scene), 12u);
+  EXPECT_TRUE(checkSurface(scene.surfaces[0]).closed());  // closed by position
+  EXPECT_NEAR(signedVolume(scene, 1), 8.0, 1e-9);
+}
+
+TEST_F(GltfImport, InterleavedAttributesWithByteStride) {
+  const Cube cube = makeCube();
+  std::vector<float> interleaved;
+  for (size_t i = 0; i < cube.positions.size(); ++i) {
+    interleaved.insert(interleaved.end(), {cube.positions[i].x, cube.positions[i].y,
+                                           cube.positions[i].z, cube.normals[i].x,
+                                           cube.normals[i].y, cube.normals[i].z});
+  }
+  GltfWriter w;
+  const int view = w.addView(interleaved.data(), interleaved.size() * sizeof(float), 24);
+  const int positions = w.addAccessor(view, kFloat, 8, "VEC3");
+  const int normals = w.addAccessor(view, kFloat, 8, "VEC3", 12);
+  const int material = w.addMaterial(glassMaterial(1.5));
+  const int mesh =
+      w.addMesh(json::array({json{{"attributes", {{"POSITION", positions}, {"NORMAL", normals}}},
+                                  {"indices", w.addIndices(cube.indices)},
+                                  {"material", material}}}));
+  w.setScene({w.addNode({{"mesh", mesh}})});
+  const Scene scene = importOk(w.writeGltf(file("interleaved.gltf")));
+  ASSERT_EQ(scene.surfaces.size(), 1u);
+  EXPECT_NEAR(signedVolume(scene, 1), 8.0, 1e-9);
+  expectOutwardUnitNormals(scene.surfaces[0], glm::vec3(0.0f));
+}
+
+TEST_F(GltfImport, SmallIndexTypes) {
+  for (int type : {kUnsignedByte, kUnsignedShort, kUnsignedInt}) {
+    CubeFile f = cubeFile(makeCube(), glassMaterial(1.5), json::object(), true, type);
+    const Scene scene = importOk(f.writer.writeGltf(file("idx" + std::to_string(type) + ".gltf")));
+    ASSERT_EQ(scene.surfaces.size(), 1u) << type;
+    EXPECT_EQ(triangles(scene), 12u) << type;
+    EXPECT_TRUE(checkSurface(scene.surfaces[0]).closed()) << type;
+  }
+}
+
+TEST_F(GltfImport, MissingNormalsAreComputed) {
+  CubeFile f = cubeFile(makeCube(), glassMaterial(1.5), json::object(), /*withNormals=*/false);
+  ImportReport report;
+  const Scene scene = importOk(f.writer.writeGltf(file("nonormals.gltf")), {}, &report);
+  ASSERT_EQ(scene.surfaces.size(), 1u);
+  EXPECT_TRUE(anyWarningContains(report, "normals computed"));
+  expectOutwardUnitNormals(scene.surfaces[0], glm::vec3(0.0f));
+  // Each face's split into two triangles weights the corners unevenly, so the computed corner
+  // normals are not exactly the diagonals; they do stay in their corner's octant.
+  for (size_t i = 0; i < scene.surfaces[0].positions.size(); ++i) {
+    const glm::vec3 p = scene.surfaces[0].positions[i];
+    const glm::vec3 n = scene.surfaces[0].normals[i];
+    EXPECT_GT(n.x * p.x, 0.0f);
+    EXPECT_GT(n.y * p.y, 0.0f);
+    EXPECT_GT(n.z * p.z, 0.0f);
+  }
+}
+
+TEST_F(GltfImport, NormalizedTexcoords) {
+  const Cube cube = makeCube();
+  GltfWriter w;
+  std::vector<uint16_t> uv;
+  for (size_t i = 0; i < 8; ++i) {
+    uv.push_back(static_cast<uint16_t>(i * 8191));
+    uv.push_back(65535);
+  }
+  const int uvView = w.addView(uv.data(), uv.size() * sizeof(uint16_t));
+  const int uvAccessor = w.addAccessor(uvView, kUnsignedShort, 8, "VEC2", 0, /*normalized=*/true);
+  const int material = w.addMaterial(glassMaterial(1.5));
+  const int mesh = w.addMesh(json::array({json{
+      {"attributes", {{"POSITION", w.addVec3(cube.positions)}, {"TEXCOORD_0", uvAccessor}}},
+      {"indices", w.addIndices(cube.indices)},
+      {"material", material}}}));
+  w.setScene({w.addNode({{"mesh", mesh}})});
+  const Scene scene = importOk(w.writeGltf(file("uv.gltf")));
+  ASSERT_EQ(scene.surfaces.size(), 1u);
+  const Surface& s = scene.surfaces[0];
+  ASSERT_EQ(s.uvs.size(), s.positions.size());
+  for (size_t i = 0; i < s.positions.size(); ++i) {
+    // Recover the corner index from the position (bit k set when coordinate k is +1).
+    const size_t corner = (s.positions[i].x > 0 ? 1u : 0u) | (s.positions[i].y > 0 ? 2u : 0u) |
+                          (s.positions[i].z > 0 ? 4u : 0u);
+    EXPECT_NEAR(s.uvs[i].x, static_cast<float>(corner * 8191) / 65535.0f, 1e-6f);
+    EXPECT_EQ(s.uvs[i].y, 1.0f);
+  }
+}
+
+TEST_F(GltfImport, DegenerateTrianglesAreDropped) {
+  Cube cube = makeCube();
+  cube.indices.insert(cube.indices.end(), {0, 0, 1, 2, 3, 3});
+  CubeFile f = cubeFile(cube);
+  ImportReport report;
+  const Scene scene = importOk(f.writer.writeGltf(file("degenerate.gltf")), {}, &report);
+  EXPECT_EQ(triangles(scene), 12u);
+  EXPECT_EQ(report.triangles, 12u);
+  EXPECT_TRUE(anyWarningContains(report, "dropped 2 degenerate"));
+}
+
+TEST_F(GltfImport, MultipleMaterialsInOneMeshBecomeSeparateVolumes) {
+  GltfWriter w;
+  const Cube a = makeCube(1.0f, glm::vec3(-3.0f, 0.0f, 0.0f));
+  const Cube b = makeCube(1.0f, glm::vec3(3.0f, 0.0f, 0.0f));
+  const int glass = w.addMaterial(glassMaterial(1.5, "glass"));
+  const int water = w.addMaterial(glassMaterial(1.33, "water"));
+  json primitives = json::array();
+  for (const auto& [cube, material] : {std::pair{&a, glass}, std::pair{&b, water}}) {
+    primitives.push_back({{"attributes", {{"POSITION", w.addVec3(cube->positions)}}},
+                          {"indices", w.addIndices(cube->indices)},
+                          {"material", material}});
+  }
+  const int mesh = w.addMesh(primitives, "pair");
+  w.setScene({w.addNode({{"mesh", mesh}, {"name", "n"}})});
+  ImportReport report;
+  const Scene scene = importOk(w.writeGltf(file("two_materials.gltf")), {}, &report);
+  ASSERT_EQ(scene.surfaces.size(), 2u);
+  ASSERT_EQ(scene.media.size(), 3u);
+  EXPECT_EQ(scene.surfaces[0].name, "n/pair/glass");
+  EXPECT_EQ(scene.surfaces[1].name, "n/pair/water");
+  EXPECT_NE(scene.surfaces[0].innerMedium, scene.surfaces[1].innerMedium);
+  EXPECT_EQ(report.meshes, 1u);
+  EXPECT_EQ(report.primitives, 2u);
+}
+
+TEST_F(GltfImport, NonTransmissiveMaterialWarnsAndIsGlass) {
+  CubeFile f = cubeFile(makeCube(), json{{"name", "plastic"}});
+  ImportReport report;
+  const Scene scene = importOk(f.writer.writeGltf(file("plastic.gltf")), {}, &report);
+  ASSERT_EQ(scene.media.size(), 2u);
+  EXPECT_FLOAT_EQ(scene.media[1].ior, 1.5f);
+  EXPECT_TRUE(anyWarningContains(report, "neither transmissive nor a volume"));
+}
+
+TEST_F(GltfImport, Overrides) {
+  GltfWriter w;
+  const Cube big = makeCube(2.0f);
+  const Cube small = makeCube(0.5f);
+  json glass = glassMaterial(1.5, "glass");
+  glass["extensions"]["KHR_materials_volume"]["attenuationDistance"] = 1.0;
+  glass["extensions"]["KHR_materials_volume"]["attenuationColor"] = {0.5, 0.5, 0.5};
+  const int m0 = w.addMaterial(glass);
+  const int m1 = w.addMaterial(glassMaterial(1.33, "water"));
+  auto mesh = [&](const Cube& cube, int material) {
+    return w.addMesh(json::array({json{{"attributes", {{"POSITION", w.addVec3(cube.positions)}}},
+                                       {"indices", w.addIndices(cube.indices)},
+                                       {"material", material}}}));
+  };
+  w.setScene({w.addNode({{"mesh", mesh(big, m0)}}), w.addNode({{"mesh", mesh(small, m1)}})});
+  const std::string path = w.writeGltf(file("overrides.gltf"));
+  ImportOptions options;
+  options.iorOverride = 1.7f;
+  options.absorptionOverride = 0.25f;
+  const Scene scene = importOk(path, options);
+  ASSERT_EQ(scene.media.size(), 3u);
+  EXPECT_EQ(scene.media[0].ior, 1.0f);
+  EXPECT_EQ(scene.media[0].absorption, 0.0f);
+  for (size_t m = 1; m < scene.media.size(); ++m) {
+    EXPECT_EQ(scene.media[m].ior, 1.7f) << m;
+    EXPECT_EQ(scene.media[m].absorption, 0.25f) << m;
+  }
+
+  ImportOptions badIor;
+  badIor.iorOverride = 0.0f;
+  expectError(path, ErrorCode::InvalidArgument, {"iorOverride"}, badIor);
+  ImportOptions badAbsorption;
+  badAbsorption.absorptionOverride = -1.0f;
+  expectError(path, ErrorCode::InvalidArgument, {"absorptionOverride"}, badAbsorption);
+}
+
+// --- Errors --------------------------------------------------------------------------------------
+
+TEST_F(GltfImport, MissingFile) {
+  expectError(file("nothing.gltf").string(), ErrorCode::Io, {"no such file"});
+}
+
+TEST_F(GltfImport, NotGltf) {
+  const std::string path = file("cube.obj").string();
+  std::ofstream(path) << "v 0 0 0\n";
+  expectError(path, ErrorCode::InvalidArgument, {"not a glTF file"});
+}
+
+TEST_F(GltfImport, ParseErrorIsOneLine) {
+  const std::string path = file("broken.gltf").string();
+  std::ofstream(path) << "{ \"asset\": { \"version\": \"2.0\" }, \n\n \"nodes\": [ {,, ] }\n";
+  expectError(path, ErrorCode::CorruptData, {"cannot parse"});
+  const std::string glb = file("broken.glb").string();
+  std::ofstream(glb) << "glTF but not really\n";
+  expectError(glb, ErrorCode::CorruptData, {"cannot parse"});
+}
+
+TEST_F(GltfImport, AccessorOutOfBufferViewRange) {
+  CubeFile f = cubeFile();
+  // POSITION accessor (0) claims more elements than its view holds.
+  f.writer.doc()["accessors"][0]["count"] = 9;
+  expectError(f.writer.writeGltf(file("range.gltf")), ErrorCode::CorruptData,
+              {"mesh 0 ('cube') primitive 0", "accessor 0 (POSITION)", "does not fit"});
+  // A byte offset that pushes the last element past the view.
+  CubeFile g = cubeFile();
+  g.writer.doc()["accessors"][1]["byteOffset"] = 4;
+  expectError(g.writer.writeGltf(file("offset.gltf")), ErrorCode::CorruptData,
+              {"accessor 1 (NORMAL)", "does not fit"});
+  // A view that runs past the end of the buffer.
+  CubeFile h = cubeFile();
+  h.writer.doc()["bufferViews"][0]["byteLength"] = 4096;
+  expectError(h.writer.writeGltf(file("view.gltf")), ErrorCode::CorruptData, {"accessor 0"});
+}
+
+TEST_F(GltfImport, IndexOutOfRange) {
+  Cube cube = makeCube();
+  cube.indices[5] = 8;
+  CubeFile f = cubeFile(cube);
+  expectError(f.writer.writeGltf(file("index.gltf")), ErrorCode::CorruptData,
+              {"mesh 0 ('cube') primitive 0", "(indices)", "index 5 is 8, out of range"});
+}
+
+TEST_F(GltfImport, LinesAreUnsupported) {
+  CubeFile f = cubeFile();
+  f.writer.doc()["meshes"][0]["primitives"][0]["mode"] = 1;
+  expectError(f.writer.writeGltf(file("lines.gltf")), ErrorCode::Unsupported,
+              {"mesh 0 ('cube') primitive 0", "mode 1", "LINES"});
+}
+
+TEST_F(GltfImport, EmptyScene) {
+  CubeFile f = cubeFile();
+  f.writer.setScene({});
+  expectError(f.writer.writeGltf(file("empty.gltf")), ErrorCode::InvalidArgument, {"empty"});
+  CubeFile g = cubeFile();
+  g.writer.doc().erase("scenes");
+  g.writer.doc().erase("scene");
+  expectError(g.writer.writeGltf(file("noscene.gltf")), ErrorCode::InvalidArgument, {"no scene"});
+}
+
+TEST_F(GltfImport, ZeroAreaMesh) {
+  GltfWriter w;
+  const std::vector<glm::vec3> line{{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {0, 0, 0}};
+  const int material = w.addMaterial(glassMaterial(1.5));
+  // One collinear triangle and one with two corners at one position.
+  const int mesh = w.addMesh(json::array({json{{"attributes", {{"POSITION", w.addVec3(line)}}},
+                                               {"indices", w.addIndices({0, 1, 2, 0, 1, 3})},
+                                               {"material", material}}}));
+  w.setScene({w.addNode({{"mesh", mesh}})});
+  expectError(w.writeGltf(file("zero.gltf")), ErrorCode::InvalidArgument, {"zero area"});
+}
+
+TEST_F(GltfImport, OpenMesh) {
+  Cube cube = makeCube();
+  cube.indices.resize(cube.indices.size() - 3);  // remove one triangle
+  CubeFile f = cubeFile(cube);
+  const std::string path = f.writer.writeGltf(file("open.gltf"));
+  expectError(path, ErrorCode::InvalidArgument, {"mesh 0 ('cube')", "3 open"});
+
+  ImportOptions allow;
+  allow.allowOpenMeshes = true;
+  ImportReport report;
+  const Scene scene = importOk(path, allow, &report);
+  EXPECT_EQ(triangles(scene), 11u);
+  EXPECT_TRUE(anyWarningContains(report, "3 open"));
+}
+
+TEST_F(GltfImport, InconsistentWindingIsAnError) {
+  Cube cube = makeCube();
+  std::swap(cube.indices[1], cube.indices[2]);  // flip one triangle
+  CubeFile f = cubeFile(cube);
+  expectError(f.writer.writeGltf(file("flipped.gltf")), ErrorCode::InvalidArgument,
+              {"inconsistently wound"});
+}
+
+TEST_F(GltfImport, OtherMalformedInput) {
+  {  // positions that are not FLOAT VEC3
+    CubeFile f = cubeFile();
+    f.writer.doc()["accessors"][0]["type"] = "VEC2";
+    expectError(f.writer.writeGltf(file("vec2.gltf")), ErrorCode::Unsupported,
+                {"accessor 0 (POSITION)", "FLOAT VEC3"});
+  }
+  {  // index count not a multiple of 3
+    CubeFile f = cubeFile();
+    f.writer.doc()["accessors"][2]["count"] = 35;
+    expectError(f.writer.writeGltf(file("count.gltf")), ErrorCode::CorruptData,
+                {"(indices)", "not a multiple of 3"});
+  }
+  {  // a non-finite position
+    Cube cube = makeCube();
+    cube.positions[3].y = std::numeric_limits<float>::infinity();
+    CubeFile f = cubeFile(cube);
+    expectError(f.writer.writeGltf(file("inf.gltf")), ErrorCode::CorruptData,
+                {"accessor 0 (POSITION)", "element 3 is not finite"});
+  }
+  {  // geometry compression is not read
+    CubeFile f = cubeFile();
+    f.writer.doc()["extensionsRequired"] = {"KHR_draco_mesh_compression"};
+    f.writer.doc()["extensionsUsed"] = {"KHR_draco_mesh_compression"};
+    expectError(f.writer.writeGltf(file("draco.gltf")), ErrorCode::Unsupported,
+                {"KHR_draco_mesh_compression"});
+  }
+  {  // a node cycle
+    CubeFile f = cubeFile();
+    f.writer.doc()["nodes"][0]["children"] = {0};
+    expectError(f.writer.writeGltf(file("cycle.gltf")), ErrorCode::CorruptData, {"cycle"});
+  }
+  {  // a singular transform
+    CubeFile f = cubeFile(makeCube(), glassMaterial(1.5), {{"scale", {1.0, 0.0, 1.0}}});
+    expectError(f.writer.writeGltf(file("flat.gltf")), ErrorCode::InvalidArgument, {"singular"});
+  }
+}
+
+// Truncations of a valid file are rejected cleanly (no crash, one line naming the file). Every
+// length through the GLB header and chunk headers, then a sample (each cut is a file write, and
+// the filesystem dominates the run time), then every length of the last bytes.
+TEST_F(GltfImport, TruncatedFilesAreRejected) {
+  CubeFile f = cubeFile();
+  for (const std::string& name : {std::string("whole.glb"), std::string("whole.gltf")}) {
+    const std::string whole = name.ends_with(".glb") ? f.writer.writeGlb(file(name))
+                                                     : f.writer.writeGltf(file(name));
+    const std::string bytes = readFile(whole);
+    ASSERT_TRUE(importGltf(whole).ok());
+    const std::string cut = file("cut" + name.substr(name.find('.'))).string();
+    for (size_t length = 0; length < bytes.size();
+         length += (length < 32 || length + 16 >= bytes.size()) ? 1 : 7) {
+      std::ofstream(cut, std::ios::binary | std::ios::trunc)
+          .write(bytes.data(), static_cast<std::streamsize>(length));
+      const Result<Scene> scene = importGltf(cut);
+      ASSERT_FALSE(scene.ok()) << name << " cut to " << length << " bytes";
+      EXPECT_EQ(scene.error().message.rfind(cut + ": ", 0), 0u) << scene.error().message;
+      EXPECT_EQ(scene.error().message.find('\n'), std::string::npos) << scene.error().message;
+    }
+  }
+}
+
+// The shared bunny asset, when present on this machine (tests must not need it).
+TEST_F(GltfImport, BunnyAssetWhenPresent) {
+  const std::filesystem::path bunny = "/work/shared/assets/bunny.glb";
+  if (!std::filesystem::exists(bunny)) {
+    GTEST_SKIP() << bunny << " not present";
+  }
+  ImportReport report;
+  const Scene scene = importOk(bunny.string(), {}, &report);
+  ASSERT_EQ(scene.surfaces.size(), 1u);
+  EXPECT_EQ(triangles(scene), 27864u);
+  EXPECT_TRUE(checkMediumClosure(scene, 1).closed());
+  EXPECT_GT(signedVolume(scene, 1), 0.0);
+  EXPECT_FLOAT_EQ(scene.media[1].ior, 1.5f);
+  EXPECT_EQ(scene.media[1].absorption, 0.0f);
+  for (const std::string& warning : report.warnings) {
+    std::cout << "bunny warning: " << warning << "\n";
+  }
+}
+
+}  // namespace
+}  // namespace shrefract::bake

@@ -1,0 +1,1211 @@
+// glTF import: reads the default scene with tinygltf, validates every accessor it touches, bakes
+// the node transforms into world-space surfaces and assigns media by containment (the medium
+// stack rule of docs/scenes.md, "glTF media and the medium stack").
+#include <shrefract/bake/gltf_import.h>
+
+// tinygltf's header is not warning-clean under our flags; its implementation lives in the system
+// library (TINYGLTF_IMPLEMENTATION must not be defined here).
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wconversion"
+#pragma GCC diagnostic ignored "-Wsign-conversion"
+#pragma GCC diagnostic ignored "-Wshadow"
+#pragma GCC diagnostic ignored "-Wold-style-cast"
+#pragma GCC diagnostic ignored "-Wpedantic"
+#pragma GCC diagnostic ignored "-Wdouble-promotion"
+#pragma GCC diagnostic ignored "-Wunused-parameter"
+#pragma GCC diagnostic ignored "-Wunused-function"
+#pragma GCC diagnostic ignored "-Wuseless-cast"
+#include <tiny_gltf.h>
+#pragma GCC diagnostic pop
+
+#include <glm/geometric.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/gtc/type_ptr.hpp>
+#include <glm/mat3x3.hpp>
+#include <glm/mat4x4.hpp>
+#include <glm/matrix.hpp>
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cctype>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <string>
+#include <system_error>
+#include <utility>
+#include <vector>
+
+namespace shrefract::bake {
+namespace {
+
+static_assert(std::endian::native == std::endian::little, "glTF buffers are little-endian");
+
+constexpr float kDefaultIor = 1.5f;  // KHR_materials_ior default (and the core glTF dielectric)
+
+// attenuationColor channels are clamped to at least this before taking -ln(c): a channel of 0
+// (black) means "absorbs everything", which has no finite absorption. -ln(1e-6) = 13.8, i.e. the
+// channel keeps 1e-6 of its light after one attenuationDistance.
+constexpr double kMinAttenuationColor = 1e-6;
+
+// Interior points of volumes with no opposite wall (open meshes) are pushed inside by this
+// fraction of the volume's bounding-box diagonal.
+constexpr double kInteriorOffset = 1e-4;
+
+// Node hierarchies are walked recursively; this bounds the stack a malicious file can take.
+// Real scenes are a few levels deep.
+constexpr size_t kMaxNodeDepth = 1024;
+
+// Directions of the parity rays of the containment test: far from the axes and from each other,
+// so that axis-aligned models do not send them exactly along edges or faces.
+constexpr std::array<glm::dvec3, 3> kParityDirections{
+    glm::dvec3(0.2672612419, 0.5345224838, 0.8017837257),
+    glm::dvec3(-0.7071067812, 0.1178511302, 0.6972166888),
+    glm::dvec3(0.3539202769, -0.8846832213, 0.3034034657)};
+
+std::string lowercase(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+// tinygltf's messages are multi-line; errors must be one line.
+std::string oneLine(const std::string& text) {
+  std::string out;
+  std::string line;
+  auto flush = [&out, &line] {
+    const size_t begin = line.find_first_not_of(" \t");
+    if (begin != std::string::npos) {
+      const size_t end = line.find_last_not_of(" \t");
+      if (!out.empty()) {
+        out += "; ";
+      }
+      out += line.substr(begin, end - begin + 1);
+    }
+    line.clear();
+  };
+  for (char c : text) {
+    if (c == '\n' || c == '\r') {
+      flush();
+    } else {
+      line += c;
+    }
+  }
+  flush();
+  return out;
+}
+
+std::vector<std::string> lines(const std::string& text) {
+  std::vector<std::string> out;
+  std::string line;
+  for (char c : text) {
+    if (c == '\n' || c == '\r') {
+      if (!oneLine(line).empty()) {
+        out.push_back(oneLine(line));
+      }
+      line.clear();
+    } else {
+      line += c;
+    }
+  }
+  if (!oneLine(line).empty()) {
+    out.push_back(oneLine(line));
+  }
+  return out;
+}
+
+std::string quoted(const std::string& name) { return name.empty() ? "" : " ('" + name + "')"; }
+
+bool isFinite(glm::vec3 v) {
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
+// Bytes per component, 0 for a component type glTF 2.0 does not define.
+size_t componentSize(int componentType) {
+  switch (componentType) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+      return 1;
+    case TINYGLTF_COMPONENT_TYPE_SHORT:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
+      return 2;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+    case TINYGLTF_COMPONENT_TYPE_FLOAT:
+      return 4;
+    default:
+      return 0;
+  }
+}
+
+// Components per element, 0 for an unknown type.
+size_t componentCount(int type) {
+  switch (type) {
+    case TINYGLTF_TYPE_SCALAR:
+      return 1;
+    case TINYGLTF_TYPE_VEC2:
+      return 2;
+    case TINYGLTF_TYPE_VEC3:
+      return 3;
+    case TINYGLTF_TYPE_VEC4:
+    case TINYGLTF_TYPE_MAT2:
+      return 4;
+    case TINYGLTF_TYPE_MAT3:
+      return 9;
+    case TINYGLTF_TYPE_MAT4:
+      return 16;
+    default:
+      return 0;
+  }
+}
+
+const char* modeName(int mode) {
+  switch (mode) {
+    case 0:
+      return "POINTS";
+    case 1:
+      return "LINES";
+    case 2:
+      return "LINE_LOOP";
+    case 3:
+      return "LINE_STRIP";
+    case 4:
+      return "TRIANGLES";
+    case 5:
+      return "TRIANGLE_STRIP";
+    case 6:
+      return "TRIANGLE_FAN";
+    default:
+      return "unknown";
+  }
+}
+
+template <class T>
+T readScalar(const unsigned char* bytes) {
+  T value;
+  std::memcpy(&value, bytes, sizeof(T));
+  return value;
+}
+
+// A validated accessor: `count` elements of `elementSize` bytes, `stride` apart, all inside the
+// buffer.
+struct AccessorView {
+  const unsigned char* data = nullptr;
+  size_t count = 0;
+  size_t stride = 0;
+  int componentType = 0;
+  bool normalized = false;
+
+  const unsigned char* element(size_t i) const { return data + i * stride; }
+};
+
+// Möller-Trumbore; returns the ray parameter of the hit, or a negative value for none. Hits on
+// edges count (both triangles sharing an edge may report it; the parity test votes over rays).
+double intersect(const glm::dvec3& origin, const glm::dvec3& direction, const glm::dvec3& a,
+                 const glm::dvec3& b, const glm::dvec3& c) {
+  const glm::dvec3 e1 = b - a;
+  const glm::dvec3 e2 = c - a;
+  const glm::dvec3 p = glm::cross(direction, e2);
+  const double det = glm::dot(e1, p);
+  if (det == 0.0) {
+    return -1.0;
+  }
+  const double inv = 1.0 / det;
+  const glm::dvec3 s = origin - a;
+  const double u = glm::dot(s, p) * inv;
+  if (u < 0.0 || u > 1.0) {
+    return -1.0;
+  }
+  const glm::dvec3 q = glm::cross(s, e1);
+  const double v = glm::dot(direction, q) * inv;
+  if (v < 0.0 || u + v > 1.0) {
+    return -1.0;
+  }
+  return glm::dot(e2, q) * inv;
+}
+
+// One mesh instance's primitives that share a material: one volume, one Surface.
+struct Volume {
+  std::string label;  // "mesh 0 ('name') in node 2 ('name')" for messages
+  std::string name;   // Surface name
+  int material = -1;  // glTF material index, -1 = default material
+  std::vector<glm::vec3> positions;
+  std::vector<glm::vec3> normals;
+  std::vector<glm::vec2> uvs;              // one per vertex (zeros where a primitive had none)
+  std::vector<uint8_t> normalFromFile;     // per vertex: 1 when NORMAL gave a usable normal
+  std::vector<uint32_t> indices;
+  bool anyUvs = false;
+  bool missingUvs = false;
+  size_t degenerate = 0;        // triangles dropped (two corners at one position)
+  size_t computedNormals = 0;   // vertices whose normal was computed
+  // Filled by finalize().
+  bool closed = false;
+  double volume = 0.0;  // signed, after orientation
+  glm::dvec3 boundsMin{0.0};
+  glm::dvec3 boundsMax{0.0};
+  uint32_t medium = 0;
+};
+
+class Importer {
+ public:
+  Importer(const std::string& path, const ImportOptions& options, ImportReport& report)
+      : path_(path), options_(options), report_(report) {}
+
+  Result<Scene> run();
+
+ private:
+  Error fail(ErrorCode code, const std::string& problem) const {
+    return makeError(code, path_ + ": " + problem);
+  }
+  void warn(const std::string& warning) { report_.warnings.push_back(path_ + ": " + warning); }
+
+  Result<void> load();
+  Result<void> visitNode(int nodeIndex, const glm::dmat4& parent, std::vector<uint8_t>& onPath,
+                         size_t depth);
+  Result<glm::dmat4> localTransform(int nodeIndex) const;
+  Result<void> addInstance(int nodeIndex, const glm::dmat4& world);
+  Result<void> addPrimitive(const std::string& where, const tinygltf::Primitive& primitive,
+                            const glm::dmat4& world, const glm::dmat3& normalMatrix, bool mirrored,
+                            Volume& volume);
+  Result<AccessorView> viewAccessor(int accessorIndex, const std::string& what) const;
+  Result<std::vector<glm::vec3>> readVec3(int accessorIndex, const std::string& what) const;
+  Result<std::vector<glm::vec2>> readTexcoords(int accessorIndex, const std::string& what) const;
+  Result<std::vector<uint32_t>> readIndices(int accessorIndex, const std::string& what,
+                                            size_t vertexCount) const;
+  Result<void> finalize(Volume& volume);
+  Result<Medium> mediumOf(int materialIndex);
+  glm::dvec3 interiorPoint(const Volume& volume) const;
+  bool contains(const Volume& container, const glm::dvec3& point) const;
+
+  const std::string& path_;
+  const ImportOptions& options_;
+  ImportReport& report_;
+  tinygltf::Model model_;
+  std::vector<Volume> volumes_;
+};
+
+Result<void> Importer::load() {
+  const std::string extension = lowercase(std::filesystem::path(path_).extension().string());
+  if (extension != ".gltf" && extension != ".glb") {
+    return fail(ErrorCode::InvalidArgument,
+                "not a glTF file (expected the extension .gltf or .glb)");
+  }
+  std::error_code ec;
+  if (!std::filesystem::exists(path_, ec)) {
+    return fail(ErrorCode::Io, "no such file");
+  }
+  if (!std::filesystem::is_regular_file(path_, ec)) {
+    return fail(ErrorCode::Io, "not a regular file");
+  }
+
+  tinygltf::TinyGLTF loader;
+  // Images are never needed: skip decoding them (and do not fail on formats stb cannot read).
+  loader.SetImageLoader(
+      [](tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*,
+         int, void*) { return true; },
+      nullptr);
+  std::string err;
+  std::string warnings;
+  const bool ok = extension == ".glb" ? loader.LoadBinaryFromFile(&model_, &err, &warnings, path_)
+                                      : loader.LoadASCIIFromFile(&model_, &err, &warnings, path_);
+  for (const std::string& line : lines(warnings)) {
+    warn(line);
+  }
+  if (!ok) {
+    const std::string message = oneLine(err);
+    return fail(ErrorCode::CorruptData,
+                "cannot parse glTF: " + (message.empty() ? std::string("unknown error") : message));
+  }
+
+  // Required extensions that change how geometry is stored cannot be ignored; material and texture
+  // extensions do not touch the geometry.
+  for (const std::string& name : model_.extensionsRequired) {
+    const bool harmless = name.starts_with("KHR_materials_") || name.starts_with("KHR_texture_") ||
+                          name.starts_with("EXT_texture_") || name == "KHR_lights_punctual" ||
+                          name == "KHR_mesh_quantization";
+    if (!harmless) {
+      return fail(ErrorCode::Unsupported,
+                  "requires extension " + name + ", which is not supported");
+    }
+  }
+  return {};
+}
+
+Result<AccessorView> Importer::viewAccessor(int accessorIndex, const std::string& what) const {
+  if (accessorIndex < 0 || static_cast<size_t>(accessorIndex) >= model_.accessors.size()) {
+    return fail(ErrorCode::CorruptData,
+                what + " does not exist (" + std::to_string(model_.accessors.size()) +
+                    " accessors)");
+  }
+  const tinygltf::Accessor& accessor = model_.accessors[static_cast<size_t>(accessorIndex)];
+  if (accessor.sparse.isSparse) {
+    return fail(ErrorCode::Unsupported, what + " is sparse, which is not supported");
+  }
+  if (accessor.bufferView < 0 ||
+      static_cast<size_t>(accessor.bufferView) >= model_.bufferViews.size()) {
+    return fail(ErrorCode::CorruptData,
+                what + " has no valid buffer view (" + std::to_string(accessor.bufferView) + ")");
+  }
+  const tinygltf::BufferView& view = model_.bufferViews[static_cast<size_t>(accessor.bufferView)];
+  if (view.buffer < 0 || static_cast<size_t>(view.buffer) >= model_.buffers.size()) {
+    return fail(ErrorCode::CorruptData,
+                what + ": buffer view " + std::to_string(accessor.bufferView) +
+                    " refers to missing buffer " + std::to_string(view.buffer));
+  }
+  const tinygltf::Buffer& buffer = model_.buffers[static_cast<size_t>(view.buffer)];
+  const size_t elementSize = componentSize(accessor.componentType) * componentCount(accessor.type);
+  if (elementSize == 0) {
+    return fail(ErrorCode::CorruptData, what + " has an invalid component type (" +
+                                            std::to_string(accessor.componentType) + ") or type (" +
+                                            std::to_string(accessor.type) + ")");
+  }
+  const size_t stride = view.byteStride != 0 ? view.byteStride : elementSize;
+  if (stride < elementSize) {
+    return fail(ErrorCode::CorruptData, what + " has byteStride " + std::to_string(stride) +
+                                            ", smaller than its element (" +
+                                            std::to_string(elementSize) + " bytes)");
+  }
+  // Both checks are written so that nothing can overflow, whatever the file says.
+  if (view.byteOffset > buffer.data.size() ||
+      view.byteLength > buffer.data.size() - view.byteOffset) {
+    return fail(ErrorCode::CorruptData,
+                what + ": buffer view " + std::to_string(accessor.bufferView) + " (offset " +
+                    std::to_string(view.byteOffset) + ", length " +
+                    std::to_string(view.byteLength) + ") lies outside buffer " +
+                    std::to_string(view.buffer) + " (" + std::to_string(buffer.data.size()) +
+                    " bytes)");
+  }
+  if (accessor.count > 0) {
+    const bool fits = accessor.byteOffset <= view.byteLength &&
+                      elementSize <= view.byteLength - accessor.byteOffset &&
+                      accessor.count - 1 <=
+                          (view.byteLength - accessor.byteOffset - elementSize) / stride;
+    if (!fits) {
+      return fail(ErrorCode::CorruptData,
+                  what + " (" + std::to_string(accessor.count) + " elements of " +
+                      std::to_string(elementSize) + " bytes, stride " + std::to_string(stride) +
+                      ", offset " + std::to_string(accessor.byteOffset) +
+                      ") does not fit in buffer view " + std::to_string(accessor.bufferView) +
+                      " (" + std::to_string(view.byteLength) + " bytes)");
+    }
+  }
+  AccessorView out;
+  out.data = buffer.data.data() + view.byteOffset + accessor.byteOffset;
+  out.count = accessor.count;
+  out.stride = stride;
+  out.componentType = accessor.componentType;
+  out.normalized = accessor.normalized;
+  return out;
+}
+
+Result<std::vector<glm::vec3>> Importer::readVec3(int accessorIndex,
+                                                  const std::string& what) const {
+  Result<AccessorView> view = viewAccessor(accessorIndex, what);
+  if (!view) {
+    return view.error();
+  }
+  const tinygltf::Accessor& accessor = model_.accessors[static_cast<size_t>(accessorIndex)];
+  if (accessor.type != TINYGLTF_TYPE_VEC3 ||
+      accessor.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT) {
+    return fail(ErrorCode::Unsupported, what + " must be FLOAT VEC3 (component type " +
+                                            std::to_string(accessor.componentType) + ", type " +
+                                            std::to_string(accessor.type) + ")");
+  }
+  std::vector<glm::vec3> out(view->count);
+  for (size_t i = 0; i < view->count; ++i) {
+    const unsigned char* e = view->element(i);
+    out[i] = glm::vec3(readScalar<float>(e), readScalar<float>(e + 4), readScalar<float>(e + 8));
+    if (!isFinite(out[i])) {
+      return fail(ErrorCode::CorruptData,
+                  what + " element " + std::to_string(i) + " is not finite");
+    }
+  }
+  return out;
+}
+
+Result<std::vector<glm::vec2>> Importer::readTexcoords(int accessorIndex,
+                                                       const std::string& what) const {
+  Result<AccessorView> view = viewAccessor(accessorIndex, what);
+  if (!view) {
+    return view.error();
+  }
+  const tinygltf::Accessor& accessor = model_.accessors[static_cast<size_t>(accessorIndex)];
+  const int type = accessor.componentType;
+  const bool supported =
+      accessor.type == TINYGLTF_TYPE_VEC2 &&
+      (type == TINYGLTF_COMPONENT_TYPE_FLOAT ||
+       (accessor.normalized && (type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                                type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT)));
+  if (!supported) {
+    return fail(ErrorCode::Unsupported,
+                what + " must be VEC2 of FLOAT or normalized UNSIGNED_BYTE / UNSIGNED_SHORT");
+  }
+  std::vector<glm::vec2> out(view->count);
+  for (size_t i = 0; i < view->count; ++i) {
+    const unsigned char* e = view->element(i);
+    if (type == TINYGLTF_COMPONENT_TYPE_FLOAT) {
+      out[i] = glm::vec2(readScalar<float>(e), readScalar<float>(e + 4));
+    } else if (type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE) {
+      out[i] = glm::vec2(static_cast<float>(e[0]), static_cast<float>(e[1])) / 255.0f;
+    } else {
+      out[i] = glm::vec2(static_cast<float>(readScalar<uint16_t>(e)),
+                         static_cast<float>(readScalar<uint16_t>(e + 2))) /
+               65535.0f;
+    }
+    if (!std::isfinite(out[i].x) || !std::isfinite(out[i].y)) {
+      return fail(ErrorCode::CorruptData,
+                  what + " element " + std::to_string(i) + " is not finite");
+    }
+  }
+  return out;
+}
+
+Result<std::vector<uint32_t>> Importer::readIndices(int accessorIndex, const std::string& what,
+                                                    size_t vertexCount) const {
+  Result<AccessorView> view = viewAccessor(accessorIndex, what);
+  if (!view) {
+    return view.error();
+  }
+  const tinygltf::Accessor& accessor = model_.accessors[static_cast<size_t>(accessorIndex)];
+  const int type = accessor.componentType;
+  if (accessor.type != TINYGLTF_TYPE_SCALAR ||
+      (type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+       type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+       type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)) {
+    return fail(ErrorCode::Unsupported,
+                what + " must be SCALAR UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT");
+  }
+  if (view->count % 3 != 0) {
+    return fail(ErrorCode::CorruptData,
+                what + " has " + std::to_string(view->count) + " indices, not a multiple of 3");
+  }
+  std::vector<uint32_t> out(view->count);
+  for (size_t i = 0; i < view->count; ++i) {
+    const unsigned char* e = view->element(i);
+    uint32_t index = 0;
+    if (type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE) {
+      index = e[0];
+    } else if (type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT) {
+      index = readScalar<uint16_t>(e);
+    } else {
+      index = readScalar<uint32_t>(e);
+    }
+    if (index >= vertexCount) {
+      return fail(ErrorCode::CorruptData, what + " index " + std::to_string(i) + " is " +
+                                              std::to_string(index) + ", out of range (" +
+                                              std::to_string(vertexCount) + " vertices)");
+    }
+    out[i] = index;
+  }
+  return out;
+}
+
+Result<glm::dmat4> Importer::localTransform(int nodeIndex) const {
+  const tinygltf::Node& node = model_.nodes[static_cast<size_t>(nodeIndex)];
+  const std::string what = "node " + std::to_string(nodeIndex) + quoted(node.name);
+  glm::dmat4 local(1.0);
+  if (!node.matrix.empty()) {
+    if (node.matrix.size() != 16) {
+      return fail(ErrorCode::CorruptData, what + " has a matrix of " +
+                                              std::to_string(node.matrix.size()) + " numbers");
+    }
+    local = glm::make_mat4(node.matrix.data());  // glTF matrices are column-major, as glm's
+  } else {
+    if ((!node.translation.empty() && node.translation.size() != 3) ||
+        (!node.rotation.empty() && node.rotation.size() != 4) ||
+        (!node.scale.empty() && node.scale.size() != 3)) {
+      return fail(ErrorCode::CorruptData, what + " has a malformed translation, rotation or scale");
+    }
+    glm::dvec3 translation(0.0);
+    glm::dquat rotation(1.0, 0.0, 0.0, 0.0);
+    glm::dvec3 scale(1.0);
+    if (!node.translation.empty()) {
+      translation = glm::make_vec3(node.translation.data());
+    }
+    if (!node.rotation.empty()) {  // glTF stores x, y, z, w
+      rotation = glm::dquat(node.rotation[3], node.rotation[0], node.rotation[1], node.rotation[2]);
+      const double length = glm::length(rotation);
+      if (!(length > 0.0)) {
+        return fail(ErrorCode::CorruptData, what + " has a zero rotation quaternion");
+      }
+      rotation = rotation / length;
+    }
+    if (!node.scale.empty()) {
+      scale = glm::make_vec3(node.scale.data());
+    }
+    const glm::dmat3 rs = glm::mat3_cast(rotation) *
+                          glm::dmat3(glm::dvec3(scale.x, 0.0, 0.0), glm::dvec3(0.0, scale.y, 0.0),
+                                     glm::dvec3(0.0, 0.0, scale.z));
+    local = glm::dmat4(rs);
+    local[3] = glm::dvec4(translation, 1.0);
+  }
+  for (int c = 0; c < 4; ++c) {
+    for (int r = 0; r < 4; ++r) {
+      if (!std::isfinite(local[c][r])) {
+        return fail(ErrorCode::CorruptData, what + " has a non-finite transform");
+      }
+    }
+  }
+  return local;
+}
+
+Result<void> Importer::visitNode(int nodeIndex, const glm::dmat4& parent,
+                                 std::vector<uint8_t>& onPath, size_t depth) {
+  if (nodeIndex < 0 || static_cast<size_t>(nodeIndex) >= model_.nodes.size()) {
+    return fail(ErrorCode::CorruptData, "node " + std::to_string(nodeIndex) + " does not exist (" +
+                                            std::to_string(model_.nodes.size()) + " nodes)");
+  }
+  const size_t index = static_cast<size_t>(nodeIndex);
+  if (depth > kMaxNodeDepth) {
+    return fail(ErrorCode::Unsupported, "node hierarchy deeper than " +
+                                            std::to_string(kMaxNodeDepth) + " levels");
+  }
+  if (onPath[index] != 0) {
+    return fail(ErrorCode::CorruptData,
+                "node " + std::to_string(nodeIndex) + " is its own ancestor (cycle)");
+  }
+  Result<glm::dmat4> local = localTransform(nodeIndex);
+  if (!local) {
+    return local.error();
+  }
+  const glm::dmat4 world = parent * local.value();
+  const tinygltf::Node& node = model_.nodes[index];
+  if (node.mesh >= 0) {
+    if (Result<void> added = addInstance(nodeIndex, world); !added) {
+      return added;
+    }
+  }
+  onPath[index] = 1;
+  for (int child : node.children) {
+    if (Result<void> visited = visitNode(child, world, onPath, depth + 1); !visited) {
+      return visited;
+    }
+  }
+  onPath[index] = 0;
+  return {};
+}
+
+Result<void> Importer::addInstance(int nodeIndex, const glm::dmat4& world) {
+  const tinygltf::Node& node = model_.nodes[static_cast<size_t>(nodeIndex)];
+  const std::string nodeLabel = "node " + std::to_string(nodeIndex) + quoted(node.name);
+  if (static_cast<size_t>(node.mesh) >= model_.meshes.size()) {
+    return fail(ErrorCode::CorruptData, nodeLabel + " refers to mesh " + std::to_string(node.mesh) +
+                                            " of " + std::to_string(model_.meshes.size()));
+  }
+  const tinygltf::Mesh& mesh = model_.meshes[static_cast<size_t>(node.mesh)];
+  const std::string meshLabel = "mesh " + std::to_string(node.mesh) + quoted(mesh.name);
+  ++report_.meshes;
+  if (node.skin >= 0) {
+    warn(nodeLabel + " is skinned; the skin is ignored (bind pose)");
+  }
+
+  const glm::dmat3 linear(world);
+  const double det = glm::determinant(linear);
+  if (!std::isfinite(det) || det == 0.0) {
+    return fail(ErrorCode::InvalidArgument,
+                nodeLabel + " places " + meshLabel + " with a singular transform");
+  }
+  const glm::dmat3 normalMatrix = glm::transpose(glm::inverse(linear));
+
+  // Volumes of this instance, by material.
+  std::map<int, size_t> byMaterial;
+  for (size_t p = 0; p < mesh.primitives.size(); ++p) {
+    const tinygltf::Primitive& primitive = mesh.primitives[p];
+    const std::string where = meshLabel + " primitive " + std::to_string(p);
+    if (primitive.material < -1 ||
+        (primitive.material >= 0 &&
+         static_cast<size_t>(primitive.material) >= model_.materials.size())) {
+      return fail(ErrorCode::CorruptData, where + " refers to material " +
+                                              std::to_string(primitive.material) + " of " +
+                                              std::to_string(model_.materials.size()));
+    }
+    auto [it, inserted] = byMaterial.try_emplace(primitive.material, volumes_.size());
+    if (inserted) {
+      Volume volume;
+      volume.material = primitive.material;
+      volume.label = meshLabel + " in " + nodeLabel;
+      const std::string nodeName =
+          node.name.empty() ? "node" + std::to_string(nodeIndex) : node.name;
+      const std::string meshName =
+          mesh.name.empty() ? "mesh" + std::to_string(node.mesh) : mesh.name;
+      volume.name = nodeName + "/" + meshName;
+      volumes_.push_back(std::move(volume));
+    }
+    ++report_.primitives;
+    if (Result<void> added =
+            addPrimitive(where, primitive, world, normalMatrix, det < 0.0, volumes_[it->second]);
+        !added) {
+      return added;
+    }
+  }
+  // An instance with several materials: name each volume after its material too.
+  if (byMaterial.size() > 1) {
+    for (const auto& [material, v] : byMaterial) {
+      const std::string materialName =
+          material < 0 ? "default"
+                       : (model_.materials[static_cast<size_t>(material)].name.empty()
+                              ? "material" + std::to_string(material)
+                              : model_.materials[static_cast<size_t>(material)].name);
+      volumes_[v].name += "/" + materialName;
+      volumes_[v].label += " with " + (material < 0 ? std::string("the default material")
+                                                    : "material " + std::to_string(material));
+    }
+  }
+  return {};
+}
+
+Result<void> Importer::addPrimitive(const std::string& where, const tinygltf::Primitive& primitive,
+                                    const glm::dmat4& world, const glm::dmat3& normalMatrix,
+                                    bool mirrored, Volume& volume) {
+  if (primitive.mode != TINYGLTF_MODE_TRIANGLES) {
+    return fail(ErrorCode::Unsupported, where + " has mode " + std::to_string(primitive.mode) +
+                                            " (" + modeName(primitive.mode) +
+                                            "); only TRIANGLES (4) is supported");
+  }
+  if (!primitive.targets.empty()) {
+    warn(where + " has morph targets; they are ignored");
+  }
+  auto attribute = [&primitive](const char* semantic) {
+    const auto it = primitive.attributes.find(semantic);
+    return it == primitive.attributes.end() ? -1 : it->second;
+  };
+  auto describe = [&where](int accessor, const char* semantic) {
+    return where + " accessor " + std::to_string(accessor) + " (" + semantic + ")";
+  };
+
+  const int positionAccessor = attribute("POSITION");
+  if (positionAccessor < 0) {
+    return fail(ErrorCode::CorruptData, where + " has no POSITION attribute");
+  }
+  Result<std::vector<glm::vec3>> positions =
+      readVec3(positionAccessor, describe(positionAccessor, "POSITION"));
+  if (!positions) {
+    return positions.error();
+  }
+  const size_t vertexCount = positions->size();
+
+  std::vector<glm::vec3> normals;
+  if (const int accessor = attribute("NORMAL"); accessor >= 0) {
+    Result<std::vector<glm::vec3>> read = readVec3(accessor, describe(accessor, "NORMAL"));
+    if (!read) {
+      return read.error();
+    }
+    if (read->size() != vertexCount) {
+      return fail(ErrorCode::CorruptData, describe(accessor, "NORMAL") + " has " +
+                                              std::to_string(read->size()) + " elements for " +
+                                              std::to_string(vertexCount) + " positions");
+    }
+    normals = std::move(read.value());
+  }
+  std::vector<glm::vec2> uvs;
+  if (const int accessor = attribute("TEXCOORD_0"); accessor >= 0) {
+    Result<std::vector<glm::vec2>> read = readTexcoords(accessor, describe(accessor, "TEXCOORD_0"));
+    if (!read) {
+      return read.error();
+    }
+    if (read->size() != vertexCount) {
+      return fail(ErrorCode::CorruptData, describe(accessor, "TEXCOORD_0") + " has " +
+                                              std::to_string(read->size()) + " elements for " +
+                                              std::to_string(vertexCount) + " positions");
+    }
+    uvs = std::move(read.value());
+  }
+  std::vector<uint32_t> indices;
+  if (primitive.indices >= 0) {
+    Result<std::vector<uint32_t>> read =
+        readIndices(primitive.indices, describe(primitive.indices, "indices"), vertexCount);
+    if (!read) {
+      return read.error();
+    }
+    indices = std::move(read.value());
+  } else {
+    if (vertexCount % 3 != 0) {
+      return fail(ErrorCode::CorruptData, where + " is not indexed and has " +
+                                              std::to_string(vertexCount) +
+                                              " vertices, not a multiple of 3");
+    }
+    indices.reserve(vertexCount);
+    for (size_t i = 0; i < vertexCount; ++i) {
+      indices.push_back(static_cast<uint32_t>(i));
+    }
+  }
+  if (indices.empty()) {
+    warn(where + " has no triangles");
+    return {};
+  }
+
+  const size_t base = volume.positions.size();
+  if (vertexCount > std::numeric_limits<uint32_t>::max() - base) {
+    return fail(ErrorCode::Unsupported, where + " brings its mesh over 2^32 vertices");
+  }
+  for (size_t i = 0; i < vertexCount; ++i) {
+    const glm::dvec3 p = glm::dvec3(world * glm::dvec4(glm::dvec3((*positions)[i]), 1.0));
+    const glm::vec3 position(p);
+    if (!isFinite(position)) {
+      return fail(ErrorCode::InvalidArgument,
+                  where + " vertex " + std::to_string(i) + " is not finite once transformed");
+    }
+    volume.positions.push_back(position);
+    glm::vec3 normal(0.0f);
+    uint8_t fromFile = 0;
+    if (!normals.empty()) {
+      const glm::dvec3 n = normalMatrix * glm::dvec3(normals[i]);
+      const double length = glm::length(n);
+      if (length > 0.0 && std::isfinite(length)) {
+        normal = glm::vec3(n / length);
+        fromFile = 1;
+      }
+    }
+    volume.normals.push_back(normal);
+    volume.normalFromFile.push_back(fromFile);
+    volume.uvs.push_back(uvs.empty() ? glm::vec2(0.0f) : uvs[i]);
+  }
+  if (uvs.empty()) {
+    volume.missingUvs = true;
+  } else {
+    volume.anyUvs = true;
+  }
+
+  for (size_t t = 0; t + 2 < indices.size(); t += 3) {
+    uint32_t a = indices[t];
+    uint32_t b = indices[t + 1];
+    uint32_t c = indices[t + 2];
+    const glm::vec3& pa = volume.positions[base + a];
+    const glm::vec3& pb = volume.positions[base + b];
+    const glm::vec3& pc = volume.positions[base + c];
+    if (pa == pb || pb == pc || pc == pa) {
+      ++volume.degenerate;
+      continue;
+    }
+    if (mirrored) {
+      std::swap(b, c);  // a mirroring transform turns counter-clockwise into clockwise
+    }
+    const uint32_t offset = static_cast<uint32_t>(base);
+    volume.indices.insert(volume.indices.end(), {offset + a, offset + b, offset + c});
+  }
+  return {};
+}
+
+Result<void> Importer::finalize(Volume& volume) {
+  const size_t triangleCount = volume.indices.size() / 3;
+  if (volume.degenerate > 0) {
+    warn(volume.label + ": dropped " + std::to_string(volume.degenerate) +
+         " degenerate triangle(s) (two corners at one position)");
+  }
+  double area = 0.0;
+  for (size_t t = 0; t < triangleCount; ++t) {
+    const glm::dvec3 a(volume.positions[volume.indices[3 * t]]);
+    const glm::dvec3 b(volume.positions[volume.indices[3 * t + 1]]);
+    const glm::dvec3 c(volume.positions[volume.indices[3 * t + 2]]);
+    area += glm::length(glm::cross(b - a, c - a));
+  }
+  if (!(area > 0.0)) {
+    return fail(ErrorCode::InvalidArgument,
+                volume.label + " has zero area (" +
+                    std::to_string(triangleCount + volume.degenerate) +
+                    " triangles, all degenerate)");
+  }
+
+  // Keep only the vertices that triangles use.
+  std::vector<uint32_t> remap(volume.positions.size(), std::numeric_limits<uint32_t>::max());
+  Volume compact;
+  for (uint32_t& index : volume.indices) {
+    if (remap[index] == std::numeric_limits<uint32_t>::max()) {
+      remap[index] = static_cast<uint32_t>(compact.positions.size());
+      compact.positions.push_back(volume.positions[index]);
+      compact.normals.push_back(volume.normals[index]);
+      compact.normalFromFile.push_back(volume.normalFromFile[index]);
+      compact.uvs.push_back(volume.uvs[index]);
+    }
+    index = remap[index];
+  }
+  volume.positions = std::move(compact.positions);
+  volume.normals = std::move(compact.normals);
+  volume.normalFromFile = std::move(compact.normalFromFile);
+  volume.uvs = std::move(compact.uvs);
+
+  // Topology, with the winding as read (after mirroring).
+  Surface probe;
+  probe.positions = volume.positions;
+  probe.indices = volume.indices;
+  const TopologyReport topology = checkSurface(probe);
+  volume.closed = topology.closed();
+  if (!volume.closed) {
+    const std::string problem =
+        volume.label + " is not a closed, consistently wound volume: " +
+        std::to_string(topology.openEdges) + " open, " +
+        std::to_string(topology.inconsistentEdges) + " inconsistently wound and " +
+        std::to_string(topology.nonManifoldEdges) + " non-manifold edge(s)";
+    if (!options_.allowOpenMeshes) {
+      return fail(ErrorCode::InvalidArgument, problem + " (allowOpenMeshes accepts it)");
+    }
+    warn(problem + "; kept as is");
+  }
+
+  // Signed volume (divergence theorem); a closed volume that is inside out is turned outward.
+  auto enclosedVolume = [&volume] {
+    double sum = 0.0;
+    for (size_t t = 0; t + 2 < volume.indices.size(); t += 3) {
+      sum += glm::dot(glm::dvec3(volume.positions[volume.indices[t]]),
+                      glm::cross(glm::dvec3(volume.positions[volume.indices[t + 1]]),
+                                 glm::dvec3(volume.positions[volume.indices[t + 2]])));
+    }
+    return sum / 6.0;
+  };
+  volume.volume = enclosedVolume();
+  if (volume.closed && volume.volume < 0.0) {
+    for (size_t t = 0; t + 2 < volume.indices.size(); t += 3) {
+      std::swap(volume.indices[t + 1], volume.indices[t + 2]);
+    }
+    volume.volume = -volume.volume;
+    warn(volume.label + " is wound inside out (clockwise seen from outside); winding reversed");
+  }
+
+  // Area-weighted face normals: computed normals for vertices without a usable one, and the
+  // check that the file's normals agree with the (now outward) winding.
+  std::vector<glm::dvec3> accumulated(volume.positions.size(), glm::dvec3(0.0));
+  double agreement = 0.0;
+  for (size_t t = 0; t + 2 < volume.indices.size(); t += 3) {
+    const uint32_t ia = volume.indices[t];
+    const uint32_t ib = volume.indices[t + 1];
+    const uint32_t ic = volume.indices[t + 2];
+    const glm::dvec3 a(volume.positions[ia]);
+    const glm::dvec3 b(volume.positions[ib]);
+    const glm::dvec3 c(volume.positions[ic]);
+    const glm::dvec3 face = glm::cross(b - a, c - a);  // length = twice the area
+    for (uint32_t i : {ia, ib, ic}) {
+      accumulated[i] += face;
+      if (volume.normalFromFile[i] != 0) {
+        agreement += glm::dot(face, glm::dvec3(volume.normals[i]));
+      }
+    }
+  }
+  if (agreement < 0.0) {
+    for (size_t i = 0; i < volume.normals.size(); ++i) {
+      if (volume.normalFromFile[i] != 0) {
+        volume.normals[i] = -volume.normals[i];
+      }
+    }
+    warn(volume.label + ": its normals point against its winding; normals reversed");
+  }
+  size_t fallback = 0;
+  for (size_t i = 0; i < volume.normals.size(); ++i) {
+    if (volume.normalFromFile[i] != 0) {
+      continue;
+    }
+    ++volume.computedNormals;
+    const double length = glm::length(accumulated[i]);
+    if (length > 0.0) {
+      volume.normals[i] = glm::vec3(accumulated[i] / length);
+    } else {
+      volume.normals[i] = glm::vec3(0.0f, 0.0f, 1.0f);  // only on zero-area triangles
+      ++fallback;
+    }
+  }
+  if (volume.computedNormals > 0) {
+    warn(volume.label + ": no usable NORMAL for " + std::to_string(volume.computedNormals) +
+         " vertex(es); area-weighted smooth normals computed" +
+         (fallback > 0 ? " (" + std::to_string(fallback) + " on zero-area triangles only)"
+                       : std::string()));
+  }
+
+  if (!volume.anyUvs) {
+    volume.uvs.clear();
+  } else if (volume.missingUvs) {
+    warn(volume.label + ": some primitives have no TEXCOORD_0; their uvs are (0, 0)");
+  }
+
+  volume.boundsMin = glm::dvec3(volume.positions.front());
+  volume.boundsMax = volume.boundsMin;
+  for (const glm::vec3& p : volume.positions) {
+    volume.boundsMin = glm::min(volume.boundsMin, glm::dvec3(p));
+    volume.boundsMax = glm::max(volume.boundsMax, glm::dvec3(p));
+  }
+  return {};
+}
+
+Result<Medium> Importer::mediumOf(int materialIndex) {
+  Medium medium;
+  medium.ior = kDefaultIor;
+  if (materialIndex < 0) {
+    medium.name = "default";
+    warn("primitives without a material are imported as clear glass (ior 1.5)");
+    return medium;
+  }
+  const tinygltf::Material& material = model_.materials[static_cast<size_t>(materialIndex)];
+  const std::string what = "material " + std::to_string(materialIndex) + quoted(material.name);
+  medium.name = material.name.empty() ? "material" + std::to_string(materialIndex) : material.name;
+
+  // Reads an optional number from an extension object; absent keeps `value`.
+  std::string bad;
+  auto number = [&bad](const tinygltf::Value& object, const char* key, double& value) {
+    if (!object.IsObject() || !object.Has(key)) {
+      return;
+    }
+    const tinygltf::Value& v = object.Get(key);
+    if (!v.IsNumber() || !std::isfinite(v.GetNumberAsDouble())) {
+      bad = key;
+      return;
+    }
+    value = v.GetNumberAsDouble();
+  };
+  auto extension = [&material](const char* name) -> const tinygltf::Value* {
+    const auto it = material.extensions.find(name);
+    return it == material.extensions.end() ? nullptr : &it->second;
+  };
+
+  double ior = kDefaultIor;
+  double transmission = 0.0;
+  double thickness = 0.0;
+  double distance = std::numeric_limits<double>::infinity();
+  glm::dvec3 color(1.0);
+  if (const tinygltf::Value* ext = extension("KHR_materials_ior")) {
+    number(*ext, "ior", ior);
+  }
+  if (const tinygltf::Value* ext = extension("KHR_materials_transmission")) {
+    number(*ext, "transmissionFactor", transmission);
+  }
+  if (const tinygltf::Value* ext = extension("KHR_materials_volume")) {
+    number(*ext, "thicknessFactor", thickness);
+    number(*ext, "attenuationDistance", distance);
+    if (ext->IsObject() && ext->Has("attenuationColor")) {
+      const tinygltf::Value& c = ext->Get("attenuationColor");
+      bool valid = c.IsArray() && c.ArrayLen() == 3;
+      for (int k = 0; valid && k < 3; ++k) {
+        valid = c.Get(k).IsNumber() && std::isfinite(c.Get(k).GetNumberAsDouble());
+        if (valid) {
+          color[k] = c.Get(k).GetNumberAsDouble();
+        }
+      }
+      if (!valid) {
+        bad = "attenuationColor";
+      }
+    }
+  }
+  if (!bad.empty()) {
+    return fail(ErrorCode::CorruptData, what + " has a malformed " + bad);
+  }
+  if (!(ior > 0.0) && !options_.iorOverride) {
+    return fail(ErrorCode::InvalidArgument,
+                what + " has ior " + std::to_string(ior) + ", not a refractive medium");
+  }
+  if (!(distance > 0.0)) {
+    return fail(ErrorCode::CorruptData,
+                what + " has attenuationDistance " + std::to_string(distance) + " (must be > 0)");
+  }
+  if (glm::any(glm::lessThan(color, glm::dvec3(0.0))) ||
+      glm::any(glm::greaterThan(color, glm::dvec3(1.0)))) {
+    return fail(ErrorCode::CorruptData, what + " has an attenuationColor outside [0, 1]");
+  }
+  if (thickness < 0.0 || transmission < 0.0) {
+    return fail(ErrorCode::CorruptData,
+                what + " has a negative thicknessFactor or transmissionFactor");
+  }
+
+  medium.ior = static_cast<float>(ior);
+  if (std::isfinite(distance)) {
+    double sigma = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      sigma += -std::log(std::max(color[k], kMinAttenuationColor)) / distance;
+    }
+    // Grey attenuation goes into tau (mean of the channel coefficients); the tint keeps only the
+    // hue, brightest channel 1, so that grey is not counted twice and the tint never brightens.
+    medium.absorption = static_cast<float>(sigma / 3.0);
+    const double brightest = std::max({color.x, color.y, color.z, kMinAttenuationColor});
+    medium.color = glm::vec3(glm::max(color, glm::dvec3(kMinAttenuationColor)) / brightest);
+  }
+  if (transmission <= 0.0 && thickness <= 0.0) {
+    warn(what + " is neither transmissive nor a volume; imported as a clear medium of ior " +
+         std::to_string(medium.ior) + " anyway");
+  } else if (thickness <= 0.0) {
+    warn(what + " is thin-walled (no KHR_materials_volume thickness); imported as a solid volume");
+  }
+  return medium;
+}
+
+// A point inside `volume`: halfway between its largest triangle and the opposite wall, found by a
+// ray from that triangle's centroid against the inward normal.
+glm::dvec3 Importer::interiorPoint(const Volume& volume) const {
+  size_t best = 0;
+  double bestArea = -1.0;
+  for (size_t t = 0; t + 2 < volume.indices.size(); t += 3) {
+    const glm::dvec3 a(volume.positions[volume.indices[t]]);
+    const glm::dvec3 b(volume.positions[volume.indices[t + 1]]);
+    const glm::dvec3 c(volume.positions[volume.indices[t + 2]]);
+    const double area = glm::length(glm::cross(b - a, c - a));
+    if (area > bestArea) {
+      bestArea = area;
+      best = t;
+    }
+  }
+  const glm::dvec3 a(volume.positions[volume.indices[best]]);
+  const glm::dvec3 b(volume.positions[volume.indices[best + 1]]);
+  const glm::dvec3 c(volume.positions[volume.indices[best + 2]]);
+  const glm::dvec3 centroid = (a + b + c) / 3.0;
+  const glm::dvec3 inward = -glm::normalize(glm::cross(b - a, c - a));
+  double nearest = std::numeric_limits<double>::infinity();
+  for (size_t t = 0; t + 2 < volume.indices.size(); t += 3) {
+    if (t == best) {
+      continue;
+    }
+    const double hit = intersect(centroid, inward, glm::dvec3(volume.positions[volume.indices[t]]),
+                                 glm::dvec3(volume.positions[volume.indices[t + 1]]),
+                                 glm::dvec3(volume.positions[volume.indices[t + 2]]));
+    if (hit > 0.0 && hit < nearest) {
+      nearest = hit;
+    }
+  }
+  if (!std::isfinite(nearest)) {
+    nearest = 2.0 * kInteriorOffset * glm::length(volume.boundsMax - volume.boundsMin);
+  }
+  return centroid + inward * (0.5 * nearest);
+}
+
+// Ray parity against a closed volume, majority over three directions.
+bool Importer::contains(const Volume& container, const glm::dvec3& point) const {
+  if (glm::any(glm::lessThan(point, container.boundsMin)) ||
+      glm::any(glm::greaterThan(point, container.boundsMax))) {
+    return false;
+  }
+  int votes = 0;
+  for (const glm::dvec3& direction : kParityDirections) {
+    size_t crossings = 0;
+    for (size_t t = 0; t + 2 < container.indices.size(); t += 3) {
+      const double hit =
+          intersect(point, direction, glm::dvec3(container.positions[container.indices[t]]),
+                    glm::dvec3(container.positions[container.indices[t + 1]]),
+                    glm::dvec3(container.positions[container.indices[t + 2]]));
+      if (hit > 0.0) {
+        ++crossings;
+      }
+    }
+    votes += static_cast<int>(crossings % 2);
+  }
+  return votes >= 2;
+}
+
+Result<Scene> Importer::run() {
+  if (options_.iorOverride &&
+      (!std::isfinite(*options_.iorOverride) || *options_.iorOverride <= 0.0f)) {
+    return fail(ErrorCode::InvalidArgument,
+                "iorOverride " + std::to_string(*options_.iorOverride) + " is not finite and > 0");
+  }
+  if (options_.absorptionOverride &&
+      (!std::isfinite(*options_.absorptionOverride) || *options_.absorptionOverride < 0.0f)) {
+    return fail(ErrorCode::InvalidArgument, "absorptionOverride " +
+                                                std::to_string(*options_.absorptionOverride) +
+                                                " is not finite and >= 0");
+  }
+  if (Result<void> loaded = load(); !loaded) {
+    return loaded.error();
+  }
+
+  if (model_.scenes.empty()) {
+    return fail(ErrorCode::InvalidArgument, "no scene: the file defines no scenes");
+  }
+  const int sceneIndex = model_.defaultScene >= 0 ? model_.defaultScene : 0;
+  if (static_cast<size_t>(sceneIndex) >= model_.scenes.size()) {
+    return fail(ErrorCode::CorruptData, "default scene " + std::to_string(sceneIndex) +
+                                            " does not exist (" +
+                                            std::to_string(model_.scenes.size()) + " scenes)");
+  }
+  std::vector<uint8_t> onPath(model_.nodes.size(), 0);
+  for (int root : model_.scenes[static_cast<size_t>(sceneIndex)].nodes) {
+    if (Result<void> visited = visitNode(root, glm::dmat4(1.0), onPath, 0); !visited) {
+      return visited.error();
+    }
+  }
+  // Volumes whose primitives were all empty carry no triangles and no dropped ones: skip them.
+  std::erase_if(volumes_,
+                [](const Volume& v) { return v.indices.empty() && v.degenerate == 0; });
+  if (volumes_.empty()) {
+    return fail(ErrorCode::InvalidArgument,
+                "empty scene: scene " + std::to_string(sceneIndex) + " has no triangles");
+  }
+  for (Volume& volume : volumes_) {
+    if (Result<void> finalized = finalize(volume); !finalized) {
+      return finalized.error();
+    }
+  }
+
+  Scene scene;
+  scene.name = std::filesystem::path(path_).stem().string();
+  scene.media.push_back(Medium{"air", 1.0f, 0.0f, glm::vec3(1.0f)});
+  std::map<int, uint32_t> mediumOfMaterial;
+  for (Volume& volume : volumes_) {
+    auto [it, inserted] =
+        mediumOfMaterial.try_emplace(volume.material, static_cast<uint32_t>(scene.media.size()));
+    if (inserted) {
+      Result<Medium> medium = mediumOf(volume.material);
+      if (!medium) {
+        return medium.error();
+      }
+      scene.media.push_back(std::move(medium.value()));
+    }
+    volume.medium = it->second;
+  }
+  for (size_t m = 1; m < scene.media.size(); ++m) {
+    if (options_.iorOverride) {
+      scene.media[m].ior = *options_.iorOverride;
+    }
+    if (options_.absorptionOverride) {
+      scene.media[m].absorption = *options_.absorptionOverride;
+    }
+  }
+
+  // The medium stack: each volume's outside is the innermost other closed volume containing it.
+  for (size_t v = 0; v < volumes_.size(); ++v) {
+    const glm::dvec3 point = interiorPoint(volumes_[v]);
+    size_t container = volumes_.size();
+    for (size_t u = 0; u < volumes_.size(); ++u) {
+      if (u == v || !volumes_[u].closed || !contains(volumes_[u], point)) {
+        continue;
+      }
+      if (container == volumes_.size() ||
+          std::fabs(volumes_[u].volume) < std::fabs(volumes_[container].volume)) {
+        container = u;
+      }
+    }
+    Surface surface;
+    surface.name = volumes_[v].name;
+    surface.innerMedium = volumes_[v].medium;
+    surface.outerMedium = container == volumes_.size() ? 0 : volumes_[container].medium;
+    if (surface.outerMedium == surface.innerMedium) {
+      return fail(ErrorCode::InvalidArgument,
+                  volumes_[v].label + " lies inside " + volumes_[container].label +
+                      ", which has the same medium ('" + scene.media[surface.innerMedium].name +
+                      "'); nested volumes need different materials");
+    }
+    // Copies: later volumes still test containment against this one.
+    surface.positions = volumes_[v].positions;
+    surface.normals = volumes_[v].normals;
+    surface.uvs = volumes_[v].uvs;
+    surface.indices = volumes_[v].indices;
+    report_.triangles += surface.indices.size() / 3;
+    scene.surfaces.push_back(std::move(surface));
+  }
+
+  if (Result<void> valid = validateScene(scene); !valid) {
+    return fail(valid.error().code, valid.error().message);
+  }
+  return scene;
+}
+
+}  // namespace
+
+Result<Scene> importGltf(const std::string& path, const ImportOptions& options,
+                         ImportReport* report) {
+  ImportReport local;
+  ImportReport& out = report != nullptr ? *report : local;
+  out = ImportReport{};
+  Importer importer(path, options, out);
+  return importer.run();
+}
+
+}  // namespace shrefract::bake
