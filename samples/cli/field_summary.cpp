@@ -1,6 +1,7 @@
 #include "cli/field_summary.h"
 
 #include <cinttypes>
+#include <cstdarg>
 #include <cstdio>
 
 namespace shrefract::cli {
@@ -25,9 +26,12 @@ std::string jsonEscape(const std::string& s) {
 
 namespace {
 
-std::string format(const char* fmt, auto... args) {
-  char buf[512];
-  std::snprintf(buf, sizeof buf, fmt, args...);
+__attribute__((format(printf, 1, 2))) std::string format(const char* fmt, ...) {
+  char buf[1024];
+  va_list args;
+  va_start(args, fmt);
+  std::vsnprintf(buf, sizeof buf, fmt, args);
+  va_end(args);
   return buf;
 }
 

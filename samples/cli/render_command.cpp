@@ -1,10 +1,14 @@
-// `shrefract render`: draws a scene over its environment through the engine's raster pass.
+// `shrefract render`: draws a refraction field (FIELD.shrf, decompressed on the GPU every frame)
+// or a built-in scene (single-interface glass) over its environment through the engine's passes.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cctype>
 #include <cstdio>
 #include <cstring>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "cli/args.h"
 #include "cli/commands.h"
@@ -16,18 +20,21 @@ namespace {
 const std::vector<FlagSpec> kFlags = {
     {"output", true, "output image (.png or .exr); also -o"},
     {"env", true, "environment: 'builtin' (default) or a lat-long image file"},
+    {"cube-env", false, "look the environment up through a cube map converted from the lat-long"},
     {"eye", true, "camera position x,y,z (default: frames the scene)"},
     {"target", true, "point looked at x,y,z (default: the scene's centre)"},
     {"up", true, "up vector x,y,z (default 0,1,0)"},
     {"fov", true, "vertical field of view in degrees (default 40)"},
     {"size", true, "image size WxH (default 640x480)"},
-    {"mode", true, "shading: single-interface (default)"},
+    {"mode", true, "shading: field (default for .shrf) or single-interface (default for builtin:)"},
+    {"absorption", true, "absorption scale k in exp2(-tau * k) (default 1)"},
     {"exposure", true, "linear scale applied before writing (default 1)"},
     {"ior", true, "override the glass IOR of a built-in scene"},
     {"tessellation", true, "tessellation level of a built-in scene (0..7, default 3)"},
+    {"frames", true, "frames rendered, for timings (default 1; the image is the last frame)"},
     {"device", true, "Vulkan device index (default: first; ctest uses lavapipe)"},
     {"no-validation", false, "do not enable the Vulkan validation layer"},
-    {"json", false, "print a JSON summary on stdout"},
+    {"json", false, "print a JSON summary with GPU and wall timings on stdout"},
     {"help", false, "this text"},
 };
 
@@ -44,6 +51,23 @@ int fail(const Error& e, int code = 1) {
   return code;
 }
 
+std::string jsonString(const std::string& text) {
+  std::string out = "\"";
+  for (char ch : text) {
+    if (ch == '"' || ch == '\\') {
+      out += '\\';
+      out += ch;
+    } else if (static_cast<unsigned char>(ch) < 0x20) {
+      char buffer[8];
+      std::snprintf(buffer, sizeof(buffer), "\\u%04x", static_cast<unsigned>(static_cast<unsigned char>(ch)));
+      out += buffer;
+    } else {
+      out += ch;
+    }
+  }
+  return out + "\"";
+}
+
 }  // namespace
 
 int renderCommand(int argc, char** argv) {
@@ -51,12 +75,14 @@ int renderCommand(int argc, char** argv) {
   if (!parsed) return fail(parsed.error(), 2);
   const Args& args = parsed.value();
   if (args.has("help")) {
-    std::printf("usage: shrefract render SCENE -o OUT.png|exr [flags]\n  SCENE: builtin:NAME (sphere, cube, torus, glass-of-water)\n%s",
+    std::printf("usage: shrefract render FIELD.shrf|SCENE -o OUT.png|exr [flags]\n"
+                "  FIELD.shrf: a baked refraction field (shrefract bake)\n"
+                "  SCENE: builtin:NAME (sphere, cube, torus, glass-of-water), single-interface shading\n%s",
                 usageLines(kFlags).c_str());
     return 0;
   }
   if (args.positional().size() != 1)
-    return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: expected exactly one SCENE argument"), 2);
+    return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: expected exactly one FIELD.shrf or SCENE argument"), 2);
   const auto output = args.get("output");
   if (!output) return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: missing -o OUT.png|exr"), 2);
   if (!hasExtension(*output, ".png") && !hasExtension(*output, ".exr"))
@@ -68,32 +94,54 @@ int renderCommand(int argc, char** argv) {
   auto fov = args.number("fov");
   auto size = args.size("size");
   auto exposure = args.number("exposure");
+  auto absorption = args.number("absorption");
   auto ior = args.number("ior");
   auto tess = args.integer("tessellation");
+  auto frameCount = args.integer("frames");
   auto device = args.integer("device");
   for (const Error* e : {eye.ok() ? nullptr : &eye.error(), target.ok() ? nullptr : &target.error(),
                          up.ok() ? nullptr : &up.error(), fov.ok() ? nullptr : &fov.error(),
                          size.ok() ? nullptr : &size.error(), exposure.ok() ? nullptr : &exposure.error(),
-                         ior.ok() ? nullptr : &ior.error(), tess.ok() ? nullptr : &tess.error(),
+                         absorption.ok() ? nullptr : &absorption.error(), ior.ok() ? nullptr : &ior.error(),
+                         tess.ok() ? nullptr : &tess.error(), frameCount.ok() ? nullptr : &frameCount.error(),
                          device.ok() ? nullptr : &device.error()})
     if (e) return fail(*e, 2);
   if (fov.value() && (*fov.value() <= 0.0 || *fov.value() >= 180.0))
     return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: --fov must be in (0, 180)"), 2);
-  const std::string mode = args.get("mode").value_or("single-interface");
-  if (mode != "single-interface")
-    return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: unknown --mode '" + mode +
-                                                          "' (available: single-interface)"), 2);
+  if (absorption.value() && !(std::isfinite(*absorption.value()) && *absorption.value() >= 0.0))
+    return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: --absorption must be finite and >= 0"), 2);
+  if (frameCount.value() && (*frameCount.value() < 1 || *frameCount.value() > 100000))
+    return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: --frames must be in 1..100000"), 2);
 
   const std::string sceneSpec = args.positional()[0];
-  if (sceneSpec.rfind("builtin:", 0) != 0)
-    return fail(makeError(ErrorCode::Unsupported,
-                          sceneSpec + ": only built-in scenes (builtin:NAME) can be rendered by this version"));
-  bake::BuiltinSceneOptions sceneOptions;
-  if (tess.value()) sceneOptions.tessellation = static_cast<int>(*tess.value());
-  if (ior.value()) sceneOptions.iorOverride = static_cast<float>(*ior.value());
-  auto scene = bake::makeBuiltinScene(sceneSpec.substr(8), sceneOptions);
-  if (!scene) return fail(makeError(scene.error().code, sceneSpec + ": " + scene.error().message));
+  const bool builtin = sceneSpec.rfind("builtin:", 0) == 0;
+  const std::string mode = args.get("mode").value_or(builtin ? "single-interface" : "field");
+  if (mode != "single-interface" && mode != "field")
+    return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: unknown --mode '" + mode +
+                                                          "' (available: field, single-interface)"), 2);
+  if (builtin && mode == "field")
+    return fail(makeError(ErrorCode::InvalidArgument,
+                          "shrefract render: " + sceneSpec + " has no refraction field; bake one first "
+                          "(shrefract bake " + sceneSpec + " -o FIELD.shrf) and render FIELD.shrf"), 2);
+  if (!builtin && (ior.value() || tess.value()))
+    return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: --ior and --tessellation apply to built-in "
+                                                      "scenes only; a field's geometry and media are baked"), 2);
 
+  // Load everything from disk before touching the GPU, so that input errors come first.
+  std::optional<bake::Scene> scene;
+  std::optional<Field> field;
+  if (builtin) {
+    bake::BuiltinSceneOptions sceneOptions;
+    if (tess.value()) sceneOptions.tessellation = static_cast<int>(*tess.value());
+    if (ior.value()) sceneOptions.iorOverride = static_cast<float>(*ior.value());
+    auto made = bake::makeBuiltinScene(sceneSpec.substr(8), sceneOptions);
+    if (!made) return fail(makeError(made.error().code, sceneSpec + ": " + made.error().message));
+    scene = std::move(made).value();
+  } else {
+    auto read = readField(sceneSpec);
+    if (!read) return fail(read.error());
+    field = std::move(read).value();
+  }
   auto envImage = offscreen::loadEnvironmentImage(args.get("env").value_or("builtin"));
   if (!envImage) return fail(envImage.error());
 
@@ -104,13 +152,30 @@ int renderCommand(int argc, char** argv) {
   auto session = offscreen::createSession(options);
   if (!session) return fail(session.error());
   offscreen::Session& s = *session.value();
-  auto env = offscreen::uploadEnvironment(s, envImage.value());
+  auto env = offscreen::uploadEnvironment(s, envImage.value(), args.has("cube-env"));
   if (!env) return fail(env.error());
-  auto objects = offscreen::uploadScene(s, scene.value());
-  if (!objects) return fail(objects.error());
+  std::vector<std::unique_ptr<Object>> objects;
+  if (scene) {
+    auto uploaded = offscreen::uploadScene(s, *scene);
+    if (!uploaded) return fail(uploaded.error());
+    objects = std::move(uploaded).value();
+  } else {
+    auto uploaded = offscreen::uploadField(s, *field);
+    if (!uploaded) return fail(makeError(uploaded.error().code, sceneSpec + ": " + uploaded.error().message));
+    objects.push_back(std::move(uploaded).value());
+  }
+  for (auto& o : objects)
+    if (absorption.value()) o->shading.absorptionScale = static_cast<float>(*absorption.value());
 
   offscreen::FrameSettings frame;
-  frame.camera = offscreen::defaultCamera(scene.value(), fov.value() ? static_cast<float>(*fov.value()) : 40.0f);
+  const float fovDegrees = fov.value() ? static_cast<float>(*fov.value()) : 40.0f;
+  if (scene) {
+    frame.camera = offscreen::defaultCamera(*scene, fovDegrees);
+  } else {
+    std::array<float, 3> lo{}, hi{};
+    offscreen::meshBounds(field->mesh, lo, hi);
+    frame.camera = offscreen::frameBounds(lo, hi, fovDegrees);
+  }
   if (eye.value()) frame.camera.eye = *eye.value();
   if (target.value()) frame.camera.target = *target.value();
   if (up.value()) frame.camera.up = *up.value();
@@ -119,11 +184,14 @@ int renderCommand(int argc, char** argv) {
     frame.height = (*size.value())[1];
   }
   if (exposure.value()) frame.exposure = static_cast<float>(*exposure.value());
+  frame.mode = mode == "field" ? ShadingMode::Field : ShadingMode::SingleInterface;
+  frame.frames = frameCount.value() ? static_cast<uint32_t>(*frameCount.value()) : 1u;
   std::vector<Object*> drawList;
-  for (auto& o : objects.value()) drawList.push_back(o.get());
-  auto image = offscreen::renderFrame(s, *env.value(), drawList, frame);
+  for (auto& o : objects) drawList.push_back(o.get());
+  offscreen::FrameTimings timings;
+  auto image = offscreen::renderFrame(s, *env.value(), drawList, frame, &timings);
   if (!image) return fail(image.error());
-  objects.value().clear();
+  objects.clear();
   env.value().reset();
 
   const uint32_t messages = s.harness->messageCount();
@@ -132,10 +200,30 @@ int renderCommand(int argc, char** argv) {
                                                  " Vulkan validation message(s); no image written"));
   if (auto written = bake::writeImage(*output, image.value()); !written) return fail(written.error());
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::vector<double> wall = timings.wallMs;
+  std::sort(wall.begin(), wall.end());
+  const double wallMedian = wall.empty() ? 0.0 : wall[wall.size() / 2];
+  double wallMean = 0.0;
+  for (double w : wall) wallMean += w / double(wall.size());
   if (args.has("json")) {
-    std::printf("{\"output\": \"%s\", \"scene\": \"%s\", \"width\": %u, \"height\": %u, \"device\": \"%s\", "
+    std::printf("{\"output\": %s, \"scene\": %s, \"mode\": %s, \"environment\": %s, \"width\": %u, "
+                "\"height\": %u, \"device\": %s, \"frames\": %zu, ",
+                jsonString(*output).c_str(), jsonString(sceneSpec).c_str(), jsonString(mode).c_str(),
+                jsonString(args.has("cube-env") ? "cube" : "lat-long").c_str(), frame.width, frame.height,
+                jsonString(s.harness->deviceName()).c_str(), timings.wallMs.size());
+    if (field)
+      std::printf("\"field\": {\"order\": %u, \"width\": %u, \"height\": %u, \"quantization\": %s, "
+                  "\"triangles\": %zu}, ",
+                  field->order, field->width, field->height, jsonString(toString(field->quantization)).c_str(),
+                  field->mesh.indices.size() / 3);
+    if (timings.gpuTimestamps)
+      std::printf("\"gpu_ms\": {\"decompression\": %.4f, \"raster\": %.4f}, ", timings.decompressionMs,
+                  timings.rasterMs);
+    else
+      std::printf("\"gpu_ms\": null, ");
+    std::printf("\"wall_ms\": {\"mean\": %.4f, \"median\": %.4f, \"min\": %.4f, \"max\": %.4f}, "
                 "\"seconds\": %.4f}\n",
-                output->c_str(), sceneSpec.c_str(), frame.width, frame.height, s.harness->deviceName().c_str(), seconds);
+                wallMean, wallMedian, wall.empty() ? 0.0 : wall.front(), wall.empty() ? 0.0 : wall.back(), seconds);
   } else {
     std::printf("rendered %s (%ux%u, %s, %s) in %.2f s -> %s\n", sceneSpec.c_str(), frame.width, frame.height,
                 mode.c_str(), s.harness->deviceName().c_str(), seconds, output->c_str());
