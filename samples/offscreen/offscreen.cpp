@@ -1,6 +1,8 @@
 #include "offscreen/offscreen.h"
 
 #include <algorithm>
+#include <array>
+#include <chrono>
 #include <cmath>
 
 #include <glm/glm.hpp>
@@ -41,11 +43,13 @@ Result<bake::Image> loadEnvironmentImage(const std::string& spec, uint32_t built
   return bake::loadEnvironment(spec);
 }
 
-Result<std::unique_ptr<Environment>> uploadEnvironment(Session& session, const bake::Image& image) {
+Result<std::unique_ptr<Environment>> uploadEnvironment(Session& session, const bake::Image& image, bool cube,
+                                                       uint32_t faceSize) {
   std::unique_ptr<Environment> env;
   auto uploaded = session.context->uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
     LatLongEnvironmentDesc desc{image.width, image.height, image.rgba.data()};
-    auto created = Environment::createLatLong(*session.context, desc, cmd);
+    auto created = cube ? Environment::createCubeFromLatLong(*session.context, desc, faceSize, cmd)
+                        : Environment::createLatLong(*session.context, desc, cmd);
     if (!created) return created.error();
     env = std::move(created).value();
     return {};
@@ -80,10 +84,39 @@ Result<std::vector<std::unique_ptr<Object>>> uploadScene(Session& session, const
   return objects;
 }
 
+Result<std::unique_ptr<Object>> uploadField(Session& session, const Field& field) {
+  std::unique_ptr<Object> object;
+  auto uploaded = session.context->uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
+    auto created = Object::createFromField(*session.context, field, cmd);
+    if (!created) return created.error();
+    object = std::move(created).value();
+    return {};
+  });
+  if (!uploaded) return uploaded.error();
+  return object;
+}
+
 Camera defaultCamera(const bake::Scene& scene, float verticalFovDegrees) {
   const bake::Bounds b = bake::bounds(scene);
-  const glm::vec3 center = 0.5f * (b.min + b.max);
-  const float radius = std::max(0.5f * glm::length(b.max - b.min), 1e-6f);
+  return frameBounds({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z}, verticalFovDegrees);
+}
+
+void meshBounds(const FieldMesh& mesh, std::array<float, 3>& min, std::array<float, 3>& max) {
+  min = {0.0f, 0.0f, 0.0f};
+  max = {0.0f, 0.0f, 0.0f};
+  for (size_t v = 0; v + 2 < mesh.positions.size(); v += 3)
+    for (size_t k = 0; k < 3; ++k) {
+      const float p = mesh.positions[v + k];
+      min[k] = v == 0 ? p : std::min(min[k], p);
+      max[k] = v == 0 ? p : std::max(max[k], p);
+    }
+}
+
+Camera frameBounds(const std::array<float, 3>& boundsMin, const std::array<float, 3>& boundsMax,
+                   float verticalFovDegrees) {
+  const glm::vec3 bmin(boundsMin[0], boundsMin[1], boundsMin[2]), bmax(boundsMax[0], boundsMax[1], boundsMax[2]);
+  const glm::vec3 center = 0.5f * (bmin + bmax);
+  const float radius = std::max(0.5f * glm::length(bmax - bmin), 1e-6f);
   const float distance = radius / std::sin(glm::radians(0.5f * verticalFovDegrees)) * 1.15f;
   const glm::vec3 dir = glm::normalize(glm::vec3(0.25f, 0.35f, 1.0f));
   const glm::vec3 eye = center + dir * distance;
@@ -96,8 +129,24 @@ Camera defaultCamera(const bake::Scene& scene, float verticalFovDegrees) {
   return camera;
 }
 
+namespace {
+
+// Timestamp queries of one frame: decompression start/end, raster start/end.
+constexpr uint32_t kTimestampCount = 4;
+
+bool queueHasTimestamps(const harness::Harness& h) {
+  uint32_t count = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(h.physicalDevice(), &count, nullptr);
+  std::vector<VkQueueFamilyProperties> families(count);
+  vkGetPhysicalDeviceQueueFamilyProperties(h.physicalDevice(), &count, families.data());
+  return h.queueFamily() < count && families[h.queueFamily()].timestampValidBits > 0 &&
+         h.properties().limits.timestampPeriod > 0.0f;
+}
+
+}  // namespace
+
 Result<bake::Image> renderFrame(Session& session, const Environment& environment, const std::vector<Object*>& objects,
-                                const FrameSettings& settings) {
+                                const FrameSettings& settings, FrameTimings* timings) {
   harness::Harness& h = *session.harness;
   const VkFormat colorFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
   const VkFormat depthFormat = VK_FORMAT_D32_SFLOAT;
@@ -107,74 +156,137 @@ Result<bake::Image> renderFrame(Session& session, const Environment& environment
   rci.exposure = settings.exposure;
   auto renderer = Renderer::create(*session.context, rci);
   if (!renderer) return renderer.error();
+  std::unique_ptr<Decompressor> decompressor;
+  bool anyField = false;
+  for (const Object* o : objects) anyField = anyField || (o && o->hasField());
+  if (settings.mode == ShadingMode::Field && anyField) {
+    auto created = Decompressor::create(*session.context);
+    if (!created) return created.error();
+    decompressor = std::move(created).value();
+    // Pipelines now, so that the first frame's timings measure the work and not the compiler.
+    for (const Object* o : objects)
+      if (o && o->hasField())
+        if (auto prepared = decompressor->prepare(o->fieldOrder()); !prepared) return prepared.error();
+  }
+
+  const bool timestamps = timings && queueHasTimestamps(h);
+  VkQueryPool queries = VK_NULL_HANDLE;
+  if (timestamps) {
+    VkQueryPoolCreateInfo qpci{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+    qpci.queryType = VK_QUERY_TYPE_TIMESTAMP;
+    qpci.queryCount = kTimestampCount;
+    if (VkResult r = vkCreateQueryPool(h.device(), &qpci, nullptr, &queries); r != VK_SUCCESS)
+      return makeError(ErrorCode::Vulkan, "vkCreateQueryPool failed", r);
+  }
+
   auto color = h.createImage(settings.width, settings.height, colorFormat,
                              VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
                              VK_IMAGE_ASPECT_COLOR_BIT);
-  if (!color) return color.error();
+  if (!color) {
+    if (queries) vkDestroyQueryPool(h.device(), queries, nullptr);
+    return color.error();
+  }
   auto depth = h.createImage(settings.width, settings.height, depthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
                              VK_IMAGE_ASPECT_DEPTH_BIT);
   if (!depth) {
     h.destroyImage(color.value());
+    if (queries) vkDestroyQueryPool(h.device(), queries, nullptr);
     return depth.error();
   }
   harness::Harness::Image colorImage = color.value();
   harness::Harness::Image depthImage = depth.value();
   const VkExtent2D extent{settings.width, settings.height};
 
-  auto submitted = h.submitAndWait([&](VkCommandBuffer cmd) {
-    std::array<VkImageMemoryBarrier2, 2> toAttachment{};
-    for (auto& b : toAttachment) {
-      b = {VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
-      b.srcStageMask = VK_PIPELINE_STAGE_2_NONE;
-      b.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-      b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    }
-    toAttachment[0].dstStageMask = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT;
-    toAttachment[0].dstAccessMask = VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT;
-    toAttachment[0].newLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-    toAttachment[0].image = colorImage.image;
-    toAttachment[0].subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-    toAttachment[1].dstStageMask =
-        VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
-    toAttachment[1].dstAccessMask =
-        VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT;
-    toAttachment[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-    toAttachment[1].image = depthImage.image;
-    toAttachment[1].subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, 1};
-    VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-    dep.imageMemoryBarrierCount = 2;
-    dep.pImageMemoryBarriers = toAttachment.data();
-    vkCmdPipelineBarrier2(cmd, &dep);
+  Result<void> submitted{};
+  Result<void> recorded{};
+  const uint32_t frames = std::max(1u, settings.frames);
+  for (uint32_t frame = 0; frame < frames && submitted.ok() && recorded.ok(); ++frame) {
+    session.context->beginFrame();
+    const auto start = std::chrono::steady_clock::now();
+    submitted = h.submitAndWait([&](VkCommandBuffer cmd) {
+      if (queries) {
+        vkCmdResetQueryPool(cmd, queries, 0, kTimestampCount);
+        vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_TOP_OF_PIPE_BIT, queries, 0);
+      }
+      if (decompressor) recorded = decompressor->record(cmd, settings.camera.eye, objects);
+      if (queries) {
+        vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries, 1);
+      }
 
-    VkRenderingAttachmentInfo colorAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-    colorAttachment.imageView = colorImage.view;
-    colorAttachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-    colorAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    colorAttachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    VkRenderingAttachmentInfo depthAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-    depthAttachment.imageView = depthImage.view;
-    depthAttachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-    depthAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    depthAttachment.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-    depthAttachment.clearValue.depthStencil = {1.0f, 0};
-    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-    ri.renderArea = {{0, 0}, extent};
-    ri.layerCount = 1;
-    ri.colorAttachmentCount = 1;
-    ri.pColorAttachments = &colorAttachment;
-    ri.pDepthAttachment = &depthAttachment;
-    vkCmdBeginRendering(cmd, &ri);
-    VkViewport viewport{0.0f, 0.0f, float(extent.width), float(extent.height), 0.0f, 1.0f};
-    VkRect2D scissor{{0, 0}, extent};
-    vkCmdSetViewport(cmd, 0, 1, &viewport);
-    vkCmdSetScissor(cmd, 0, 1, &scissor);
-    renderer.value()->recordBackground(cmd, environment, settings.camera, extent);
-    renderer.value()->recordObjects(cmd, environment, settings.camera, extent, objects, settings.mode);
-    vkCmdEndRendering(cmd);
-  });
-  Result<std::vector<float>> pixels = submitted.ok()
-      ? h.readbackColor(colorImage, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL)
-      : Result<std::vector<float>>(submitted.error());
+      // The attachments are cleared every frame; the barrier also orders this frame's writes
+      // after the previous frame's.
+      std::array<VkImageMemoryBarrier2, 2> toAttachment{};
+      for (auto& b : toAttachment) {
+        b = {VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
+        b.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+        b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+      }
+      toAttachment[0].srcStageMask = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_2_COPY_BIT;
+      toAttachment[0].dstStageMask = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT;
+      toAttachment[0].dstAccessMask = VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT;
+      toAttachment[0].newLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+      toAttachment[0].image = colorImage.image;
+      toAttachment[0].subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+      toAttachment[1].srcStageMask =
+          VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
+      toAttachment[1].dstStageMask =
+          VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
+      toAttachment[1].dstAccessMask =
+          VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT;
+      toAttachment[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+      toAttachment[1].image = depthImage.image;
+      toAttachment[1].subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, 1};
+      VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+      dep.imageMemoryBarrierCount = 2;
+      dep.pImageMemoryBarriers = toAttachment.data();
+      vkCmdPipelineBarrier2(cmd, &dep);
+
+      if (queries) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries, 2);
+      VkRenderingAttachmentInfo colorAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+      colorAttachment.imageView = colorImage.view;
+      colorAttachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+      colorAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+      colorAttachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+      VkRenderingAttachmentInfo depthAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+      depthAttachment.imageView = depthImage.view;
+      depthAttachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+      depthAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+      depthAttachment.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+      depthAttachment.clearValue.depthStencil = {1.0f, 0};
+      VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+      ri.renderArea = {{0, 0}, extent};
+      ri.layerCount = 1;
+      ri.colorAttachmentCount = 1;
+      ri.pColorAttachments = &colorAttachment;
+      ri.pDepthAttachment = &depthAttachment;
+      vkCmdBeginRendering(cmd, &ri);
+      VkViewport viewport{0.0f, 0.0f, float(extent.width), float(extent.height), 0.0f, 1.0f};
+      VkRect2D scissor{{0, 0}, extent};
+      vkCmdSetViewport(cmd, 0, 1, &viewport);
+      vkCmdSetScissor(cmd, 0, 1, &scissor);
+      renderer.value()->recordBackground(cmd, environment, settings.camera, extent);
+      renderer.value()->recordObjects(cmd, environment, settings.camera, extent, objects, settings.mode);
+      vkCmdEndRendering(cmd);
+      if (queries) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries, 3);
+    });
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    if (timings) timings->wallMs.push_back(ms);
+  }
+  if (submitted.ok() && recorded.ok() && queries) {
+    std::array<uint64_t, kTimestampCount> ticks{};
+    const VkResult r = vkGetQueryPoolResults(h.device(), queries, 0, kTimestampCount, sizeof(ticks), ticks.data(),
+                                             sizeof(uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
+    if (r == VK_SUCCESS) {
+      const double period = double(h.properties().limits.timestampPeriod) * 1e-6;  // ns -> ms
+      timings->gpuTimestamps = true;
+      timings->decompressionMs = decompressor ? double(ticks[1] - ticks[0]) * period : 0.0;
+      timings->rasterMs = double(ticks[3] - ticks[2]) * period;
+    }
+  }
+  if (queries) vkDestroyQueryPool(h.device(), queries, nullptr);
+  Result<std::vector<float>> pixels = !submitted.ok()  ? Result<std::vector<float>>(submitted.error())
+                                      : !recorded.ok() ? Result<std::vector<float>>(recorded.error())
+                                                       : h.readbackColor(colorImage, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
   h.destroyImage(colorImage);
   h.destroyImage(depthImage);
   if (!pixels) return pixels.error();

@@ -6,10 +6,13 @@
 #include <shrefract/bake/image.h>
 #include <shrefract/bake/scene.h>
 #include <shrefract/context.h>
+#include <shrefract/decompressor.h>
 #include <shrefract/environment.h>
+#include <shrefract/field.h>
 #include <shrefract/harness/harness.h>
 #include <shrefract/renderer.h>
 
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
@@ -29,13 +32,23 @@ Result<std::unique_ptr<Session>> createSession(const harness::HarnessOptions& op
 // "builtin" gives the procedural environment; anything else is a lat-long image file.
 Result<bake::Image> loadEnvironmentImage(const std::string& spec, uint32_t builtinWidth = 1024);
 
-Result<std::unique_ptr<Environment>> uploadEnvironment(Session& session, const bake::Image& image);
+// Uploads a lat-long image as a lat-long environment, or converted to a cube map (faceSize 0:
+// height / 2) when `cube` is set.
+Result<std::unique_ptr<Environment>> uploadEnvironment(Session& session, const bake::Image& image, bool cube = false,
+                                                       uint32_t faceSize = 0);
+
+// One engine Object for a refraction field (Object::createFromField), default shading.
+Result<std::unique_ptr<Object>> uploadField(Session& session, const Field& field);
 
 // One engine Object per surface of the scene. Shading IOR: inner over outer medium.
 Result<std::vector<std::unique_ptr<Object>>> uploadScene(Session& session, const bake::Scene& scene);
 
 // A camera that frames the scene's bounds from slightly above, looking at their centre.
 Camera defaultCamera(const bake::Scene& scene, float verticalFovDegrees = 40.0f);
+// The same for an axis-aligned box (e.g. the bounds of a field's mesh).
+Camera frameBounds(const std::array<float, 3>& min, const std::array<float, 3>& max, float verticalFovDegrees = 40.0f);
+// Bounds of a field's render mesh.
+void meshBounds(const FieldMesh& mesh, std::array<float, 3>& min, std::array<float, 3>& max);
 
 struct FrameSettings {
   uint32_t width = 640;
@@ -43,10 +56,21 @@ struct FrameSettings {
   Camera camera;
   ShadingMode mode = ShadingMode::SingleInterface;
   float exposure = 1.0f;
+  uint32_t frames = 1;  // frames rendered (the image is the last one's); for timings
 };
 
-// Renders the environment and the objects into a float image and reads it back.
+// GPU timestamps of the last frame and host wall time of every frame.
+struct FrameTimings {
+  bool gpuTimestamps = false;   // false when the queue does not support timestamps
+  double decompressionMs = 0.0; // the Decompressor's dispatches and barriers (0 without field objects)
+  double rasterMs = 0.0;        // background + objects, inside dynamic rendering
+  std::vector<double> wallMs;   // per frame: record, submit, wait for the fence
+};
+
+// Renders the environment and the objects into a float image and reads it back. In Field mode the
+// field objects are decompressed for the camera's eye before the raster pass, every frame.
 Result<bake::Image> renderFrame(Session& session, const Environment& environment,
-                                const std::vector<Object*>& objects, const FrameSettings& settings);
+                                const std::vector<Object*>& objects, const FrameSettings& settings,
+                                FrameTimings* timings = nullptr);
 
 }  // namespace shrefract::offscreen

@@ -5,15 +5,18 @@
 layout(push_constant) uniform Push { ObjectPushConstants pc; };
 layout(location = 0) in vec3 inPosition;  // world space
 layout(location = 1) in vec3 inNormal;    // world space, unit
-layout(location = 2) in vec2 inFieldUv;   // texel coordinates of the field's sample layout
+layout(location = 2) in vec2 inFieldUv;   // normalized atlas coordinates of the field's sample layout
+layout(location = 3) in float inFrontIor; // n_inside / n_outside of this surface; 0: use pc.medium.x
 
 layout(location = 0) out vec3 outPosition;
 layout(location = 1) out vec3 outNormal;
 layout(location = 2) out vec2 outFieldUv;
+layout(location = 3) out float outFrontIor;
 
 void main() {
   outPosition = inPosition;
   outNormal = inNormal;
   outFieldUv = inFieldUv;
+  outFrontIor = inFrontIor;
   gl_Position = pc.clipFromWorld * vec4(inPosition, 1.0);
 }

@@ -1,33 +1,3 @@
 #version 460
-// Single-interface refraction: one Snell bend at the front surface, then the environment. This
-// is what engines usually ship as a glass shader, and the baseline the SH field is measured against.
 #extension GL_GOOGLE_include_directive : require
-#include "shrefract/gpu_layout.h"
-#include "shrefract/environment.glsl"
-
-layout(push_constant) uniform Push { ObjectPushConstants pc; };
-layout(set = 0, binding = kBindingEnvironment) uniform sampler2D environmentMap;
-
-layout(location = 0) in vec3 inPosition;
-layout(location = 1) in vec3 inNormal;
-layout(location = 2) in vec2 inFieldUv;
-layout(location = 0) out vec4 outColor;
-
-void main() {
-  vec3 n = normalize(inNormal);
-  vec3 v = normalize(inPosition - pc.eyeWorld.xyz);
-  // Interpolated normals can face away near silhouettes; bend them back toward the viewer.
-  float cosI = -dot(v, n);
-  if (cosI < 1e-4) {
-    n = normalize(n + (1e-4 - cosI) * -v);
-    cosI = -dot(v, n);
-  }
-  float eta = 1.0 / pc.medium.x;
-  vec3 reflected = reflect(v, n);
-  float fresnel = fresnelDielectric(cosI, eta);
-  vec3 refracted = refract(v, n, eta);
-  if (dot(refracted, refracted) == 0.0) refracted = reflected;
-  vec3 color = (1.0 - fresnel) * sampleEnvironment(environmentMap, refracted) * pc.tint.rgb;
-  if (pc.medium.z > 0.5) color += fresnel * sampleEnvironment(environmentMap, reflected);
-  outColor = vec4(color * pc.params.x, 1.0);
-}
+#include "object_single_interface_body.glsl"

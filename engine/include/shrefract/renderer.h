@@ -1,6 +1,23 @@
 // The raster pass: the environment as background and refractive objects over it, drawn with
 // dynamic rendering into attachments the host provides.
 //
+// Objects are static world-space meshes. An object created from a refraction field
+// (Object::createFromField) also owns the field's GPU data and its distortion image; the
+// Decompressor (shrefract/decompressor.h) fills that image for the current eye, and
+// ShadingMode::Field samples it.
+//
+// A host frame with field objects, all on one command buffer of the context's queue family:
+//   context.beginFrame();                                   // releases what was retired
+//   decompressor.record(cmd, camera.eye, objects);          // compute, outside rendering
+//   (host) vkCmdBeginRendering(cmd, ...);                   // its own attachments
+//   renderer.recordBackground(cmd, environment, camera, extent);
+//   renderer.recordObjects(cmd, environment, camera, extent, objects, ShadingMode::Field);
+//   (host) vkCmdEndRendering(cmd);
+// Images the engine owns (environment, coefficients, distortion images) are in
+// SHADER_READ_ONLY_OPTIMAL between engine calls; the engine never touches the host's attachments'
+// layouts. Frames in flight and deferred destruction: see context.h and decompressor.h.
+// Threading: as for Context; recording into different command buffers must still not overlap.
+//
 // Contract for recordBackground()/recordObjects():
 //  - the host has begun dynamic rendering (vkCmdBeginRendering) on `cmd` with one color attachment
 //    of RendererCreateInfo::colorFormat and, if depthFormat is not UNDEFINED, a depth attachment of
@@ -13,10 +30,12 @@
 
 #include <shrefract/context.h>
 #include <shrefract/environment.h>
+#include <shrefract/field.h>
 
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace shrefract {
@@ -31,11 +50,15 @@ struct Camera {
 };
 
 // A triangle mesh in world space with per-vertex unit normals and (optional) field texture
-// coordinates. Static: fields are baked in world space.
+// coordinates. Static: fields are baked in world space. Front faces wind counter-clockwise seen
+// from outside; back faces are culled.
 struct MeshDesc {
   const float* positions = nullptr;  // vertexCount * 3
   const float* normals = nullptr;    // vertexCount * 3
-  const float* fieldUvs = nullptr;   // vertexCount * 2, or nullptr
+  const float* fieldUvs = nullptr;   // vertexCount * 2 normalized atlas coordinates, or nullptr
+  // vertexCount values n_inside / n_outside of the surface the eye sees (> 0), or nullptr: then
+  // ObjectShading::ior applies to the whole mesh.
+  const float* frontIor = nullptr;
   uint32_t vertexCount = 0;
   const uint32_t* indices = nullptr;  // triangle list, indexCount / 3 triangles
   uint32_t indexCount = 0;
@@ -43,9 +66,9 @@ struct MeshDesc {
 
 // Run-time shading parameters of an object; cheap to change every frame.
 struct ObjectShading {
-  float ior = 1.5f;                         // front-surface IOR (reflection and single-interface)
-  float absorptionScale = 1.0f;             // k in exp2(-tau * k)
-  std::array<float, 3> tint{1.0f, 1.0f, 1.0f};  // attenuation colour
+  float ior = 1.5f;                         // front-surface IOR where the mesh has no frontIor
+  float absorptionScale = 1.0f;             // k in exp2(-tau * k) (Field mode)
+  std::array<float, 3> tint{1.0f, 1.0f, 1.0f};  // attenuation colour, multiplies the transmitted light
   bool reflection = true;                   // add the front-surface Fresnel reflection
 };
 
@@ -55,12 +78,46 @@ class Object {
  public:
   // Creates the vertex and index buffers and records their upload into `cmd` (see Environment).
   static Result<std::unique_ptr<Object>> create(Context& context, const MeshDesc& mesh, VkCommandBuffer cmd);
+
+  // Creates an object from a refraction field: the render mesh (field.mesh, with its atlas
+  // coordinates and per-vertex frontIor) and the field's GPU data, uploaded through `cmd` (a host
+  // command buffer in the recording state, on the context's queue family; staging buffers are
+  // retired through the context's deferred destruction):
+  //  - coefficients: one 2D array image, layer i = basis function i; R8G8B8A8_UNORM with the
+  //    per-(layer, channel) scale/bias in a storage buffer (U8), or R16G16B16A16_SFLOAT (F16);
+  //    x, y, z of the exit direction in RGB, tau in A (A decodes to 0 when channels == 3);
+  //  - the per-texel frames M_s (3 vec4 rows per texel), texel kinds and gutter rules as storage
+  //    buffers;
+  //  - the distortion image: width x height R16G16B16A16_SFLOAT, cleared to zero.
+  // After `cmd` executes, the coefficient image and the distortion image are in
+  // SHADER_READ_ONLY_OPTIMAL and every upload is visible to compute and fragment shaders.
+  // Errors: CorruptData when validateField rejects the field; Unsupported when the atlas or the
+  // number of basis functions exceeds the device's image limits; Vulkan on allocation failures.
+  static Result<std::unique_ptr<Object>> createFromField(Context& context, const Field& field, VkCommandBuffer cmd);
+  // readField(path), then createFromField. Errors name the file.
+  static Result<std::unique_ptr<Object>> createFromFieldFile(Context& context, const std::string& path,
+                                                             VkCommandBuffer cmd);
+
+  // Retires every resource through the context's deferred destruction: safe while command buffers
+  // that use the object are in flight, as long as the host keeps calling Context::beginFrame().
   ~Object();
   Object(const Object&) = delete;
   Object& operator=(const Object&) = delete;
 
+  bool hasField() const;
+  // The field's SH order and atlas size (0 without a field).
+  uint32_t fieldOrder() const;
+  VkExtent2D fieldExtent() const;
+  // The distortion image (R16G16B16A16_SFLOAT, extent fieldExtent(), one level, one layer;
+  // VK_NULL_HANDLE without a field): texel (x, y) holds the decoded exit direction (xyz, unit, or
+  // zero for empty texels) and optical depth (w) for the eye of the last decompression. Between
+  // engine passes it is in SHADER_READ_ONLY_OPTIMAL. Created with TRANSFER_SRC usage so that tools
+  // and tests can copy it out; a host that does must return it to SHADER_READ_ONLY_OPTIMAL.
+  VkImage distortionImage() const;
+
   ObjectShading shading;
   ObjectImpl& impl() { return *impl_; }
+  const ObjectImpl& impl() const { return *impl_; }
 
  private:
   explicit Object(std::unique_ptr<ObjectImpl> impl);
@@ -69,6 +126,13 @@ class Object {
 
 enum class ShadingMode : uint32_t {
   SingleInterface = 0,  // one Snell bend at the front surface (what engines usually ship)
+  // The refraction field: the distortion image, bilinearly sampled at the fragment's atlas
+  // coordinate, gives the exit direction d and optical depth tau; the colour is
+  //   (1 - F) * exp2(-max(tau, 0) * k) * tint * env(d) + F * env(reflect(v, n))
+  // with F the dielectric Fresnel reflectance for frontIor (ObjectShading::ior where the mesh has
+  // none). A zero sample (no data) looks straight through: d = v. Objects without a field are
+  // drawn with SingleInterface.
+  Field = 1,
 };
 
 struct RendererCreateInfo {
@@ -87,8 +151,13 @@ class Renderer {
   Renderer& operator=(const Renderer&) = delete;
 
   // `extent` is the size of the host's viewport, for the camera's aspect ratio.
+  // Lat-long and cube-map environments are both accepted (each has its own pipeline variant).
   void recordBackground(VkCommandBuffer cmd, const Environment& environment, const Camera& camera,
                         VkExtent2D extent);
+  // Field mode: each field object's distortion image must have been written for this camera's
+  // eye by Decompressor::record() earlier on the same queue (outside the render pass); the
+  // Decompressor leaves it in SHADER_READ_ONLY_OPTIMAL, visible to fragment shaders. Null entries
+  // are skipped. Several objects in one call are drawn in order with depth testing.
   void recordObjects(VkCommandBuffer cmd, const Environment& environment, const Camera& camera, VkExtent2D extent,
                      const std::vector<Object*>& objects, ShadingMode mode = ShadingMode::SingleInterface);
 

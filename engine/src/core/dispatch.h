@@ -24,6 +24,7 @@ namespace shrefract {
   X(vkCmdBindIndexBuffer)             \
   X(vkCmdBindPipeline)                \
   X(vkCmdBindVertexBuffers)           \
+  X(vkCmdClearColorImage)             \
   X(vkCmdCopyBuffer)                  \
   X(vkCmdCopyBufferToImage)           \
   X(vkCmdDispatch)                    \

@@ -1,63 +1,76 @@
 #include <shrefract/environment.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <string>
 #include <vector>
 
 #include "core/half.h"
 #include "environment/environment_impl.h"
+#include "environment/latlong.h"
 
 namespace shrefract {
 
-Environment::Environment(std::unique_ptr<EnvironmentImpl> impl) : impl_(std::move(impl)) {}
+namespace {
 
-Environment::~Environment() {
-  EnvironmentImpl* e = impl_.release();
-  e->context->retire([e]() {
-    ContextImpl& c = *e->context;
-    if (e->pool) c.vk.vkDestroyDescriptorPool(c.device(), e->pool, c.alloc());
-    c.destroyImage(e->image);
-    delete e;
-  });
+// Converts linear RGBA floats to half, rejecting NaN, Inf and negative values. `what` names the
+// image in the message; `width` locates the bad pixel.
+Result<void> toHalf(const float* rgba, size_t texels, uint32_t width, const std::string& what,
+                    uint16_t* out) {
+  for (size_t i = 0; i < texels * 4; ++i) {
+    const float v = rgba[i];
+    if (!std::isfinite(v) || v < 0.0f)
+      return makeError(ErrorCode::InvalidArgument, what + ": pixel " + std::to_string((i / 4) % width) + "," +
+                                                       std::to_string((i / 4) / width) +
+                                                       " is negative, NaN or infinite");
+    out[i] = floatToHalf(v);
+  }
+  return {};
 }
 
-Result<std::unique_ptr<Environment>> Environment::createLatLong(Context& context, const LatLongEnvironmentDesc& desc,
-                                                                VkCommandBuffer cmd) {
-  if (!desc.rgba || desc.width == 0 || desc.height == 0)
-    return makeError(ErrorCode::InvalidArgument, "environment: empty image");
-  if (desc.width != 2 * desc.height)
-    return makeError(ErrorCode::InvalidArgument, "environment: a lat-long map must be 2:1, got " +
-                                                     std::to_string(desc.width) + "x" + std::to_string(desc.height));
-  ContextImpl& c = context.impl();
-  const size_t texels = size_t(desc.width) * desc.height;
-  std::vector<uint16_t> half(texels * 4);
-  for (size_t i = 0; i < texels * 4; ++i) {
-    const float v = desc.rgba[i];
-    if (!std::isfinite(v) || v < 0.0f)
-      return makeError(ErrorCode::InvalidArgument,
-                       "environment: pixel " + std::to_string((i / 4) % desc.width) + "," +
-                           std::to_string((i / 4) / desc.width) + " is negative, NaN or infinite");
-    half[i] = floatToHalf(v);
-  }
-
+// Creates the RGBA16F image (layers == 6: cube), records the upload of `half` (layer-major) and the
+// transition to SHADER_READ_ONLY_OPTIMAL, and writes the descriptor set.
+Result<std::unique_ptr<Environment>> createEnvironment(ContextImpl& c, EnvironmentEncoding encoding, uint32_t width,
+                                                       uint32_t height, const std::vector<uint16_t>& half,
+                                                       VkCommandBuffer cmd,
+                                                       std::unique_ptr<Environment> (*wrap)(std::unique_ptr<EnvironmentImpl>)) {
+  const bool cube = encoding == EnvironmentEncoding::Cube;
+  const uint32_t layers = cube ? 6u : 1u;
   auto impl = std::make_unique<EnvironmentImpl>();
   impl->context = &c;
-  impl->width = desc.width;
-  impl->height = desc.height;
+  impl->encoding = encoding;
+  impl->width = width;
+  impl->height = height;
   VkImageCreateInfo ici{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+  ici.flags = cube ? VkImageCreateFlags{VK_IMAGE_CREATE_CUBE_COMPATIBLE_BIT} : VkImageCreateFlags{0};
   ici.imageType = VK_IMAGE_TYPE_2D;
   ici.format = VK_FORMAT_R16G16B16A16_SFLOAT;
-  ici.extent = {desc.width, desc.height, 1};
+  ici.extent = {width, height, 1};
   ici.mipLevels = 1;
-  ici.arrayLayers = 1;
+  ici.arrayLayers = layers;
   ici.samples = VK_SAMPLE_COUNT_1_BIT;
   ici.tiling = VK_IMAGE_TILING_OPTIMAL;
   ici.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
-  auto image = c.createImage(ici, VK_IMAGE_VIEW_TYPE_2D, VK_IMAGE_ASPECT_COLOR_BIT);
+  auto image = c.createImage(ici, cube ? VK_IMAGE_VIEW_TYPE_CUBE : VK_IMAGE_VIEW_TYPE_2D, VK_IMAGE_ASPECT_COLOR_BIT);
   if (!image) return image.error();
   impl->image = image.value();
-  std::unique_ptr<Environment> env(new Environment(std::move(impl)));
+  std::unique_ptr<Environment> env = wrap(std::move(impl));
   EnvironmentImpl& e = env->impl();
+
+  VkSampler sampler = c.environmentSampler;
+  if (cube) {
+    // Cube lookups are seamless; the address modes only matter at face edges, where Vulkan
+    // filters across faces regardless.
+    VkSamplerCreateInfo sci{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+    sci.magFilter = VK_FILTER_LINEAR;
+    sci.minFilter = VK_FILTER_LINEAR;
+    sci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+    sci.addressModeU = sci.addressModeV = sci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    const VkResult r = c.vk.vkCreateSampler(c.device(), &sci, c.alloc(), &e.cubeSampler);
+    if (r != VK_SUCCESS) return vulkanError("vkCreateSampler", r);
+    sampler = e.cubeSampler;
+  }
 
   const VkDeviceSize bytes = half.size() * sizeof(uint16_t);
   auto staging = c.createBuffer(bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
@@ -74,15 +87,15 @@ Result<std::unique_ptr<Environment>> Environment::createLatLong(Context& context
   toDst.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
   toDst.srcQueueFamilyIndex = toDst.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
   toDst.image = e.image.image;
-  toDst.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+  toDst.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, layers};
   VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
   dep.imageMemoryBarrierCount = 1;
   dep.pImageMemoryBarriers = &toDst;
   c.vk.vkCmdPipelineBarrier2(cmd, &dep);
 
   VkBufferImageCopy region{};
-  region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-  region.imageExtent = {desc.width, desc.height, 1};
+  region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, layers};
+  region.imageExtent = {width, height, 1};
   c.vk.vkCmdCopyBufferToImage(cmd, s.buffer, e.image.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
 
   VkImageMemoryBarrier2 toRead = toDst;
@@ -108,7 +121,7 @@ Result<std::unique_ptr<Environment>> Environment::createLatLong(Context& context
   dsai.pSetLayouts = &c.environmentSetLayout;
   r = c.vk.vkAllocateDescriptorSets(c.device(), &dsai, &e.set);
   if (r != VK_SUCCESS) return vulkanError("vkAllocateDescriptorSets", r);
-  VkDescriptorImageInfo dii{c.environmentSampler, e.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  VkDescriptorImageInfo dii{sampler, e.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
   VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
   w.dstSet = e.set;
   w.dstBinding = 0;
@@ -117,6 +130,103 @@ Result<std::unique_ptr<Environment>> Environment::createLatLong(Context& context
   w.pImageInfo = &dii;
   c.vk.vkUpdateDescriptorSets(c.device(), 1, &w, 0, nullptr);
   return env;
+}
+
+Result<void> checkLatLong(const LatLongEnvironmentDesc& desc) {
+  if (!desc.rgba || desc.width == 0 || desc.height == 0)
+    return makeError(ErrorCode::InvalidArgument, "environment: empty image");
+  if (desc.width != 2 * desc.height)
+    return makeError(ErrorCode::InvalidArgument, "environment: a lat-long map must be 2:1, got " +
+                                                     std::to_string(desc.width) + "x" + std::to_string(desc.height));
+  return {};
+}
+
+}  // namespace
+
+Environment::Environment(std::unique_ptr<EnvironmentImpl> impl) : impl_(std::move(impl)) {}
+
+Environment::~Environment() {
+  EnvironmentImpl* e = impl_.release();
+  e->context->retire([e]() {
+    ContextImpl& c = *e->context;
+    if (e->pool) c.vk.vkDestroyDescriptorPool(c.device(), e->pool, c.alloc());
+    if (e->cubeSampler) c.vk.vkDestroySampler(c.device(), e->cubeSampler, c.alloc());
+    c.destroyImage(e->image);
+    delete e;
+  });
+}
+
+EnvironmentEncoding Environment::encoding() const { return impl_->encoding; }
+
+Result<std::unique_ptr<Environment>> Environment::createLatLong(Context& context, const LatLongEnvironmentDesc& desc,
+                                                                VkCommandBuffer cmd) {
+  if (auto ok = checkLatLong(desc); !ok) return ok.error();
+  const size_t texels = size_t(desc.width) * desc.height;
+  std::vector<uint16_t> half(texels * 4);
+  if (auto ok = toHalf(desc.rgba, texels, desc.width, "environment", half.data()); !ok) return ok.error();
+  return createEnvironment(context.impl(), EnvironmentEncoding::LatLong, desc.width, desc.height, half, cmd,
+                           [](std::unique_ptr<EnvironmentImpl> impl) {
+                             return std::unique_ptr<Environment>(new Environment(std::move(impl)));
+                           });
+}
+
+Result<std::unique_ptr<Environment>> Environment::createCube(Context& context, const CubeEnvironmentDesc& desc,
+                                                             VkCommandBuffer cmd) {
+  if (desc.faceSize == 0) return makeError(ErrorCode::InvalidArgument, "cube environment: face size is 0");
+  const size_t texels = size_t(desc.faceSize) * desc.faceSize;
+  std::vector<uint16_t> half(texels * 4 * 6);
+  static const char* const kFaceNames[6] = {"+X", "-X", "+Y", "-Y", "+Z", "-Z"};
+  for (size_t face = 0; face < 6; ++face) {
+    if (!desc.faces[face])
+      return makeError(ErrorCode::InvalidArgument, std::string("cube environment: face ") + kFaceNames[face] +
+                                                       " is missing");
+    if (auto ok = toHalf(desc.faces[face], texels, desc.faceSize,
+                         std::string("cube environment face ") + kFaceNames[face], &half[face * texels * 4]);
+        !ok)
+      return ok.error();
+  }
+  return createEnvironment(context.impl(), EnvironmentEncoding::Cube, desc.faceSize, desc.faceSize, half, cmd,
+                           [](std::unique_ptr<EnvironmentImpl> impl) {
+                             return std::unique_ptr<Environment>(new Environment(std::move(impl)));
+                           });
+}
+
+Result<std::unique_ptr<Environment>> Environment::createCubeFromLatLong(Context& context,
+                                                                        const LatLongEnvironmentDesc& desc,
+                                                                        uint32_t faceSize, VkCommandBuffer cmd) {
+  if (auto ok = checkLatLong(desc); !ok) return ok.error();
+  // Reject bad pixels with the lat-long's coordinates before resampling spreads them.
+  const size_t latLongTexels = size_t(desc.width) * desc.height;
+  for (size_t i = 0; i < latLongTexels * 4; ++i)
+    if (!std::isfinite(desc.rgba[i]) || desc.rgba[i] < 0.0f)
+      return makeError(ErrorCode::InvalidArgument, "environment: pixel " + std::to_string((i / 4) % desc.width) +
+                                                       "," + std::to_string((i / 4) / desc.width) +
+                                                       " is negative, NaN or infinite");
+  const uint32_t n = faceSize ? faceSize : std::max(1u, desc.height / 2);
+  std::vector<float> faces(size_t(n) * n * 4 * 6);
+  CubeEnvironmentDesc cube;
+  cube.faceSize = n;
+  for (uint32_t face = 0; face < 6; ++face) {
+    float* out = &faces[size_t(face) * n * n * 4];
+    cube.faces[face] = out;
+    for (uint32_t j = 0; j < n; ++j)
+      for (uint32_t i = 0; i < n; ++i) {
+        // Face texel centre -> world direction (CubeEnvironmentDesc's table).
+        const float a = 2.0f * (float(i) + 0.5f) / float(n) - 1.0f;
+        const float b = 2.0f * (float(j) + 0.5f) / float(n) - 1.0f;
+        float d[3];
+        switch (face) {
+          case 0: d[0] = 1.0f, d[1] = -b, d[2] = -a; break;
+          case 1: d[0] = -1.0f, d[1] = -b, d[2] = a; break;
+          case 2: d[0] = a, d[1] = 1.0f, d[2] = b; break;
+          case 3: d[0] = a, d[1] = -1.0f, d[2] = -b; break;
+          case 4: d[0] = a, d[1] = -b, d[2] = 1.0f; break;
+          default: d[0] = -a, d[1] = -b, d[2] = -1.0f; break;
+        }
+        sampleLatLongBilinear(desc.rgba, desc.width, desc.height, d[0], d[1], d[2], &out[(size_t(j) * n + i) * 4]);
+      }
+  }
+  return createCube(context, cube, cmd);
 }
 
 }  // namespace shrefract

@@ -8,10 +8,12 @@ namespace shrefract {
 
 struct EnvironmentImpl {
   ContextImpl* context = nullptr;
-  ImageAllocation image;
+  EnvironmentEncoding encoding = EnvironmentEncoding::LatLong;
+  ImageAllocation image;  // lat-long: 2D; cube: 6 layers, CUBE view
+  VkSampler cubeSampler = VK_NULL_HANDLE;  // cube maps only (lat-long uses the context's sampler)
   VkDescriptorPool pool = VK_NULL_HANDLE;
   VkDescriptorSet set = VK_NULL_HANDLE;  // layout: ContextImpl::environmentSetLayout
-  uint32_t width = 0, height = 0;
+  uint32_t width = 0, height = 0;        // per face for cube maps
 };
 
 }  // namespace shrefract

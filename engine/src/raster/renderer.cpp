@@ -11,25 +11,16 @@
 #include <glm/gtc/type_ptr.hpp>
 
 #include "core/context_impl.h"
+#include "decompress/field_layouts.h"
 #include "engine_spirv.h"
 #include "environment/environment_impl.h"
+#include "raster/object_impl.h"
 #include "shrefract/gpu_layout.h"
 
 namespace shrefract {
 
 // ---------------------------------------------------------------------------------------------
-// Object: vertex and index buffers of a static world-space mesh.
-
-struct ObjectImpl {
-  ContextImpl* context = nullptr;
-  BufferAllocation vertices;  // interleaved: position (3), normal (3), field uv (2)
-  BufferAllocation indices;
-  uint32_t indexCount = 0;
-};
-
-namespace {
-constexpr uint32_t kVertexFloats = 8;
-}
+// Object: vertex and index buffers of a static world-space mesh (field data: decompress/).
 
 Object::Object(std::unique_ptr<ObjectImpl> impl) : impl_(std::move(impl)) {}
 
@@ -38,11 +29,12 @@ Object::~Object() {
   o->context->retire([o]() {
     o->context->destroyBuffer(o->vertices);
     o->context->destroyBuffer(o->indices);
+    if (o->field) destroyFieldResources(*o->context, *o->field);
     delete o;
   });
 }
 
-Result<std::unique_ptr<Object>> Object::create(Context& context, const MeshDesc& mesh, VkCommandBuffer cmd) {
+Result<void> createMeshBuffers(ContextImpl& c, const MeshDesc& mesh, VkCommandBuffer cmd, ObjectImpl& o) {
   if (!mesh.positions || !mesh.normals || !mesh.indices || mesh.vertexCount == 0 || mesh.indexCount == 0 ||
       mesh.indexCount % 3 != 0)
     return makeError(ErrorCode::InvalidArgument, "Object::create: a mesh needs positions, normals and a triangle list");
@@ -56,27 +48,23 @@ Result<std::unique_ptr<Object>> Object::create(Context& context, const MeshDesc&
     for (int k = 0; k < 3; ++k) out[3 + k] = mesh.normals[3 * v + k];
     out[6] = mesh.fieldUvs ? mesh.fieldUvs[2 * v] : 0.0f;
     out[7] = mesh.fieldUvs ? mesh.fieldUvs[2 * v + 1] : 0.0f;
-    for (int k = 0; k < 8; ++k)
+    out[8] = mesh.frontIor ? mesh.frontIor[v] : 0.0f;
+    for (uint32_t k = 0; k < kVertexFloats; ++k)
       if (!std::isfinite(out[k]))
         return makeError(ErrorCode::InvalidArgument, "Object::create: vertex " + std::to_string(v) + " is not finite");
+    if (mesh.frontIor && !(out[8] > 0.0f))
+      return makeError(ErrorCode::InvalidArgument,
+                       "Object::create: frontIor of vertex " + std::to_string(v) + " is not positive");
   }
-  ContextImpl& c = context.impl();
-  auto impl = std::make_unique<ObjectImpl>();
-  impl->context = &c;
-  impl->indexCount = mesh.indexCount;
+  o.indexCount = mesh.indexCount;
   const VkDeviceSize vbytes = interleaved.size() * sizeof(float);
   const VkDeviceSize ibytes = VkDeviceSize(mesh.indexCount) * sizeof(uint32_t);
   auto vb = c.createBuffer(vbytes, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, false);
   if (!vb) return vb.error();
-  impl->vertices = vb.value();
+  o.vertices = vb.value();
   auto ib = c.createBuffer(ibytes, VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, false);
-  if (!ib) {
-    c.destroyBuffer(impl->vertices);
-    return ib.error();
-  }
-  impl->indices = ib.value();
-  std::unique_ptr<Object> object(new Object(std::move(impl)));
-  ObjectImpl& o = object->impl();
+  if (!ib) return ib.error();
+  o.indices = ib.value();
   if (auto r = c.recordBufferUpload(cmd, o.vertices.buffer, interleaved.data(), vbytes); !r) return r.error();
   if (auto r = c.recordBufferUpload(cmd, o.indices.buffer, mesh.indices, ibytes); !r) return r.error();
   VkMemoryBarrier2 barrier{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
@@ -88,27 +76,50 @@ Result<std::unique_ptr<Object>> Object::create(Context& context, const MeshDesc&
   dep.memoryBarrierCount = 1;
   dep.pMemoryBarriers = &barrier;
   c.vk.vkCmdPipelineBarrier2(cmd, &dep);
-  return object;
+  return {};
+}
+
+Result<std::unique_ptr<Object>> Object::create(Context& context, const MeshDesc& mesh, VkCommandBuffer cmd) {
+  ContextImpl& c = context.impl();
+  auto impl = std::make_unique<ObjectImpl>();
+  impl->context = &c;
+  if (auto r = createMeshBuffers(c, mesh, cmd, *impl); !r) {
+    // `cmd` may already reference them: retire rather than destroy.
+    BufferAllocation v = impl->vertices, i = impl->indices;
+    c.retire([&c, v, i]() mutable {
+      c.destroyBuffer(v);
+      c.destroyBuffer(i);
+    });
+    return r.error();
+  }
+  return std::unique_ptr<Object>(new Object(std::move(impl)));
 }
 
 // ---------------------------------------------------------------------------------------------
 // Renderer: pipelines of the background and object passes.
 
+// Pipelines per environment encoding (index: EnvironmentEncoding) and pass.
 struct RendererImpl {
   ContextImpl* context = nullptr;
   RendererCreateInfo info;
+  VkDescriptorSetLayout distortionSetLayout = VK_NULL_HANDLE;  // set 1 of fieldLayout
   VkPipelineLayout backgroundLayout = VK_NULL_HANDLE;
   VkPipelineLayout objectLayout = VK_NULL_HANDLE;
-  VkPipeline background = VK_NULL_HANDLE;
-  VkPipeline singleInterface = VK_NULL_HANDLE;
+  VkPipelineLayout fieldLayout = VK_NULL_HANDLE;
+  std::array<VkPipeline, 2> background{};
+  std::array<VkPipeline, 2> singleInterface{};
+  std::array<VkPipeline, 2> field{};
 
-  ~RendererImpl() {
+  void release() {
     if (!context) return;
     ContextImpl& c = *context;
-    for (VkPipeline p : {background, singleInterface})
-      if (p) c.vk.vkDestroyPipeline(c.device(), p, c.alloc());
-    for (VkPipelineLayout l : {backgroundLayout, objectLayout})
+    for (const auto* group : {&background, &singleInterface, &field})
+      for (VkPipeline p : *group)
+        if (p) c.vk.vkDestroyPipeline(c.device(), p, c.alloc());
+    for (VkPipelineLayout l : {backgroundLayout, objectLayout, fieldLayout})
       if (l) c.vk.vkDestroyPipelineLayout(c.device(), l, c.alloc());
+    if (distortionSetLayout) c.vk.vkDestroyDescriptorSetLayout(c.device(), distortionSetLayout, c.alloc());
+    context = nullptr;
   }
 };
 
@@ -141,10 +152,11 @@ Result<VkPipeline> createGraphicsPipeline(ContextImpl& c, const RendererCreateIn
   stages[1].pName = "main";
 
   VkVertexInputBindingDescription binding{0, kVertexFloats * sizeof(float), VK_VERTEX_INPUT_RATE_VERTEX};
-  std::array<VkVertexInputAttributeDescription, 3> attributes{{
+  std::array<VkVertexInputAttributeDescription, 4> attributes{{
       {0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0},
       {1, 0, VK_FORMAT_R32G32B32_SFLOAT, 3 * sizeof(float)},
       {2, 0, VK_FORMAT_R32G32_SFLOAT, 6 * sizeof(float)},
+      {3, 0, VK_FORMAT_R32_SFLOAT, 8 * sizeof(float)},
   }};
   VkPipelineVertexInputStateCreateInfo vertexInput{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
   if (objectPass) {
@@ -207,11 +219,13 @@ Result<VkPipeline> createGraphicsPipeline(ContextImpl& c, const RendererCreateIn
   return pipeline;
 }
 
-Result<VkPipelineLayout> createLayout(ContextImpl& c, uint32_t pushBytes) {
+Result<VkPipelineLayout> createLayout(ContextImpl& c, uint32_t pushBytes,
+                                      VkDescriptorSetLayout fieldSet = VK_NULL_HANDLE) {
   VkPushConstantRange range{VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, pushBytes};
+  const std::array<VkDescriptorSetLayout, 2> sets{c.environmentSetLayout, fieldSet};
   VkPipelineLayoutCreateInfo plci{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
-  plci.setLayoutCount = 1;
-  plci.pSetLayouts = &c.environmentSetLayout;
+  plci.setLayoutCount = fieldSet ? 2u : 1u;
+  plci.pSetLayouts = sets.data();
   plci.pushConstantRangeCount = 1;
   plci.pPushConstantRanges = &range;
   VkPipelineLayout layout = VK_NULL_HANDLE;
@@ -244,31 +258,82 @@ glm::mat4 viewFromWorld(const Camera& camera) {
 }  // namespace
 
 Renderer::Renderer(std::unique_ptr<RendererImpl> impl) : impl_(std::move(impl)) {}
-Renderer::~Renderer() = default;
+
+Renderer::~Renderer() {
+  RendererImpl* r = impl_.release();
+  if (!r->context) {
+    delete r;
+    return;
+  }
+  r->context->retire([r]() {
+    r->release();
+    delete r;
+  });
+}
 
 Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, const RendererCreateInfo& info) {
   ContextImpl& c = context.impl();
   auto impl = std::make_unique<RendererImpl>();
   impl->context = &c;
   impl->info = info;
+  // Released right away on failure: nothing has used the pipelines yet.
+  struct Guard {
+    RendererImpl* impl;
+    ~Guard() {
+      if (impl) impl->release();
+    }
+  } guard{impl.get()};
+
+  auto distortionLayout = createDistortionSetLayout(c);
+  if (!distortionLayout) return distortionLayout.error();
+  impl->distortionSetLayout = distortionLayout.value();
   auto bl = createLayout(c, sizeof(gpu::BackgroundPushConstants));
   if (!bl) return bl.error();
   impl->backgroundLayout = bl.value();
   auto ol = createLayout(c, sizeof(gpu::ObjectPushConstants));
   if (!ol) return ol.error();
   impl->objectLayout = ol.value();
-  auto bg = createGraphicsPipeline(c, info, impl->backgroundLayout,
-                                   {kSpirv_background_vert, sizeof(kSpirv_background_vert), kSpirv_background_frag,
-                                    sizeof(kSpirv_background_frag)},
-                                   false);
-  if (!bg) return bg.error();
-  impl->background = bg.value();
-  auto si = createGraphicsPipeline(c, info, impl->objectLayout,
-                                   {kSpirv_object_vert, sizeof(kSpirv_object_vert),
-                                    kSpirv_object_single_interface_frag, sizeof(kSpirv_object_single_interface_frag)},
-                                   true);
-  if (!si) return si.error();
-  impl->singleInterface = si.value();
+  auto fl = createLayout(c, sizeof(gpu::ObjectPushConstants), impl->distortionSetLayout);
+  if (!fl) return fl.error();
+  impl->fieldLayout = fl.value();
+
+  struct Variant {
+    VkPipeline* target;
+    VkPipelineLayout layout;
+    ShaderPair shaders;
+    bool objectPass;
+  };
+  const std::array<Variant, 6> variants{{
+      {&impl->background[0], impl->backgroundLayout,
+       {kSpirv_background_vert, sizeof(kSpirv_background_vert), kSpirv_background_frag,
+        sizeof(kSpirv_background_frag)},
+       false},
+      {&impl->background[1], impl->backgroundLayout,
+       {kSpirv_background_vert, sizeof(kSpirv_background_vert), kSpirv_background_cube_frag,
+        sizeof(kSpirv_background_cube_frag)},
+       false},
+      {&impl->singleInterface[0], impl->objectLayout,
+       {kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_single_interface_frag,
+        sizeof(kSpirv_object_single_interface_frag)},
+       true},
+      {&impl->singleInterface[1], impl->objectLayout,
+       {kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_single_interface_cube_frag,
+        sizeof(kSpirv_object_single_interface_cube_frag)},
+       true},
+      {&impl->field[0], impl->fieldLayout,
+       {kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_field_frag, sizeof(kSpirv_object_field_frag)},
+       true},
+      {&impl->field[1], impl->fieldLayout,
+       {kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_field_cube_frag,
+        sizeof(kSpirv_object_field_cube_frag)},
+       true},
+  }};
+  for (const Variant& v : variants) {
+    auto pipeline = createGraphicsPipeline(c, info, v.layout, v.shaders, v.objectPass);
+    if (!pipeline) return pipeline.error();
+    *v.target = pipeline.value();
+  }
+  guard.impl = nullptr;
   return std::unique_ptr<Renderer>(new Renderer(std::move(impl)));
 }
 
@@ -279,7 +344,8 @@ void Renderer::recordBackground(VkCommandBuffer cmd, const Environment& environm
   glm::mat4 view = viewFromWorld(camera);
   view[3] = glm::vec4(0.0f, 0.0f, 0.0f, 1.0f);  // directions only: drop the translation
   gpu::BackgroundPushConstants push{toGpu(glm::inverse(clipFromView(camera, extent) * view))};
-  c.vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r.background);
+  const size_t encoding = static_cast<size_t>(environment.encoding());
+  c.vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r.background[encoding]);
   c.vk.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r.backgroundLayout, 0, 1,
                                &environment.impl().set, 0, nullptr);
   c.vk.vkCmdPushConstants(cmd, r.backgroundLayout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
@@ -292,21 +358,34 @@ void Renderer::recordObjects(VkCommandBuffer cmd, const Environment& environment
   RendererImpl& r = *impl_;
   ContextImpl& c = *r.context;
   const glm::mat4 clipFromWorld = clipFromView(camera, extent) * viewFromWorld(camera);
-  c.vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r.singleInterface);
-  c.vk.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r.objectLayout, 0, 1, &environment.impl().set,
-                               0, nullptr);
+  const size_t encoding = static_cast<size_t>(environment.encoding());
+  VkPipeline bound = VK_NULL_HANDLE;
   for (Object* object : objects) {
     if (!object) continue;
     ObjectImpl& o = object->impl();
+    const bool field = mode == ShadingMode::Field && o.field;
+    const VkPipeline pipeline = field ? r.field[encoding] : r.singleInterface[encoding];
+    const VkPipelineLayout layout = field ? r.fieldLayout : r.objectLayout;
+    if (pipeline != bound) {
+      // Set 0 (environment) stays bound across the switch: both layouts share it.
+      c.vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
+      c.vk.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &environment.impl().set, 0,
+                                   nullptr);
+      bound = pipeline;
+    }
+    if (field)
+      c.vk.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r.fieldLayout, 1, 1, &o.field->distortionSet,
+                                   0, nullptr);
     const ObjectShading& s = object->shading;
     gpu::ObjectPushConstants push{};
     push.clipFromWorld = toGpu(clipFromWorld);
     push.eyeWorld = {camera.eye[0], camera.eye[1], camera.eye[2], 0.0f};
     push.medium = {s.ior, s.absorptionScale, s.reflection ? 1.0f : 0.0f, 0.0f};
     push.tint = {s.tint[0], s.tint[1], s.tint[2], 0.0f};
-    push.params = {r.info.exposure, 0.0f, static_cast<float>(static_cast<uint32_t>(mode)), 0.0f};
-    c.vk.vkCmdPushConstants(cmd, r.objectLayout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
-                            sizeof(push), &push);
+    const uint32_t gpuMode = field ? gpu::kModeField : gpu::kModeSingleInterface;
+    push.params = {r.info.exposure, 0.0f, static_cast<float>(gpuMode), 0.0f};
+    c.vk.vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push),
+                            &push);
     VkDeviceSize offset = 0;
     c.vk.vkCmdBindVertexBuffers(cmd, 0, 1, &o.vertices.buffer, &offset);
     c.vk.vkCmdBindIndexBuffer(cmd, o.indices.buffer, 0, VK_INDEX_TYPE_UINT32);

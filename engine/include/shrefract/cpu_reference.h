@@ -1,0 +1,110 @@
+// CPU reference of the run-time passes, for tests and tools: the same decompression
+// (spirv/shaders/decompress.comp, gutter.comp) and field shading (object_field_body.glsl), in the
+// same float operations where it matters (clamping, normalization, thresholds), and a small ray
+// caster that plays the rasterizer. Slow and simple on purpose; not for production rendering.
+//
+// What differs from the GPU, and why tests need a tolerance: the order of the float sums, the GPU's
+// sqrt/inversesqrt/exp2 precision, its bilinear weights (fixed point on many devices, 8 bits on
+// lavapipe), its RGBA16F environment (the reference samples the float image it is given; pass
+// it through roundToBinary16 to match), and rasterization at triangle edges.
+//
+// All functions are thread-safe (no shared state).
+#pragma once
+
+#include <shrefract/field.h>
+#include <shrefract/renderer.h>
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace shrefract::reference {
+
+using Vec3 = std::array<float, 3>;
+using Vec4 = std::array<float, 4>;
+
+// IEEE binary16 round trip (round to nearest even, saturating at +-65504 as the engine's uploads
+// do): the value an RGBA16F image holds for `value`.
+float roundToBinary16(float value);
+
+// Texel `texel` (y * width + x) of the field decoded for the world-space eye position, as
+// decompress.comp computes it before the RGBA16F store: for a sample texel,
+//   w = M_s (eye, 1), w.z = max(w.z, 0), w normalized (zero -> +z),
+//   s = sum_i c_i Y_i(w) with c_i = fieldCoefficient(...) (tau = 0 when channels == 3),
+//   result = (s.xyz normalized or zero if |s.xyz|^2 <= 1e-20, s.w clamped to +-65504);
+// zero for empty and gutter texels. Preconditions: validateField(field) succeeded, texel in range.
+Vec4 decodeTexel(const Field& field, uint64_t texel, const Vec3& eye);
+
+// A distortion image as the engine leaves it: width * height RGBA texels, row-major, each value
+// representable in binary16.
+struct DistortionImage {
+  uint32_t width = 0;
+  uint32_t height = 0;
+  std::vector<float> rgba;  // ((y * width) + x) * 4 + channel
+};
+
+// The whole atlas for `eye`: decodeTexel for every texel, rounded to binary16, then every gutter
+// rule target = a + b - c computed in float on the rounded values and rounded again.
+// Precondition: validateField(field) succeeded.
+DistortionImage decompress(const Field& field, const Vec3& eye);
+
+// Bilinear sample at normalized coordinates (u, v), as a sampler with LINEAR filtering and
+// CLAMP_TO_EDGE addressing: texel centres at ((i + 0.5) / width, (j + 0.5) / height), exact
+// weights. Precondition: the image is not empty.
+Vec4 sampleBilinear(const DistortionImage& image, float u, float v);
+
+// A lat-long environment (shrefract/environment.h convention): width * height * 4 linear floats.
+struct LatLongImage {
+  uint32_t width = 0;
+  uint32_t height = 0;
+  const float* rgba = nullptr;
+};
+
+// Bilinear lookup in `direction` (any non-zero length), repeating in u and clamping in v, as the
+// engine's environment sampler does. Precondition: the image is not empty.
+Vec3 sampleLatLong(const LatLongImage& environment, const Vec3& direction);
+
+// World direction of the centre of texel (i, j) of cube face `face` (0..5: +X, -X, +Y, -Y, +Z,
+// -Z), not normalized; see CubeEnvironmentDesc.
+Vec3 cubeTexelDirection(uint32_t face, uint32_t i, uint32_t j, uint32_t faceSize);
+
+// What the fragment shader sees at a point of a field object's front surface.
+struct SurfacePoint {
+  Vec3 position{};        // world space
+  Vec3 normal{};          // interpolated vertex normal (normalized inside)
+  std::array<float, 2> uv{};  // normalized atlas coordinates
+  float frontIor = 0.0f;  // n_inside / n_outside; 0: shading.ior
+};
+
+// ShadingMode::Field for one fragment (see renderer.h), before the colour attachment's format
+// conversion. `distortion` must be decompressed for the same eye.
+Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environment, const SurfacePoint& point,
+                const Vec3& eye, const ObjectShading& shading, float exposure = 1.0f);
+
+// One object for render(): its mesh (positions, normals, uvs, frontIor, indices as in FieldMesh)
+// and its decompressed image. Pointers must stay valid during render().
+struct RenderObject {
+  const FieldMesh* mesh = nullptr;
+  const DistortionImage* distortion = nullptr;
+  ObjectShading shading;
+};
+
+struct RenderedImage {
+  uint32_t width = 0;
+  uint32_t height = 0;
+  std::vector<float> rgba;     // row 0 at the top, alpha 1
+  std::vector<int32_t> object; // per pixel: index of the visible object, -1 for the background
+};
+
+// World-space direction of the ray from the eye through the centre of pixel (x, y) (row 0 at the
+// top), for the engine's projection (Vulkan clip space, y down). Not normalized.
+Vec3 pixelRay(const Camera& camera, uint32_t width, uint32_t height, uint32_t x, uint32_t y);
+
+// The background pass and Field-mode objects, ray cast per pixel centre: the nearest front-facing
+// triangle (counter-clockwise seen from the eye, as the GPU culls) with its perspective-correct
+// barycentric attributes, shaded with shadeField; the environment in the ray's direction where no
+// triangle is hit. Near and far planes are ignored (scenes in tests sit well inside them).
+RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImage& environment, const Camera& camera,
+                     uint32_t width, uint32_t height, float exposure = 1.0f);
+
+}  // namespace shrefract::reference

@@ -1,0 +1,45 @@
+#include "decompress/field_layouts.h"
+
+#include <array>
+
+#include "shrefract/gpu_layout.h"
+
+namespace shrefract {
+
+namespace {
+
+Result<VkDescriptorSetLayout> createLayout(ContextImpl& c, const VkDescriptorSetLayoutBinding* bindings,
+                                           uint32_t count) {
+  VkDescriptorSetLayoutCreateInfo info{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+  info.bindingCount = count;
+  info.pBindings = bindings;
+  VkDescriptorSetLayout layout = VK_NULL_HANDLE;
+  const VkResult r = c.vk.vkCreateDescriptorSetLayout(c.device(), &info, c.alloc(), &layout);
+  if (r != VK_SUCCESS) return vulkanError("vkCreateDescriptorSetLayout", r);
+  return layout;
+}
+
+}  // namespace
+
+Result<VkDescriptorSetLayout> createDecompressSetLayout(ContextImpl& c) {
+  auto binding = [](uint32_t index, VkDescriptorType type) {
+    return VkDescriptorSetLayoutBinding{index, type, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+  };
+  const std::array<VkDescriptorSetLayoutBinding, 6> bindings{{
+      binding(gpu::kBindingCoefficients, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER),
+      binding(gpu::kBindingScaleBias, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
+      binding(gpu::kBindingFrames, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
+      binding(gpu::kBindingTexelKinds, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
+      binding(gpu::kBindingDistortionOut, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE),
+      binding(gpu::kBindingGutters, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
+  }};
+  return createLayout(c, bindings.data(), static_cast<uint32_t>(bindings.size()));
+}
+
+Result<VkDescriptorSetLayout> createDistortionSetLayout(ContextImpl& c) {
+  const VkDescriptorSetLayoutBinding binding{gpu::kBindingDistortion, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1,
+                                             VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+  return createLayout(c, &binding, 1);
+}
+
+}  // namespace shrefract

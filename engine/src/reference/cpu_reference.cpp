@@ -1,0 +1,230 @@
+#include <shrefract/cpu_reference.h>
+#include <shrefract/sh.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <glm/glm.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "core/half.h"
+#include "environment/latlong.h"
+#include "shrefract/gpu_layout.h"
+
+namespace shrefract::reference {
+namespace {
+
+glm::vec3 toGlm(const Vec3& v) { return {v[0], v[1], v[2]}; }
+Vec3 fromGlm(const glm::vec3& v) { return {v.x, v.y, v.z}; }
+
+// The exact unpolarized dielectric Fresnel reflectance of environment.glsl.
+float fresnelDielectric(float cosI, float eta) {
+  cosI = std::clamp(cosI, 0.0f, 1.0f);
+  const float sin2T = eta * eta * std::max(0.0f, 1.0f - cosI * cosI);
+  if (sin2T >= 1.0f) return 1.0f;
+  const float cosT = std::sqrt(1.0f - sin2T);
+  const float rs = (eta * cosI - cosT) / (eta * cosI + cosT);
+  const float rp = (cosI - eta * cosT) / (cosI + eta * cosT);
+  return 0.5f * (rs * rs + rp * rp);
+}
+
+const float* texelAt(const DistortionImage& image, uint32_t x, uint32_t y) {
+  return &image.rgba[(size_t(y) * image.width + x) * 4];
+}
+
+}  // namespace
+
+float roundToBinary16(float value) { return halfToFloat(floatToHalf(value)); }
+
+Vec4 decodeTexel(const Field& field, uint64_t texel, const Vec3& eye) {
+  if (field.texelKinds[texel] != kTexelSample) return {0.0f, 0.0f, 0.0f, 0.0f};
+  const float* m = &field.frames[texel * 12];
+  float w[3];
+  for (int k = 0; k < 3; ++k) w[k] = m[4 * k] * eye[0] + m[4 * k + 1] * eye[1] + m[4 * k + 2] * eye[2] + m[4 * k + 3];
+  w[2] = std::max(w[2], 0.0f);
+  const int order = static_cast<int>(field.order);
+  std::vector<float> y(static_cast<size_t>(sh::basisCount(order)));
+  sh::evaluate(order, w[0], w[1], w[2], y.data());
+  float sum[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+  for (uint32_t i = 0; i < field.basisCount(); ++i)
+    for (uint32_t c = 0; c < field.channels; ++c) sum[c] += fieldCoefficient(field, i, texel, c) * y[i];
+  const float len2 = sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2];
+  Vec4 out{0.0f, 0.0f, 0.0f, std::clamp(sum[3], -gpu::kMaxOpticalDepth, gpu::kMaxOpticalDepth)};
+  if (len2 > gpu::kMinDirectionLength2) {
+    const float inv = 1.0f / std::sqrt(len2);
+    for (int k = 0; k < 3; ++k) out[k] = sum[k] * inv;
+  }
+  return out;
+}
+
+DistortionImage decompress(const Field& field, const Vec3& eye) {
+  DistortionImage image;
+  image.width = field.width;
+  image.height = field.height;
+  image.rgba.resize(size_t(field.texelCount()) * 4);
+  for (uint64_t t = 0; t < field.texelCount(); ++t) {
+    const Vec4 v = decodeTexel(field, t, eye);
+    for (int c = 0; c < 4; ++c) image.rgba[t * 4 + c] = roundToBinary16(v[c]);
+  }
+  // Rules read sample texels only (validateField), so the order of application does not matter.
+  for (const GutterTexel& g : field.gutters)
+    for (int c = 0; c < 4; ++c)
+      image.rgba[size_t(g.target) * 4 + c] = roundToBinary16(image.rgba[size_t(g.a) * 4 + c] +
+                                                             image.rgba[size_t(g.b) * 4 + c] -
+                                                             image.rgba[size_t(g.c) * 4 + c]);
+  return image;
+}
+
+Vec4 sampleBilinear(const DistortionImage& image, float u, float v) {
+  const float x = u * float(image.width) - 0.5f;
+  const float y = v * float(image.height) - 0.5f;
+  const float fx = std::floor(x), fy = std::floor(y);
+  const float ax = x - fx, ay = y - fy;
+  auto clampX = [&](float i) { return static_cast<uint32_t>(std::clamp(i, 0.0f, float(image.width - 1))); };
+  auto clampY = [&](float j) { return static_cast<uint32_t>(std::clamp(j, 0.0f, float(image.height - 1))); };
+  const uint32_t x0 = clampX(fx), x1 = clampX(fx + 1.0f), y0 = clampY(fy), y1 = clampY(fy + 1.0f);
+  Vec4 out{};
+  for (int c = 0; c < 4; ++c) {
+    const float top = (1.0f - ax) * texelAt(image, x0, y0)[c] + ax * texelAt(image, x1, y0)[c];
+    const float bottom = (1.0f - ax) * texelAt(image, x0, y1)[c] + ax * texelAt(image, x1, y1)[c];
+    out[c] = (1.0f - ay) * top + ay * bottom;
+  }
+  return out;
+}
+
+Vec3 sampleLatLong(const LatLongImage& env, const Vec3& direction) {
+  float out[4];
+  sampleLatLongBilinear(env.rgba, env.width, env.height, direction[0], direction[1], direction[2], out);
+  return {out[0], out[1], out[2]};
+}
+
+Vec3 cubeTexelDirection(uint32_t face, uint32_t i, uint32_t j, uint32_t faceSize) {
+  const float a = 2.0f * (float(i) + 0.5f) / float(faceSize) - 1.0f;
+  const float b = 2.0f * (float(j) + 0.5f) / float(faceSize) - 1.0f;
+  switch (face) {
+    case 0: return {1.0f, -b, -a};
+    case 1: return {-1.0f, -b, a};
+    case 2: return {a, 1.0f, b};
+    case 3: return {a, -1.0f, -b};
+    case 4: return {a, -b, 1.0f};
+    default: return {-a, -b, -1.0f};
+  }
+}
+
+Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environment, const SurfacePoint& point,
+                const Vec3& eyeArray, const ObjectShading& shading, float exposure) {
+  glm::vec3 n = glm::normalize(toGlm(point.normal));
+  const glm::vec3 v = glm::normalize(toGlm(point.position) - toGlm(eyeArray));
+  float cosI = -glm::dot(v, n);
+  if (cosI < 1e-4f) {
+    n = glm::normalize(n + (1e-4f - cosI) * -v);
+    cosI = -glm::dot(v, n);
+  }
+  const float ior = point.frontIor > 0.0f ? point.frontIor : shading.ior;
+  const float fresnel = fresnelDielectric(cosI, 1.0f / ior);
+  const Vec4 d = sampleBilinear(distortion, point.uv[0], point.uv[1]);
+  const glm::vec3 dir(d[0], d[1], d[2]);
+  const float len2 = glm::dot(dir, dir);
+  const glm::vec3 exitDirection = len2 > gpu::kMinDirectionLength2 ? dir / std::sqrt(len2) : v;
+  const float transmittance = std::exp2(-std::max(d[3], 0.0f) * shading.absorptionScale);
+  glm::vec3 color = (1.0f - fresnel) * transmittance * toGlm(shading.tint) *
+                    toGlm(sampleLatLong(environment, fromGlm(exitDirection)));
+  if (shading.reflection) color += fresnel * toGlm(sampleLatLong(environment, fromGlm(glm::reflect(v, n))));
+  return fromGlm(color * exposure);
+}
+
+Vec3 pixelRay(const Camera& camera, uint32_t width, uint32_t height, uint32_t x, uint32_t y) {
+  const float aspect = height ? float(width) / float(height) : 1.0f;
+  glm::mat4 proj = glm::perspectiveRH_ZO(glm::radians(camera.verticalFovDegrees), aspect, camera.nearPlane,
+                                         camera.farPlane);
+  proj[1][1] *= -1.0f;
+  glm::mat4 view = glm::lookAtRH(toGlm(camera.eye), toGlm(camera.target), toGlm(camera.up));
+  view[3] = glm::vec4(0.0f, 0.0f, 0.0f, 1.0f);
+  const glm::vec2 ndc((float(x) + 0.5f) / float(width) * 2.0f - 1.0f, (float(y) + 0.5f) / float(height) * 2.0f - 1.0f);
+  return fromGlm(glm::vec3(glm::inverse(proj * view) * glm::vec4(ndc, 1.0f, 1.0f)));
+}
+
+RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImage& environment, const Camera& camera,
+                     uint32_t width, uint32_t height, float exposure) {
+  RenderedImage image;
+  image.width = width;
+  image.height = height;
+  image.rgba.assign(size_t(width) * height * 4, 0.0f);
+  image.object.assign(size_t(width) * height, -1);
+  // Double precision for the ray-triangle test: the GPU's coverage is exact for pixel centres
+  // away from edges, and so should the reference be.
+  const glm::dvec3 eye(camera.eye[0], camera.eye[1], camera.eye[2]);
+  for (uint32_t py = 0; py < height; ++py)
+    for (uint32_t px = 0; px < width; ++px) {
+      const Vec3 rayF = pixelRay(camera, width, height, px, py);
+      const glm::dvec3 ray(rayF[0], rayF[1], rayF[2]);
+      double bestT = std::numeric_limits<double>::infinity();
+      int bestObject = -1;
+      uint32_t bestTriangle = 0;
+      double bestU = 0.0, bestV = 0.0;
+      for (size_t o = 0; o < objects.size(); ++o) {
+        const FieldMesh& mesh = *objects[o].mesh;
+        for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+          glm::dvec3 p[3];
+          for (int k = 0; k < 3; ++k) {
+            const float* q = &mesh.positions[size_t(mesh.indices[t + size_t(k)]) * 3];
+            p[k] = glm::dvec3(q[0], q[1], q[2]);
+          }
+          const glm::dvec3 e1 = p[1] - p[0], e2 = p[2] - p[0];
+          // Back faces (clockwise seen from the eye) are culled, as in the raster pipeline.
+          if (glm::dot(glm::cross(e1, e2), eye - p[0]) <= 0.0) continue;
+          // Moller-Trumbore.
+          const glm::dvec3 pv = glm::cross(ray, e2);
+          const double det = glm::dot(e1, pv);
+          if (std::fabs(det) < 1e-300) continue;
+          const glm::dvec3 tv = eye - p[0];
+          const double u = glm::dot(tv, pv) / det;
+          if (u < 0.0 || u > 1.0) continue;
+          const glm::dvec3 qv = glm::cross(tv, e1);
+          const double v = glm::dot(ray, qv) / det;
+          if (v < 0.0 || u + v > 1.0) continue;
+          const double tHit = glm::dot(e2, qv) / det;
+          if (tHit <= 0.0 || tHit >= bestT) continue;
+          bestT = tHit;
+          bestObject = static_cast<int>(o);
+          bestTriangle = static_cast<uint32_t>(t);
+          bestU = u;
+          bestV = v;
+        }
+      }
+      float* out = &image.rgba[(size_t(py) * width + px) * 4];
+      out[3] = 1.0f;
+      if (bestObject < 0) {
+        const Vec3 c = sampleLatLong(environment, rayF);
+        for (int k = 0; k < 3; ++k) out[k] = c[size_t(k)];
+        continue;
+      }
+      const RenderObject& object = objects[size_t(bestObject)];
+      const FieldMesh& mesh = *object.mesh;
+      const double bary[3] = {1.0 - bestU - bestV, bestU, bestV};
+      double position[3] = {0, 0, 0}, normal[3] = {0, 0, 0}, uv[2] = {0, 0}, ior = 0.0;
+      for (int k = 0; k < 3; ++k) {
+        const size_t vtx = mesh.indices[bestTriangle + uint32_t(k)];
+        for (int c = 0; c < 3; ++c) {
+          position[c] += bary[k] * double(mesh.positions[vtx * 3 + size_t(c)]);
+          normal[c] += bary[k] * double(mesh.normals[vtx * 3 + size_t(c)]);
+        }
+        for (int c = 0; c < 2; ++c) uv[c] += bary[k] * double(mesh.uvs[vtx * 2 + size_t(c)]);
+        ior += bary[k] * double(mesh.frontIor.empty() ? 0.0f : mesh.frontIor[vtx]);
+      }
+      SurfacePoint point;
+      for (int c = 0; c < 3; ++c) {
+        point.position[size_t(c)] = static_cast<float>(position[c]);
+        point.normal[size_t(c)] = static_cast<float>(normal[c]);
+      }
+      point.uv = {static_cast<float>(uv[0]), static_cast<float>(uv[1])};
+      point.frontIor = static_cast<float>(ior);
+      const Vec3 c = shadeField(*object.distortion, environment, point, camera.eye, object.shading, exposure);
+      for (int k = 0; k < 3; ++k) out[k] = c[size_t(k)];
+      image.object[size_t(py) * width + px] = bestObject;
+    }
+  return image;
+}
+
+}  // namespace shrefract::reference

@@ -1,0 +1,22 @@
+#version 460
+// Split-layout continuity rules, after decompression: texel target = value(a) + value(b) - value(c)
+// (field.h GutterTexel). a, b and c hold samples (validateField), so no rule reads another's target.
+#extension GL_GOOGLE_include_directive : require
+#include "shrefract/gpu_layout.h"
+
+layout(local_size_x = kGutterLocalSize) in;
+
+layout(push_constant) uniform Push { DecompressPushConstants pc; };
+layout(std430, set = 0, binding = kBindingGutters) readonly buffer Gutters { uvec4 gutters[]; };
+layout(set = 0, binding = kBindingDistortionOut, rgba16f) uniform image2D distortion;
+
+ivec2 texelCoord(uint t) { return ivec2(t % pc.size.x, t / pc.size.x); }
+
+void main() {
+  uint g = gl_GlobalInvocationID.x;
+  if (g >= pc.size.z) return;
+  uvec4 rule = gutters[g];
+  vec4 value = imageLoad(distortion, texelCoord(rule.y)) + imageLoad(distortion, texelCoord(rule.z)) -
+               imageLoad(distortion, texelCoord(rule.w));
+  imageStore(distortion, texelCoord(rule.x), value);
+}

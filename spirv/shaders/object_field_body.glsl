@@ -1,0 +1,36 @@
+// Field shading: the decompressed distortion image gives, at the fragment's field texture
+// coordinate, the direction in which the refracted path leaves the object and its optical depth.
+// Mirrored exactly by engine/src/reference/cpu_reference.cpp (shadeField).
+#include "shrefract/gpu_layout.h"
+#include "environment_select.glsl"
+
+layout(push_constant) uniform Push { ObjectPushConstants pc; };
+layout(set = 1, binding = kBindingDistortion) uniform sampler2D distortionMap;
+
+layout(location = 0) in vec3 inPosition;
+layout(location = 1) in vec3 inNormal;
+layout(location = 2) in vec2 inFieldUv;
+layout(location = 3) in float inFrontIor;
+layout(location = 0) out vec4 outColor;
+
+void main() {
+  vec3 n = normalize(inNormal);
+  vec3 v = normalize(inPosition - pc.eyeWorld.xyz);
+  // Interpolated normals can face away near silhouettes; bend them back toward the viewer.
+  float cosI = -dot(v, n);
+  if (cosI < 1e-4) {
+    n = normalize(n + (1e-4 - cosI) * -v);
+    cosI = -dot(v, n);
+  }
+  float ior = inFrontIor > 0.0 ? inFrontIor : pc.medium.x;
+  float fresnel = fresnelDielectric(cosI, 1.0 / ior);
+
+  // Bilinear between texel centres; level 0 (the atlas has no mip chain: gutters are one texel).
+  vec4 d = textureLod(distortionMap, inFieldUv, 0.0);
+  float len2 = dot(d.xyz, d.xyz);
+  vec3 exitDirection = len2 > kMinDirectionLength2 ? d.xyz * inversesqrt(len2) : v;
+  float transmittance = exp2(-max(d.w, 0.0) * pc.medium.y);
+  vec3 color = (1.0 - fresnel) * transmittance * pc.tint.rgb * lookupEnvironment(exitDirection);
+  if (pc.medium.z > 0.5) color += fresnel * lookupEnvironment(reflect(v, n));
+  outColor = vec4(color * pc.params.x, 1.0);
+}

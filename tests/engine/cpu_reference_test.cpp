@@ -1,0 +1,189 @@
+// The CPU reference on cases with an analytic answer: the GPU tests compare against it, so it
+// must be right on its own. Decoding (frame, horizon clamp, SH sum, normalization), gutter rules,
+// bilinear sampling at texel centres and clamp-to-edge, field shading, and the ray caster.
+#include <gtest/gtest.h>
+#include <shrefract/cpu_reference.h>
+
+#include <cmath>
+#include <vector>
+
+#include "engine/synthetic_field.h"
+
+namespace shrefract {
+namespace {
+
+constexpr float kY0 = 0.28209479f;  // Y_0
+constexpr float kY1 = 0.48860251f;  // sqrt(3 / (4 pi)), the band-1 constant
+
+// A 2x1 atlas, both texels samples with the identity frame at the origin (w = eye), order 1, U8.
+// Coefficient layer i, channel c as given, the same in both texels: every (layer, channel) has zero
+// range, so it decodes exactly to its bias (field.h).
+Field identityField(const std::vector<std::array<float, 4>>& layers, uint32_t order = 1) {
+  Field f;
+  f.width = 2;
+  f.height = 1;
+  f.order = order;
+  f.channels = 4;
+  f.quantization = Quantization::U8;
+  f.settings.order = order;
+  f.settings.quantization = Quantization::U8;
+  f.media.push_back(FieldMedium{"air", 1.0f, 0.0f, {1, 1, 1}});
+  f.texelKinds = {kTexelSample, kTexelSample};
+  const float identity[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+  f.frames.assign(identity, identity + 12);
+  f.frames.insert(f.frames.end(), identity, identity + 12);
+  std::vector<float> coefficients(size_t(f.basisCount()) * 2 * 4, 0.0f);
+  for (size_t i = 0; i < layers.size(); ++i)
+    for (size_t t = 0; t < 2; ++t)
+      for (size_t c = 0; c < 4; ++c) coefficients[(i * 2 + t) * 4 + c] = layers[i][c];
+  EXPECT_TRUE(encodeCoefficients(f, coefficients).ok());
+  f.mesh.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  f.mesh.normals = {0, 0, 1, 0, 0, 1, 0, 0, 1};
+  f.mesh.uvs = {0, 0, 1, 0, 0, 1};
+  f.mesh.frontIor = {1.5f, 1.5f, 1.5f};
+  f.mesh.indices = {0, 1, 2};
+  EXPECT_TRUE(validateField(f).ok()) << validateField(f).error().message;
+  return f;
+}
+
+TEST(CpuReference, ConstantFieldDecodesToItsDirection) {
+  // Band 0 only: the decoded direction does not depend on the eye.
+  const Field f = identityField({{1.0f, 2.0f, 2.0f, 4.0f}, {0, 0, 0, 0}, {0, 0, 0, 0}, {0, 0, 0, 0}});
+  for (const reference::Vec3 eye : {reference::Vec3{0, 0, 3}, reference::Vec3{5, -1, 0.1f}, reference::Vec3{0, 0, -2}}) {
+    const reference::Vec4 d = reference::decodeTexel(f, 1, eye);
+    EXPECT_NEAR(d[0], 1.0f / 3.0f, 1e-6f);
+    EXPECT_NEAR(d[1], 2.0f / 3.0f, 1e-6f);
+    EXPECT_NEAR(d[2], 2.0f / 3.0f, 1e-6f);
+    EXPECT_NEAR(d[3], 4.0f * kY0, 1e-6f);
+  }
+}
+
+TEST(CpuReference, BandOneFollowsTheEyeAndClampsAtTheHorizon) {
+  // x of the exit direction = c_0 Y_0 + c_2 Y_2(w) with Y_2 = kY1 * w.z (index 2 is (l=1, m=0)).
+  // y = constant 1 keeps the sum away from zero.
+  const Field f = identityField({{0.0f, 1.0f / kY0, 0.0f, 0.0f}, {0, 0, 0, 0}, {1.0f, 0, 0, 0}, {0, 0, 0, 0}});
+  // Eye on the normal: w = +z, x = kY1, y = 1.
+  reference::Vec4 d = reference::decodeTexel(f, 0, {0, 0, 2});
+  const float len = std::sqrt(kY1 * kY1 + 1.0f);
+  EXPECT_NEAR(d[0], kY1 / len, 1e-6f);
+  EXPECT_NEAR(d[1], 1.0f / len, 1e-6f);
+  // Eye below the tangent plane: w.z is clamped to 0 (the horizon), so x = 0.
+  d = reference::decodeTexel(f, 0, {1, 0, -3});
+  EXPECT_NEAR(d[0], 0.0f, 1e-6f);
+  EXPECT_NEAR(d[1], 1.0f, 1e-6f);
+  // Eye exactly on the sample point below the plane: w = 0 after the clamp counts as +z.
+  d = reference::decodeTexel(f, 0, {0, 0, -1});
+  EXPECT_NEAR(d[0], kY1 / len, 1e-6f);
+}
+
+TEST(CpuReference, ZeroSumHasNoDirection) {
+  const Field f = identityField({{0, 0, 0, 1.0f}, {0, 0, 0, 0}, {0, 0, 0, 0}, {0, 0, 0, 0}});
+  const reference::Vec4 d = reference::decodeTexel(f, 0, {0, 0, 1});
+  EXPECT_EQ(d[0], 0.0f);
+  EXPECT_EQ(d[1], 0.0f);
+  EXPECT_EQ(d[2], 0.0f);
+  EXPECT_NEAR(d[3], kY0, 1e-6f);
+}
+
+TEST(CpuReference, GutterRulesAndEmptyTexels) {
+  testing::SyntheticFieldOptions o;
+  o.emptyAndGutters = true;
+  const Field f = testing::makeSyntheticField(o);
+  ASSERT_TRUE(validateField(f).ok()) << validateField(f).error().message;
+  const reference::Vec3 eye{0.5f, 0.5f, 3.0f};
+  const reference::DistortionImage image = reference::decompress(f, eye);
+  for (uint64_t t = 0; t < f.texelCount(); ++t) {
+    if (f.texelKinds[t] == kTexelEmpty) {
+      for (int c = 0; c < 4; ++c) EXPECT_EQ(image.rgba[t * 4 + c], 0.0f);
+    }
+    if (f.texelKinds[t] == kTexelSample) {
+      const reference::Vec4 d = reference::decodeTexel(f, t, eye);
+      for (int c = 0; c < 4; ++c) EXPECT_EQ(image.rgba[t * 4 + c], reference::roundToBinary16(d[size_t(c)]));
+    }
+  }
+  ASSERT_FALSE(f.gutters.empty());
+  for (const GutterTexel& g : f.gutters)
+    for (int c = 0; c < 4; ++c)
+      EXPECT_EQ(image.rgba[g.target * 4 + c],
+                reference::roundToBinary16(image.rgba[g.a * 4 + c] + image.rgba[g.b * 4 + c] - image.rgba[g.c * 4 + c]));
+}
+
+TEST(CpuReference, BilinearSamplingAtCentresBetweenThemAndBeyondTheEdge) {
+  reference::DistortionImage image;
+  image.width = 2;
+  image.height = 2;
+  image.rgba = {0, 0, 0, 0, 1, 2, 3, 4, 10, 20, 30, 40, 11, 22, 33, 44};
+  auto at = [&](float u, float v) { return reference::sampleBilinear(image, u, v); };
+  EXPECT_EQ(at(0.25f, 0.25f)[0], 0.0f);   // centre of texel (0, 0)
+  EXPECT_EQ(at(0.75f, 0.25f)[1], 2.0f);   // centre of texel (1, 0)
+  EXPECT_EQ(at(0.25f, 0.75f)[2], 30.0f);  // centre of texel (0, 1)
+  EXPECT_NEAR(at(0.5f, 0.5f)[3], (0 + 4 + 40 + 44) / 4.0f, 1e-5f);
+  EXPECT_NEAR(at(0.5f, 0.25f)[0], 0.5f, 1e-6f);
+  EXPECT_EQ(at(0.0f, 0.0f)[1], 0.0f);      // clamp to edge: the corner texel only
+  EXPECT_EQ(at(1.0f, 1.0f)[2], 33.0f);
+  EXPECT_NEAR(at(1.0f, 0.5f)[0], 6.0f, 1e-5f);  // right edge: between (1,0) and (1,1)
+}
+
+TEST(CpuReference, ShadeFieldOnAConstantEnvironment) {
+  // Constant environment E: colour = (1 - F) T tint E + F E at normal incidence, F = 0.04 (1.5).
+  std::vector<float> envPixels(8 * 4 * 4);
+  for (size_t i = 0; i < envPixels.size(); i += 4) {
+    envPixels[i] = 0.5f;
+    envPixels[i + 1] = 0.25f;
+    envPixels[i + 2] = 1.0f;
+    envPixels[i + 3] = 1.0f;
+  }
+  const reference::LatLongImage env{8, 4, envPixels.data()};
+  reference::DistortionImage distortion;
+  distortion.width = distortion.height = 1;
+  distortion.rgba = {0.0f, 0.0f, -1.0f, 2.0f};  // tau = 2
+  reference::SurfacePoint p;
+  p.position = {0, 0, 0};
+  p.normal = {0, 0, 1};
+  p.uv = {0.5f, 0.5f};
+  p.frontIor = 1.5f;
+  ObjectShading shading;
+  shading.absorptionScale = 0.5f;  // T = exp2(-1) = 0.5
+  shading.tint = {1.0f, 0.5f, 1.0f};
+  const reference::Vec3 c = reference::shadeField(distortion, env, p, {0, 0, 4}, shading, 2.0f);
+  const float f = 0.04f;
+  const float expected[3] = {((1 - f) * 0.5f * 1.0f + f) * 0.5f * 2.0f, ((1 - f) * 0.5f * 0.5f + f) * 0.25f * 2.0f,
+                             ((1 - f) * 0.5f * 1.0f + f) * 1.0f * 2.0f};
+  for (size_t k = 0; k < 3; ++k) EXPECT_NEAR(c[k], expected[k], 1e-5f) << k;
+  // No data: the view direction is used (the same constant environment, so the same colour).
+  distortion.rgba = {0, 0, 0, 2.0f};
+  const reference::Vec3 c2 = reference::shadeField(distortion, env, p, {0, 0, 4}, shading, 2.0f);
+  for (size_t k = 0; k < 3; ++k) EXPECT_NEAR(c2[k], expected[k], 1e-5f);
+  // frontIor 0 falls back to shading.ior: 1.0 means no reflection at all.
+  p.frontIor = 0.0f;
+  shading.ior = 1.0f;
+  const reference::Vec3 c3 = reference::shadeField(distortion, env, p, {0, 0, 4}, shading, 1.0f);
+  EXPECT_NEAR(c3[0], 0.5f * 1.0f * 0.5f, 1e-6f);
+}
+
+TEST(CpuReference, RenderHitsFrontFacesOnly) {
+  // A quad at z = 0 facing +z; the camera on +z sees it in the middle of the image.
+  FieldMesh mesh;
+  mesh.positions = {-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0};
+  mesh.normals = {0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1};
+  mesh.uvs = {0, 0, 1, 0, 1, 1, 0, 1};
+  mesh.frontIor = {1.5f, 1.5f, 1.5f, 1.5f};
+  mesh.indices = {0, 1, 2, 0, 2, 3};
+  reference::DistortionImage distortion;
+  distortion.width = distortion.height = 1;
+  distortion.rgba = {0.0f, 0.0f, -1.0f, 0.0f};
+  std::vector<float> envPixels(8 * 4 * 4, 1.0f);
+  const reference::LatLongImage env{8, 4, envPixels.data()};
+  Camera camera;
+  camera.eye = {0, 0, 4};
+  reference::RenderedImage image = reference::render({{&mesh, &distortion, ObjectShading{}}}, env, camera, 16, 16);
+  EXPECT_EQ(image.object[8 * 16 + 8], 0);
+  EXPECT_EQ(image.object[0], -1);
+  // Seen from behind, the quad is culled.
+  camera.eye = {0, 0, -4};
+  image = reference::render({{&mesh, &distortion, ObjectShading{}}}, env, camera, 16, 16);
+  EXPECT_EQ(image.object[8 * 16 + 8], -1);
+}
+
+}  // namespace
+}  // namespace shrefract

@@ -1,0 +1,94 @@
+// Shared by the engine's GPU tests: a context on the test harness, one-shot uploads, and the
+// read-back of an object's distortion image.
+#pragma once
+
+#include <shrefract/context.h>
+#include <shrefract/renderer.h>
+
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <vector>
+
+#include "gpu_test_support.h"
+
+namespace shrefract::testing {
+
+inline Result<std::unique_ptr<Context>> createContext(const harness::Harness& h) {
+  ContextCreateInfo info;
+  info.instance = h.instance();
+  info.physicalDevice = h.physicalDevice();
+  info.device = h.device();
+  info.queueFamilyIndex = h.queueFamily();
+  info.queue = h.queue();
+  info.getInstanceProcAddr = vkGetInstanceProcAddr;
+  return Context::create(info);
+}
+
+inline float halfToFloat(uint16_t h) {
+  const int exponent = (h >> 10) & 0x1f;
+  const int mantissa = h & 0x3ff;
+  float value = 0.0f;
+  if (exponent == 0) value = std::ldexp(float(mantissa), -24);
+  else if (exponent == 31) value = mantissa ? std::nanf("") : INFINITY;
+  else value = std::ldexp(float(mantissa | 0x400), exponent - 25);
+  return (h & 0x8000) ? -value : value;
+}
+
+// Copies the object's distortion image (RGBA16F, SHADER_READ_ONLY_OPTIMAL, as the engine leaves
+// it) to the host as floats, and returns it to SHADER_READ_ONLY_OPTIMAL.
+inline Result<std::vector<float>> readDistortion(harness::Harness& h, const Object& object) {
+  const VkExtent2D extent = object.fieldExtent();
+  const VkDeviceSize bytes = VkDeviceSize(extent.width) * extent.height * 8;
+  auto staging = h.createHostBuffer(bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+  if (!staging) return staging.error();
+  harness::Harness::Buffer buffer = staging.value();
+  auto submitted = h.submitAndWait([&](VkCommandBuffer cmd) {
+    VkImageMemoryBarrier2 toSrc{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
+    toSrc.srcStageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
+    toSrc.srcAccessMask = VK_ACCESS_2_MEMORY_WRITE_BIT;
+    toSrc.dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+    toSrc.dstAccessMask = VK_ACCESS_2_TRANSFER_READ_BIT;
+    toSrc.oldLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+    toSrc.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    toSrc.srcQueueFamilyIndex = toSrc.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    toSrc.image = object.distortionImage();
+    toSrc.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+    dep.imageMemoryBarrierCount = 1;
+    dep.pImageMemoryBarriers = &toSrc;
+    vkCmdPipelineBarrier2(cmd, &dep);
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageExtent = {extent.width, extent.height, 1};
+    vkCmdCopyImageToBuffer(cmd, object.distortionImage(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, buffer.buffer, 1,
+                           &region);
+    VkImageMemoryBarrier2 back = toSrc;
+    back.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+    back.srcAccessMask = 0;
+    back.dstStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+    back.dstAccessMask = 0;
+    back.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    back.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+    VkMemoryBarrier2 host{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
+    host.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+    host.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+    host.dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT;
+    host.dstAccessMask = VK_ACCESS_2_HOST_READ_BIT;
+    dep.pImageMemoryBarriers = &back;
+    dep.memoryBarrierCount = 1;
+    dep.pMemoryBarriers = &host;
+    vkCmdPipelineBarrier2(cmd, &dep);
+  });
+  std::vector<float> out;
+  if (submitted) {
+    const auto* p = static_cast<const uint16_t*>(buffer.mapped);
+    out.resize(size_t(extent.width) * extent.height * 4);
+    for (size_t i = 0; i < out.size(); ++i) out[i] = halfToFloat(p[i]);
+  }
+  h.destroyBuffer(buffer);
+  if (!submitted) return submitted.error();
+  return out;
+}
+
+}  // namespace shrefract::testing

@@ -1,0 +1,235 @@
+// The raster pass in Field mode against the CPU reference renderer (shrefract/cpu_reference.h):
+// two field objects in one frame, decompressed on the GPU for the camera's eye, over a smooth
+// environment; and the cube-map environment against the lat-long one. Failing images are written
+// to the test's working directory as PNG (GPU, CPU reference, and the per-pixel difference x10);
+// with SHREFRACT_WRITE_TEST_IMAGES set in the environment they are written on success too.
+#include <gtest/gtest.h>
+#include <shrefract/cpu_reference.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <numbers>
+#include <string>
+
+#include "engine/synthetic_field.h"
+#include "gpu_test_support.h"
+#include "offscreen/offscreen.h"
+
+namespace shrefract {
+namespace {
+
+using testing::kSkipCode;
+
+// Image tolerance, declared as data: a pixel passes when every channel is within
+// kAbsolute + kRelative * |reference|; at most kFailFraction of the pixels may fail.
+// Why these numbers: both sides decode the same binary16 distortion texels and the same binary16
+// environment, but the GPU interpolates attributes and bilinear weights in its own precision
+// (lavapipe: 8-bit filter weights, i.e. up to 1/512 texel of position error), so colours differ
+// by a fraction of the environment's gradient per texel (about 0.01 for this environment).
+// Pixels whose centre lies within a rounding error of a silhouette can be covered on one side only.
+struct ImageTolerance {
+  float absolute;
+  float relative;
+  float failFraction;
+};
+constexpr ImageTolerance kFieldTolerance{0.02f, 0.02f, 0.005f};
+// Cube map against lat-long: the cube is resampled from the lat-long (one more bilinear step,
+// about half a texel of blur on a 256x128 map), then filtered by the GPU's cube sampling.
+constexpr ImageTolerance kCubeTolerance{0.02f, 0.03f, 0.005f};
+
+// A smooth environment with structure in every direction, so that a wrong exit direction changes
+// the colour, rounded to binary16 as the GPU stores it.
+bake::Image smoothEnvironment(uint32_t width) {
+  bake::Image env;
+  env.width = width;
+  env.height = width / 2;
+  env.rgba.resize(size_t(env.width) * env.height * 4);
+  for (uint32_t y = 0; y < env.height; ++y)
+    for (uint32_t x = 0; x < env.width; ++x) {
+      const glm::vec3 d = bake::latLongToDirection({(float(x) + 0.5f) / float(env.width),
+                                                    (float(y) + 0.5f) / float(env.height)});
+      const float wave = 0.15f * std::sin(3.0f * d.x + 2.0f * d.y) * std::cos(2.5f * d.z);
+      const float rgb[3] = {0.55f + 0.4f * d.x + wave, 0.5f + 0.4f * d.y - wave, 0.5f + 0.35f * d.z + 0.5f * wave};
+      float* p = &env.rgba[(size_t(y) * env.width + x) * 4];
+      for (int k = 0; k < 3; ++k) p[k] = reference::roundToBinary16(std::max(0.0f, rgb[k]));
+      p[3] = 1.0f;
+    }
+  return env;
+}
+
+struct Comparison {
+  uint32_t pixels = 0, failed = 0;
+  float maxDiff = 0.0f;
+};
+
+Comparison compare(const bake::Image& gpu, const std::vector<float>& cpu, const ImageTolerance& tol,
+                   const std::vector<int32_t>* mask = nullptr, bake::Image* diff = nullptr) {
+  Comparison c;
+  if (diff) {
+    diff->width = gpu.width;
+    diff->height = gpu.height;
+    diff->rgba.assign(gpu.rgba.size(), 1.0f);
+  }
+  for (size_t p = 0; p < size_t(gpu.width) * gpu.height; ++p) {
+    if (mask && (*mask)[p] < 0) continue;
+    ++c.pixels;
+    bool ok = true;
+    for (size_t k = 0; k < 3; ++k) {
+      const float e = std::fabs(gpu.rgba[p * 4 + k] - cpu[p * 4 + k]);
+      c.maxDiff = std::max(c.maxDiff, e);
+      ok = ok && e <= tol.absolute + tol.relative * std::fabs(cpu[p * 4 + k]);
+      if (diff) diff->rgba[p * 4 + k] = std::min(1.0f, 10.0f * e);
+    }
+    if (!ok) ++c.failed;
+  }
+  return c;
+}
+
+void writeForInspection(const std::string& name, const bake::Image& image) {
+  if (auto written = bake::writeImage(name, image); written)
+    std::fprintf(stderr, "wrote %s\n", name.c_str());
+  else
+    std::fprintf(stderr, "could not write %s: %s\n", name.c_str(), written.error().message.c_str());
+}
+
+class FieldRender : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    harness::HarnessFailure failure{};
+    auto s = offscreen::createSession(harness::HarnessOptions{}, &failure);
+    if (!s && failure == harness::HarnessFailure::NoDevice) {
+      std::fprintf(stderr, "SKIPPED: no Vulkan device: %s\n", s.error().message.c_str());
+      std::exit(kSkipCode);
+    }
+    ASSERT_TRUE(s.ok()) << s.error().message;
+    session = std::move(s).value();
+    std::printf("device: %s\n", session->harness->deviceName().c_str());
+  }
+  void TearDown() override {
+    if (session) SHREFRACT_EXPECT_NO_VALIDATION_MESSAGES(*session->harness);
+  }
+  std::unique_ptr<offscreen::Session> session;
+};
+
+TEST_F(FieldRender, TwoObjectsMatchCpuReference) {
+  const bake::Image env = smoothEnvironment(256);
+  auto gpuEnv = offscreen::uploadEnvironment(*session, env);
+  ASSERT_TRUE(gpuEnv.ok()) << gpuEnv.error().message;
+
+  testing::SyntheticFieldOptions a;
+  a.order = 4;
+  a.quantization = Quantization::U8;
+  a.channels = 4;
+  a.center = {-0.85f, 0.0f, 0.0f};
+  a.radius = 0.7f;
+  a.width = 48;
+  a.height = 24;
+  a.seed = 5;
+  testing::SyntheticFieldOptions b = a;
+  b.order = 2;
+  b.quantization = Quantization::F16;
+  b.channels = 3;
+  b.center = {0.8f, 0.15f, -0.4f};
+  b.radius = 0.6f;
+  b.frontIor = 1.33f;
+  b.seed = 9;
+  const Field fieldA = testing::makeSyntheticField(a);
+  const Field fieldB = testing::makeSyntheticField(b);
+  auto objectA = offscreen::uploadField(*session, fieldA);
+  ASSERT_TRUE(objectA.ok()) << objectA.error().message;
+  auto objectB = offscreen::uploadField(*session, fieldB);
+  ASSERT_TRUE(objectB.ok()) << objectB.error().message;
+  objectA.value()->shading.absorptionScale = 0.3f;
+  objectA.value()->shading.tint = {1.0f, 0.85f, 0.7f};
+  objectB.value()->shading.reflection = true;
+
+  offscreen::FrameSettings frame;
+  frame.width = 160;
+  frame.height = 120;
+  frame.camera.eye = {0.2f, 0.6f, 4.0f};
+  frame.camera.target = {0.0f, 0.0f, 0.0f};
+  frame.camera.verticalFovDegrees = 45.0f;
+  frame.mode = ShadingMode::Field;
+  frame.frames = 2;  // the second frame re-decompresses over the first one's image
+  offscreen::FrameTimings timings;
+  auto gpu = offscreen::renderFrame(*session, *gpuEnv.value(), {objectA.value().get(), objectB.value().get()}, frame,
+                                    &timings);
+  ASSERT_TRUE(gpu.ok()) << gpu.error().message;
+  ASSERT_EQ(timings.wallMs.size(), 2u);
+
+  const reference::DistortionImage distortionA = reference::decompress(fieldA, frame.camera.eye);
+  const reference::DistortionImage distortionB = reference::decompress(fieldB, frame.camera.eye);
+  std::vector<reference::RenderObject> cpuObjects(2);
+  cpuObjects[0] = {&fieldA.mesh, &distortionA, objectA.value()->shading};
+  cpuObjects[1] = {&fieldB.mesh, &distortionB, objectB.value()->shading};
+  const reference::LatLongImage cpuEnv{env.width, env.height, env.rgba.data()};
+  const reference::RenderedImage cpu =
+      reference::render(cpuObjects, cpuEnv, frame.camera, frame.width, frame.height, frame.exposure);
+
+  uint32_t coverage[2] = {0, 0};
+  for (int32_t o : cpu.object)
+    if (o >= 0) ++coverage[o];
+  EXPECT_GT(coverage[0], 1500u) << "object A must cover a good part of the image";
+  EXPECT_GT(coverage[1], 1000u) << "object B must cover a good part of the image";
+
+  bake::Image diff;
+  const Comparison all = compare(gpu.value(), cpu.rgba, kFieldTolerance, nullptr, &diff);
+  const Comparison objects = compare(gpu.value(), cpu.rgba, kFieldTolerance, &cpu.object);
+  std::printf("field render: %u of %u pixels outside tolerance (%u of %u on the objects), max |diff| %.4f\n",
+              all.failed, all.pixels, objects.failed, objects.pixels, double(all.maxDiff));
+  // The objects must actually differ from the bare environment (the pass is not a no-op).
+  const reference::RenderedImage background =
+      reference::render({}, cpuEnv, frame.camera, frame.width, frame.height, frame.exposure);
+  const Comparison vsBackground = compare(gpu.value(), background.rgba, kFieldTolerance, &cpu.object);
+  EXPECT_GT(vsBackground.failed, objects.pixels / 2) << "the objects look like the environment behind them";
+
+  const bool pass = float(all.failed) <= kFieldTolerance.failFraction * float(all.pixels);
+  EXPECT_TRUE(pass) << all.failed << " of " << all.pixels << " pixels outside tolerance";
+  if (!pass || std::getenv("SHREFRACT_WRITE_TEST_IMAGES")) {
+    writeForInspection("field_render_gpu.png", gpu.value());
+    writeForInspection("field_render_cpu.png", bake::Image{cpu.width, cpu.height, cpu.rgba});
+    writeForInspection("field_render_diff_x10.png", diff);
+  }
+}
+
+TEST_F(FieldRender, CubeEnvironmentMatchesLatLong) {
+  const bake::Image env = smoothEnvironment(256);
+  auto latLong = offscreen::uploadEnvironment(*session, env);
+  ASSERT_TRUE(latLong.ok()) << latLong.error().message;
+  auto cube = offscreen::uploadEnvironment(*session, env, true);
+  ASSERT_TRUE(cube.ok()) << cube.error().message;
+  ASSERT_EQ(cube.value()->encoding(), EnvironmentEncoding::Cube);
+
+  testing::SyntheticFieldOptions options;
+  options.order = 2;
+  const Field field = testing::makeSyntheticField(options);
+  auto object = offscreen::uploadField(*session, field);
+  ASSERT_TRUE(object.ok()) << object.error().message;
+
+  offscreen::FrameSettings frame;
+  frame.width = 128;
+  frame.height = 96;
+  frame.camera.eye = {1.0f, 1.5f, 3.5f};
+  frame.camera.verticalFovDegrees = 70.0f;  // wide: the background crosses several cube faces
+  frame.mode = ShadingMode::Field;
+  std::vector<Object*> objects{object.value().get()};
+  auto withLatLong = offscreen::renderFrame(*session, *latLong.value(), objects, frame);
+  auto withCube = offscreen::renderFrame(*session, *cube.value(), objects, frame);
+  ASSERT_TRUE(withLatLong.ok() && withCube.ok());
+  bake::Image diff;
+  const Comparison c = compare(withCube.value(), withLatLong.value().rgba, kCubeTolerance, nullptr, &diff);
+  std::printf("cube vs lat-long: %u of %u pixels outside tolerance, max |diff| %.4f\n", c.failed, c.pixels,
+              double(c.maxDiff));
+  const bool pass = float(c.failed) <= kCubeTolerance.failFraction * float(c.pixels);
+  EXPECT_TRUE(pass) << c.failed << " of " << c.pixels << " pixels outside tolerance";
+  if (!pass || std::getenv("SHREFRACT_WRITE_TEST_IMAGES")) {
+    writeForInspection("cube_env_cube.png", withCube.value());
+    writeForInspection("cube_env_latlong.png", withLatLong.value());
+    writeForInspection("cube_env_diff_x10.png", diff);
+  }
+}
+
+}  // namespace
+}  // namespace shrefract
