@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Fresh Debian 12 machine -> the main job: build the tool and render the default built-in scene
-# over the built-in environment. Output goes to out/ (override with OUT_DIR).
+# Fresh Debian 12 machine -> the main job: build the tool, bake the default built-in scene into a
+# refraction field, render it over the built-in environment (SH field and, for comparison, the
+# single-interface baseline). Output goes to out/ (override with OUT_DIR).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
@@ -11,5 +12,9 @@ cmake --build "$build" -j "$(nproc)" --target shrefract
 mkdir -p "$out"
 # Lavapipe by default, so the job runs the same on any machine; set VK_DRIVER_FILES to choose.
 export VK_DRIVER_FILES="${VK_DRIVER_FILES:-/usr/share/vulkan/icd.d/lvp_icd.x86_64.json}"
-"$build/samples/shrefract" render builtin:sphere --size 960x720 -o "$out/sphere.png"
-echo "main job done: look at $out/sphere.png"
+tool="$build/samples/shrefract"
+"$tool" bake builtin:sphere --order 8 --directions 32x64 --samples 8000 -o "$out/sphere.shrf"
+"$tool" info "$out/sphere.shrf"
+"$tool" render "$out/sphere.shrf" --size 960x720 -o "$out/sphere_sh.png"
+"$tool" render builtin:sphere --size 960x720 -o "$out/sphere_single_interface.png"
+echo "main job done: look at $out/sphere_sh.png (SH field) and $out/sphere_single_interface.png (baseline)"

@@ -13,7 +13,8 @@ void printUsage(FILE* out) {
                "commands:\n"
                "  bake SCENE -o FILE.shrf       trace, fit and quantize a refraction field\n"
                "  info FILE.shrf [--json]       print a field file's header, settings and statistics\n"
-               "  render SCENE -o OUT.png|exr   render a scene (builtin:NAME) over its environment\n"
+               "  render FIELD.shrf|SCENE -o OUT.png|exr\n"
+               "                                render a baked field (SH) or a scene (single interface)\n"
                "  help                          this text; `shrefract COMMAND --help` for a command\n"
                "  version                       print the version\n");
 }
