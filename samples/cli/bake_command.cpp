@@ -147,6 +147,8 @@ int bakeCommand(int argc, char** argv) {
   overrides.allowOpenMeshes = args.has("allow-open");
   std::vector<std::string> warnings;
   auto scene = loadScene(s.source, overrides, &warnings);
+  // Recorded with its overrides, so that `render --mode exact` and `report` rebuild this scene.
+  if (s.source.find('?') == std::string::npos) s.source = canonicalSceneSpec(s.source, overrides);
   for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   if (!scene) return fail(scene.error().message);
 

@@ -12,6 +12,8 @@
 
 #include "cli/args.h"
 #include "cli/commands.h"
+#include "cli/scene_source.h"
+#include <shrefract/bake/reference_render.h>
 #include "offscreen/offscreen.h"
 
 namespace shrefract::cli {
@@ -26,7 +28,11 @@ const std::vector<FlagSpec> kFlags = {
     {"up", true, "up vector x,y,z (default 0,1,0)"},
     {"fov", true, "vertical field of view in degrees (default 40)"},
     {"size", true, "image size WxH (default 640x480)"},
-    {"mode", true, "shading: field (default for .shrf) or single-interface (default for builtin:)"},
+    {"mode", true, "sh (default for .shrf; also 'field'), single-interface (default for builtin:), "
+                   "exact or full-tree (CPU references traced with Embree)"},
+    {"max-bounces", true, "exact mode: cap on interactions (default 16)"},
+    {"tree-depth", true, "full-tree mode: depth of the Fresnel tree (default 6)"},
+    {"threads", true, "CPU modes: worker threads (default: all cores)"},
     {"absorption", true, "absorption scale k in exp2(-tau * k) (default 1)"},
     {"exposure", true, "linear scale applied before writing (default 1)"},
     {"ior", true, "override the glass IOR of a built-in scene"},
@@ -115,11 +121,24 @@ int renderCommand(int argc, char** argv) {
 
   const std::string sceneSpec = args.positional()[0];
   const bool builtin = sceneSpec.rfind("builtin:", 0) == 0;
-  const std::string mode = args.get("mode").value_or(builtin ? "single-interface" : "field");
-  if (mode != "single-interface" && mode != "field")
+  std::string mode = args.get("mode").value_or(builtin ? "single-interface" : "sh");
+  if (mode == "field") mode = "sh";
+  if (mode != "single-interface" && mode != "sh" && mode != "exact" && mode != "full-tree")
     return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: unknown --mode '" + mode +
-                                                          "' (available: field, single-interface)"), 2);
-  if (builtin && mode == "field")
+                                                          "' (available: sh, single-interface, exact, full-tree)"), 2);
+  auto maxBounces = args.integer("max-bounces");
+  auto treeDepth = args.integer("tree-depth");
+  auto threads = args.integer("threads");
+  for (const Error* e : {maxBounces.ok() ? nullptr : &maxBounces.error(), treeDepth.ok() ? nullptr : &treeDepth.error(),
+                         threads.ok() ? nullptr : &threads.error()})
+    if (e) return fail(*e, 2);
+  if (maxBounces.value() && (*maxBounces.value() < 1 || *maxBounces.value() > 1024))
+    return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: --max-bounces must be 1..1024"), 2);
+  if (treeDepth.value() && (*treeDepth.value() < 1 || *treeDepth.value() > 16))
+    return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: --tree-depth must be 1..16"), 2);
+  if (threads.value() && (*threads.value() < 1 || *threads.value() > 1024))
+    return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: --threads must be 1..1024"), 2);
+  if (builtin && mode == "sh")
     return fail(makeError(ErrorCode::InvalidArgument,
                           "shrefract render: " + sceneSpec + " has no refraction field; bake one first "
                           "(shrefract bake " + sceneSpec + " -o FIELD.shrf) and render FIELD.shrf"), 2);
@@ -144,6 +163,54 @@ int renderCommand(int argc, char** argv) {
   }
   auto envImage = offscreen::loadEnvironmentImage(args.get("env").value_or("builtin"));
   if (!envImage) return fail(envImage.error());
+
+  if (mode == "exact" || mode == "full-tree") {
+    // CPU references: the true paths through the baked (or built-in) scene, same camera.
+    std::optional<bake::Scene> traced = scene;
+    if (!traced) {
+      auto rebuilt = loadScene(field->settings.source, {}, nullptr);
+      if (!rebuilt)
+        return fail(makeError(rebuilt.error().code, sceneSpec + ": cannot rebuild the baked scene: " +
+                                                        rebuilt.error().message));
+      traced = std::move(rebuilt).value();
+    }
+    auto tracer = bake::Tracer::create(*traced);
+    if (!tracer) return fail(makeError(tracer.error().code, sceneSpec + ": " + tracer.error().message));
+    bake::ReferenceOptions ro;
+    ro.mode = mode == "exact" ? bake::ReferenceMode::Exact : bake::ReferenceMode::FullTree;
+    const float fovDegrees = fov.value() ? static_cast<float>(*fov.value()) : 40.0f;
+    if (field) {
+      std::array<float, 3> lo{}, hi{};
+      offscreen::meshBounds(field->mesh, lo, hi);
+      ro.camera = offscreen::frameBounds(lo, hi, fovDegrees);
+    } else {
+      ro.camera = offscreen::defaultCamera(*traced, fovDegrees);
+    }
+    if (eye.value()) ro.camera.eye = *eye.value();
+    if (target.value()) ro.camera.target = *target.value();
+    if (up.value()) ro.camera.up = *up.value();
+    if (size.value()) {
+      ro.width = (*size.value())[0];
+      ro.height = (*size.value())[1];
+    }
+    if (exposure.value()) ro.exposure = static_cast<float>(*exposure.value());
+    if (absorption.value()) ro.absorptionScale = static_cast<float>(*absorption.value());
+    if (maxBounces.value()) ro.maxBounces = static_cast<uint32_t>(*maxBounces.value());
+    if (treeDepth.value()) ro.treeDepth = static_cast<uint32_t>(*treeDepth.value());
+    if (threads.value()) ro.threads = static_cast<uint32_t>(*threads.value());
+    auto image = bake::renderReference(*tracer.value(), *traced, envImage.value(), ro);
+    if (!image) return fail(image.error());
+    if (auto written = bake::writeImage(*output, image.value().color); !written) return fail(written.error());
+    if (args.has("json"))
+      std::printf("{\"output\": %s, \"scene\": %s, \"mode\": %s, \"width\": %u, \"height\": %u, "
+                  "\"rays\": %llu, \"cpu_seconds\": %.4f}\n",
+                  jsonString(*output).c_str(), jsonString(sceneSpec).c_str(), jsonString(mode).c_str(), ro.width,
+                  ro.height, static_cast<unsigned long long>(image.value().rays), image.value().seconds);
+    else
+      std::printf("rendered %s (%ux%u, %s, CPU) in %.2f s -> %s\n", sceneSpec.c_str(), ro.width, ro.height,
+                  mode.c_str(), image.value().seconds, output->c_str());
+    return 0;
+  }
 
   const auto start = std::chrono::steady_clock::now();
   harness::HarnessOptions options;
@@ -184,7 +251,7 @@ int renderCommand(int argc, char** argv) {
     frame.height = (*size.value())[1];
   }
   if (exposure.value()) frame.exposure = static_cast<float>(*exposure.value());
-  frame.mode = mode == "field" ? ShadingMode::Field : ShadingMode::SingleInterface;
+  frame.mode = mode == "sh" ? ShadingMode::Field : ShadingMode::SingleInterface;
   frame.frames = frameCount.value() ? static_cast<uint32_t>(*frameCount.value()) : 1u;
   std::vector<Object*> drawList;
   for (auto& o : objects) drawList.push_back(o.get());

@@ -159,7 +159,7 @@ Result<bake::Image> renderFrame(Session& session, const Environment& environment
   std::unique_ptr<Decompressor> decompressor;
   bool anyField = false;
   for (const Object* o : objects) anyField = anyField || (o && o->hasField());
-  if (settings.mode == ShadingMode::Field && anyField) {
+  if ((settings.mode == ShadingMode::Field || settings.mode == ShadingMode::FieldExitDirection) && anyField) {
     auto created = Decompressor::create(*session.context);
     if (!created) return created.error();
     decompressor = std::move(created).value();

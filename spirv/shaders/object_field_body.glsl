@@ -29,6 +29,10 @@ void main() {
   vec4 d = textureLod(distortionMap, inFieldUv, 0.0);
   float len2 = dot(d.xyz, d.xyz);
   vec3 exitDirection = len2 > kMinDirectionLength2 ? d.xyz * inversesqrt(len2) : v;
+  if (uint(pc.params.z) == kModeFieldExitDirection) {  // the measured quantity itself
+    outColor = vec4(exitDirection, d.w);
+    return;
+  }
   float transmittance = exp2(-max(d.w, 0.0) * pc.medium.y);
   vec3 color = (1.0 - fresnel) * transmittance * pc.tint.rgb * lookupEnvironment(exitDirection);
   if (pc.medium.z > 0.5) color += fresnel * lookupEnvironment(reflect(v, n));

@@ -28,7 +28,7 @@ run(0 render tiny.shrf -o field.png --size 96x72 --frames 3 --absorption 0.5 --j
 if(SKIP)
   return()
 endif()
-foreach(key "\"mode\": \"field\"" "\"frames\": 3" "\"gpu_ms\"" "\"wall_ms\"" "\"order\": 2")
+foreach(key "\"mode\": \"sh\"" "\"frames\": 3" "\"gpu_ms\"" "\"wall_ms\"" "\"order\": 2")
   string(FIND "${OUT}" "${key}" at)
   if(at EQUAL -1)
     message(FATAL_ERROR "render --json output lacks ${key}: ${OUT}")

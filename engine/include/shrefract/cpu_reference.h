@@ -94,6 +94,7 @@ struct RenderedImage {
   uint32_t height = 0;
   std::vector<float> rgba;     // row 0 at the top, alpha 1
   std::vector<int32_t> object; // per pixel: index of the visible object, -1 for the background
+  std::vector<float> directions; // per pixel: xyz of the unit exit direction shaded there; 0 for the background
 };
 
 // World-space direction of the ray from the eye through the centre of pixel (x, y) (row 0 at the

@@ -133,6 +133,10 @@ enum class ShadingMode : uint32_t {
   // none). A zero sample (no data) looks straight through: d = v. Objects without a field are
   // drawn with SingleInterface.
   Field = 1,
+  // For measurements: field objects write the decoded unit exit direction (xyz) and the optical
+  // depth (w) instead of a colour, so a host can compare directions per pixel with a reference.
+  // Needs a float colour attachment. Objects without a field are drawn with SingleInterface.
+  FieldExitDirection = 2,
 };
 
 struct RendererCreateInfo {

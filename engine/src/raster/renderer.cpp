@@ -363,7 +363,7 @@ void Renderer::recordObjects(VkCommandBuffer cmd, const Environment& environment
   for (Object* object : objects) {
     if (!object) continue;
     ObjectImpl& o = object->impl();
-    const bool field = mode == ShadingMode::Field && o.field;
+    const bool field = (mode == ShadingMode::Field || mode == ShadingMode::FieldExitDirection) && o.field;
     const VkPipeline pipeline = field ? r.field[encoding] : r.singleInterface[encoding];
     const VkPipelineLayout layout = field ? r.fieldLayout : r.objectLayout;
     if (pipeline != bound) {
@@ -382,7 +382,9 @@ void Renderer::recordObjects(VkCommandBuffer cmd, const Environment& environment
     push.eyeWorld = {camera.eye[0], camera.eye[1], camera.eye[2], 0.0f};
     push.medium = {s.ior, s.absorptionScale, s.reflection ? 1.0f : 0.0f, 0.0f};
     push.tint = {s.tint[0], s.tint[1], s.tint[2], 0.0f};
-    const uint32_t gpuMode = field ? gpu::kModeField : gpu::kModeSingleInterface;
+    const uint32_t gpuMode = !field                                      ? gpu::kModeSingleInterface
+                             : mode == ShadingMode::FieldExitDirection ? gpu::kModeFieldExitDirection
+                                                                       : gpu::kModeField;
     push.params = {r.info.exposure, 0.0f, static_cast<float>(gpuMode), 0.0f};
     c.vk.vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push),
                             &push);

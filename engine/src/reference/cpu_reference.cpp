@@ -152,6 +152,7 @@ RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImag
   image.height = height;
   image.rgba.assign(size_t(width) * height * 4, 0.0f);
   image.object.assign(size_t(width) * height, -1);
+  image.directions.assign(size_t(width) * height * 3, 0.0f);
   // Double precision for the ray-triangle test: the GPU's coverage is exact for pixel centres
   // away from edges, and so should the reference be.
   const glm::dvec3 eye(camera.eye[0], camera.eye[1], camera.eye[2]);
@@ -223,6 +224,13 @@ RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImag
       const Vec3 c = shadeField(*object.distortion, environment, point, camera.eye, object.shading, exposure);
       for (int k = 0; k < 3; ++k) out[k] = c[size_t(k)];
       image.object[size_t(py) * width + px] = bestObject;
+      // The exit direction shadeField used (same fallback for a vanishing decoded vector).
+      const Vec4 d = sampleBilinear(*object.distortion, point.uv[0], point.uv[1]);
+      glm::vec3 dir(d[0], d[1], d[2]);
+      const float len2 = glm::dot(dir, dir);
+      dir = len2 > gpu::kMinDirectionLength2 ? dir / std::sqrt(len2)
+                                             : glm::normalize(toGlm(point.position) - toGlm(camera.eye));
+      for (int k = 0; k < 3; ++k) image.directions[(size_t(py) * width + px) * 3 + size_t(k)] = dir[k];
     }
   return image;
 }

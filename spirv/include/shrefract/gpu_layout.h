@@ -33,6 +33,7 @@ SHR_CONST(kEnvironmentCube, 1u)
 // Shading modes of the object pass (ObjectPushConstants.params.z).
 SHR_CONST(kModeSingleInterface, 0u)
 SHR_CONST(kModeField, 1u)
+SHR_CONST(kModeFieldExitDirection, 2u)  // writes (exit direction, tau) instead of a colour
 
 // Decompression compute pass, descriptor set 0 (one set per field object).
 SHR_CONST(kBindingCoefficients, 0u)   // sampler2DArray: layer i = basis function i, texel (x, y)
