@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Fresh Debian 12 machine -> the main job: build the tool, bake the default built-in scene into a
-# refraction field, render it over the built-in environment (SH field and, for comparison, the
-# single-interface baseline). Output goes to out/ (override with OUT_DIR).
+# refraction field, render it over the built-in environment (SH field, exact reference and the
+# single-interface baseline), and write the error-against-run-time report.
+# Output goes to out/ (override with OUT_DIR). A few minutes on 2 cores.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
@@ -16,5 +17,8 @@ tool="$build/samples/shrefract"
 "$tool" bake builtin:sphere --order 8 --directions 32x64 --samples 8000 -o "$out/sphere.shrf"
 "$tool" info "$out/sphere.shrf"
 "$tool" render "$out/sphere.shrf" --size 960x720 -o "$out/sphere_sh.png"
-"$tool" render builtin:sphere --size 960x720 -o "$out/sphere_single_interface.png"
-echo "main job done: look at $out/sphere_sh.png (SH field) and $out/sphere_single_interface.png (baseline)"
+"$tool" render "$out/sphere.shrf" --mode exact --size 960x720 -o "$out/sphere_exact.png"
+"$tool" render "$out/sphere.shrf" --mode single-interface --size 960x720 -o "$out/sphere_single_interface.png"
+"$tool" report -o "$out/report"
+echo "main job done: look at $out/report/report.md (error against run time, plots, side-by-side images)"
+echo "  and $out/sphere_sh.png (SH field), $out/sphere_exact.png (exact), $out/sphere_single_interface.png (baseline)"

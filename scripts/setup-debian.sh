@@ -11,6 +11,8 @@ packages=(
   xvfb xauth
   # openimageio-tools, python3-imath, libopencv-core-dev: Debian 12's OpenImageIO and Imath CMake configs
   # reference files from these packages and fail to import without them.
+  clang libclang-rt-14-dev
+  # clang, libclang-rt-14-dev: libFuzzer for the fuzz targets (tests/fuzz, built and run by fuzz_* tests).
 )
 
 missing=()

@@ -6,5 +6,6 @@ namespace shrefract::cli {
 int renderCommand(int argc, char** argv);
 int bakeCommand(int argc, char** argv);
 int infoCommand(int argc, char** argv);
+int reportCommand(int argc, char** argv);
 
 }  // namespace shrefract::cli
