@@ -58,6 +58,8 @@ Result<void> checkSettings(const BakeSettings& s) {
     return bad("--spatial must be 0, 3 or 5, got " + std::to_string(s.spatialNeighbours));
   if (s.maxBounces < 1 || s.maxBounces > 1024) return bad("--max-bounces must be 1..1024");
   if (!(s.regularization >= 0.0f) || !std::isfinite(s.regularization)) return bad("regularization must be >= 0");
+  if (!(s.maxErrorDegrees >= 0.0f) || !std::isfinite(s.maxErrorDegrees) || s.maxErrorDegrees > 180.0f)
+    return bad("--max-error must be in (0, 180] degrees");
   if (!(s.samplesPerUnitArea >= 0.0f) || !std::isfinite(s.samplesPerUnitArea))
     return bad("sample density must be finite and >= 0");
   return {};
@@ -70,6 +72,111 @@ struct SampleError {
   uint64_t rays = 0, paths = 0, trapped = 0;
 };
 
+
+// Runs body(i) for i in [0, count) on `threads` threads (the calling one included).
+template <class Body>
+void parallelFor(size_t count, uint32_t threads, Body body) {
+  std::atomic<size_t> next{0};
+  auto worker = [&]() {
+    for (size_t i; (i = next.fetch_add(1)) < count;) body(i);
+  };
+  std::vector<std::thread> pool;
+  for (uint32_t t = 1; t < threads; ++t) pool.emplace_back(worker);
+  worker();
+  for (auto& t : pool) t.join();
+}
+
+struct Selection {
+  uint32_t order = 0, rows = 0, columns = 0;
+  double meanDegrees = 0.0;
+  bool met = false;
+};
+
+// The --max-error choice (see bake.h).
+Result<Selection> selectOrderAndDirections(const SampleAtlas& atlas, const Tracer& tracer, const BakeSettings& s,
+                                           uint32_t threads, const std::function<void(const std::string&)>& note) {
+  constexpr size_t kSubset = 192;
+  constexpr uint32_t kHeldOut = 64;
+  const size_t n = atlas.samples.size();
+  std::vector<size_t> subset;
+  const size_t step = std::max<size_t>(1, n / kSubset);
+  for (size_t i = 0; i < n && subset.size() < kSubset; i += step) subset.push_back(i);
+  TraceSettings ts;
+  ts.maxBounces = s.maxBounces;
+
+  // Held-out directions, cosine-weighted over the hemisphere, and their traced exits.
+  std::vector<glm::vec3> heldDirs(subset.size() * kHeldOut), heldExits(subset.size() * kHeldOut);
+  parallelFor(subset.size(), threads, [&](size_t k) {
+    const SurfacePoint& p = atlas.samples[subset[k]];
+    const LocalFrame frame = frameFromNormal(p.shadingNormal);
+    uint64_t rng = 0x4d41584552524f52ull ^ (uint64_t(subset[k]) * 0x9e3779b97f4a7c15ull);
+    for (uint32_t h = 0; h < kHeldOut; ++h) {
+      const float u = unitFloat(rng), phi = 6.28318530718f * unitFloat(rng);
+      const float z = std::max(0.02f, std::sqrt(u)), r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+      const glm::vec3 w(r * std::cos(phi), r * std::sin(phi), z);
+      heldDirs[k * kHeldOut + h] = w;
+      heldExits[k * kHeldOut + h] = tracer.traceFromSurface(p, -localToWorld(frame, w), ts).exitDirection;
+    }
+  });
+
+  std::vector<std::pair<uint32_t, uint32_t>> grids;
+  for (uint32_t rows = 8; rows <= s.directionsTheta; rows *= 2) grids.emplace_back(rows, 2 * rows);
+  if (grids.empty() || grids.back() != std::make_pair(s.directionsTheta, s.directionsPhi))
+    grids.emplace_back(s.directionsTheta, s.directionsPhi);
+
+  Selection best;
+  bool haveBest = false;
+  Selection fallback;
+  for (auto [rows, columns] : grids) {
+    const DirectionGrid grid = makeHemisphereGrid(rows, columns);
+    const uint32_t nd = static_cast<uint32_t>(grid.directions.size());
+    std::vector<float> values(subset.size() * nd * 3);
+    parallelFor(subset.size(), threads, [&](size_t k) {
+      const SurfacePoint& p = atlas.samples[subset[k]];
+      const LocalFrame frame = frameFromNormal(p.shadingNormal);
+      for (uint32_t d = 0; d < nd; ++d) {
+        const glm::vec3 e = tracer.traceFromSurface(p, -localToWorld(frame, glm::vec3(grid.directions[d])), ts).exitDirection;
+        for (int c = 0; c < 3; ++c) values[(k * nd + d) * 3 + size_t(c)] = e[c];
+      }
+    });
+    for (uint32_t order = 0; order <= s.order; ++order) {
+      auto fit = HemisphereFit::create(grid, static_cast<int>(order), static_cast<double>(s.regularization));
+      if (!fit) continue;  // too few directions for this order
+      std::vector<double> sums(subset.size(), 0.0), weights(subset.size(), 0.0);
+      parallelFor(subset.size(), threads, [&](size_t k) {
+        std::vector<float> c(size_t(fit->basisCount()) * 3);
+        fit->fit(&values[k * nd * 3], 3, c.data());
+        float out[3];
+        for (uint32_t h = 0; h < kHeldOut; ++h) {
+          const glm::vec3 w = heldDirs[k * kHeldOut + h];
+          evaluateExpansion(static_cast<int>(order), c.data(), 3, w, out);
+          sums[k] += double(w.z) * angleDegrees(glm::vec3(out[0], out[1], out[2]), heldExits[k * kHeldOut + h]);
+          weights[k] += double(w.z);
+        }
+      });
+      double sum = 0.0, weight = 0.0;
+      for (size_t k = 0; k < subset.size(); ++k) {
+        sum += sums[k];
+        weight += weights[k];
+      }
+      const double mean = weight > 0.0 ? sum / weight : 0.0;
+      if (note)
+        note("max-error: order " + std::to_string(order) + ", " + std::to_string(rows) + "x" + std::to_string(columns) +
+             " directions: mean error " + std::to_string(mean) + " deg");
+      fallback = {order, rows, columns, mean, false};
+      if (mean <= double(s.maxErrorDegrees)) {
+        const Selection candidate{order, rows, columns, mean, true};
+        if (!haveBest || order < best.order) {
+          best = candidate;
+          haveBest = true;
+        }
+        break;  // higher orders on this grid cost more
+      }
+    }
+  }
+  if (!haveBest) return fallback;
+  return best;
+}
 }  // namespace
 
 Result<Field> bakeField(const Scene& scene, const BakeOptions& options) {
@@ -93,6 +200,20 @@ Result<Field> bakeField(const Scene& scene, const BakeOptions& options) {
   auto tracerResult = Tracer::create(scene);
   if (!tracerResult) return tracerResult.error();
   const Tracer& tracer = *tracerResult.value();
+
+  if (settings.maxErrorDegrees > 0.0f) {
+    auto chosen = selectOrderAndDirections(atlas, tracer, settings, threads, options.note);
+    if (!chosen) return chosen.error();
+    const Selection& sel = chosen.value();
+    if (options.note)
+      options.note(std::string(sel.met ? "max-error: chose" : "max-error: target not met; using") + " order " +
+                   std::to_string(sel.order) + ", " + std::to_string(sel.rows) + "x" + std::to_string(sel.columns) +
+                   " directions (mean error " + std::to_string(sel.meanDegrees) + " deg, target " +
+                   std::to_string(settings.maxErrorDegrees) + " deg)");
+    settings.order = sel.order;
+    settings.directionsTheta = sel.rows;
+    settings.directionsPhi = sel.columns;
+  }
 
   const DirectionGrid grid = makeHemisphereGrid(settings.directionsTheta, settings.directionsPhi);
   const int order = static_cast<int>(settings.order);

@@ -30,6 +30,8 @@ const std::vector<FlagSpec> kFlags = {
     {"spatial", true, "spatial smoothing with 0 (default), 3 or 5 neighbours"},
     {"quant", true, "coefficient storage: u8 (default) or f16"},
     {"regularization", true, "Tikhonov weight of the hemisphere fit (default 1e-5)"},
+    {"max-error", true, "choose the smallest order (<= --order) and direction grid (<= --directions) "
+                        "meeting this mean angular error in degrees"},
     {"held-out", true, "random held-out directions per sample for the error estimate (default 4)"},
     {"ior", true, "override the IOR of every medium but the surrounding one"},
     {"absorption", true, "override the absorption of every medium but the surrounding one"},
@@ -55,6 +57,7 @@ Result<void> checkWritable(const std::string& path) {
   fs::path dir = fs::path(path).parent_path();
   if (dir.empty()) dir = ".";
   std::error_code ec;
+  if (fs::is_directory(path, ec)) return makeError(ErrorCode::Io, path + ": is a directory");
   if (!fs::is_directory(dir, ec)) return makeError(ErrorCode::Io, path + ": directory does not exist");
   if (access(dir.c_str(), W_OK) != 0) return makeError(ErrorCode::Io, path + ": directory is not writable");
   return {};
@@ -91,13 +94,14 @@ int bakeCommand(int argc, char** argv) {
   auto absorption = args.number("absorption");
   auto tess = args.integer("tessellation");
   auto dirs = args.size("directions");
+  auto maxError = args.number("max-error");
   for (const Error* e :
        {order.ok() ? nullptr : &order.error(), samples.ok() ? nullptr : &samples.error(),
         density.ok() ? nullptr : &density.error(), threads.ok() ? nullptr : &threads.error(),
         bounces.ok() ? nullptr : &bounces.error(), spatial.ok() ? nullptr : &spatial.error(),
         reg.ok() ? nullptr : &reg.error(), heldOut.ok() ? nullptr : &heldOut.error(), ior.ok() ? nullptr : &ior.error(),
         absorption.ok() ? nullptr : &absorption.error(), tess.ok() ? nullptr : &tess.error(),
-        dirs.ok() ? nullptr : &dirs.error()})
+        dirs.ok() ? nullptr : &dirs.error(), maxError.ok() ? nullptr : &maxError.error()})
     if (e) return fail(e->message, 2);
   auto inRange = [](const std::optional<int64_t>& v, int64_t lo, int64_t hi) { return !v || (*v >= lo && *v <= hi); };
   if (!inRange(order.value(), 0, 24)) return fail("shrefract bake: --order must be 0..24", 2);
@@ -110,6 +114,12 @@ int bakeCommand(int argc, char** argv) {
   if (density.value() && !(*density.value() > 0.0)) return fail("shrefract bake: --density must be > 0", 2);
   if (reg.value() && !(*reg.value() >= 0.0)) return fail("shrefract bake: --regularization must be >= 0", 2);
   if (density.value() && samples.value()) return fail("shrefract bake: give --samples or --density, not both", 2);
+  if (maxError.value() && !(*maxError.value() > 0.0 && *maxError.value() <= 180.0))
+    return fail("shrefract bake: --max-error must be in (0, 180] degrees", 2);
+  if (maxError.value()) {
+    s.maxErrorDegrees = static_cast<float>(*maxError.value());
+    s.order = 16;  // the ceiling of the search unless --order lowers it
+  }
   if (order.value()) s.order = static_cast<uint32_t>(*order.value());
   if (samples.value()) s.sampleBudget = static_cast<uint64_t>(*samples.value());
   if (density.value()) {
@@ -156,6 +166,7 @@ int bakeCommand(int argc, char** argv) {
   options.settings = s;
   if (heldOut.value()) options.heldOutDirections = static_cast<uint32_t>(*heldOut.value());
   Progress progress("bake", stderr);
+  options.note = [&](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   options.progress = [&](const bake::BakeProgress& p) {
     progress.update(p.samplesDone, p.samplesTotal, p.seconds, p.seconds > 0 ? double(p.rays) / p.seconds : 0.0,
                     "rays/s");

@@ -112,6 +112,31 @@ TEST(Bake, QuantizationAndLayoutsAndSmoothing) {
   EXPECT_TRUE(validateField(smooth).ok());
 }
 
+TEST(Bake, MaxErrorPicksTheCheapestOrderThatMeetsTheTarget) {
+  BakeSettings s = small();
+  s.order = 6;
+  s.directionsTheta = 16;
+  s.directionsPhi = 32;
+  s.maxErrorDegrees = 60.0f;  // anything meets it: order 0 on the coarsest grid
+  const Field loose = bake("sphere", s);
+  EXPECT_EQ(loose.order, 0u);
+  EXPECT_EQ(loose.settings.directionsTheta, 8u);
+  EXPECT_EQ(loose.settings.maxErrorDegrees, 60.0f);
+  s.maxErrorDegrees = 0.001f;  // nothing meets it: the ceiling is used
+  const Field tight = bake("sphere", s);
+  EXPECT_EQ(tight.order, 6u);
+  EXPECT_EQ(tight.settings.directionsTheta, 16u);
+  s.maxErrorDegrees = 6.0f;
+  const Field mid = bake("sphere", s);
+  EXPECT_GT(mid.order, 0u);
+  EXPECT_LE(mid.order, 6u);
+  // What was chosen is stored and survives the file.
+  auto parsed = parseField(serializeField(mid).data(), serializeField(mid).size(), "mid.shrf");
+  ASSERT_TRUE(parsed.ok());
+  EXPECT_EQ(parsed.value().settings.maxErrorDegrees, 6.0f);
+  EXPECT_EQ(parsed.value().order, mid.order);
+}
+
 TEST(Bake, RejectsBadSettings) {
   auto scene = makeBuiltinScene("sphere");
   ASSERT_TRUE(scene.ok());
@@ -124,6 +149,9 @@ TEST(Bake, RejectsBadSettings) {
   EXPECT_FALSE(bakeField(scene.value(), o).ok());
   o.settings = small();
   o.settings.directionsTheta = 0;
+  EXPECT_FALSE(bakeField(scene.value(), o).ok());
+  o.settings = small();
+  o.settings.maxErrorDegrees = -1.0f;
   EXPECT_FALSE(bakeField(scene.value(), o).ok());
 }
 

@@ -283,7 +283,7 @@ TEST_P(FieldFormat, HeaderMatchesTheSpec) {
   const uint64_t B = kLayers, T = kWidth * kHeight, C = GetParam().channels, V = f.mesh.positions.size() / 3;
   uint64_t media = 4;
   for (const FieldMedium& m : f.media) media += 24 + m.name.size();
-  const uint64_t expected = 40 + 6 * 12 + (164 + 4 + f.settings.source.size()) + media +
+  const uint64_t expected = 40 + 6 * 12 + (164 + 4 + f.settings.source.size() + 4) + media +
                             (5 * 8 + 4 * 9 * V + 4 * f.mesh.indices.size()) +
                             (8 + T + 8 + 48 * T + 8 + 16 * f.gutters.size()) +
                             (GetParam().quantization == Quantization::U8 ? 16 + 8 * B * C + 16 + B * T * C
@@ -300,7 +300,7 @@ TEST_P(FieldFormat, HeaderMatchesTheSpec) {
   EXPECT_EQ(pos, b.size() - 4);
   // The settings section: 164 fixed bytes, then the source string.
   const size_t sets = sectionPayload(b, "SETS");
-  EXPECT_EQ(getU64(b, sets - 8), 164u + 4u + f.settings.source.size());
+  EXPECT_EQ(getU64(b, sets - 8), 164u + 4u + f.settings.source.size() + 4u);
   EXPECT_EQ(getU32(b, sets), kOrder);
   EXPECT_EQ(getU32(b, sets + 164), f.settings.source.size());
   // The coefficient section: u8 array, then f16 array, each with a u64 count.

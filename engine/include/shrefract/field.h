@@ -23,6 +23,12 @@ namespace shrefract {
 
 inline constexpr uint32_t kFieldFormatVersion = 1;
 
+// Largest magnitude of a decoded coefficient (validateField, encodeCoefficients). With at most
+// 1089 basis functions (order 32) the sum of |Y_i| is at most 1089 / sqrt(4 pi) = 307, so every
+// SH sum stays below 3.1e17 and its squared length below 3e35: finite in float, with margin for
+// rounding. Baked coefficients are unit directions and optical depths, far below it.
+inline constexpr float kMaxCoefficientMagnitude = 1e15f;
+
 enum class SampleLayout : uint32_t {
   Split = 0,   // revised technique: one texel patch per triangle, continuity-corrected gutters
   Charts = 1,  // straightforward technique: samples are texels of a chart atlas (seams at borders)
@@ -60,6 +66,7 @@ struct BakeSettings {
   uint32_t spatialNeighbours = 0;    // 0, 3 or 5
   Quantization quantization = Quantization::U8;
   float regularization = 0.0f;       // lambda of the hemisphere fit (docs/fitting.md)
+  float maxErrorDegrees = 0.0f;      // > 0: order and directions were chosen to meet this error
   uint32_t threads = 0;              // informational: does not change the data
 };
 
@@ -139,11 +146,13 @@ float fieldCoefficient(const Field& field, uint32_t layer, uint64_t texel, uint3
 
 // Encodes float coefficients (same indexing as the quantized arrays) into field.coefficientsU8 +
 // scale/bias or field.coefficientsF16, per field.quantization. A channel of zero range gets
-// scale 0 and decodes exactly to its bias. Precondition: all values finite, sizes match.
+// scale 0 and decodes exactly to its bias. Errors (InvalidArgument): sizes that disagree, a value
+// that is not finite or beyond kMaxCoefficientMagnitude (F16: beyond the binary16 range).
 Result<void> encodeCoefficients(Field& field, const std::vector<float>& coefficients);
 
 // Structural validation: sizes agree, values finite, indices and texel references in range,
-// UVs in [0,1], frames zero exactly for empty texels, order <= 32, channels 3 or 4.
+// UVs in [0,1], frames zero exactly for empty texels, order <= 32, channels 3 or 4, every
+// decodable U8 coefficient within kMaxCoefficientMagnitude.
 Result<void> validateField(const Field& field);
 
 // Serialization. parseField validates everything: magic, version (newer versions are rejected

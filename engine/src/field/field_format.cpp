@@ -333,6 +333,7 @@ void readSettings(SectionReader& r, BakeSettings& s, BakeStatistics& t) {
   t.quantizationRmsDegrees = r.f32("statistics.quantizationRmsDegrees");
   t.quantizationMaxDegrees = r.f32("statistics.quantizationMaxDegrees");
   r.string(s.source, "settings.source");
+  s.maxErrorDegrees = r.f32("settings.maxErrorDegrees");
 }
 
 void writeSettings(ByteWriter& w, const BakeSettings& s, const BakeStatistics& t) {
@@ -366,6 +367,7 @@ void writeSettings(ByteWriter& w, const BakeSettings& s, const BakeStatistics& t
   w.f32(t.quantizationRmsDegrees);
   w.f32(t.quantizationMaxDegrees);
   w.string(s.source);
+  w.f32(s.maxErrorDegrees);
 }
 
 void readMedia(SectionReader& r, std::vector<FieldMedium>& media) {
@@ -435,6 +437,8 @@ Result<void> validateSettings(const Field& field) {
                    " differs from the field's quantization (" + toString(field.quantization) + ")");
   if (!std::isfinite(s.samplesPerUnitArea) || s.samplesPerUnitArea < 0.0f)
     return invalid("settings.samplesPerUnitArea " + formatFloat(s.samplesPerUnitArea) + " is not finite and >= 0");
+  if (!std::isfinite(s.maxErrorDegrees) || s.maxErrorDegrees < 0.0f)
+    return invalid("settings.maxErrorDegrees " + formatFloat(s.maxErrorDegrees) + " is not finite and >= 0");
   if (!std::isfinite(s.regularization) || s.regularization < 0.0f)
     return invalid("settings.regularization " + formatFloat(s.regularization) + " is not finite and >= 0");
 
@@ -569,6 +573,11 @@ Result<void> validateCoefficients(const Field& field) {
         return invalid("scale/bias of layer " + std::to_string(i / field.channels) + " channel " +
                        std::to_string(i % field.channels) + " (" + formatFloat(field.scale[i]) + ", " +
                        formatFloat(field.bias[i]) + ") do not decode to finite values");
+      // Every level lies between bias and top; bounding both keeps every SH sum finite in float.
+      if (!(std::fabs(field.bias[i]) <= kMaxCoefficientMagnitude) || !(std::fabs(top) <= kMaxCoefficientMagnitude))
+        return invalid("scale/bias of layer " + std::to_string(i / field.channels) + " channel " +
+                       std::to_string(i % field.channels) + " (" + formatFloat(field.scale[i]) + ", " +
+                       formatFloat(field.bias[i]) + ") decode beyond +-" + formatFloat(kMaxCoefficientMagnitude));
     }
   } else {
     if (field.coefficientsF16.size() != count)
@@ -633,6 +642,11 @@ Result<void> encodeCoefficients(Field& field, const std::vector<float>& coeffici
       return makeError(ErrorCode::InvalidArgument, "encodeCoefficients: coefficient " + std::to_string(i) + " (layer " +
                                                        std::to_string(i / perLayer) + ", channel " +
                                                        std::to_string(i % channels) + ") is not finite");
+    if (!(std::fabs(v) <= kMaxCoefficientMagnitude))
+      return makeError(ErrorCode::InvalidArgument,
+                       "encodeCoefficients: coefficient " + std::to_string(i) + " (layer " + std::to_string(i / perLayer) +
+                           ", channel " + std::to_string(i % channels) + ") = " + formatFloat(v) + " is beyond +-" +
+                           formatFloat(kMaxCoefficientMagnitude));
     if (field.quantization == Quantization::F16 && !(std::fabs(v) < kHalfOverflow))
       return makeError(ErrorCode::InvalidArgument,
                        "encodeCoefficients: coefficient " + std::to_string(i) + " (layer " + std::to_string(i / perLayer) +

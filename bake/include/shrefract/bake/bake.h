@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <string>
 
 namespace shrefract::bake {
 
@@ -28,7 +29,17 @@ struct BakeOptions {
   uint32_t heldOutDirections = 4;
   // Called from the calling thread about every 100 ms and once at the end.
   std::function<void(const BakeProgress&)> progress;
+  // One-line notes on choices the bake made (the --max-error selection), for the tool to print.
+  std::function<void(const std::string&)> note;
 };
+
+// settings.maxErrorDegrees > 0 ("--max-error"): before the bake, the smallest SH order (0 up to
+// settings.order) and the coarsest direction grid (8x16 up to settings.directionsTheta x Phi) that
+// meet the target are chosen on a deterministic subset of the samples (up to 192). The error is
+// the mean angle between traced and reconstructed exit directions over 64 held-out view directions
+// per sample, cosine-weighted (as often as a view direction covers the screen). The cheapest
+// candidate wins: fewest basis functions, then fewest directions. If no candidate meets the target,
+// the largest order and grid are used and a note says so.
 
 // Bakes `scene`. Errors: invalid settings (order 0..24, directions 1..512 per axis, spatial 0/3/5),
 // an invalid scene, layout failures. The result passes validateField().
