@@ -124,24 +124,29 @@ Result<HemisphereFit> HemisphereFit::create(const DirectionGrid& grid, int order
       for (int i = 0; i < nb; ++i) projection[size_t(i) * nd + d] = column[i];
     }
   }
-  fit.projection_.resize(projection.size());
-  for (size_t k = 0; k < projection.size(); ++k) fit.projection_[k] = static_cast<float>(projection[k]);
+  fit.projectionT_.resize(projection.size());
+  for (int i = 0; i < nb; ++i)
+    for (size_t d = 0; d < nd; ++d)
+      fit.projectionT_[d * size_t(nb) + size_t(i)] = static_cast<float>(projection[size_t(i) * nd + d]);
   return fit;
 }
 
 void HemisphereFit::fit(const float* values, uint32_t channels, float* coeffs) const {
-  // Accumulated in double: with thousands of directions, float sums lose the small coefficients.
-  std::vector<double> acc(channels);
-  for (int i = 0; i < basis_; ++i) {
-    std::fill(acc.begin(), acc.end(), 0.0);
-    const float* p = &projection_[size_t(i) * directions_];
-    for (uint32_t d = 0; d < directions_; ++d) {
-      const double w = static_cast<double>(p[d]);
-      const float* v = &values[size_t(d) * channels];
-      for (uint32_t c = 0; c < channels; ++c) acc[c] += w * static_cast<double>(v[c]);
+  // c = P v as a sequence of axpy over the basis (P stored direction-major): each coefficient's
+  // sum runs in a fixed order (deterministic) and the inner loop vectorizes without reassociation.
+  thread_local std::vector<float> acc;
+  acc.assign(size_t(basis_) * channels, 0.0f);
+  for (uint32_t d = 0; d < directions_; ++d) {
+    const float* p = &projectionT_[size_t(d) * basis_];
+    const float* v = &values[size_t(d) * channels];
+    for (uint32_t c = 0; c < channels; ++c) {
+      const float vc = v[c];
+      float* a = &acc[size_t(c) * basis_];
+      for (int i = 0; i < basis_; ++i) a[i] += p[i] * vc;
     }
-    for (uint32_t c = 0; c < channels; ++c) coeffs[size_t(i) * channels + c] = static_cast<float>(acc[c]);
   }
+  for (int i = 0; i < basis_; ++i)
+    for (uint32_t c = 0; c < channels; ++c) coeffs[size_t(i) * channels + c] = acc[size_t(c) * basis_ + size_t(i)];
 }
 
 void HemisphereFit::reconstructAtGrid(const float* coeffs, uint32_t channels, uint32_t d, float* out) const {

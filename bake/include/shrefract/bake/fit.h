@@ -60,7 +60,7 @@ class HemisphereFit {
   int order_ = 0;
   int basis_ = 0;
   uint32_t directions_ = 0;
-  std::vector<float> projection_;  // basis_ x directions_, row-major
+  std::vector<float> projectionT_;  // directions_ x basis_, row-major (P transposed)
   std::vector<float> basisAtGrid_; // directions_ x basis_, row-major
 };
 
