@@ -6,6 +6,7 @@ namespace shrefract::cli {
 int renderCommand(int argc, char** argv);
 int bakeCommand(int argc, char** argv);
 int infoCommand(int argc, char** argv);
+int viewCommand(int argc, char** argv);  // samples/viewer/view_command.cpp
 int reportCommand(int argc, char** argv);
 
 }  // namespace shrefract::cli

@@ -15,6 +15,7 @@ void printUsage(FILE* out) {
                "  info FILE.shrf [--json]       print a field file's header, settings and statistics\n"
                "  render FIELD.shrf|SCENE -o OUT.png|exr\n"
                "                                render a baked field (SH) or a scene (single interface)\n"
+               "  view FIELD.shrf|SCENE         interactive window: orbit, SH order, absorption, environments\n"
                "  report [SCENES...] -o DIR     error against run time for every setting (report.md, plots)\n"
                "  help                          this text; `shrefract COMMAND --help` for a command\n"
                "  version                       print the version\n");
@@ -31,6 +32,7 @@ int main(int argc, char** argv) {
   if (command == "render") return shrefract::cli::renderCommand(argc, argv);
   if (command == "bake") return shrefract::cli::bakeCommand(argc, argv);
   if (command == "info") return shrefract::cli::infoCommand(argc, argv);
+  if (command == "view") return shrefract::cli::viewCommand(argc, argv);
   if (command == "report") return shrefract::cli::reportCommand(argc, argv);
   if (command == "help" || command == "--help" || command == "-h") {
     printUsage(stdout);

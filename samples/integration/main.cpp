@@ -1,0 +1,825 @@
+// shrefract integration sample: the smallest host engine that draws refractive glass with
+// shrefract next to its own geometry. Copy this when adding shrefract to an engine.
+//
+//   shrefract_integration OUT.ppm [--field FILE.shrf] [--no-glass] [--frames N] [--size WxH]
+//
+// What the host owns (shrefract never creates or destroys any of it): the Vulkan instance with the
+// validation layer and a debug messenger, the device (created with what shrefract asks for), one
+// graphics+compute queue, colour and depth render targets (headless: no window), the command
+// buffers and fences of two frames in flight, and its own pipeline for opaque boxes.
+//
+// Per frame, everything goes into the host's command buffer, in this order:
+//   1. shrefract's decompression (compute, outside any rendering),
+//   2. the host's barriers that make its targets attachments,
+//   3. vkCmdBeginRendering on the host's targets; the host's opaque boxes; shrefract's background
+//      (the environment, behind everything) and glass (depth-tested against the boxes);
+//      vkCmdEndRendering,
+//   4. (last frame) a copy of the colour target into a buffer the host reads.
+// The image (a binary PPM, sRGB) shows a red box in front of the glass, a green box behind it and
+// the glass refracting the environment. See docs/integration.md for the contract step by step.
+//
+// Exit codes: 0 success; 1 failure (one line on stderr), also when the validation layer reported
+// anything; 77 when no Vulkan 1.3 device exists (ctest's skip code).
+#include <cstdint>  // before the generated SPIR-V headers, which use uint32_t
+
+#include <shrefract/context.h>
+#include <shrefract/decompressor.h>
+#include <shrefract/environment.h>
+#include <shrefract/field.h>
+#include <shrefract/renderer.h>
+#include <vulkan/vulkan.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "box.frag.h"  // kSpirv_box_frag, compiled at build time (CMakeLists.txt)
+#include "box.vert.h"  // kSpirv_box_vert
+
+namespace {
+
+// ------------------------------------------------------------------------------------------------
+// Errors: a failed step throws a Failure, which unwinds to main and prints one line. (Host code
+// only: the engine itself never throws; it returns shrefract::Result values, unwrapped here.)
+
+struct Failure {
+  std::string message;
+  int exitCode = 1;
+};
+
+void check(VkResult r, const char* what) {
+  if (r != VK_SUCCESS) throw Failure{std::string(what) + " failed (VkResult " + std::to_string(r) + ")"};
+}
+
+template <class T>
+T take(shrefract::Result<T>&& result, const char* what) {
+  if (!result) throw Failure{std::string(what) + ": " + result.error().message};
+  return std::move(result).value();
+}
+
+void require(const shrefract::Result<void>& result, const char* what) {
+  if (!result) throw Failure{std::string(what) + ": " + result.error().message};
+}
+
+// ------------------------------------------------------------------------------------------------
+// Matrices. The host must draw its own geometry with the projection the engine uses for a
+// shrefract::Camera, or the depth test between host geometry and glass is meaningless:
+//   view  = right-handed look-at (camera looks down -Z of view space),
+//   clip  = right-handed perspective with depth in [0, 1] (Vulkan), then y negated (Vulkan's
+//           clip-space y points down), near/far from the Camera, aspect = width / height.
+// Column-major 4x4, as GLSL expects: m[column * 4 + row].
+
+using Mat4 = std::array<float, 16>;
+using Vec3 = std::array<float, 3>;
+
+Vec3 sub(Vec3 a, Vec3 b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+float dot(Vec3 a, Vec3 b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+Vec3 cross(Vec3 a, Vec3 b) { return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]}; }
+Vec3 normalize(Vec3 a) {
+  const float l = std::sqrt(dot(a, a));
+  return {a[0] / l, a[1] / l, a[2] / l};
+}
+
+Mat4 multiply(const Mat4& a, const Mat4& b) {
+  Mat4 m{};
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r)
+      for (int k = 0; k < 4; ++k) m[c * 4 + r] += a[k * 4 + r] * b[c * 4 + k];
+  return m;
+}
+
+Mat4 clipFromWorld(const shrefract::Camera& camera, VkExtent2D extent) {
+  const Vec3 f = normalize(sub(camera.target, camera.eye));
+  const Vec3 s = normalize(cross(f, camera.up));
+  const Vec3 u = cross(s, f);
+  const Mat4 viewFromWorld = {s[0], u[0], -f[0], 0.0f, s[1], u[1], -f[1], 0.0f, s[2], u[2], -f[2], 0.0f,
+                              -dot(s, camera.eye), -dot(u, camera.eye), dot(f, camera.eye), 1.0f};
+  const float aspect = float(extent.width) / float(extent.height);
+  const float t = std::tan(0.5f * camera.verticalFovDegrees * 3.14159265358979f / 180.0f);
+  const float n = camera.nearPlane, fa = camera.farPlane;
+  Mat4 clipFromView{};
+  clipFromView[0] = 1.0f / (aspect * t);
+  clipFromView[5] = -1.0f / t;  // y negated: Vulkan clip space points down
+  clipFromView[10] = fa / (n - fa);
+  clipFromView[11] = -1.0f;
+  clipFromView[14] = -(fa * n) / (fa - n);
+  return multiply(clipFromView, viewFromWorld);
+}
+
+// ------------------------------------------------------------------------------------------------
+// Content the host makes itself: a small procedural environment and a refraction field built by
+// hand (the installed package has no baker; a game would load a .shrf its content pipeline baked).
+
+// A lat-long environment (shrefract/environment.h convention: +Y up, row 0 = zenith): a blue sky
+// brightening toward the horizon over a grey checkerboard ground. No red or green anywhere, so the
+// host's red and green boxes are easy to tell apart in the output.
+std::vector<float> makeEnvironment(uint32_t width, uint32_t height) {
+  std::vector<float> rgba(size_t(width) * height * 4);
+  for (uint32_t y = 0; y < height; ++y)
+    for (uint32_t x = 0; x < width; ++x) {
+      const float theta = 3.14159265f * (float(y) + 0.5f) / float(height);  // from the zenith
+      const float phi = 2.0f * 3.14159265f * (float(x) + 0.5f) / float(width);
+      float* p = &rgba[(size_t(y) * width + x) * 4];
+      const float elevation = std::cos(theta);
+      if (elevation > 0.0f) {
+        const float h = 1.0f - elevation;  // 0 at the zenith, 1 at the horizon
+        p[0] = 0.25f + 0.6f * h * h;
+        p[1] = 0.45f + 0.45f * h * h;
+        p[2] = 0.95f;
+      } else {
+        const bool dark = (int(std::floor(phi * 8.0f / 3.14159265f)) + int(std::floor(-elevation * 12.0f))) % 2 != 0;
+        const float g = dark ? 0.18f : 0.6f;
+        p[0] = p[1] = p[2] = g;
+      }
+      p[3] = 1.0f;
+    }
+  return rgba;
+}
+
+// A thin glass lens: a square in the plane z = 0 facing +Z, with an analytic refraction field.
+// For a texel at surface point p and the direction toward the eye w (the texel's local frame is
+// the world frame here, translated to p, so w = normalize(eye - p)), the exit direction is
+//   d = -w + b(p),  b(p) = -kLensPower * (p.x, p.y, 0)
+// (straight through, bent toward the axis: a converging lens), and the optical depth is
+//   tau(p) = kLensThickness * (1 - |p|^2 / (2 h^2))  (thicker in the middle).
+// The decompressor normalizes d, so it need not be unit length. Both are polynomials of degree <= 1
+// in w, so SH order 1 holds them exactly (order 2 is used to show that extra bands cost nothing
+// but zeros): with Y_0 = 0.282095, Y_1 = 0.488603 y, Y_2 = 0.488603 z, Y_3 = 0.488603 x,
+//   d.x = b.x / 0.282095 * Y_0 - 1 / 0.488603 * Y_3,  d.y likewise with Y_1,  d.z with Y_2,
+//   tau = tau(p) / 0.282095 * Y_0.
+constexpr float kLensHalfSize = 0.8f;  // world units
+constexpr float kLensPower = 0.15f;    // bend per unit distance from the axis (a weak magnifier)
+constexpr float kLensThickness = 0.8f; // optical depth at the centre
+constexpr uint32_t kLensAtlas = 32;    // texels per side: the field is smooth, few are needed
+
+shrefract::Field makeLensField() {
+  using namespace shrefract;
+  Field f;
+  f.width = f.height = kLensAtlas;
+  f.order = 2;
+  f.channels = 4;  // x, y, z of the exit direction and the optical depth tau
+  f.quantization = Quantization::U8;
+  f.settings.source = "shrefract_integration: analytic thin lens";
+  f.settings.order = f.order;
+  f.settings.quantization = f.quantization;
+  f.settings.directionsTheta = f.settings.directionsPhi = 1;  // not baked: no direction grid
+  f.media = {FieldMedium{"air", 1.0f, 0.0f, {1.0f, 1.0f, 1.0f}}, FieldMedium{"glass", 1.5f, 1.0f, {1.0f, 1.0f, 1.0f}}};
+
+  // Render mesh: two triangles, counter-clockwise seen from +Z (the side the eye is on). Atlas
+  // coordinates: u grows with x, v grows downward (row 0 at the top, +Y).
+  const float h = kLensHalfSize;
+  f.mesh.positions = {-h, -h, 0, h, -h, 0, h, h, 0, -h, h, 0};
+  f.mesh.normals = {0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1};
+  f.mesh.uvs = {0, 1, 1, 1, 1, 0, 0, 0};
+  f.mesh.frontIor = {1.5f, 1.5f, 1.5f, 1.5f};
+  f.mesh.indices = {0, 1, 2, 0, 2, 3};
+
+  const uint32_t texels = f.width * f.height;
+  const uint32_t layers = f.basisCount();
+  f.texelKinds.assign(texels, kTexelSample);  // every texel holds a sample: no gutters, no empties
+  f.frames.assign(size_t(texels) * 12, 0.0f);
+  std::vector<float> coefficients(size_t(layers) * texels * f.channels, 0.0f);
+  auto coefficient = [&](uint32_t layer, uint32_t texel, uint32_t channel) -> float& {
+    return coefficients[(size_t(layer) * texels + texel) * f.channels + channel];
+  };
+  constexpr float kY0 = 0.282095f, kY1 = 0.488603f;
+  for (uint32_t j = 0; j < f.height; ++j)
+    for (uint32_t i = 0; i < f.width; ++i) {
+      const uint32_t t = j * f.width + i;
+      // The texel centre i sits at u = (i + 0.5) / width (field.h); invert the mesh's mapping.
+      const float px = -h + 2.0f * h * (float(i) + 0.5f) / float(f.width);
+      const float py = h - 2.0f * h * (float(j) + 0.5f) / float(f.height);
+      // M_s maps a world-space eye position to the direction toward it in the local frame
+      // (rows: tangent, bitangent, normal; fourth column: -axis . p).
+      float* m = &f.frames[size_t(t) * 12];
+      m[0] = 1.0f;   // tangent   = +X
+      m[3] = -px;
+      m[5] = 1.0f;   // bitangent = +Y
+      m[7] = -py;
+      m[10] = 1.0f;  // normal    = +Z (p.z = 0)
+      coefficient(0, t, 0) = -kLensPower * px / kY0;
+      coefficient(0, t, 1) = -kLensPower * py / kY0;
+      coefficient(3, t, 0) = -1.0f / kY1;  // -w.x
+      coefficient(1, t, 1) = -1.0f / kY1;  // -w.y
+      coefficient(2, t, 2) = -1.0f / kY1;  // -w.z
+      coefficient(0, t, 3) = kLensThickness * (1.0f - (px * px + py * py) / (2.0f * h * h)) / kY0;
+    }
+  require(encodeCoefficients(f, coefficients), "encodeCoefficients");
+  // The engine validates again in createFromField; checking here names the problem sooner.
+  require(validateField(f), "the hand-built lens field");
+  return f;
+}
+
+// ------------------------------------------------------------------------------------------------
+// The host's Vulkan objects.
+
+// Counts validation warnings and errors. Called by the layer, possibly from several threads.
+std::atomic<uint32_t> gValidationMessages{0};
+VKAPI_ATTR VkBool32 VKAPI_CALL onDebugMessage(VkDebugUtilsMessageSeverityFlagBitsEXT,
+                                              VkDebugUtilsMessageTypeFlagsEXT type,
+                                              const VkDebugUtilsMessengerCallbackDataEXT* data, void*) {
+  if (type & (VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT)) {
+    ++gValidationMessages;
+    std::fprintf(stderr, "[vulkan validation] %s\n", data && data->pMessage ? data->pMessage : "(no message)");
+  }
+  return VK_FALSE;
+}
+
+struct Image {
+  VkImage image = VK_NULL_HANDLE;
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+  VkImageView view = VK_NULL_HANDLE;
+};
+
+struct Frame {  // one frame in flight
+  VkCommandBuffer cmd = VK_NULL_HANDLE;
+  VkFence fence = VK_NULL_HANDLE;
+};
+
+constexpr uint32_t kFramesInFlight = 2;  // also ContextCreateInfo::framesInFlight (see beginFrame)
+constexpr VkFormat kColorFormat = VK_FORMAT_R8G8B8A8_SRGB;
+constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+
+class Host {
+ public:
+  // Instance, device, queue, command pool. Throws Failure (exit code 77 when no device fits).
+  Host();
+  ~Host();
+  Host(const Host&) = delete;
+  Host& operator=(const Host&) = delete;
+
+  VkInstance instance = VK_NULL_HANDLE;
+  VkDebugUtilsMessengerEXT messenger = VK_NULL_HANDLE;
+  VkPhysicalDevice physicalDevice = VK_NULL_HANDLE;
+  VkDevice device = VK_NULL_HANDLE;
+  uint32_t queueFamily = 0;
+  VkQueue queue = VK_NULL_HANDLE;
+  VkCommandPool pool = VK_NULL_HANDLE;
+  std::array<Frame, kFramesInFlight> frames{};
+
+  uint32_t memoryType(uint32_t bits, VkMemoryPropertyFlags flags) const;
+  Image createImage(VkExtent2D extent, VkFormat format, VkImageUsageFlags usage, VkImageAspectFlags aspect);
+  void destroy(Image& image);
+  // Records with `record` into frames[0]'s command buffer, submits and waits: for one-off setup.
+  template <class F>
+  void submitNow(F&& record);
+};
+
+Host::Host() {
+  // Instance: Vulkan 1.3, validation layer and debug messenger (a host ships without them; a
+  // sample and its test keep them on so that misuse of the engine's contract is reported).
+  const shrefract::DeviceRequirements req = shrefract::deviceRequirements();
+  uint32_t loaderVersion = 0;
+  if (vkEnumerateInstanceVersion(&loaderVersion) != VK_SUCCESS || loaderVersion < req.apiVersion)
+    throw Failure{"the Vulkan loader does not offer Vulkan 1.3", 77};
+  VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
+  app.pApplicationName = "shrefract_integration";
+  app.apiVersion = req.apiVersion;
+  const char* layer = "VK_LAYER_KHRONOS_validation";
+  const char* debugUtils = VK_EXT_DEBUG_UTILS_EXTENSION_NAME;
+  VkDebugUtilsMessengerCreateInfoEXT messengerInfo{VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
+  messengerInfo.messageSeverity =
+      VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+  messengerInfo.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+                              VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT;
+  messengerInfo.pfnUserCallback = onDebugMessage;
+  VkInstanceCreateInfo ici{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
+  ici.pNext = &messengerInfo;  // also reports problems inside vkCreateInstance / vkDestroyInstance
+  ici.pApplicationInfo = &app;
+  ici.enabledLayerCount = 1;
+  ici.ppEnabledLayerNames = &layer;
+  ici.enabledExtensionCount = 1;
+  ici.ppEnabledExtensionNames = &debugUtils;
+  const VkResult created = vkCreateInstance(&ici, nullptr, &instance);
+  if (created == VK_ERROR_INCOMPATIBLE_DRIVER) throw Failure{"no Vulkan driver (vkCreateInstance)", 77};
+  if (created == VK_ERROR_LAYER_NOT_PRESENT)
+    throw Failure{"VK_LAYER_KHRONOS_validation is not installed (Debian: vulkan-validationlayers)"};
+  check(created, "vkCreateInstance");
+  auto createMessenger = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
+      vkGetInstanceProcAddr(instance, "vkCreateDebugUtilsMessengerEXT"));
+  if (!createMessenger) throw Failure{"vkCreateDebugUtilsMessengerEXT is missing"};
+  check(createMessenger(instance, &messengerInfo, nullptr, &messenger), "vkCreateDebugUtilsMessengerEXT");
+
+  // Physical device: Vulkan 1.3, the features shrefract lists, and one queue family with the
+  // flags it needs (graphics + compute), which the host also uses for its own drawing.
+  uint32_t count = 0;
+  vkEnumeratePhysicalDevices(instance, &count, nullptr);
+  std::vector<VkPhysicalDevice> devices(count);
+  vkEnumeratePhysicalDevices(instance, &count, devices.data());
+  for (VkPhysicalDevice pd : devices) {
+    VkPhysicalDeviceProperties props{};
+    vkGetPhysicalDeviceProperties(pd, &props);
+    VkPhysicalDeviceVulkan13Features f13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
+    VkPhysicalDeviceFeatures2 f2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+    f2.pNext = &f13;
+    if (props.apiVersion < req.apiVersion) continue;
+    vkGetPhysicalDeviceFeatures2(pd, &f2);
+    if ((req.dynamicRendering && !f13.dynamicRendering) || (req.synchronization2 && !f13.synchronization2) ||
+        (req.maintenance4 && !f13.maintenance4))
+      continue;
+    uint32_t families = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(pd, &families, nullptr);
+    std::vector<VkQueueFamilyProperties> qprops(families);
+    vkGetPhysicalDeviceQueueFamilyProperties(pd, &families, qprops.data());
+    for (uint32_t q = 0; q < families && !physicalDevice; ++q)
+      if ((qprops[q].queueFlags & req.queueFlags) == req.queueFlags) {
+        physicalDevice = pd;
+        queueFamily = q;
+      }
+    if (physicalDevice) break;
+  }
+  if (!physicalDevice) throw Failure{"no Vulkan 1.3 device with the features shrefract needs", 77};
+
+  // Device: exactly what deviceRequirements() lists (plus whatever the host itself needs).
+  float priority = 1.0f;
+  VkDeviceQueueCreateInfo qci{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
+  qci.queueFamilyIndex = queueFamily;
+  qci.queueCount = 1;
+  qci.pQueuePriorities = &priority;
+  VkPhysicalDeviceVulkan13Features f13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
+  f13.dynamicRendering = req.dynamicRendering ? VK_TRUE : VK_FALSE;
+  f13.synchronization2 = req.synchronization2 ? VK_TRUE : VK_FALSE;
+  f13.maintenance4 = req.maintenance4 ? VK_TRUE : VK_FALSE;
+  VkPhysicalDeviceFeatures2 features{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+  features.pNext = &f13;
+  VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
+  dci.pNext = &features;
+  dci.queueCreateInfoCount = 1;
+  dci.pQueueCreateInfos = &qci;
+  dci.enabledExtensionCount = static_cast<uint32_t>(req.deviceExtensions.size());
+  dci.ppEnabledExtensionNames = req.deviceExtensions.data();
+  check(vkCreateDevice(physicalDevice, &dci, nullptr, &device), "vkCreateDevice");
+  vkGetDeviceQueue(device, queueFamily, 0, &queue);
+
+  VkCommandPoolCreateInfo pci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+  pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+  pci.queueFamilyIndex = queueFamily;
+  check(vkCreateCommandPool(device, &pci, nullptr, &pool), "vkCreateCommandPool");
+  for (Frame& f : frames) {
+    VkCommandBufferAllocateInfo ai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+    ai.commandPool = pool;
+    ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    ai.commandBufferCount = 1;
+    check(vkAllocateCommandBuffers(device, &ai, &f.cmd), "vkAllocateCommandBuffers");
+    VkFenceCreateInfo fci{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+    fci.flags = VK_FENCE_CREATE_SIGNALED_BIT;
+    check(vkCreateFence(device, &fci, nullptr, &f.fence), "vkCreateFence");
+  }
+}
+
+Host::~Host() {
+  if (device) {
+    vkDeviceWaitIdle(device);
+    for (Frame& f : frames)
+      if (f.fence) vkDestroyFence(device, f.fence, nullptr);
+    if (pool) vkDestroyCommandPool(device, pool, nullptr);
+    vkDestroyDevice(device, nullptr);
+  }
+  if (messenger) {
+    auto destroyMessenger = reinterpret_cast<PFN_vkDestroyDebugUtilsMessengerEXT>(
+        vkGetInstanceProcAddr(instance, "vkDestroyDebugUtilsMessengerEXT"));
+    destroyMessenger(instance, messenger, nullptr);
+  }
+  if (instance) vkDestroyInstance(instance, nullptr);
+}
+
+uint32_t Host::memoryType(uint32_t bits, VkMemoryPropertyFlags flags) const {
+  VkPhysicalDeviceMemoryProperties mp{};
+  vkGetPhysicalDeviceMemoryProperties(physicalDevice, &mp);
+  for (uint32_t i = 0; i < mp.memoryTypeCount; ++i)
+    if ((bits & (1u << i)) && (mp.memoryTypes[i].propertyFlags & flags) == flags) return i;
+  throw Failure{"no suitable memory type"};
+}
+
+Image Host::createImage(VkExtent2D extent, VkFormat format, VkImageUsageFlags usage, VkImageAspectFlags aspect) {
+  Image img;
+  VkImageCreateInfo ici{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+  ici.imageType = VK_IMAGE_TYPE_2D;
+  ici.format = format;
+  ici.extent = {extent.width, extent.height, 1};
+  ici.mipLevels = ici.arrayLayers = 1;
+  ici.samples = VK_SAMPLE_COUNT_1_BIT;
+  ici.tiling = VK_IMAGE_TILING_OPTIMAL;
+  ici.usage = usage;
+  check(vkCreateImage(device, &ici, nullptr, &img.image), "vkCreateImage");
+  VkMemoryRequirements req{};
+  vkGetImageMemoryRequirements(device, img.image, &req);
+  VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+  mai.allocationSize = req.size;
+  mai.memoryTypeIndex = memoryType(req.memoryTypeBits, 0);
+  check(vkAllocateMemory(device, &mai, nullptr, &img.memory), "vkAllocateMemory");
+  check(vkBindImageMemory(device, img.image, img.memory, 0), "vkBindImageMemory");
+  VkImageViewCreateInfo vci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+  vci.image = img.image;
+  vci.viewType = VK_IMAGE_VIEW_TYPE_2D;
+  vci.format = format;
+  vci.subresourceRange = {aspect, 0, 1, 0, 1};
+  check(vkCreateImageView(device, &vci, nullptr, &img.view), "vkCreateImageView");
+  return img;
+}
+
+void Host::destroy(Image& img) {
+  if (img.view) vkDestroyImageView(device, img.view, nullptr);
+  if (img.image) vkDestroyImage(device, img.image, nullptr);
+  if (img.memory) vkFreeMemory(device, img.memory, nullptr);
+  img = Image{};
+}
+
+template <class F>
+void Host::submitNow(F&& record) {
+  Frame& f = frames[0];
+  check(vkWaitForFences(device, 1, &f.fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+  check(vkResetFences(device, 1, &f.fence), "vkResetFences");
+  check(vkResetCommandBuffer(f.cmd, 0), "vkResetCommandBuffer");
+  VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+  bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+  check(vkBeginCommandBuffer(f.cmd, &bi), "vkBeginCommandBuffer");
+  record(f.cmd);
+  check(vkEndCommandBuffer(f.cmd), "vkEndCommandBuffer");
+  VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+  si.commandBufferCount = 1;
+  si.pCommandBuffers = &f.cmd;
+  check(vkQueueSubmit(queue, 1, &si, f.fence), "vkQueueSubmit");
+  check(vkWaitForFences(device, 1, &f.fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+}
+
+// The host's pipeline for its opaque boxes: dynamic rendering into the same attachment formats the
+// engine's Renderer was created with, depth test LESS with writes (what the engine expects of a
+// depth attachment it shares), counter-clockwise front faces, back faces culled.
+struct BoxPipeline {
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+  VkPipeline pipeline = VK_NULL_HANDLE;
+};
+
+struct BoxPush {
+  Mat4 clipFromWorld;
+  std::array<float, 4> centerHalf;
+  std::array<float, 4> color;
+};
+
+BoxPipeline createBoxPipeline(VkDevice device) {
+  BoxPipeline p;
+  VkPushConstantRange range{VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(BoxPush)};
+  VkPipelineLayoutCreateInfo plci{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+  plci.pushConstantRangeCount = 1;
+  plci.pPushConstantRanges = &range;
+  check(vkCreatePipelineLayout(device, &plci, nullptr, &p.layout), "vkCreatePipelineLayout");
+
+  auto module = [&](const uint32_t* code, size_t bytes) {
+    VkShaderModuleCreateInfo smci{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+    smci.codeSize = bytes;
+    smci.pCode = code;
+    VkShaderModule m = VK_NULL_HANDLE;
+    check(vkCreateShaderModule(device, &smci, nullptr, &m), "vkCreateShaderModule");
+    return m;
+  };
+  const VkShaderModule vert = module(kSpirv_box_vert, sizeof(kSpirv_box_vert));
+  const VkShaderModule frag = module(kSpirv_box_frag, sizeof(kSpirv_box_frag));
+  std::array<VkPipelineShaderStageCreateInfo, 2> stages{};
+  stages[0] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+  stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
+  stages[0].module = vert;
+  stages[0].pName = "main";
+  stages[1] = stages[0];
+  stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
+  stages[1].module = frag;
+
+  VkPipelineVertexInputStateCreateInfo vertexInput{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+  VkPipelineInputAssemblyStateCreateInfo assembly{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
+  assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+  VkPipelineViewportStateCreateInfo viewport{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
+  viewport.viewportCount = viewport.scissorCount = 1;
+  VkPipelineRasterizationStateCreateInfo raster{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
+  raster.polygonMode = VK_POLYGON_MODE_FILL;
+  raster.cullMode = VK_CULL_MODE_BACK_BIT;
+  raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+  raster.lineWidth = 1.0f;
+  VkPipelineMultisampleStateCreateInfo multisample{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
+  multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+  VkPipelineDepthStencilStateCreateInfo depth{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
+  depth.depthTestEnable = VK_TRUE;
+  depth.depthWriteEnable = VK_TRUE;
+  depth.depthCompareOp = VK_COMPARE_OP_LESS;
+  VkPipelineColorBlendAttachmentState blendAttachment{};
+  blendAttachment.colorWriteMask =
+      VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
+  VkPipelineColorBlendStateCreateInfo blend{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
+  blend.attachmentCount = 1;
+  blend.pAttachments = &blendAttachment;
+  const std::array<VkDynamicState, 2> dynamicStates{VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+  VkPipelineDynamicStateCreateInfo dynamic{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
+  dynamic.dynamicStateCount = static_cast<uint32_t>(dynamicStates.size());
+  dynamic.pDynamicStates = dynamicStates.data();
+  VkPipelineRenderingCreateInfo rendering{VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO};
+  const VkFormat colorFormat = kColorFormat;
+  rendering.colorAttachmentCount = 1;
+  rendering.pColorAttachmentFormats = &colorFormat;
+  rendering.depthAttachmentFormat = kDepthFormat;
+
+  VkGraphicsPipelineCreateInfo gpci{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
+  gpci.pNext = &rendering;  // dynamic rendering: no VkRenderPass
+  gpci.stageCount = static_cast<uint32_t>(stages.size());
+  gpci.pStages = stages.data();
+  gpci.pVertexInputState = &vertexInput;
+  gpci.pInputAssemblyState = &assembly;
+  gpci.pViewportState = &viewport;
+  gpci.pRasterizationState = &raster;
+  gpci.pMultisampleState = &multisample;
+  gpci.pDepthStencilState = &depth;
+  gpci.pColorBlendState = &blend;
+  gpci.pDynamicState = &dynamic;
+  gpci.layout = p.layout;
+  const VkResult r = vkCreateGraphicsPipelines(device, VK_NULL_HANDLE, 1, &gpci, nullptr, &p.pipeline);
+  vkDestroyShaderModule(device, vert, nullptr);
+  vkDestroyShaderModule(device, frag, nullptr);
+  check(r, "vkCreateGraphicsPipelines (boxes)");
+  return p;
+}
+
+void imageBarrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkPipelineStageFlags2 srcStage,
+                  VkAccessFlags2 srcAccess, VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess,
+                  VkImageLayout oldLayout, VkImageLayout newLayout) {
+  VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
+  b.srcStageMask = srcStage;
+  b.srcAccessMask = srcAccess;
+  b.dstStageMask = dstStage;
+  b.dstAccessMask = dstAccess;
+  b.oldLayout = oldLayout;
+  b.newLayout = newLayout;
+  b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  b.image = image;
+  b.subresourceRange = {aspect, 0, 1, 0, 1};
+  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+  dep.imageMemoryBarrierCount = 1;
+  dep.pImageMemoryBarriers = &b;
+  vkCmdPipelineBarrier2(cmd, &dep);
+}
+
+struct Options {
+  std::string output;
+  std::string fieldPath;  // empty: the hand-built lens
+  bool glass = true;
+  uint32_t frames = 3;
+  VkExtent2D extent{320, 240};
+};
+
+Options parseOptions(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw Failure{a + " needs a value", 2};
+      return argv[++i];
+    };
+    if (a == "--field") o.fieldPath = value();
+    else if (a == "--no-glass") o.glass = false;
+    else if (a == "--frames") o.frames = static_cast<uint32_t>(std::max(1, std::atoi(value().c_str())));
+    else if (a == "--size") {
+      const std::string s = value();
+      unsigned w = 0, h = 0;
+      if (std::sscanf(s.c_str(), "%ux%u", &w, &h) != 2 || w == 0 || h == 0 || w > 8192 || h > 8192)
+        throw Failure{"--size expects WxH, got '" + s + "'", 2};
+      o.extent = {w, h};
+    } else if (a.rfind("--", 0) == 0) throw Failure{"unknown flag " + a, 2};
+    else if (o.output.empty()) o.output = a;
+    else throw Failure{"more than one output path", 2};
+  }
+  if (o.output.empty())
+    throw Failure{"usage: shrefract_integration OUT.ppm [--field FILE.shrf] [--no-glass] [--frames N] [--size WxH]", 2};
+  return o;
+}
+
+void run(const Options& options) {
+  Host host;
+  const VkExtent2D extent = options.extent;
+
+  // --- 1. The engine borrows the host's handles. ------------------------------------------------
+  shrefract::ContextCreateInfo info;
+  info.instance = host.instance;
+  info.physicalDevice = host.physicalDevice;
+  info.device = host.device;
+  info.queueFamilyIndex = host.queueFamily;
+  info.queue = host.queue;
+  info.getInstanceProcAddr = vkGetInstanceProcAddr;  // every engine call goes through this
+  info.framesInFlight = kFramesInFlight;
+  std::unique_ptr<shrefract::Context> context = take(shrefract::Context::create(info), "shrefract::Context::create");
+
+  // --- 2. Host render targets: colour (copied out at the end) and depth, shared with the engine.
+  Image color = host.createImage(extent, kColorFormat,
+                                 VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                                 VK_IMAGE_ASPECT_COLOR_BIT);
+  Image depth = host.createImage(extent, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                                 VK_IMAGE_ASPECT_DEPTH_BIT);
+  VkBuffer readback = VK_NULL_HANDLE;
+  VkDeviceMemory readbackMemory = VK_NULL_HANDLE;
+  {
+    VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+    bci.size = VkDeviceSize(extent.width) * extent.height * 4;
+    bci.usage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    check(vkCreateBuffer(host.device, &bci, nullptr, &readback), "vkCreateBuffer");
+    VkMemoryRequirements req{};
+    vkGetBufferMemoryRequirements(host.device, readback, &req);
+    VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+    mai.allocationSize = req.size;
+    mai.memoryTypeIndex =
+        host.memoryType(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
+    check(vkAllocateMemory(host.device, &mai, nullptr, &readbackMemory), "vkAllocateMemory");
+    check(vkBindBufferMemory(host.device, readback, readbackMemory, 0), "vkBindBufferMemory");
+  }
+  BoxPipeline boxes = createBoxPipeline(host.device);
+
+  // --- 3. Engine resources, uploaded through a host command buffer. -----------------------------
+  // The create calls only record copies and barriers into `cmd`; the host decides when to submit.
+  // Staging buffers are retired through the context and released by later beginFrame() calls.
+  const shrefract::Field field =
+      options.fieldPath.empty() ? makeLensField() : take(shrefract::readField(options.fieldPath), "readField");
+  const uint32_t envWidth = 512, envHeight = 256;
+  const std::vector<float> envPixels = makeEnvironment(envWidth, envHeight);
+  std::unique_ptr<shrefract::Environment> environment;
+  std::unique_ptr<shrefract::Object> glass;
+  host.submitNow([&](VkCommandBuffer cmd) {
+    environment = take(shrefract::Environment::createLatLong(*context, {envWidth, envHeight, envPixels.data()}, cmd),
+                       "Environment::createLatLong");
+    glass = take(shrefract::Object::createFromField(*context, field, cmd), "Object::createFromField");
+  });
+  glass->shading.tint = {0.85f, 0.95f, 1.0f};  // a faint cyan glass
+
+  shrefract::RendererCreateInfo rci;
+  rci.colorFormat = kColorFormat;  // the engine's pipelines are built for the host's formats
+  rci.depthFormat = kDepthFormat;
+  std::unique_ptr<shrefract::Renderer> renderer = take(shrefract::Renderer::create(*context, rci), "Renderer::create");
+  std::unique_ptr<shrefract::Decompressor> decompressor =
+      take(shrefract::Decompressor::create(*context), "Decompressor::create");
+  // Optional: build the pipeline now rather than on the first record() (no hitch in frame 1).
+  require(decompressor->prepare(glass->fieldOrder()), "Decompressor::prepare");
+
+  // --- 4. The scene: camera, the host's boxes, the glass. ---------------------------------------
+  shrefract::Camera camera;
+  camera.eye = {0.0f, 0.0f, 4.0f};
+  camera.target = {0.0f, 0.0f, 0.0f};
+  camera.verticalFovDegrees = 45.0f;
+  camera.nearPlane = 0.05f;
+  camera.farPlane = 100.0f;
+  const Mat4 clip = clipFromWorld(camera, extent);
+  // Red box in front of the glass, overlapping its lower-left corner; green box behind it,
+  // half behind the glass's right edge.
+  const std::array<BoxPush, 2> boxList = {BoxPush{clip, {-0.75f, -0.55f, 1.2f, 0.35f}, {0.85f, 0.08f, 0.06f, 1.0f}},
+                                          BoxPush{clip, {1.1f, 0.7f, -1.5f, 0.5f}, {0.08f, 0.75f, 0.12f, 1.0f}}};
+  const std::vector<shrefract::Object*> drawList = options.glass ? std::vector<shrefract::Object*>{glass.get()}
+                                                                 : std::vector<shrefract::Object*>{};
+
+  // --- 5. Frames. -------------------------------------------------------------------------------
+  for (uint32_t frameIndex = 0; frameIndex < options.frames; ++frameIndex) {
+    Frame& frame = host.frames[frameIndex % kFramesInFlight];
+    // Wait until the GPU is done with this slot's previous frame, then tell the engine: it releases
+    // what it retired kFramesInFlight frames ago (here: the upload's staging buffers).
+    check(vkWaitForFences(host.device, 1, &frame.fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+    context->beginFrame();
+    check(vkResetFences(host.device, 1, &frame.fence), "vkResetFences");
+    check(vkResetCommandBuffer(frame.cmd, 0), "vkResetCommandBuffer");
+    VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    check(vkBeginCommandBuffer(frame.cmd, &bi), "vkBeginCommandBuffer");
+    VkCommandBuffer cmd = frame.cmd;
+
+    // (a) Decompression: a compute pass, so it must be recorded outside dynamic rendering. It
+    //     brings its own barriers (waits for last frame's fragment reads, hands the distortion
+    //     image to this frame's fragment shaders). Pass the eye the raster pass will use.
+    require(decompressor->record(cmd, camera.eye, drawList), "Decompressor::record");
+
+    // (b) The host's targets become attachments (contents discarded: both are cleared). The source
+    //     stages order this frame's writes after the previous frame's (same targets, same queue).
+    imageBarrier(cmd, color.image, VK_IMAGE_ASPECT_COLOR_BIT,
+                 VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_NONE,
+                 VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+                 VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
+    imageBarrier(cmd, depth.image, VK_IMAGE_ASPECT_DEPTH_BIT,
+                 VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+                 VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+                 VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+                 VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+                 VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+
+    // (c) One dynamic rendering scope for everything: host opaque geometry first (it fills depth),
+    //     then the engine's background (drawn at the far plane, so only where nothing was drawn),
+    //     then the glass (depth-tested: hidden behind the red box, covering the green one).
+    VkRenderingAttachmentInfo colorAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+    colorAttachment.imageView = color.view;
+    colorAttachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    colorAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    colorAttachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    VkRenderingAttachmentInfo depthAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+    depthAttachment.imageView = depth.view;
+    depthAttachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    depthAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    depthAttachment.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    depthAttachment.clearValue.depthStencil = {1.0f, 0};  // the engine expects LESS against 1.0
+    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+    ri.renderArea = {{0, 0}, extent};
+    ri.layerCount = 1;
+    ri.colorAttachmentCount = 1;
+    ri.pColorAttachments = &colorAttachment;
+    ri.pDepthAttachment = &depthAttachment;
+    vkCmdBeginRendering(cmd, &ri);
+    const VkViewport viewport{0.0f, 0.0f, float(extent.width), float(extent.height), 0.0f, 1.0f};
+    const VkRect2D scissor{{0, 0}, extent};
+    vkCmdSetViewport(cmd, 0, 1, &viewport);  // dynamic state the engine's pipelines use too
+    vkCmdSetScissor(cmd, 0, 1, &scissor);
+
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, boxes.pipeline);
+    for (const BoxPush& box : boxList) {
+      vkCmdPushConstants(cmd, boxes.layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
+                         sizeof(BoxPush), &box);
+      vkCmdDraw(cmd, 36, 1, 0, 0);
+    }
+    // The engine binds its own pipelines, descriptor sets and push constants; a host drawing after
+    // these calls must bind its own state again.
+    renderer->recordBackground(cmd, *environment, camera, extent);
+    renderer->recordObjects(cmd, *environment, camera, extent, drawList, shrefract::ShadingMode::Field);
+    vkCmdEndRendering(cmd);
+
+    // (d) Last frame: copy the colour target into the host-visible buffer.
+    if (frameIndex + 1 == options.frames) {
+      imageBarrier(cmd, color.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                   VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT,
+                   VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+      VkBufferImageCopy region{};
+      region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+      region.imageExtent = {extent.width, extent.height, 1};
+      vkCmdCopyImageToBuffer(cmd, color.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback, 1, &region);
+      VkBufferMemoryBarrier2 toHost{VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2};
+      toHost.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+      toHost.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+      toHost.dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT;
+      toHost.dstAccessMask = VK_ACCESS_2_HOST_READ_BIT;
+      toHost.srcQueueFamilyIndex = toHost.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+      toHost.buffer = readback;
+      toHost.size = VK_WHOLE_SIZE;
+      VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+      dep.bufferMemoryBarrierCount = 1;
+      dep.pBufferMemoryBarriers = &toHost;
+      vkCmdPipelineBarrier2(cmd, &dep);
+    }
+    check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
+    VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+    si.commandBufferCount = 1;
+    si.pCommandBuffers = &cmd;
+    check(vkQueueSubmit(host.queue, 1, &si, frame.fence), "vkQueueSubmit");
+  }
+  check(vkDeviceWaitIdle(host.device), "vkDeviceWaitIdle");
+
+  // --- 6. The image: RGBA8 sRGB texels -> binary PPM (RGB). ------------------------------------
+  {
+    void* mapped = nullptr;
+    check(vkMapMemory(host.device, readbackMemory, 0, VK_WHOLE_SIZE, 0, &mapped), "vkMapMemory");
+    const auto* texels = static_cast<const uint8_t*>(mapped);
+    std::ofstream out(options.output, std::ios::binary);
+    out << "P6\n" << extent.width << " " << extent.height << "\n255\n";
+    for (size_t i = 0; i < size_t(extent.width) * extent.height; ++i) out.write(reinterpret_cast<const char*>(texels + 4 * i), 3);
+    vkUnmapMemory(host.device, readbackMemory);
+    if (!out) throw Failure{options.output + ": cannot write"};
+  }
+
+  // --- 7. Teardown. The engine's destructors retire their Vulkan objects; with the device idle,
+  //        releaseDeferred() frees them now. The context goes before the device it borrows.
+  glass.reset();
+  environment.reset();
+  decompressor.reset();
+  renderer.reset();
+  context->releaseDeferred();
+  context.reset();
+  vkDestroyPipeline(host.device, boxes.pipeline, nullptr);
+  vkDestroyPipelineLayout(host.device, boxes.layout, nullptr);
+  vkDestroyBuffer(host.device, readback, nullptr);
+  vkFreeMemory(host.device, readbackMemory, nullptr);
+  host.destroy(color);
+  host.destroy(depth);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  try {
+    options = parseOptions(argc, argv);
+    run(options);  // the Host (device, instance) is destroyed on return, with the messenger last
+  } catch (const Failure& f) {
+    std::fprintf(stderr, "shrefract_integration: %s\n", f.message.c_str());
+    return f.exitCode;
+  }
+  if (gValidationMessages != 0) {
+    std::fprintf(stderr, "shrefract_integration: %u Vulkan validation message(s)\n", gValidationMessages.load());
+    return 1;
+  }
+  std::printf("shrefract_integration: wrote %s (%ux%u, %s), 0 validation messages\n", options.output.c_str(),
+              options.extent.width, options.extent.height, options.glass ? "with glass" : "no glass");
+  return 0;
+}

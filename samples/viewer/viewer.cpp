@@ -1,0 +1,638 @@
+#include "viewer/viewer.h"
+
+#define GLFW_INCLUDE_VULKAN
+#include <GLFW/glfw3.h>
+
+#include <shrefract/context.h>
+#include <shrefract/decompressor.h>
+#include <shrefract/environment.h>
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "offscreen/offscreen.h"
+#include "viewer/field_order.h"
+#include "viewer/orbit_camera.h"
+#include "viewer/swapchain.h"
+#include "viewer/view_state.h"
+
+namespace shrefract::viewer {
+namespace {
+
+// Frames the CPU records ahead of the GPU. Equal to ContextCreateInfo::framesInFlight (the
+// offscreen session creates the context with the default, 2): beginFrame() then releases what was
+// retired two frames ago, which is safe once this frame slot's fence has been waited on.
+constexpr uint32_t kFramesInFlight = 2;
+// Timestamp queries per frame: decompression begin/end, raster begin/end.
+constexpr uint32_t kTimestamps = 4;
+// How often the window title (frame and GPU times) is refreshed.
+constexpr double kTitleIntervalSeconds = 0.25;
+// The engine draws into a float target: screenshots keep the renderer's linear values, and the
+// blit to the swapchain does the sRGB encoding.
+constexpr VkFormat kColorFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
+constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+
+// GLFW reports errors through a process-wide callback; the viewer runs on one thread.
+std::string gGlfwError = "no error reported";
+void onGlfwError(int code, const char* text) {
+  gGlfwError = std::string(text ? text : "(no text)") + " (GLFW error " + std::to_string(code) + ")";
+}
+
+int fail(const std::string& message) {
+  std::fprintf(stderr, "shrefract view: %s\n", message.c_str());
+  return 1;
+}
+
+Error vkError(const char* what, VkResult r) {
+  return makeError(ErrorCode::Vulkan, std::string(what) + " failed (VkResult " + std::to_string(r) + ")", r);
+}
+
+// What the GLFW callbacks collect between frames.
+struct Input {
+  std::vector<Action> actions;
+  OrbitCamera* camera = nullptr;
+  bool haveCursor = false;
+  double lastX = 0.0, lastY = 0.0;
+};
+
+Input& inputOf(GLFWwindow* window) { return *static_cast<Input*>(glfwGetWindowUserPointer(window)); }
+
+// Characters rather than key codes, so that '[', ']' and '+' work on any keyboard layout.
+void onChar(GLFWwindow* window, unsigned int codepoint) {
+  if (codepoint >= 128) return;
+  const char c = static_cast<char>(std::tolower(static_cast<int>(codepoint)));
+  if (auto action = actionForCharacter(c)) inputOf(window).actions.push_back(*action);
+}
+
+void onKey(GLFWwindow* window, int key, int /*scancode*/, int action, int /*mods*/) {
+  if (key == GLFW_KEY_ESCAPE && action == GLFW_PRESS) inputOf(window).actions.push_back(Action::Quit);
+}
+
+void onCursor(GLFWwindow* window, double x, double y) {
+  Input& in = inputOf(window);
+  const double dx = x - in.lastX, dy = y - in.lastY;
+  const bool hadCursor = in.haveCursor;
+  in.lastX = x;
+  in.lastY = y;
+  in.haveCursor = true;
+  if (!hadCursor) return;
+  int width = 0, height = 0;
+  glfwGetWindowSize(window, &width, &height);
+  const bool left = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS;
+  const bool right = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS;
+  const bool middle = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_MIDDLE) == GLFW_PRESS;
+  const bool shift =
+      glfwGetKey(window, GLFW_KEY_LEFT_SHIFT) == GLFW_PRESS || glfwGetKey(window, GLFW_KEY_RIGHT_SHIFT) == GLFW_PRESS;
+  if (right || middle || (left && shift))
+    in.camera->pan(static_cast<float>(dx), static_cast<float>(dy), static_cast<float>(height));
+  else if (left)
+    in.camera->orbit(static_cast<float>(dx), static_cast<float>(dy), static_cast<float>(height));
+}
+
+void onScroll(GLFWwindow* window, double /*dx*/, double dy) { inputOf(window).camera->zoom(static_cast<float>(dy)); }
+
+// Per frame in flight: the command buffer, the fence that says the GPU is done with it, the
+// semaphore the swapchain signals when the acquired image may be written, and the timestamps.
+struct FrameSlot {
+  VkCommandBuffer cmd = VK_NULL_HANDLE;
+  VkFence fence = VK_NULL_HANDLE;
+  VkSemaphore acquired = VK_NULL_HANDLE;
+  VkQueryPool queries = VK_NULL_HANDLE;
+  bool timestampsWritten = false;  // the queries hold this slot's last frame
+};
+
+// Everything the viewer owns, torn down in dependency order.
+struct Host {
+  bool glfwReady = false;
+  GLFWwindow* window = nullptr;
+  std::unique_ptr<offscreen::Session> session;
+  VkSurfaceKHR surface = VK_NULL_HANDLE;
+  std::unique_ptr<Swapchain> swapchain;
+  VkCommandPool pool = VK_NULL_HANDLE;
+  std::array<FrameSlot, kFramesInFlight> slots{};
+  harness::Harness::Image color{}, depth{};
+  VkExtent2D targetExtent{};
+  bool linearBlit = false;  // the colour format can be blitted with a linear filter
+
+  std::vector<std::unique_ptr<Environment>> environments;
+  std::unique_ptr<Renderer> renderer;
+  std::unique_ptr<Decompressor> decompressor;
+  std::vector<std::unique_ptr<Object>> sceneObjects;
+  std::vector<std::unique_ptr<Object>> fieldObjects;  // one per field, built at fieldObjectOrders[i]
+  std::vector<uint32_t> fieldObjectOrders;
+
+  VkDevice device() const { return session->harness->device(); }
+
+  // Destroys every Vulkan object but the device and instance (which the session owns), so that the
+  // validation messages of the teardown are counted before the messenger goes away.
+  void releaseGpuObjects() {
+    if (!session) return;
+    vkDeviceWaitIdle(device());
+    fieldObjects.clear();
+    sceneObjects.clear();
+    environments.clear();
+    renderer.reset();
+    decompressor.reset();
+    session->context->releaseDeferred();  // the device is idle: nothing retired is in use
+    session->harness->destroyImage(color);
+    session->harness->destroyImage(depth);
+    for (FrameSlot& s : slots) {
+      if (s.queries) vkDestroyQueryPool(device(), s.queries, nullptr);
+      if (s.fence) vkDestroyFence(device(), s.fence, nullptr);
+      if (s.acquired) vkDestroySemaphore(device(), s.acquired, nullptr);
+      s = FrameSlot{};
+    }
+    if (pool) vkDestroyCommandPool(device(), pool, nullptr);
+    pool = VK_NULL_HANDLE;
+    swapchain.reset();
+    if (surface) vkDestroySurfaceKHR(session->harness->instance(), surface, nullptr);
+    surface = VK_NULL_HANDLE;
+  }
+
+  ~Host() {
+    releaseGpuObjects();
+    session.reset();
+    if (window) glfwDestroyWindow(window);
+    if (glfwReady) glfwTerminate();
+  }
+};
+
+bool queueHasTimestamps(const harness::Harness& h) {
+  uint32_t count = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(h.physicalDevice(), &count, nullptr);
+  std::vector<VkQueueFamilyProperties> families(count);
+  vkGetPhysicalDeviceQueueFamilyProperties(h.physicalDevice(), &count, families.data());
+  return h.queueFamily() < count && families[h.queueFamily()].timestampValidBits > 0 &&
+         h.properties().limits.timestampPeriod > 0.0f;
+}
+
+Result<void> createFrameSlots(Host& h, bool timestamps) {
+  VkCommandPoolCreateInfo pci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+  pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+  pci.queueFamilyIndex = h.session->harness->queueFamily();
+  VkResult r = vkCreateCommandPool(h.device(), &pci, nullptr, &h.pool);
+  if (r != VK_SUCCESS) return vkError("vkCreateCommandPool", r);
+  for (FrameSlot& s : h.slots) {
+    VkCommandBufferAllocateInfo ai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+    ai.commandPool = h.pool;
+    ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    ai.commandBufferCount = 1;
+    if ((r = vkAllocateCommandBuffers(h.device(), &ai, &s.cmd)) != VK_SUCCESS)
+      return vkError("vkAllocateCommandBuffers", r);
+    VkFenceCreateInfo fci{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+    fci.flags = VK_FENCE_CREATE_SIGNALED_BIT;  // the first wait on each slot returns at once
+    if ((r = vkCreateFence(h.device(), &fci, nullptr, &s.fence)) != VK_SUCCESS) return vkError("vkCreateFence", r);
+    VkSemaphoreCreateInfo sci{VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO};
+    if ((r = vkCreateSemaphore(h.device(), &sci, nullptr, &s.acquired)) != VK_SUCCESS)
+      return vkError("vkCreateSemaphore", r);
+    if (timestamps) {
+      VkQueryPoolCreateInfo qci{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+      qci.queryType = VK_QUERY_TYPE_TIMESTAMP;
+      qci.queryCount = kTimestamps;
+      if ((r = vkCreateQueryPool(h.device(), &qci, nullptr, &s.queries)) != VK_SUCCESS)
+        return vkError("vkCreateQueryPool", r);
+    }
+  }
+  return {};
+}
+
+// (Re)creates the colour and depth targets the engine draws into. Precondition: the device is idle.
+Result<void> createTargets(Host& h, VkExtent2D extent) {
+  harness::Harness& hr = *h.session->harness;
+  hr.destroyImage(h.color);
+  hr.destroyImage(h.depth);
+  auto color = hr.createImage(extent.width, extent.height, kColorFormat,
+                              VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                              VK_IMAGE_ASPECT_COLOR_BIT);
+  if (!color) return color.error();
+  h.color = color.value();
+  auto depth = hr.createImage(extent.width, extent.height, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                              VK_IMAGE_ASPECT_DEPTH_BIT);
+  if (!depth) return depth.error();
+  h.depth = depth.value();
+  h.targetExtent = extent;
+  return {};
+}
+
+VkExtent2D framebufferExtent(GLFWwindow* window) {
+  int width = 0, height = 0;
+  glfwGetFramebufferSize(window, &width, &height);
+  return {static_cast<uint32_t>(std::max(width, 0)), static_cast<uint32_t>(std::max(height, 0))};
+}
+
+// Makes sure the shown field has an engine object at the state's order, recording the upload into
+// `cmd` (the frame's own command buffer: the engine's uploads end with the barriers that make them
+// visible to the decompression and raster passes recorded after them). The replaced object retires
+// through the context's deferred destruction, so frames still in flight keep using it safely.
+Result<void> ensureFieldObject(Host& h, const ViewerOptions& options, const ViewState& state, VkCommandBuffer cmd) {
+  const size_t i = state.field;
+  if (h.fieldObjects[i] && h.fieldObjectOrders[i] == state.order) return {};
+  const Field& baked = options.fields[i];
+  Result<std::unique_ptr<Object>> created = makeError(ErrorCode::InvalidArgument, "not created");
+  if (state.order == baked.order) {
+    created = Object::createFromField(*h.session->context, baked, cmd);
+  } else {
+    auto truncated = truncateOrder(baked, state.order);
+    if (!truncated) return truncated.error();
+    created = Object::createFromField(*h.session->context, truncated.value(), cmd);
+  }
+  if (!created) return makeError(created.error().code, options.fieldNames[i] + ": " + created.error().message);
+  h.fieldObjects[i] = std::move(created).value();
+  h.fieldObjectOrders[i] = state.order;
+  return {};
+}
+
+void imageBarrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkPipelineStageFlags2 srcStage,
+                  VkAccessFlags2 srcAccess, VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess,
+                  VkImageLayout oldLayout, VkImageLayout newLayout) {
+  VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
+  b.srcStageMask = srcStage;
+  b.srcAccessMask = srcAccess;
+  b.dstStageMask = dstStage;
+  b.dstAccessMask = dstAccess;
+  b.oldLayout = oldLayout;
+  b.newLayout = newLayout;
+  b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  b.image = image;
+  b.subresourceRange = {aspect, 0, 1, 0, 1};
+  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+  dep.imageMemoryBarrierCount = 1;
+  dep.pImageMemoryBarriers = &b;
+  vkCmdPipelineBarrier2(cmd, &dep);
+}
+
+struct FrameInputs {
+  const Environment* environment = nullptr;
+  std::vector<Object*> objects;
+  ShadingMode mode = ShadingMode::SingleInterface;
+  Camera camera;
+  VkImage swapchainImage = VK_NULL_HANDLE;
+};
+
+// One frame: decompression (outside rendering), the engine's raster pass inside our dynamic
+// rendering, then the blit of the target to the swapchain image.
+Result<void> recordFrame(Host& h, FrameSlot& slot, const FrameInputs& in) {
+  VkCommandBuffer cmd = slot.cmd;
+  if (slot.queries) {
+    vkCmdResetQueryPool(cmd, slot.queries, 0, kTimestamps);
+    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_TOP_OF_PIPE_BIT, slot.queries, 0);
+  }
+  if (in.mode == ShadingMode::Field && h.decompressor)
+    if (auto r = h.decompressor->record(cmd, in.camera.eye, in.objects); !r) return r;
+  if (slot.queries) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, slot.queries, 1);
+
+  // The targets are cleared every frame (old contents discarded). The source stages order this
+  // frame's writes after the previous frame's blit read and attachment writes on the same queue.
+  imageBarrier(cmd, h.color.image, VK_IMAGE_ASPECT_COLOR_BIT,
+               VK_PIPELINE_STAGE_2_BLIT_BIT | VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_NONE,
+               VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+               VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
+  imageBarrier(cmd, h.depth.image, VK_IMAGE_ASPECT_DEPTH_BIT,
+               VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+               VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+               VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+               VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+               VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+
+  if (slot.queries) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, slot.queries, 2);
+  VkRenderingAttachmentInfo colorAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  colorAttachment.imageView = h.color.view;
+  colorAttachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  colorAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  colorAttachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  VkRenderingAttachmentInfo depthAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  depthAttachment.imageView = h.depth.view;
+  depthAttachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depthAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  depthAttachment.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  depthAttachment.clearValue.depthStencil = {1.0f, 0};
+  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+  ri.renderArea = {{0, 0}, h.targetExtent};
+  ri.layerCount = 1;
+  ri.colorAttachmentCount = 1;
+  ri.pColorAttachments = &colorAttachment;
+  ri.pDepthAttachment = &depthAttachment;
+  vkCmdBeginRendering(cmd, &ri);
+  const VkViewport viewport{0.0f, 0.0f, float(h.targetExtent.width), float(h.targetExtent.height), 0.0f, 1.0f};
+  const VkRect2D scissor{{0, 0}, h.targetExtent};
+  vkCmdSetViewport(cmd, 0, 1, &viewport);
+  vkCmdSetScissor(cmd, 0, 1, &scissor);
+  h.renderer->recordBackground(cmd, *in.environment, in.camera, h.targetExtent);
+  h.renderer->recordObjects(cmd, *in.environment, in.camera, h.targetExtent, in.objects, in.mode);
+  vkCmdEndRendering(cmd);
+  if (slot.queries) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, slot.queries, 3);
+
+  // Target -> swapchain image. The swapchain image's first use waits on the acquire semaphore at
+  // the blit stage (see the submit), so its barrier starts from that stage.
+  imageBarrier(cmd, h.color.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+               VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_TRANSFER_READ_BIT,
+               VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+  imageBarrier(cmd, in.swapchainImage, VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_NONE,
+               VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+               VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+  const VkExtent2D dst = h.swapchain->extent();
+  VkImageBlit region{};
+  region.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+  region.srcOffsets[1] = {static_cast<int32_t>(h.targetExtent.width), static_cast<int32_t>(h.targetExtent.height), 1};
+  region.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+  region.dstOffsets[1] = {static_cast<int32_t>(dst.width), static_cast<int32_t>(dst.height), 1};
+  const bool sameSize = dst.width == h.targetExtent.width && dst.height == h.targetExtent.height;
+  vkCmdBlitImage(cmd, h.color.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, in.swapchainImage,
+                 VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region,
+                 !sameSize && h.linearBlit ? VK_FILTER_LINEAR : VK_FILTER_NEAREST);
+  // Presentation needs no access mask: the present waits on the semaphore signalled after this.
+  imageBarrier(cmd, in.swapchainImage, VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_BLIT_BIT,
+               VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE,
+               VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR);
+  return {};
+}
+
+}  // namespace
+
+int runViewer(const ViewerOptions& options) {
+  if (options.environments.empty()) return fail("no environment");
+  Host h;
+
+  // --- window -------------------------------------------------------------------------------
+  glfwSetErrorCallback(onGlfwError);
+  if (!glfwInit()) return fail("cannot open a window: " + gGlfwError);
+  h.glfwReady = true;
+  if (!glfwVulkanSupported()) return fail("GLFW finds no Vulkan loader: " + gGlfwError);
+  glfwWindowHint(GLFW_CLIENT_API, GLFW_NO_API);  // Vulkan draws; no OpenGL context
+  // A screenshot is taken at the requested size: the window must not be resized under it.
+  glfwWindowHint(GLFW_RESIZABLE, options.screenshot.empty() ? GLFW_TRUE : GLFW_FALSE);
+  h.window = glfwCreateWindow(static_cast<int>(options.width), static_cast<int>(options.height), "shrefract view",
+                              nullptr, nullptr);
+  if (!h.window) return fail("cannot create a window: " + gGlfwError);
+
+  // --- Vulkan: the harness creates instance and device with the surface and swapchain extensions
+  harness::HarnessOptions ho;
+  ho.enableValidation = options.validation;
+  ho.deviceIndex = options.deviceIndex;
+  uint32_t glfwExtensionCount = 0;
+  const char** glfwExtensions = glfwGetRequiredInstanceExtensions(&glfwExtensionCount);
+  if (!glfwExtensions)
+    return fail("no Vulkan driver offers a surface extension for this window system (no Vulkan device that can "
+                "present?): " + gGlfwError);
+  ho.instanceExtensions.assign(glfwExtensions, glfwExtensions + glfwExtensionCount);
+  ho.deviceExtensions.push_back(VK_KHR_SWAPCHAIN_EXTENSION_NAME);
+  auto session = offscreen::createSession(ho);
+  if (!session) return fail(session.error().message);
+  h.session = std::move(session).value();
+  harness::Harness& hr = *h.session->harness;
+  Context& context = *h.session->context;
+
+  VkResult vr = glfwCreateWindowSurface(hr.instance(), h.window, nullptr, &h.surface);
+  if (vr != VK_SUCCESS) return fail("glfwCreateWindowSurface failed (VkResult " + std::to_string(vr) + "): " + gGlfwError);
+  VkBool32 presentable = VK_FALSE;
+  vkGetPhysicalDeviceSurfaceSupportKHR(hr.physicalDevice(), hr.queueFamily(), h.surface, &presentable);
+  if (!presentable)
+    return fail("the queue family of " + hr.deviceName() + " cannot present to this window");
+  h.swapchain = std::make_unique<Swapchain>(hr.physicalDevice(), hr.device(), h.surface);
+  VkExtent2D swapchainFramebuffer = framebufferExtent(h.window);
+  if (auto r = h.swapchain->create(swapchainFramebuffer, options.vsync); !r) return fail(r.error().message);
+  VkFormatProperties colorProps{};
+  vkGetPhysicalDeviceFormatProperties(hr.physicalDevice(), kColorFormat, &colorProps);
+  h.linearBlit = (colorProps.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT) != 0;
+
+  const bool timestamps = queueHasTimestamps(hr);
+  if (auto r = createFrameSlots(h, timestamps); !r) return fail(r.error().message);
+  // A screenshot is taken at the requested size; otherwise the target follows the window.
+  const bool fixedTarget = !options.screenshot.empty();
+  if (auto r = createTargets(h, fixedTarget ? VkExtent2D{options.width, options.height} : h.swapchain->extent()); !r)
+    return fail(r.error().message);
+
+  // --- engine objects -----------------------------------------------------------------------
+  for (size_t i = 0; i < options.environments.size(); ++i) {
+    auto env = offscreen::uploadEnvironment(*h.session, options.environments[i]);
+    if (!env) return fail(options.environmentNames[i] + ": " + env.error().message);
+    h.environments.push_back(std::move(env).value());
+  }
+  RendererCreateInfo rci;
+  rci.colorFormat = kColorFormat;
+  rci.depthFormat = kDepthFormat;
+  rci.exposure = options.exposure;
+  auto renderer = Renderer::create(context, rci);
+  if (!renderer) return fail(renderer.error().message);
+  h.renderer = std::move(renderer).value();
+
+  ViewState state;
+  state.environmentCount = options.environments.size();
+  state.absorption = options.absorption;
+  Camera initialCamera;
+  if (options.scene) {
+    auto uploaded = offscreen::uploadScene(*h.session, *options.scene);
+    if (!uploaded) return fail(options.sceneName + ": " + uploaded.error().message);
+    h.sceneObjects = std::move(uploaded).value();
+    state.mode = ShadingMode::SingleInterface;
+    initialCamera = offscreen::defaultCamera(*options.scene, options.verticalFovDegrees);
+  } else {
+    for (size_t i = 0; i < options.fields.size(); ++i)
+      state.fields.push_back({options.fieldNames[i], options.fields[i].order, toString(options.fields[i].settings.layout)});
+    state.order = std::min(options.order.value_or(options.fields[0].order), options.fields[0].order);
+    state.mode = options.mode;
+    h.fieldObjects.resize(options.fields.size());
+    h.fieldObjectOrders.assign(options.fields.size(), 0);
+    auto decompressor = Decompressor::create(context);
+    if (!decompressor) return fail(decompressor.error().message);
+    h.decompressor = std::move(decompressor).value();
+    // The pipeline now, so that the first frames time the work and not the shader compiler.
+    if (auto r = h.decompressor->prepare(state.order); !r) return fail(r.error().message);
+    std::array<float, 3> lo{}, hi{};
+    offscreen::meshBounds(options.fields[0].mesh, lo, hi);
+    initialCamera = offscreen::frameBounds(lo, hi, options.verticalFovDegrees);
+  }
+
+  OrbitCamera orbit(initialCamera);
+  Input input;
+  input.camera = &orbit;
+  glfwSetWindowUserPointer(h.window, &input);
+  glfwSetCharCallback(h.window, onChar);
+  glfwSetKeyCallback(h.window, onKey);
+  glfwSetCursorPosCallback(h.window, onCursor);
+  glfwSetScrollCallback(h.window, onScroll);
+
+  // --- frame loop ---------------------------------------------------------------------------
+  using Clock = std::chrono::steady_clock;
+  auto titleTime = Clock::now();
+  auto lastFrame = Clock::now();
+  double frameMsSum = 0.0;
+  uint32_t frameMsCount = 0;
+  double frameMs = -1.0, decompressionMs = -1.0, rasterMs = -1.0;
+  bool titleDirty = true;
+  bool recreate = false;
+  uint64_t frame = 0;
+  size_t keyCursor = 0;
+  const double period = double(hr.properties().limits.timestampPeriod) * 1e-6;  // ticks -> ms
+
+  // GPU times of the frame last submitted from `slot`. Precondition: its fence has signalled.
+  auto readTimestamps = [&](FrameSlot& slot) {
+    if (!slot.queries || !slot.timestampsWritten) return;
+    std::array<uint64_t, kTimestamps> ticks{};
+    if (vkGetQueryPoolResults(hr.device(), slot.queries, 0, kTimestamps, sizeof(ticks), ticks.data(),
+                              sizeof(uint64_t), VK_QUERY_RESULT_64_BIT) != VK_SUCCESS)
+      return;
+    // Near zero while the eye stands still: the Decompressor leaves out objects whose distortion
+    // image already holds this eye's decompression.
+    decompressionMs = ticks[1] >= ticks[0] ? double(ticks[1] - ticks[0]) * period : 0.0;
+    rasterMs = ticks[3] >= ticks[2] ? double(ticks[3] - ticks[2]) * period : 0.0;
+  };
+  auto makeTitle = [&]() {
+    const bool decompressing = state.hasFields() && state.mode == ShadingMode::Field;
+    return title(state, options.environmentNames, frameMs, decompressing ? decompressionMs : -1.0,
+                 timestamps ? rasterMs : -1.0);
+  };
+
+  while (!glfwWindowShouldClose(h.window) && (options.frames == 0 || frame < options.frames)) {
+    glfwPollEvents();
+    // --keys: character i acts at the start of frame i (once, even if the frame is retried).
+    if (keyCursor <= frame && keyCursor < options.keys.size())
+      if (auto action = actionForCharacter(options.keys[keyCursor++])) input.actions.push_back(*action);
+    for (Action a : input.actions) titleDirty = apply(state, a) || titleDirty;
+    input.actions.clear();
+    if (state.quit) break;
+    if (state.resetCamera) {
+      orbit.reset();
+      state.resetCamera = false;
+    }
+
+    // A minimized window has no area to present to: wait for it to come back.
+    const VkExtent2D fb = framebufferExtent(h.window);
+    if (fb.width == 0 || fb.height == 0) {
+      glfwWaitEvents();
+      continue;
+    }
+    // Re-create on a new window size (compared with the size it was made for: the surface may
+    // pick another extent) or when presentation reported the swapchain out of date.
+    if (recreate || fb.width != swapchainFramebuffer.width || fb.height != swapchainFramebuffer.height) {
+      vkDeviceWaitIdle(hr.device());
+      if (auto r = h.swapchain->create(fb, options.vsync); !r) return fail(r.error().message);
+      swapchainFramebuffer = fb;
+      if (!fixedTarget)
+        if (auto r = createTargets(h, h.swapchain->extent()); !r) return fail(r.error().message);
+      recreate = false;
+    }
+
+    FrameSlot& slot = h.slots[frame % kFramesInFlight];
+    vkWaitForFences(hr.device(), 1, &slot.fence, VK_TRUE, UINT64_MAX);
+    // The slot's previous frame is complete: its timestamps can be read and what the engine retired
+    // framesInFlight frames ago can be released.
+    readTimestamps(slot);
+    uint32_t imageIndex = 0;
+    vr = vkAcquireNextImageKHR(hr.device(), h.swapchain->handle(), UINT64_MAX, slot.acquired, VK_NULL_HANDLE,
+                               &imageIndex);
+    if (vr == VK_ERROR_OUT_OF_DATE_KHR) {
+      recreate = true;  // nothing was signalled; the slot's fence is still signalled
+      continue;
+    }
+    if (vr != VK_SUCCESS && vr != VK_SUBOPTIMAL_KHR) return fail(vkError("vkAcquireNextImageKHR", vr).message);
+    // Once per submitted frame, after its slot's fence: releases what the engine retired
+    // framesInFlight frames ago (replaced field objects, upload staging buffers).
+    context.beginFrame();
+
+    vkResetFences(hr.device(), 1, &slot.fence);
+    vkResetCommandBuffer(slot.cmd, 0);
+    VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    vkBeginCommandBuffer(slot.cmd, &bi);
+
+    FrameInputs in;
+    in.environment = h.environments[state.environment].get();
+    in.camera = orbit.camera();
+    in.swapchainImage = h.swapchain->image(imageIndex);
+    in.mode = state.mode;
+    if (state.hasFields()) {
+      if (auto r = ensureFieldObject(h, options, state, slot.cmd); !r) return fail(r.error().message);
+      Object* shown = h.fieldObjects[state.field].get();
+      shown->shading.absorptionScale = state.absorption;
+      in.objects.push_back(shown);
+    } else {
+      for (auto& o : h.sceneObjects) in.objects.push_back(o.get());
+    }
+    if (auto r = recordFrame(h, slot, in); !r) return fail(r.error().message);
+    if ((vr = vkEndCommandBuffer(slot.cmd)) != VK_SUCCESS) return fail(vkError("vkEndCommandBuffer", vr).message);
+
+    VkSemaphoreSubmitInfo wait{VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO};
+    wait.semaphore = slot.acquired;
+    wait.stageMask = VK_PIPELINE_STAGE_2_BLIT_BIT;  // the swapchain image is first touched by the blit
+    VkSemaphoreSubmitInfo signal{VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO};
+    signal.semaphore = h.swapchain->renderDone(imageIndex);
+    signal.stageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
+    VkCommandBufferSubmitInfo cbi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO};
+    cbi.commandBuffer = slot.cmd;
+    VkSubmitInfo2 si{VK_STRUCTURE_TYPE_SUBMIT_INFO_2};
+    si.waitSemaphoreInfoCount = 1;
+    si.pWaitSemaphoreInfos = &wait;
+    si.commandBufferInfoCount = 1;
+    si.pCommandBufferInfos = &cbi;
+    si.signalSemaphoreInfoCount = 1;
+    si.pSignalSemaphoreInfos = &signal;
+    if ((vr = vkQueueSubmit2(hr.queue(), 1, &si, slot.fence)) != VK_SUCCESS)
+      return fail(vkError("vkQueueSubmit2", vr).message);
+    slot.timestampsWritten = slot.queries != VK_NULL_HANDLE;
+
+    VkSemaphore renderDone = h.swapchain->renderDone(imageIndex);
+    VkSwapchainKHR swapchainHandle = h.swapchain->handle();
+    VkPresentInfoKHR pi{VK_STRUCTURE_TYPE_PRESENT_INFO_KHR};
+    pi.waitSemaphoreCount = 1;
+    pi.pWaitSemaphores = &renderDone;
+    pi.swapchainCount = 1;
+    pi.pSwapchains = &swapchainHandle;
+    pi.pImageIndices = &imageIndex;
+    vr = vkQueuePresentKHR(hr.queue(), &pi);
+    if (vr == VK_ERROR_OUT_OF_DATE_KHR || vr == VK_SUBOPTIMAL_KHR) recreate = true;
+    else if (vr != VK_SUCCESS) return fail(vkError("vkQueuePresentKHR", vr).message);
+    ++frame;
+
+    const auto now = Clock::now();
+    frameMsSum += std::chrono::duration<double, std::milli>(now - lastFrame).count();
+    ++frameMsCount;
+    lastFrame = now;
+    if (titleDirty || std::chrono::duration<double>(now - titleTime).count() >= kTitleIntervalSeconds) {
+      if (frameMsCount) frameMs = frameMsSum / frameMsCount;
+      frameMsSum = 0.0;
+      frameMsCount = 0;
+      titleTime = now;
+      titleDirty = false;
+      glfwSetWindowTitle(h.window, makeTitle().c_str());
+    }
+  }
+
+  // --- exit: read the last frame back, tear down, count validation messages -----------------
+  vkDeviceWaitIdle(hr.device());
+  if (frame > 0) readTimestamps(h.slots[(frame - 1) % kFramesInFlight]);
+  if (frameMsCount) frameMs = frameMsSum / frameMsCount;
+  const std::string lastTitle = makeTitle();
+  std::optional<bake::Image> shot;
+  if (!options.screenshot.empty()) {
+    if (frame == 0) return fail("no frame was rendered; no screenshot written");
+    // The last frame left the target in TRANSFER_SRC_OPTIMAL after its blit.
+    auto pixels = hr.readbackColor(h.color, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+    if (!pixels) return fail(pixels.error().message);
+    shot = bake::Image{h.targetExtent.width, h.targetExtent.height, std::move(pixels).value()};
+  }
+  const char* presentMode = h.swapchain->presentMode() == VK_PRESENT_MODE_FIFO_KHR        ? "fifo"
+                            : h.swapchain->presentMode() == VK_PRESENT_MODE_IMMEDIATE_KHR ? "immediate"
+                            : h.swapchain->presentMode() == VK_PRESENT_MODE_MAILBOX_KHR   ? "mailbox"
+                                                                                          : "other";
+  h.releaseGpuObjects();
+  const uint32_t messages = hr.messageCount();
+  if (messages != 0)
+    return fail(std::to_string(messages) + " Vulkan validation message(s)" + (shot ? "; no screenshot written" : ""));
+  if (shot)
+    if (auto written = bake::writeImage(options.screenshot, *shot); !written) return fail(written.error().message);
+  std::printf("shrefract view: %llu frames on %s (present mode %s), 0 validation messages%s%s\n",
+              static_cast<unsigned long long>(frame), hr.deviceName().c_str(), presentMode,
+              shot ? "; screenshot " : "", shot ? options.screenshot.c_str() : "");
+  std::printf("last title: %s\n", lastTitle.c_str());  // the state and the last frame's timings
+  return 0;
+}
+
+}  // namespace shrefract::viewer
