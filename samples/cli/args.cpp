@@ -29,7 +29,10 @@ Result<Args> Args::parse(const std::string& command, int argc, char** argv, int 
         if (inlineValue) {
           args.values_[name] = *inlineValue;
         } else {
-          if (i + 1 >= argc)
+          // The next argument is the value unless it is another flag ("--x" or "-o"): "--order -o F"
+          // forgot the order's value, and taking "-o" as it would blame a different argument.
+          const std::string next = i + 1 < argc ? argv[i + 1] : "";
+          if (i + 1 >= argc || (next.size() > 2 && next.rfind("--", 0) == 0) || next == "-o")
             return makeError(ErrorCode::InvalidArgument, "shrefract " + command + ": flag --" + name + " needs a value");
           args.values_[name] = argv[++i];
         }

@@ -159,8 +159,9 @@ int bakeCommand(int argc, char** argv) {
   auto scene = loadScene(s.source, overrides, &warnings);
   // Recorded with its overrides, so that `render --mode exact` and `report` rebuild this scene.
   if (s.source.find('?') == std::string::npos) s.source = canonicalSceneSpec(s.source, overrides);
-  for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  // On failure the error alone: one line naming the file (the warnings led up to it).
   if (!scene) return fail(scene.error().message);
+  for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
 
   bake::BakeOptions options;
   options.settings = s;

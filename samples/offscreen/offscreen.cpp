@@ -154,6 +154,7 @@ Result<bake::Image> renderFrame(Session& session, const Environment& environment
   rci.colorFormat = colorFormat;
   rci.depthFormat = depthFormat;
   rci.exposure = settings.exposure;
+  rci.frustumCulling = settings.skipWork;
   auto renderer = Renderer::create(*session.context, rci);
   if (!renderer) return renderer.error();
   std::unique_ptr<Decompressor> decompressor;
@@ -163,10 +164,11 @@ Result<bake::Image> renderFrame(Session& session, const Environment& environment
     auto created = Decompressor::create(*session.context);
     if (!created) return created.error();
     decompressor = std::move(created).value();
+    decompressor->setSkipUnchanged(settings.skipWork);
     // Pipelines now, so that the first frame's timings measure the work and not the compiler.
     for (const Object* o : objects)
       if (o && o->hasField())
-        if (auto prepared = decompressor->prepare(o->fieldOrder()); !prepared) return prepared.error();
+        if (auto prepared = decompressor->prepare(*o); !prepared) return prepared.error();
   }
 
   const bool timestamps = timings && queueHasTimestamps(h);
@@ -208,7 +210,9 @@ Result<bake::Image> renderFrame(Session& session, const Environment& environment
         vkCmdResetQueryPool(cmd, queries, 0, kTimestampCount);
         vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_TOP_OF_PIPE_BIT, queries, 0);
       }
-      if (decompressor) recorded = decompressor->record(cmd, settings.camera.eye, objects);
+      if (decompressor)
+        recorded = settings.skipWork ? decompressor->record(cmd, settings.camera, extent, objects)
+                                     : decompressor->record(cmd, settings.camera.eye, objects);
       if (queries) {
         vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries, 1);
       }
@@ -268,6 +272,10 @@ Result<bake::Image> renderFrame(Session& session, const Environment& environment
       renderer.value()->recordObjects(cmd, environment, settings.camera, extent, objects, settings.mode);
       vkCmdEndRendering(cmd);
       if (queries) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries, 3);
+      if (timings) {
+        timings->decompress = decompressor ? decompressor->lastStats() : DecompressStats{};
+        timings->draw = renderer.value()->lastDrawStats();
+      }
     });
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     if (timings) timings->wallMs.push_back(ms);

@@ -57,6 +57,10 @@ struct FrameSettings {
   ShadingMode mode = ShadingMode::SingleInterface;
   float exposure = 1.0f;
   uint32_t frames = 1;  // frames rendered (the image is the last one's); for timings
+  // false: every field object is decompressed every frame and every object is drawn (timings of
+  // the whole pass). true: what a host gets by default: the Decompressor leaves out objects whose
+  // eye has not changed and objects outside the view (Decompressor's camera overload).
+  bool skipWork = false;
 };
 
 // GPU timestamps of the last frame and host wall time of every frame.
@@ -65,6 +69,8 @@ struct FrameTimings {
   double decompressionMs = 0.0; // the Decompressor's dispatches and barriers (0 without field objects)
   double rasterMs = 0.0;        // background + objects, inside dynamic rendering
   std::vector<double> wallMs;   // per frame: record, submit, wait for the fence
+  DecompressStats decompress;   // what the last frame's decompression recorded
+  DrawStats draw;               // what the last frame's raster pass drew
 };
 
 // Renders the environment and the objects into a float image and reads it back. In Field mode the

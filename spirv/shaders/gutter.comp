@@ -13,7 +13,8 @@ layout(set = 0, binding = kBindingDistortionOut, rgba16f) uniform image2D distor
 ivec2 texelCoord(uint t) { return ivec2(t % pc.size.x, t / pc.size.x); }
 
 void main() {
-  uint g = gl_GlobalInvocationID.x;
+  // Dispatches beyond maxComputeWorkGroupCount[0] groups are split into rows (dispatchGrid).
+  uint g = gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * kGutterLocalSize;
   if (g >= pc.size.z) return;
   uvec4 rule = gutters[g];
   vec4 value = imageLoad(distortion, texelCoord(rule.y)) + imageLoad(distortion, texelCoord(rule.z)) -

@@ -143,7 +143,9 @@ Result<Image> loadImage(const std::string& path) {
   std::vector<float> pixels(width * height * channels);
   if (!input->read_image(0, 0, 0, static_cast<int>(channels), OIIO::TypeDesc::FLOAT,
                          pixels.data())) {
-    const std::string message = oneLine(input->geterror());
+    // OpenImageIO's PFM and some other readers fail on short pixel data without a message.
+    const std::string raw = input->geterror();
+    const std::string message = raw.empty() ? "the pixel data is truncated or corrupt" : oneLine(raw);
     input->close();
     return makeError(ErrorCode::CorruptData, path + ": cannot read: " + message);
   }

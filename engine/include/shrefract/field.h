@@ -28,6 +28,10 @@ inline constexpr uint32_t kFieldFormatVersion = 1;
 // SH sum stays below 3.1e17 and its squared length below 3e35: finite in float, with margin for
 // rounding. Baked coefficients are unit directions and optical depths, far below it.
 inline constexpr float kMaxCoefficientMagnitude = 1e15f;
+// Largest magnitude of a frame entry (validateField). Baked frames hold unit axes and minus the
+// sample's position along them; with entries up to 1e15, M_s (eye, 1) stays finite in float for
+// every eye within 1e22 of the origin (3 * 1e15 * 1e22 + 1e15 < 3.4e38).
+inline constexpr float kMaxFrameMagnitude = 1e15f;
 
 enum class SampleLayout : uint32_t {
   Split = 0,   // revised technique: one texel patch per triangle, continuity-corrected gutters
@@ -151,8 +155,8 @@ float fieldCoefficient(const Field& field, uint32_t layer, uint64_t texel, uint3
 Result<void> encodeCoefficients(Field& field, const std::vector<float>& coefficients);
 
 // Structural validation: sizes agree, values finite, indices and texel references in range,
-// UVs in [0,1], frames zero exactly for empty texels, order <= 32, channels 3 or 4, every
-// decodable U8 coefficient within kMaxCoefficientMagnitude.
+// UVs in [0,1], frames zero exactly for empty texels and within kMaxFrameMagnitude, order <= 32,
+// channels 3 or 4, every decodable U8 coefficient within kMaxCoefficientMagnitude.
 Result<void> validateField(const Field& field);
 
 // Serialization. parseField validates everything: magic, version (newer versions are rejected

@@ -25,7 +25,9 @@
 //  - the host has set viewport and scissor (dynamic state) to the region to draw;
 //  - the engine binds its own pipelines, descriptor sets, vertex/index buffers and push constants;
 //    on return the host must rebind its own state before drawing.
-//  - the background is drawn at the far plane without writing depth; objects write depth.
+//  - the background is drawn at the far plane without writing depth; objects write depth. Either
+//    call may come first: drawing the objects first lets the depth test reject the background's
+//    fragments under them before they are shaded (the frame benchmark does).
 #pragma once
 
 #include <shrefract/context.h>
@@ -83,16 +85,20 @@ class Object {
   // coordinates and per-vertex frontIor) and the field's GPU data, uploaded through `cmd` (a host
   // command buffer in the recording state, on the context's queue family; staging buffers are
   // retired through the context's deferred destruction):
-  //  - coefficients: one 2D array image, layer i = basis function i; R8G8B8A8_UNORM with the
-  //    per-(layer, channel) scale/bias in a storage buffer (U8), or R16G16B16A16_SFLOAT (F16);
-  //    x, y, z of the exit direction in RGB, tau in A (A decodes to 0 when channels == 3);
-  //  - the per-texel frames M_s (3 vec4 rows per texel), texel kinds and gutter rules as storage
-  //    buffers;
-  //  - the distortion image: width x height R16G16B16A16_SFLOAT, cleared to zero.
-  // After `cmd` executes, the coefficient image and the distortion image are in
-  // SHADER_READ_ONLY_OPTIMAL and every upload is visible to compute and fragment shaders.
-  // Errors: CorruptData when validateField rejects the field; Unsupported when the atlas or the
-  // number of basis functions exceeds the device's image limits; Vulkan on allocation failures.
+  //  - coefficients of the sample texels only, in one buffer (read as a texel buffer, or as a
+  //    storage buffer beyond the device's texel-buffer limit): one plane per basis function and
+  //    channel (x, y, z of the exit direction, then tau when the field has 4 channels; nothing for
+  //    tau when it has 3), bytes (U8, with the per-(layer, channel) scale/bias in a second buffer)
+  //    or binary16 (F16); layout in gpu_layout.h;
+  //  - the samples' frames M_s (3 vec4 rows per sample), their texel indices and the gutter rules
+  //    as storage buffers;
+  //  - the distortion image: width x height R16G16B16A16_SFLOAT, cleared to zero (empty texels stay
+  //    zero for the object's lifetime).
+  // After `cmd` executes, the distortion image is in SHADER_READ_ONLY_OPTIMAL and every upload is
+  // visible to compute and fragment shaders.
+  // Errors: CorruptData when validateField rejects the field; Unsupported when the atlas exceeds
+  // the device's 2D image limit, the coefficients both its texel and storage buffer limits, or the
+  // samples' frames its storage buffer range; Vulkan on allocation failures.
   static Result<std::unique_ptr<Object>> createFromField(Context& context, const Field& field, VkCommandBuffer cmd);
   // readField(path), then createFromField. Errors name the file.
   static Result<std::unique_ptr<Object>> createFromFieldFile(Context& context, const std::string& path,
@@ -112,8 +118,21 @@ class Object {
   // VK_NULL_HANDLE without a field): texel (x, y) holds the decoded exit direction (xyz, unit, or
   // zero for empty texels) and optical depth (w) for the eye of the last decompression. Between
   // engine passes it is in SHADER_READ_ONLY_OPTIMAL. Created with TRANSFER_SRC usage so that tools
-  // and tests can copy it out; a host that does must return it to SHADER_READ_ONLY_OPTIMAL.
+  // and tests can copy it out; a host that does must return it to SHADER_READ_ONLY_OPTIMAL with its
+  // contents kept (from the layout it used, not UNDEFINED): empty texels are never rewritten.
   VkImage distortionImage() const;
+  // Forgets which eye the distortion image was decompressed for, so that the next
+  // Decompressor::record() rewrites it. Needed only by a host that records a decompression into a
+  // command buffer it then never submits, or that writes the image itself (see decompressor.h).
+  void invalidateDistortion();
+
+  // World-space axis-aligned bounds of the mesh (what view-frustum culling tests).
+  std::array<float, 3> boundsMin() const;
+  std::array<float, 3> boundsMax() const;
+  // Device memory the object holds: the sum of the memory requirements of its buffers and images
+  // (mesh; for a field also coefficients, scale/bias, frames, sample texel indices, gutter rules
+  // and the distortion image). Staging memory of the upload is not counted (released after it).
+  uint64_t gpuMemoryBytes() const;
 
   ObjectShading shading;
   ObjectImpl& impl() { return *impl_; }
@@ -143,6 +162,15 @@ struct RendererCreateInfo {
   VkFormat colorFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
   VkFormat depthFormat = VK_FORMAT_D32_SFLOAT;  // VK_FORMAT_UNDEFINED: no depth attachment
   float exposure = 1.0f;
+  // recordObjects() leaves out objects whose bounds lie outside the camera's view frustum (they
+  // would produce no fragment). Off only to measure what culling saves.
+  bool frustumCulling = true;
+};
+
+// What the last recordObjects() call did.
+struct DrawStats {
+  uint32_t drawn = 0;   // draw calls recorded
+  uint32_t culled = 0;  // objects left out: bounds outside the view frustum
 };
 
 struct RendererImpl;
@@ -161,9 +189,13 @@ class Renderer {
   // Field mode: each field object's distortion image must have been written for this camera's
   // eye by Decompressor::record() earlier on the same queue (outside the render pass); the
   // Decompressor leaves it in SHADER_READ_ONLY_OPTIMAL, visible to fragment shaders. Null entries
-  // are skipped. Several objects in one call are drawn in order with depth testing.
+  // are skipped. Several objects in one call are drawn in order with depth testing. Objects whose
+  // bounds lie outside the view frustum of (camera, extent) are not drawn (frustumCulling); the
+  // Decompressor's camera overload leaves out the same objects.
   void recordObjects(VkCommandBuffer cmd, const Environment& environment, const Camera& camera, VkExtent2D extent,
                      const std::vector<Object*>& objects, ShadingMode mode = ShadingMode::SingleInterface);
+  // Counts of the last recordObjects() call.
+  const DrawStats& lastDrawStats() const;
 
  private:
   explicit Renderer(std::unique_ptr<RendererImpl> impl);

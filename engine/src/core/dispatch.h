@@ -35,6 +35,7 @@ namespace shrefract {
   X(vkCmdWriteTimestamp2)             \
   X(vkCmdResetQueryPool)              \
   X(vkCreateBuffer)                   \
+  X(vkCreateBufferView)               \
   X(vkCreateCommandPool)              \
   X(vkCreateComputePipelines)         \
   X(vkCreateDescriptorPool)           \
@@ -48,6 +49,7 @@ namespace shrefract {
   X(vkCreateSampler)                  \
   X(vkCreateShaderModule)             \
   X(vkDestroyBuffer)                  \
+  X(vkDestroyBufferView)              \
   X(vkDestroyCommandPool)             \
   X(vkDestroyDescriptorPool)          \
   X(vkDestroyDescriptorSetLayout)     \

@@ -2,6 +2,7 @@
 #include <shrefract/decompressor.h>
 
 #include <algorithm>
+#include <array>
 #include <map>
 #include <string>
 #include <vector>
@@ -10,6 +11,7 @@
 #include "decompress/field_layouts.h"
 #include "engine_spirv.h"
 #include "raster/object_impl.h"
+#include "raster/view_frustum.h"
 #include "shrefract/gpu_layout.h"
 
 namespace shrefract {
@@ -25,18 +27,33 @@ struct DecompressorImpl {
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkShaderModule decompressModule = VK_NULL_HANDLE;
   VkPipeline gutter = VK_NULL_HANDLE;
-  std::map<uint32_t, VkPipeline> byOrder;
+  std::map<uint32_t, VkPipeline> byVariant;  // by variantKey(...)
+  bool skipUnchanged = true;
+  DecompressStats lastStats;
 
   void release() {
     if (!context) return;
     ContextImpl& c = *context;
-    for (auto& [order, p] : byOrder) c.vk.vkDestroyPipeline(c.device(), p, c.alloc());
-    byOrder.clear();
+    for (auto& [key, p] : byVariant) c.vk.vkDestroyPipeline(c.device(), p, c.alloc());
+    byVariant.clear();
     if (gutter) c.vk.vkDestroyPipeline(c.device(), gutter, c.alloc());
     if (decompressModule) c.vk.vkDestroyShaderModule(c.device(), decompressModule, c.alloc());
     if (layout) c.vk.vkDestroyPipelineLayout(c.device(), layout, c.alloc());
     if (setLayout) c.vk.vkDestroyDescriptorSetLayout(c.device(), setLayout, c.alloc());
     context = nullptr;
+  }
+
+  static uint32_t variantKey(uint32_t order, uint32_t channels, Quantization quantization, bool scaleBiasStorage,
+                             bool coefficientsStorage) {
+    return order | (channels << 8) | (static_cast<uint32_t>(quantization) << 16) | (uint32_t(scaleBiasStorage) << 24) |
+           (uint32_t(coefficientsStorage) << 25);
+  }
+  // The decompression pipeline for a field's order, channels, quantization and the buffers its
+  // tables are read from, created on first use.
+  Result<VkPipeline> variant(uint32_t order, uint32_t channels, Quantization quantization, bool scaleBiasStorage,
+                             bool coefficientsStorage);
+  Result<VkPipeline> variant(const FieldResources& f) {
+    return variant(f.order, f.channels, f.quantization, f.scaleBiasStorage, f.coefficientsStorage);
   }
 
   Result<VkPipeline> createPipeline(VkShaderModule module, const VkSpecializationInfo* specialization) {
@@ -107,32 +124,96 @@ Result<std::unique_ptr<Decompressor>> Decompressor::create(Context& context) {
   return std::unique_ptr<Decompressor>(new Decompressor(std::move(impl)));
 }
 
-Result<void> Decompressor::prepare(uint32_t order) {
-  DecompressorImpl& d = *impl_;
+Result<VkPipeline> DecompressorImpl::variant(uint32_t order, uint32_t channels, Quantization quantization,
+                                             bool scaleBiasStorage, bool coefficientsStorage) {
   if (order > kMaxDecompressOrder)
     return makeError(ErrorCode::InvalidArgument, "Decompressor: SH order " + std::to_string(order) + " exceeds " +
                                                      std::to_string(kMaxDecompressOrder));
-  if (d.byOrder.count(order)) return {};
-  const int32_t value = static_cast<int32_t>(order);
-  const VkSpecializationMapEntry entry{gpu::kSpecShOrder, 0, sizeof(value)};
-  const VkSpecializationInfo specialization{1, &entry, sizeof(value), &value};  // { SH_ORDER = order }
-  auto pipeline = d.createPipeline(d.decompressModule, &specialization);
+  const uint32_t key = variantKey(order, channels, quantization, scaleBiasStorage, coefficientsStorage);
+  if (auto found = byVariant.find(key); found != byVariant.end()) return found->second;
+  // { SH_ORDER = order, CHANNELS = channels, QUANTIZATION = quantization,
+  //   SCALE_BIAS_STORAGE = scaleBiasStorage, COEFFICIENTS_STORAGE = coefficientsStorage }
+  // (a bool specialization constant is 32 bits wide)
+  const std::array<uint32_t, 5> values{order, channels, static_cast<uint32_t>(quantization),
+                                       scaleBiasStorage ? uint32_t(VK_TRUE) : uint32_t(VK_FALSE),
+                                       coefficientsStorage ? uint32_t(VK_TRUE) : uint32_t(VK_FALSE)};
+  const std::array<VkSpecializationMapEntry, 5> entries{{
+      {gpu::kSpecShOrder, 0, sizeof(uint32_t)},
+      {gpu::kSpecChannels, sizeof(uint32_t), sizeof(uint32_t)},
+      {gpu::kSpecQuantization, 2 * sizeof(uint32_t), sizeof(uint32_t)},
+      {gpu::kSpecScaleBiasStorage, 3 * sizeof(uint32_t), sizeof(uint32_t)},
+      {gpu::kSpecCoefficientsStorage, 4 * sizeof(uint32_t), sizeof(uint32_t)},
+  }};
+  const VkSpecializationInfo specialization{static_cast<uint32_t>(entries.size()), entries.data(), sizeof(values),
+                                            values.data()};
+  auto pipeline = createPipeline(decompressModule, &specialization);
   if (!pipeline) return pipeline.error();
-  d.byOrder[order] = pipeline.value();
+  byVariant[key] = pipeline.value();
+  return pipeline.value();
+}
+
+Result<void> Decompressor::prepare(uint32_t order) {
+  // The table each field of this order uses (see createFromField).
+  const bool storage = uint64_t(order + 1) * (order + 1) * 8 * sizeof(float) > gpu::kMaxUniformScaleBiasBytes;
+  for (Quantization q : {Quantization::U8, Quantization::F16})
+    for (uint32_t channels : {4u, 3u})
+      if (auto p = impl_->variant(order, channels, q, storage, false); !p) return p.error();
   return {};
 }
 
-Result<void> Decompressor::record(VkCommandBuffer cmd, const std::array<float, 3>& eye,
-                                  const std::vector<Object*>& objects) {
-  DecompressorImpl& d = *impl_;
+Result<void> Decompressor::prepare(const Object& object) {
+  const FieldResources* f = object.impl().field.get();
+  if (!f) return {};
+  if (auto p = impl_->variant(*f); !p) return p.error();
+  return {};
+}
+
+const DecompressStats& Decompressor::lastStats() const { return impl_->lastStats; }
+
+void Decompressor::setSkipUnchanged(bool skip) { impl_->skipUnchanged = skip; }
+
+namespace {
+
+// `groups` workgroups as a grid of at most kMaxDispatchGroupsX per row (gpu_layout.h).
+void dispatchGrid(ContextImpl& c, VkCommandBuffer cmd, uint32_t groups) {
+  const uint32_t x = std::min(groups, gpu::kMaxDispatchGroupsX);
+  c.vk.vkCmdDispatch(cmd, x, (groups + x - 1) / x, 1);
+}
+
+// Both record() overloads; `frustum` null: no culling.
+Result<void> recordFields(DecompressorImpl& d, VkCommandBuffer cmd, const std::array<float, 3>& eye,
+                          const ViewFrustum* frustum, const std::vector<Object*>& objects) {
   ContextImpl& c = *d.context;
+  d.lastStats = DecompressStats{};
+  DecompressStats stats;
   std::vector<FieldResources*> fields;
-  for (Object* o : objects)
-    if (o && o->impl().field && std::find(fields.begin(), fields.end(), o->impl().field.get()) == fields.end())
-      fields.push_back(o->impl().field.get());
-  if (fields.empty()) return {};
-  for (FieldResources* f : fields)
-    if (auto r = prepare(f->order); !r) return r;
+  std::vector<const ObjectImpl*> seen;
+  for (Object* o : objects) {
+    if (!o || !o->impl().field || std::find(seen.begin(), seen.end(), &o->impl()) != seen.end()) continue;
+    const ObjectImpl& object = o->impl();
+    seen.push_back(&object);
+    FieldResources* f = object.field.get();
+    if (frustum && outsideFrustum(*frustum, object.boundsMin, object.boundsMax)) {
+      ++stats.culled;
+      continue;
+    }
+    if (d.skipUnchanged && f->decoded && f->decodedEye == eye && f->decodedOrder == f->order) {
+      ++stats.unchanged;
+      continue;
+    }
+    fields.push_back(f);
+  }
+  std::vector<VkPipeline> pipelines;
+  for (FieldResources* f : fields) {
+    auto p = d.variant(*f);
+    if (!p) return p.error();
+    pipelines.push_back(p.value());
+  }
+  stats.decompressed = static_cast<uint32_t>(fields.size());
+  if (fields.empty()) {
+    d.lastStats = stats;
+    return {};
+  }
 
   auto imageBarrier = [](const FieldResources& f) {
     VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
@@ -148,35 +229,39 @@ Result<void> Decompressor::record(VkCommandBuffer cmd, const std::array<float, 3
     c.vk.vkCmdPipelineBarrier2(cmd, &dep);
   };
 
-  // 1. Wait for earlier reads (the previous frame's raster pass, earlier decompressions), discard
-  //    the old contents and make the images writable by the compute shader.
+  // 1. Wait for earlier reads (the previous frame's raster pass, earlier decompressions) and make
+  //    the images writable by the compute shader. Their contents are kept: only sample and gutter
+  //    texels are rewritten, the empty ones keep the zero of createFromField's clear.
   std::vector<VkImageMemoryBarrier2> barriers;
   for (const FieldResources* f : fields) {
     VkImageMemoryBarrier2 b = imageBarrier(*f);
     b.srcStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
     b.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
     b.dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-    b.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    b.oldLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
     b.newLayout = VK_IMAGE_LAYOUT_GENERAL;
     barriers.push_back(b);
   }
   submitBarriers(barriers);
 
-  // 2. One dispatch per object.
+  // 2. One dispatch per object, one invocation per 4 samples.
   gpu::DecompressPushConstants push{};
   push.eyeWorld = {eye[0], eye[1], eye[2], 1.0f};
   VkPipeline bound = VK_NULL_HANDLE;
-  for (const FieldResources* f : fields) {
-    const VkPipeline pipeline = d.byOrder[f->order];
-    if (pipeline != bound) {
-      c.vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
-      bound = pipeline;
+  for (size_t k = 0; k < fields.size(); ++k) {
+    const FieldResources* f = fields[k];
+    if (!f->sampleCount) continue;
+    if (pipelines[k] != bound) {
+      c.vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelines[k]);
+      bound = pipelines[k];
     }
     c.vk.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, d.layout, 0, 1, &f->decompressSet, 0, nullptr);
-    push.size = {f->width, f->height, f->gutterCount, 0u};
+    push.size = {f->width, f->height, f->gutterCount, f->sampleCount};
     c.vk.vkCmdPushConstants(cmd, d.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-    const uint32_t tile = gpu::kDecompressLocalSize;
-    c.vk.vkCmdDispatch(cmd, (f->width + tile - 1) / tile, (f->height + tile - 1) / tile, 1);
+    const uint32_t invocations =
+        (f->sampleCount + gpu::kDecompressSamplesPerInvocation - 1) / gpu::kDecompressSamplesPerInvocation;
+    dispatchGrid(c, cmd, (invocations + gpu::kDecompressLocalSize - 1) / gpu::kDecompressLocalSize);
+    ++stats.dispatches;
   }
 
   // 3. Gutter rules read what step 2 wrote.
@@ -200,9 +285,10 @@ Result<void> Decompressor::record(VkCommandBuffer cmd, const std::array<float, 3
       if (!f->gutterCount) continue;
       c.vk.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, d.layout, 0, 1, &f->decompressSet, 0,
                                    nullptr);
-      push.size = {f->width, f->height, f->gutterCount, 0u};
+      push.size = {f->width, f->height, f->gutterCount, f->sampleCount};
       c.vk.vkCmdPushConstants(cmd, d.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-      c.vk.vkCmdDispatch(cmd, (f->gutterCount + gpu::kGutterLocalSize - 1) / gpu::kGutterLocalSize, 1, 1);
+      dispatchGrid(c, cmd, (f->gutterCount + gpu::kGutterLocalSize - 1) / gpu::kGutterLocalSize);
+      ++stats.dispatches;
     }
   }
 
@@ -219,7 +305,26 @@ Result<void> Decompressor::record(VkCommandBuffer cmd, const std::array<float, 3
     barriers.push_back(b);
   }
   submitBarriers(barriers);
+  for (FieldResources* f : fields) {
+    f->decoded = true;
+    f->decodedEye = eye;
+    f->decodedOrder = f->order;
+  }
+  d.lastStats = stats;
   return {};
+}
+
+}  // namespace
+
+Result<void> Decompressor::record(VkCommandBuffer cmd, const std::array<float, 3>& eye,
+                                  const std::vector<Object*>& objects) {
+  return recordFields(*impl_, cmd, eye, nullptr, objects);
+}
+
+Result<void> Decompressor::record(VkCommandBuffer cmd, const Camera& camera, VkExtent2D extent,
+                                  const std::vector<Object*>& objects) {
+  const ViewFrustum frustum = viewFrustum(clipFromView(camera, extent) * viewFromWorld(camera));
+  return recordFields(*impl_, cmd, camera.eye, &frustum, objects);
 }
 
 }  // namespace shrefract

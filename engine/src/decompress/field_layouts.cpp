@@ -25,11 +25,13 @@ Result<VkDescriptorSetLayout> createDecompressSetLayout(ContextImpl& c) {
   auto binding = [](uint32_t index, VkDescriptorType type) {
     return VkDescriptorSetLayoutBinding{index, type, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   };
-  const std::array<VkDescriptorSetLayoutBinding, 6> bindings{{
-      binding(gpu::kBindingCoefficients, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER),
-      binding(gpu::kBindingScaleBias, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
+  const std::array<VkDescriptorSetLayoutBinding, 8> bindings{{
+      binding(gpu::kBindingCoefficients, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER),
+      binding(gpu::kBindingScaleBias, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER),
+      binding(gpu::kBindingScaleBiasStorage, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
+      binding(gpu::kBindingCoefficientsStorage, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
       binding(gpu::kBindingFrames, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
-      binding(gpu::kBindingTexelKinds, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
+      binding(gpu::kBindingSampleTexels, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
       binding(gpu::kBindingDistortionOut, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE),
       binding(gpu::kBindingGutters, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
   }};

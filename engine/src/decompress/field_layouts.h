@@ -7,8 +7,8 @@
 
 namespace shrefract {
 
-// Decompression (compute): coefficients, scale/bias, frames, texel kinds, distortion image
-// (storage), gutter rules; bindings from gpu_layout.h.
+// Decompression (compute): coefficients, scale/bias, frames, sample texels, distortion image
+// (storage), gutter rules; bindings and layouts in gpu_layout.h.
 Result<VkDescriptorSetLayout> createDecompressSetLayout(ContextImpl& c);
 
 // Field raster pass, set 1: the distortion image as a combined image sampler (fragment stage).

@@ -1,8 +1,10 @@
-// Object::createFromField: uploads a refraction field (coefficients, frames, texel kinds, gutter
-// rules, render mesh) and creates the object's distortion image and descriptor sets.
+// Object::createFromField: uploads a refraction field (coefficients and frames of its samples, the
+// samples' texels, gutter rules, render mesh) and creates the object's distortion image and
+// descriptor sets.
 #include <shrefract/field.h>
 #include <shrefract/renderer.h>
 
+#include <algorithm>
 #include <array>
 #include <cstring>
 #include <string>
@@ -20,22 +22,30 @@ static_assert(gpu::kGpuTexelEmpty == kTexelEmpty && gpu::kGpuTexelSample == kTex
 
 namespace {
 
-// Copies the layer-major coefficients of `field` into `out` as 4 components per texel (alpha 0
-// when the field stores 3 channels), the layout vkCmdCopyBufferToImage expects for a layered copy.
-template <class T>
-void expandToRgba(const std::vector<T>& in, uint32_t channels, size_t texelsTimesLayers, T* out) {
-  if (channels == 4) {
-    std::memcpy(out, in.data(), texelsTimesLayers * 4 * sizeof(T));
-    return;
-  }
-  for (size_t t = 0; t < texelsTimesLayers; ++t) {
-    for (uint32_t c = 0; c < 3; ++c) out[t * 4 + c] = in[t * 3 + c];
-    out[t * 4 + 3] = T{0};
-  }
-}
-
 Result<BufferAllocation> createDeviceBuffer(ContextImpl& c, VkDeviceSize bytes, VkBufferUsageFlags usage) {
   return c.createBuffer(bytes, usage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, false);
+}
+
+// Values per plane of the coefficients: the sample count rounded up to whole invocations.
+uint64_t paddedSampleCount(uint64_t samples) {
+  const uint64_t group = gpu::kDecompressSamplesPerInvocation;
+  return (samples + group - 1) / group * group;
+}
+
+// Writes the coefficients of the sample texels as planes (gpu_layout.h, kBindingCoefficients):
+// value (layer, channel c, sample s) at ((layer * channels + c) * padded + s); the padding stays as
+// the caller zeroed it. T: uint8_t (U8) or uint16_t (F16).
+template <class T>
+void packPlanes(const std::vector<T>& in, uint32_t channels, uint32_t layers, uint64_t texels,
+                const std::vector<uint32_t>& sampleTexels, T* out) {
+  const size_t padded = paddedSampleCount(sampleTexels.size());
+  for (uint32_t layer = 0; layer < layers; ++layer) {
+    const T* layerIn = in.data() + size_t(layer) * texels * channels;
+    for (uint32_t c = 0; c < channels; ++c) {
+      T* plane = out + (size_t(layer) * channels + c) * padded;
+      for (size_t s = 0; s < sampleTexels.size(); ++s) plane[s] = layerIn[size_t(sampleTexels[s]) * channels + c];
+    }
+  }
 }
 
 }  // namespace
@@ -46,9 +56,10 @@ void destroyFieldResources(ContextImpl& c, FieldResources& f) {
   if (f.decompressSetLayout) c.vk.vkDestroyDescriptorSetLayout(d, f.decompressSetLayout, c.alloc());
   if (f.distortionSetLayout) c.vk.vkDestroyDescriptorSetLayout(d, f.distortionSetLayout, c.alloc());
   if (f.sampler) c.vk.vkDestroySampler(d, f.sampler, c.alloc());
-  c.destroyImage(f.coefficients);
+  if (f.coefficientWords) c.vk.vkDestroyBufferView(d, f.coefficientWords, c.alloc());
   c.destroyImage(f.distortion);
-  for (BufferAllocation* b : {&f.scaleBias, &f.frames, &f.kinds, &f.gutters}) c.destroyBuffer(*b);
+  for (BufferAllocation* b : {&f.coefficients, &f.scaleBias, &f.frames, &f.sampleTexels, &f.gutters})
+    c.destroyBuffer(*b);
   f = FieldResources{};
 }
 
@@ -68,10 +79,31 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
     return makeError(ErrorCode::Unsupported, "field atlas " + std::to_string(field.width) + "x" +
                                                  std::to_string(field.height) + " exceeds the device's 2D image limit " +
                                                  std::to_string(limits.maxImageDimension2D));
-  if (layers > limits.maxImageArrayLayers)
-    return makeError(ErrorCode::Unsupported, "field order " + std::to_string(field.order) + " needs " +
-                                                 std::to_string(layers) + " image layers; the device allows " +
-                                                 std::to_string(limits.maxImageArrayLayers));
+  // Samples, in texel order; only they are stored and decompressed.
+  std::vector<uint32_t> sampleTexels;
+  for (uint64_t t = 0; t < field.texelCount(); ++t)
+    if (field.texelKinds[t] == kTexelSample) sampleTexels.push_back(static_cast<uint32_t>(t));
+  const bool u8 = field.quantization == Quantization::U8;
+  const size_t componentBytes = u8 ? 1 : 2;
+  // Coefficient planes (gpu_layout.h), read through a texel buffer when the device's limit allows
+  // and from a storage buffer otherwise; the frames are always a storage buffer.
+  const VkDeviceSize coefficientBytes =
+      std::max<VkDeviceSize>(paddedSampleCount(sampleTexels.size()) * layers * field.channels * componentBytes, 4);
+  const bool coefficientsStorage = coefficientBytes / sizeof(uint32_t) > limits.maxTexelBufferElements;
+  const VkDeviceSize framesBytes = std::max<VkDeviceSize>(VkDeviceSize(sampleTexels.size()) * 12 * sizeof(float), 16);
+  auto tooBig = [&](const char* what, VkDeviceSize bytes, VkDeviceSize limit, const char* limitName) {
+    return makeError(ErrorCode::Unsupported, "field of order " + std::to_string(field.order) + " with " +
+                                                 std::to_string(sampleTexels.size()) + " samples needs " + what + " of " +
+                                                 std::to_string(bytes) + " bytes; the device's " + limitName + " is " +
+                                                 std::to_string(limit));
+  };
+  if (coefficientsStorage && coefficientBytes > limits.maxStorageBufferRange)
+    return tooBig("coefficients", coefficientBytes,
+                  std::max<VkDeviceSize>(VkDeviceSize(limits.maxTexelBufferElements) * sizeof(uint32_t),
+                                         limits.maxStorageBufferRange),
+                  "largest texel or storage buffer");
+  if (framesBytes > limits.maxStorageBufferRange)
+    return tooBig("sample frames", framesBytes, limits.maxStorageBufferRange, "maxStorageBufferRange");
   const FieldMesh& m = field.mesh;
   MeshDesc mesh;
   mesh.positions = m.positions.data();
@@ -99,25 +131,22 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   f.width = field.width;
   f.height = field.height;
   f.order = field.order;
+  f.channels = field.channels;
+  f.quantization = field.quantization;
+  f.sampleCount = static_cast<uint32_t>(sampleTexels.size());
+  // 32 bytes per basis function: a uniform buffer when it fits (gpu_layout.h, kSpecScaleBiasStorage).
+  f.scaleBiasStorage = VkDeviceSize(layers) * 8 * sizeof(float) > gpu::kMaxUniformScaleBiasBytes;
   f.gutterCount = static_cast<uint32_t>(field.gutters.size());
-  const size_t texels = static_cast<size_t>(field.texelCount());
-  const bool u8 = field.quantization == Quantization::U8;
 
-  // Images.
+  // The distortion image.
   VkImageCreateInfo ici{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
   ici.imageType = VK_IMAGE_TYPE_2D;
-  ici.format = u8 ? VK_FORMAT_R8G8B8A8_UNORM : VK_FORMAT_R16G16B16A16_SFLOAT;
+  ici.format = VK_FORMAT_R16G16B16A16_SFLOAT;
   ici.extent = {field.width, field.height, 1};
   ici.mipLevels = 1;
-  ici.arrayLayers = layers;
+  ici.arrayLayers = 1;
   ici.samples = VK_SAMPLE_COUNT_1_BIT;
   ici.tiling = VK_IMAGE_TILING_OPTIMAL;
-  ici.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
-  auto coefficients = c.createImage(ici, VK_IMAGE_VIEW_TYPE_2D_ARRAY, VK_IMAGE_ASPECT_COLOR_BIT);
-  if (!coefficients) return coefficients.error();
-  f.coefficients = coefficients.value();
-  ici.format = VK_FORMAT_R16G16B16A16_SFLOAT;
-  ici.arrayLayers = 1;
   ici.usage = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT |
               VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
   auto distortion = c.createImage(ici, VK_IMAGE_VIEW_TYPE_2D, VK_IMAGE_ASPECT_COLOR_BIT);
@@ -129,11 +158,14 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   for (uint32_t i = 0; i < layers; ++i)
     for (uint32_t ch = 0; ch < field.channels; ++ch) {
       const size_t table = size_t(i) * field.channels + ch;
-      scaleBias[size_t(i) * 8 + ch] = u8 ? field.scale[table] : 1.0f;
+      // U8: the shader reads the byte q itself, so the table holds scale / 255.
+      scaleBias[size_t(i) * 8 + ch] = u8 ? field.scale[table] / 255.0f : 1.0f;
       scaleBias[size_t(i) * 8 + 4 + ch] = u8 ? field.bias[table] : 0.0f;
     }
-  std::vector<uint32_t> kinds((texels + 3) / 4, 0u);
-  for (size_t t = 0; t < texels; ++t) kinds[t / 4] |= uint32_t(field.texelKinds[t]) << (8 * (t % 4));
+  std::vector<float> frames(size_t(framesBytes / sizeof(float)), 0.0f);
+  for (size_t s = 0; s < sampleTexels.size(); ++s)
+    std::memcpy(&frames[s * 12], &field.frames[size_t(sampleTexels[s]) * 12], 12 * sizeof(float));
+  if (sampleTexels.empty()) sampleTexels.push_back(0);  // never read: sampleCount is 0
   std::vector<uint32_t> gutters(std::max<size_t>(field.gutters.size(), 1) * 4, 0u);
   for (size_t g = 0; g < field.gutters.size(); ++g) {
     const GutterTexel& r = field.gutters[g];
@@ -150,74 +182,88 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   };
   const std::array<Upload, 4> uploads{{
       {&f.scaleBias, scaleBias.data(), scaleBias.size() * sizeof(float)},
-      {&f.frames, field.frames.data(), field.frames.size() * sizeof(float)},
-      {&f.kinds, kinds.data(), kinds.size() * sizeof(uint32_t)},
+      {&f.frames, frames.data(), frames.size() * sizeof(float)},
+      {&f.sampleTexels, sampleTexels.data(), sampleTexels.size() * sizeof(uint32_t)},
       {&f.gutters, gutters.data(), gutters.size() * sizeof(uint32_t)},
   }};
   for (const Upload& u : uploads) {
-    auto b = createDeviceBuffer(c, u.bytes, storage);
+    // The scale/bias table is read as a uniform buffer when it fits (gpu_layout.h).
+    auto b = createDeviceBuffer(c, u.bytes, storage | (u.target == &f.scaleBias ? VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT : 0));
     if (!b) return b.error();
     *u.target = b.value();
   }
+  auto coefficients =
+      createDeviceBuffer(c, coefficientBytes, VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+  if (!coefficients) return coefficients.error();
+  f.coefficients = coefficients.value();
+  {
+    // Read through a texel buffer when the device's limit allows (gpu_layout.h,
+    // kSpecCoefficientsStorage); otherwise the view covers a prefix and is not read.
+    const VkDeviceSize words = coefficientBytes / sizeof(uint32_t);
+    f.coefficientsStorage = coefficientsStorage;
+    VkBufferViewCreateInfo bvci{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
+    bvci.buffer = f.coefficients.buffer;
+    bvci.format = VK_FORMAT_R32_UINT;
+    bvci.range = std::min<VkDeviceSize>(words, limits.maxTexelBufferElements) * sizeof(uint32_t);
+    const VkResult vr = c.vk.vkCreateBufferView(c.device(), &bvci, c.alloc(), &f.coefficientWords);
+    if (vr != VK_SUCCESS) return vulkanError("vkCreateBufferView", vr);
+  }
+  ObjectImpl& o = object->impl();
+  for (const BufferAllocation* b : {&f.coefficients, &f.scaleBias, &f.frames, &f.sampleTexels, &f.gutters})
+    countMemory(c, o, *b);
+  countMemory(c, o, f.distortion);
 
-  // Coefficient staging, written in place.
-  const size_t componentBytes = u8 ? 1 : 2;
-  const VkDeviceSize coefficientBytes = VkDeviceSize(texels) * layers * 4 * componentBytes;
+  // Coefficient staging, written in place (the largest upload: no intermediate copy).
   auto staging = c.createBuffer(coefficientBytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
   if (!staging) return staging.error();
-  BufferAllocation s = staging.value();
-  c.retire([&c, s]() mutable { c.destroyBuffer(s); });
-  if (u8) expandToRgba(field.coefficientsU8, field.channels, texels * layers, static_cast<uint8_t*>(s.mapped));
-  else expandToRgba(field.coefficientsF16, field.channels, texels * layers, static_cast<uint16_t*>(s.mapped));
+  BufferAllocation st = staging.value();
+  c.retire([&c, st]() mutable { c.destroyBuffer(st); });
+  std::memset(st.mapped, 0, coefficientBytes);
+  const std::vector<uint32_t> samplesOnly(sampleTexels.begin(), sampleTexels.begin() + f.sampleCount);
+  if (u8)
+    packPlanes(field.coefficientsU8, field.channels, layers, field.texelCount(), samplesOnly,
+               static_cast<uint8_t*>(st.mapped));
+  else
+    packPlanes(field.coefficientsF16, field.channels, layers, field.texelCount(), samplesOnly,
+               static_cast<uint16_t*>(st.mapped));
 
-  // Record: images to TRANSFER_DST, copy and clear, then to SHADER_READ_ONLY_OPTIMAL.
-  std::array<VkImageMemoryBarrier2, 2> toDst{};
-  for (auto& b : toDst) {
-    b = {VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
-    b.srcStageMask = VK_PIPELINE_STAGE_2_NONE;
-    b.dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-    b.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    b.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-    b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  }
-  toDst[0].dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-  toDst[0].image = f.coefficients.image;
-  toDst[0].subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, layers};
-  toDst[1].dstStageMask = VK_PIPELINE_STAGE_2_CLEAR_BIT;
-  toDst[1].image = f.distortion.image;
-  toDst[1].subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+  // Record: the distortion image to TRANSFER_DST and cleared (empty texels stay zero from here
+  // on), the buffers copied, then everything made visible to the passes.
+  VkImageMemoryBarrier2 toDst{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
+  toDst.srcStageMask = VK_PIPELINE_STAGE_2_NONE;
+  toDst.dstStageMask = VK_PIPELINE_STAGE_2_CLEAR_BIT;
+  toDst.dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  toDst.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  toDst.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+  toDst.srcQueueFamilyIndex = toDst.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  toDst.image = f.distortion.image;
+  toDst.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
   VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-  dep.imageMemoryBarrierCount = static_cast<uint32_t>(toDst.size());
-  dep.pImageMemoryBarriers = toDst.data();
+  dep.imageMemoryBarrierCount = 1;
+  dep.pImageMemoryBarriers = &toDst;
   c.vk.vkCmdPipelineBarrier2(cmd, &dep);
-
-  VkBufferImageCopy region{};
-  region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, layers};
-  region.imageExtent = {field.width, field.height, 1};
-  c.vk.vkCmdCopyBufferToImage(cmd, s.buffer, f.coefficients.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
   const VkClearColorValue zero{};
   const VkImageSubresourceRange distortionRange{VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
   c.vk.vkCmdClearColorImage(cmd, f.distortion.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &zero, 1,
                             &distortionRange);
+  const VkBufferCopy whole{0, 0, coefficientBytes};
+  c.vk.vkCmdCopyBuffer(cmd, st.buffer, f.coefficients.buffer, 1, &whole);
   for (const Upload& u : uploads)
     if (auto r = c.recordBufferUpload(cmd, u.target->buffer, u.data, u.bytes); !r) return r.error();
 
-  std::array<VkImageMemoryBarrier2, 2> toRead = toDst;
-  for (auto& b : toRead) {
-    b.srcStageMask = b.dstStageMask;
-    b.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-    b.dstAccessMask = VK_ACCESS_2_SHADER_SAMPLED_READ_BIT;
-    b.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-    b.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
-  }
-  toRead[0].dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-  toRead[1].dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+  VkImageMemoryBarrier2 toRead = toDst;
+  toRead.srcStageMask = VK_PIPELINE_STAGE_2_CLEAR_BIT;
+  toRead.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  toRead.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+  toRead.dstAccessMask = VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
+  toRead.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+  toRead.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
   VkMemoryBarrier2 buffersToRead{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
   buffersToRead.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
   buffersToRead.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
   buffersToRead.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
   buffersToRead.dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
-  dep.pImageMemoryBarriers = toRead.data();
+  dep.pImageMemoryBarriers = &toRead;
   dep.memoryBarrierCount = 1;
   dep.pMemoryBarriers = &buffersToRead;
   c.vk.vkCmdPipelineBarrier2(cmd, &dep);
@@ -237,9 +283,11 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   if (!distortionLayout) return distortionLayout.error();
   f.distortionSetLayout = distortionLayout.value();
 
-  const std::array<VkDescriptorPoolSize, 3> sizes{{
-      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2},
-      {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4},
+  const std::array<VkDescriptorPoolSize, 5> sizes{{
+      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1},
+      {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 5},
+      {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 1},
+      {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
       {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1},
   }};
   VkDescriptorPoolCreateInfo dpci{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
@@ -259,17 +307,23 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   f.decompressSet = sets[0];
   f.distortionSet = sets[1];
 
-  const VkDescriptorImageInfo coefficientInfo{f.sampler, f.coefficients.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
   const VkDescriptorImageInfo storageInfo{VK_NULL_HANDLE, f.distortion.view, VK_IMAGE_LAYOUT_GENERAL};
   const VkDescriptorImageInfo sampledInfo{f.sampler, f.distortion.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-  const std::array<VkDescriptorBufferInfo, 4> bufferInfos{{
+  const VkDeviceSize scaleBiasBytes = VkDeviceSize(layers) * 8 * sizeof(float);
+  // Storage-table fields still bind the uniform one (the layout has both), over its first bytes.
+  const VkDescriptorBufferInfo scaleBiasUniform{f.scaleBias.buffer, 0,
+                                                std::min<VkDeviceSize>(scaleBiasBytes, gpu::kMaxUniformScaleBiasBytes)};
+  // Like the texel view, the storage binding of the coefficients is bound whichever path reads them,
+  // over at most maxStorageBufferRange bytes (all of them when it is the path).
+  const std::array<VkDescriptorBufferInfo, 5> bufferInfos{{
+      {f.coefficients.buffer, 0, std::min<VkDeviceSize>(coefficientBytes, limits.maxStorageBufferRange)},
       {f.scaleBias.buffer, 0, VK_WHOLE_SIZE},
       {f.frames.buffer, 0, VK_WHOLE_SIZE},
-      {f.kinds.buffer, 0, VK_WHOLE_SIZE},
+      {f.sampleTexels.buffer, 0, VK_WHOLE_SIZE},
       {f.gutters.buffer, 0, VK_WHOLE_SIZE},
   }};
-  const std::array<uint32_t, 4> bufferBindings{gpu::kBindingScaleBias, gpu::kBindingFrames, gpu::kBindingTexelKinds,
-                                               gpu::kBindingGutters};
+  const std::array<uint32_t, 5> bufferBindings{gpu::kBindingCoefficientsStorage, gpu::kBindingScaleBiasStorage,
+                                               gpu::kBindingFrames, gpu::kBindingSampleTexels, gpu::kBindingGutters};
   std::vector<VkWriteDescriptorSet> writes;
   auto write = [&](VkDescriptorSet set, uint32_t binding, VkDescriptorType type) -> VkWriteDescriptorSet& {
     VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
@@ -280,12 +334,13 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
     writes.push_back(w);
     return writes.back();
   };
-  writes.reserve(7);
-  write(f.decompressSet, gpu::kBindingCoefficients, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER).pImageInfo =
-      &coefficientInfo;
+  writes.reserve(9);
   write(f.decompressSet, gpu::kBindingDistortionOut, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE).pImageInfo = &storageInfo;
-  for (size_t i = 0; i < bufferInfos.size(); ++i)
+  write(f.decompressSet, gpu::kBindingCoefficients, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER).pTexelBufferView =
+      &f.coefficientWords;
+  for (size_t i = 0; i < bufferBindings.size(); ++i)
     write(f.decompressSet, bufferBindings[i], VK_DESCRIPTOR_TYPE_STORAGE_BUFFER).pBufferInfo = &bufferInfos[i];
+  write(f.decompressSet, gpu::kBindingScaleBias, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER).pBufferInfo = &scaleBiasUniform;
   write(f.distortionSet, gpu::kBindingDistortion, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER).pImageInfo =
       &sampledInfo;
   c.vk.vkUpdateDescriptorSets(c.device(), static_cast<uint32_t>(writes.size()), writes.data(), 0, nullptr);

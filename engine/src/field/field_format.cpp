@@ -525,6 +525,8 @@ Result<void> validateAtlas(const Field& field) {
       return invalid(texelName(field, t) + ": kind " + std::to_string(kind) + " is not empty (0), sample (1) or gutter (2)");
     const float* frame = &field.frames[t * 12];
     if (!allFinite(frame, 12)) return invalid(texelName(field, t) + ": frame is not finite");
+    if (!std::all_of(frame, frame + 12, [](float v) { return std::fabs(v) <= kMaxFrameMagnitude; }))
+      return invalid(texelName(field, t) + ": frame has an entry beyond +-" + formatFloat(kMaxFrameMagnitude));
     const bool zero = std::all_of(frame, frame + 12, [](float v) { return v == 0.0f; });
     if (kind == kTexelEmpty && !zero) return invalid(texelName(field, t) + " is empty but its frame is not zero");
     if (kind == kTexelSample && zero) return invalid(texelName(field, t) + " holds a sample but its frame is zero");

@@ -4,6 +4,7 @@
 
 #include <shrefract/renderer.h>
 
+#include <array>
 #include <memory>
 
 #include "core/context_impl.h"
@@ -13,23 +14,37 @@ namespace shrefract {
 // Interleaved vertex: position (3), normal (3), field uv (2), frontIor (1; 0 = ObjectShading::ior).
 inline constexpr uint32_t kVertexFloats = 9;
 
+// GPU layouts of the buffers: spirv/include/shrefract/gpu_layout.h (decompression bindings).
 struct FieldResources {
   uint32_t width = 0, height = 0;
   uint32_t order = 0;
+  uint32_t channels = 4;
+  Quantization quantization = Quantization::U8;
+  uint32_t sampleCount = 0;
+  bool scaleBiasStorage = false;     // the scale/bias table exceeds kMaxUniformScaleBiasBytes
+  bool coefficientsStorage = false;  // the coefficients exceed the device's maxTexelBufferElements
   uint32_t gutterCount = 0;
-  ImageAllocation coefficients;  // 2D array, layer = basis function
-  ImageAllocation distortion;    // RGBA16F, written by the decompression pass
-  BufferAllocation scaleBias;    // vec4 per (basis function, scale|bias)
-  BufferAllocation frames;       // 3 vec4 per texel
-  BufferAllocation kinds;        // packed bytes
-  BufferAllocation gutters;      // uvec4 per rule (at least one entry, unused when gutterCount = 0)
-  VkSampler sampler = VK_NULL_HANDLE;  // bilinear, clamp to edge; texelFetch ignores it
+  BufferAllocation coefficients;  // channel planes of the samples (gpu_layout.h)
+  VkBufferView coefficientWords = VK_NULL_HANDLE;  // R32_UINT texel view of `coefficients`
+  ImageAllocation distortion;     // RGBA16F, written by the decompression pass
+  BufferAllocation scaleBias;     // vec4 per (basis function, scale|bias)
+  BufferAllocation frames;        // 3 vec4 per sample
+  BufferAllocation sampleTexels;  // texel index per sample
+  BufferAllocation gutters;       // uvec4 per rule (at least one entry, unused when gutterCount = 0)
+  VkSampler sampler = VK_NULL_HANDLE;  // bilinear, clamp to edge (the raster pass's distortion lookups)
   // Identical in definition to the Decompressor's and Renderer's layouts (hence compatible).
   VkDescriptorSetLayout decompressSetLayout = VK_NULL_HANDLE;
   VkDescriptorSetLayout distortionSetLayout = VK_NULL_HANDLE;
   VkDescriptorPool pool = VK_NULL_HANDLE;
   VkDescriptorSet decompressSet = VK_NULL_HANDLE;
   VkDescriptorSet distortionSet = VK_NULL_HANDLE;
+
+  // What the distortion image holds (Decompressor::record skips an object whose image already
+  // holds the decompression for the same eye and order). Unset until the first decompression is
+  // recorded, and after Object::invalidateDistortion().
+  bool decoded = false;
+  std::array<float, 3> decodedEye{};
+  uint32_t decodedOrder = 0;
 };
 
 struct ObjectImpl {
@@ -37,8 +52,17 @@ struct ObjectImpl {
   BufferAllocation vertices;
   BufferAllocation indices;
   uint32_t indexCount = 0;
+  // World-space axis-aligned bounds of the mesh's vertices (view-frustum culling).
+  std::array<float, 3> boundsMin{};
+  std::array<float, 3> boundsMax{};
+  // Device memory of every allocation the object owns (sizes from vkGet*MemoryRequirements).
+  VkDeviceSize gpuMemoryBytes = 0;
   std::unique_ptr<FieldResources> field;  // null for plain meshes
 };
+
+// Adds the device memory that `buffer` / `image` occupies to `object.gpuMemoryBytes`.
+void countMemory(ContextImpl& c, ObjectImpl& object, const BufferAllocation& buffer);
+void countMemory(ContextImpl& c, ObjectImpl& object, const ImageAllocation& image);
 
 // Validates `mesh`, creates the vertex and index buffers of `object` and records their upload.
 Result<void> createMeshBuffers(ContextImpl& c, const MeshDesc& mesh, VkCommandBuffer cmd, ObjectImpl& object);

@@ -1,5 +1,6 @@
 #include <shrefract/renderer.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
@@ -15,6 +16,7 @@
 #include "engine_spirv.h"
 #include "environment/environment_impl.h"
 #include "raster/object_impl.h"
+#include "raster/view_frustum.h"
 #include "shrefract/gpu_layout.h"
 
 namespace shrefract {
@@ -32,6 +34,27 @@ Object::~Object() {
     if (o->field) destroyFieldResources(*o->context, *o->field);
     delete o;
   });
+}
+
+void countMemory(ContextImpl& c, ObjectImpl& object, const BufferAllocation& buffer) {
+  if (!buffer.buffer) return;
+  VkMemoryRequirements requirements{};
+  c.vk.vkGetBufferMemoryRequirements(c.device(), buffer.buffer, &requirements);
+  object.gpuMemoryBytes += requirements.size;
+}
+
+void countMemory(ContextImpl& c, ObjectImpl& object, const ImageAllocation& image) {
+  if (!image.image) return;
+  VkMemoryRequirements requirements{};
+  c.vk.vkGetImageMemoryRequirements(c.device(), image.image, &requirements);
+  object.gpuMemoryBytes += requirements.size;
+}
+
+std::array<float, 3> Object::boundsMin() const { return impl_->boundsMin; }
+std::array<float, 3> Object::boundsMax() const { return impl_->boundsMax; }
+uint64_t Object::gpuMemoryBytes() const { return impl_->gpuMemoryBytes; }
+void Object::invalidateDistortion() {
+  if (impl_->field) impl_->field->decoded = false;
 }
 
 Result<void> createMeshBuffers(ContextImpl& c, const MeshDesc& mesh, VkCommandBuffer cmd, ObjectImpl& o) {
@@ -57,6 +80,12 @@ Result<void> createMeshBuffers(ContextImpl& c, const MeshDesc& mesh, VkCommandBu
                        "Object::create: frontIor of vertex " + std::to_string(v) + " is not positive");
   }
   o.indexCount = mesh.indexCount;
+  for (uint32_t v = 0; v < mesh.vertexCount; ++v)
+    for (int k = 0; k < 3; ++k) {
+      const float p = mesh.positions[3 * v + k];
+      o.boundsMin[k] = v == 0 ? p : std::min(o.boundsMin[k], p);
+      o.boundsMax[k] = v == 0 ? p : std::max(o.boundsMax[k], p);
+    }
   const VkDeviceSize vbytes = interleaved.size() * sizeof(float);
   const VkDeviceSize ibytes = VkDeviceSize(mesh.indexCount) * sizeof(uint32_t);
   auto vb = c.createBuffer(vbytes, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, false);
@@ -65,6 +94,8 @@ Result<void> createMeshBuffers(ContextImpl& c, const MeshDesc& mesh, VkCommandBu
   auto ib = c.createBuffer(ibytes, VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, false);
   if (!ib) return ib.error();
   o.indices = ib.value();
+  countMemory(c, o, o.vertices);
+  countMemory(c, o, o.indices);
   if (auto r = c.recordBufferUpload(cmd, o.vertices.buffer, interleaved.data(), vbytes); !r) return r.error();
   if (auto r = c.recordBufferUpload(cmd, o.indices.buffer, mesh.indices, ibytes); !r) return r.error();
   VkMemoryBarrier2 barrier{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
@@ -109,6 +140,7 @@ struct RendererImpl {
   std::array<VkPipeline, 2> background{};
   std::array<VkPipeline, 2> singleInterface{};
   std::array<VkPipeline, 2> field{};
+  DrawStats lastDraw;
 
   void release() {
     if (!context) return;
@@ -242,7 +274,11 @@ gpu::mat4 toGpu(const glm::mat4& m) {
   return out;
 }
 
-// Vulkan clip space: y points down, depth in [0, 1].
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Camera matrices and culling (raster/view_frustum.h).
+
 glm::mat4 clipFromView(const Camera& camera, VkExtent2D extent) {
   const float aspect = extent.height ? float(extent.width) / float(extent.height) : 1.0f;
   glm::mat4 p = glm::perspectiveRH_ZO(glm::radians(camera.verticalFovDegrees), aspect, camera.nearPlane,
@@ -255,7 +291,28 @@ glm::mat4 viewFromWorld(const Camera& camera) {
   return glm::lookAtRH(toVec3(camera.eye), toVec3(camera.target), toVec3(camera.up));
 }
 
-}  // namespace
+ViewFrustum viewFrustum(const glm::mat4& clipFromWorld) {
+  // Row r of the matrix (glm is column-major): clip coordinate r = dot(row r, p).
+  auto row = [&](int r) {
+    return glm::vec4(clipFromWorld[0][r], clipFromWorld[1][r], clipFromWorld[2][r], clipFromWorld[3][r]);
+  };
+  const glm::vec4 x = row(0), y = row(1), z = row(2), w = row(3);
+  return ViewFrustum{{w + x, w - x, w + y, w - y, z, w - z}};
+}
+
+bool outsideFrustum(const ViewFrustum& frustum, const std::array<float, 3>& boxMin,
+                    const std::array<float, 3>& boxMax) {
+  for (const glm::vec4& plane : frustum.planes) {
+    // The box corner farthest along the plane's normal: if even it is outside, the box is.
+    const glm::vec3 corner(plane.x >= 0.0f ? boxMax[0] : boxMin[0], plane.y >= 0.0f ? boxMax[1] : boxMin[1],
+                           plane.z >= 0.0f ? boxMax[2] : boxMin[2]);
+    const float distance = glm::dot(glm::vec3(plane), corner) + plane.w;
+    // A margin of a few float ulps of the terms keeps boxes that touch the plane.
+    const float margin = 1e-5f * (glm::dot(glm::abs(glm::vec3(plane)), glm::abs(corner)) + std::fabs(plane.w));
+    if (distance < -margin) return true;  // false for NaN: a degenerate camera culls nothing
+  }
+  return false;
+}
 
 Renderer::Renderer(std::unique_ptr<RendererImpl> impl) : impl_(std::move(impl)) {}
 
@@ -337,6 +394,8 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, const Rende
   return std::unique_ptr<Renderer>(new Renderer(std::move(impl)));
 }
 
+const DrawStats& Renderer::lastDrawStats() const { return impl_->lastDraw; }
+
 void Renderer::recordBackground(VkCommandBuffer cmd, const Environment& environment, const Camera& camera,
                                 VkExtent2D extent) {
   RendererImpl& r = *impl_;
@@ -358,11 +417,18 @@ void Renderer::recordObjects(VkCommandBuffer cmd, const Environment& environment
   RendererImpl& r = *impl_;
   ContextImpl& c = *r.context;
   const glm::mat4 clipFromWorld = clipFromView(camera, extent) * viewFromWorld(camera);
+  const ViewFrustum frustum = viewFrustum(clipFromWorld);
   const size_t encoding = static_cast<size_t>(environment.encoding());
   VkPipeline bound = VK_NULL_HANDLE;
+  r.lastDraw = DrawStats{};
   for (Object* object : objects) {
     if (!object) continue;
     ObjectImpl& o = object->impl();
+    if (r.info.frustumCulling && outsideFrustum(frustum, o.boundsMin, o.boundsMax)) {
+      ++r.lastDraw.culled;
+      continue;
+    }
+    ++r.lastDraw.drawn;
     const bool field = (mode == ShadingMode::Field || mode == ShadingMode::FieldExitDirection) && o.field;
     const VkPipeline pipeline = field ? r.field[encoding] : r.singleInterface[encoding];
     const VkPipelineLayout layout = field ? r.fieldLayout : r.objectLayout;

@@ -110,6 +110,77 @@ float shStepFactor(int l, int m) {
     }                                                                          \
   }
 
+// Four directions at once, as the components of vec4s (SoA: direction j is (x[j], y[j], z[j])):
+// the same recurrence and visiting order, with VISIT(i, y) given a vec4 y (Y_i of each direction).
+// For a consumer that shares its work per basis function between four evaluations (one memory read
+// of four samples' coefficients, say). Each component performs the operations of SH_FOR_EACH_BASIS
+// on its direction (the squared length is summed as x*x + y*y + z*z rather than with dot()).
+struct ShDirection4 {
+  vec4 x;
+  vec4 y;
+  vec4 z;
+  vec4 s;
+  vec4 v;
+};
+
+ShDirection4 shPrepareDirection4(vec4 x, vec4 y, vec4 z) {
+  vec4 len2 = x * x + y * y + z * z;
+  bvec4 zero = lessThanEqual(len2, vec4(0.0));
+  vec4 inv = inversesqrt(mix(len2, vec4(1.0), zero));
+  ShDirection4 r;
+  r.x = mix(x * inv, vec4(0.0), zero);
+  r.y = mix(y * inv, vec4(0.0), zero);
+  r.z = mix(z * inv, vec4(1.0), zero);
+  r.s = mix(vec4(1.0), vec4(-1.0), lessThan(r.z, vec4(0.0)));
+  r.v = -r.s * (r.x * r.x + r.y * r.y) / (1.0 + abs(r.z));
+  return r;
+}
+
+#define SH_FOR_EACH_BASIS_X4(dirX, dirY, dirZ, order, VISIT)                   \
+  {                                                                            \
+    ShDirection4 sh_d_ = shPrepareDirection4(dirX, dirY, dirZ);                \
+    int sh_order_ = (order);                                                   \
+    vec4 sh_pmm_ = vec4(0.282094791773878143); /* Pbar_0^0 = 1/sqrt(4 pi) */   \
+    vec4 sh_cm_ = vec4(1.0);                                                   \
+    vec4 sh_sm_ = vec4(0.0);                                                   \
+    for (int sh_m_ = 0; sh_m_ <= sh_order_; ++sh_m_) {                         \
+      if (sh_m_ > 0) {                                                         \
+        vec4 sh_cn_ = sh_d_.x * sh_cm_ - sh_d_.y * sh_sm_;                     \
+        sh_sm_ = sh_d_.x * sh_sm_ + sh_d_.y * sh_cm_;                          \
+        sh_cm_ = sh_cn_;                                                       \
+        sh_pmm_ *= shDiagonalFactor(sh_m_);                                    \
+      }                                                                        \
+      {                                                                        \
+        int sh_i_ = sh_m_ * sh_m_ + 2 * sh_m_;                                 \
+        vec4 sh_y_ = sh_pmm_ * sh_cm_;                                         \
+        VISIT(sh_i_, sh_y_);                                                   \
+      }                                                                        \
+      if (sh_m_ > 0) {                                                         \
+        int sh_i_ = sh_m_ * sh_m_;                                             \
+        vec4 sh_y_ = sh_pmm_ * sh_sm_;                                         \
+        VISIT(sh_i_, sh_y_);                                                   \
+      }                                                                        \
+      vec4 sh_p_ = sh_pmm_;                                                    \
+      vec4 sh_dl_ = vec4(0.0);                                                 \
+      for (int sh_l_ = sh_m_ + 1; sh_l_ <= sh_order_; ++sh_l_) {               \
+        float sh_g_ = shStepFactor(sh_l_, sh_m_);                              \
+        sh_dl_ = float(2 * sh_l_ - 1) * sh_g_ * sh_d_.v * sh_p_ +              \
+                 sh_d_.s * float(sh_l_ - 1 - sh_m_) * sh_g_ * sh_dl_;          \
+        sh_p_ = sh_d_.s * float(sh_l_ + sh_m_) * sh_g_ * sh_p_ + sh_dl_;       \
+        {                                                                      \
+          int sh_i_ = sh_l_ * sh_l_ + sh_l_ + sh_m_;                           \
+          vec4 sh_y_ = sh_p_ * sh_cm_;                                         \
+          VISIT(sh_i_, sh_y_);                                                 \
+        }                                                                      \
+        if (sh_m_ > 0) {                                                       \
+          int sh_i_ = sh_l_ * sh_l_ + sh_l_ - sh_m_;                           \
+          vec4 sh_y_ = sh_p_ * sh_sm_;                                         \
+          VISIT(sh_i_, sh_y_);                                                 \
+        }                                                                      \
+      }                                                                        \
+    }                                                                          \
+  }
+
 #ifdef SH_GLSL_MAX_BASIS
 #define SH_STORE_BASIS_(i, y) Y[i] = (y)
 // Fills Y[0 .. shBasisCount(order)-1]. Precondition: shBasisCount(order) <= SH_GLSL_MAX_BASIS.

@@ -1,0 +1,155 @@
+#include "bench/bench_support.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <ctime>
+#include <random>
+
+namespace shrefract::bench {
+
+Field syntheticField(const SyntheticOptions& o) {
+  Field f;
+  f.width = o.width;
+  f.height = o.height;
+  f.order = o.order;
+  f.channels = o.channels;
+  f.quantization = o.quantization;
+  f.settings.order = o.order;
+  f.settings.quantization = o.quantization;
+  f.settings.source = "synthetic";
+  f.media.push_back(FieldMedium{"air", 1.0f, 0.0f, {1.0f, 1.0f, 1.0f}});
+  f.media.push_back(FieldMedium{"glass", 1.5f, o.channels == 4 ? 0.5f : 0.0f, {1.0f, 1.0f, 1.0f}});
+
+  const uint64_t texels = f.texelCount();
+  const uint64_t samples =
+      std::min<uint64_t>(texels, static_cast<uint64_t>(double(texels) * double(std::clamp(o.sampleFraction, 0.0f, 1.0f))));
+  f.texelKinds.assign(texels, kTexelEmpty);
+  f.frames.assign(texels * 12, 0.0f);
+  for (uint64_t t = 0; t < samples; ++t) {
+    f.texelKinds[t] = kTexelSample;
+    // Identity rotation, the sample at (x, y, 0) of a unit square: w = eye - p.
+    const float x = (float(t % o.width) + 0.5f) / float(o.width) - 0.5f;
+    const float y = (float(t / o.width) + 0.5f) / float(o.height) - 0.5f;
+    float* m = &f.frames[t * 12];
+    m[0] = 1.0f, m[3] = -x;
+    m[5] = 1.0f, m[7] = -y;
+    m[10] = 1.0f;
+  }
+
+  std::mt19937 rng(o.seed);
+  std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+  const uint32_t layers = f.basisCount();
+  std::vector<float> coefficients(size_t(layers) * texels * o.channels, 0.0f);
+  for (uint32_t layer = 0; layer < layers; ++layer)
+    for (uint64_t t = 0; t < samples; ++t)
+      for (uint32_t c = 0; c < o.channels; ++c) {
+        float v = uniform(rng);
+        if (layer == 0 && c < 3) v += c == 2 ? -4.0f : 0.0f;  // mostly -z: never a zero sum
+        coefficients[(size_t(layer) * texels + t) * o.channels + c] = v;
+      }
+  (void)encodeCoefficients(f, coefficients);
+
+  // Render mesh: the unit square in z = 0, facing +z, atlas coordinates over the whole atlas.
+  f.mesh.positions = {-0.5f, -0.5f, 0.0f, 0.5f, -0.5f, 0.0f, 0.5f, 0.5f, 0.0f, -0.5f, 0.5f, 0.0f};
+  f.mesh.normals = {0.0f, 0.0f, 1.0f, 0.0f, 0.0f, 1.0f, 0.0f, 0.0f, 1.0f, 0.0f, 0.0f, 1.0f};
+  f.mesh.uvs = {0.0f, 0.0f, 1.0f, 0.0f, 1.0f, 1.0f, 0.0f, 1.0f};
+  f.mesh.frontIor = {1.5f, 1.5f, 1.5f, 1.5f};
+  f.mesh.indices = {0, 1, 2, 0, 2, 3};
+  return f;
+}
+
+bool parseQuantization(const std::string& text, Quantization& out) {
+  if (text == "u8") out = Quantization::U8;
+  else if (text == "f16") out = Quantization::F16;
+  else return false;
+  return true;
+}
+
+Gpu::~Gpu() {
+  if (context) context->releaseDeferred();
+  context.reset();
+  harness.reset();
+}
+
+std::unique_ptr<Gpu> createGpu(bool validation, bool* noDevice) {
+  harness::HarnessOptions options;
+  options.enableValidation = validation;
+  harness::HarnessFailure failure = harness::HarnessFailure::None;
+  auto h = harness::Harness::create(options, &failure);
+  if (noDevice) *noDevice = !h && failure == harness::HarnessFailure::NoDevice;
+  if (!h) {
+    std::fprintf(stderr, "%s%s\n", failure == harness::HarnessFailure::NoDevice ? "SKIPPED: no Vulkan device: " : "",
+                 h.error().message.c_str());
+    return nullptr;
+  }
+  auto gpu = std::make_unique<Gpu>();
+  gpu->harness = std::move(h).value();
+  const harness::Harness& hr = *gpu->harness;
+  ContextCreateInfo info;
+  info.instance = hr.instance();
+  info.physicalDevice = hr.physicalDevice();
+  info.device = hr.device();
+  info.queueFamilyIndex = hr.queueFamily();
+  info.queue = hr.queue();
+  info.getInstanceProcAddr = vkGetInstanceProcAddr;
+  auto context = Context::create(info);
+  if (!context) {
+    std::fprintf(stderr, "%s\n", context.error().message.c_str());
+    return nullptr;
+  }
+  gpu->context = std::move(context).value();
+  return gpu;
+}
+
+GpuTimer::GpuTimer(harness::Harness& h, uint32_t marks) : h_(h), marks_(marks), ticks_(marks, 0) {
+  uint32_t count = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(h.physicalDevice(), &count, nullptr);
+  std::vector<VkQueueFamilyProperties> families(count);
+  vkGetPhysicalDeviceQueueFamilyProperties(h.physicalDevice(), &count, families.data());
+  if (h.queueFamily() >= count || families[h.queueFamily()].timestampValidBits == 0 ||
+      h.properties().limits.timestampPeriod <= 0.0f)
+    return;
+  VkQueryPoolCreateInfo info{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+  info.queryType = VK_QUERY_TYPE_TIMESTAMP;
+  info.queryCount = marks;
+  if (vkCreateQueryPool(h.device(), &info, nullptr, &pool_) != VK_SUCCESS) pool_ = VK_NULL_HANDLE;
+}
+
+GpuTimer::~GpuTimer() {
+  if (pool_) vkDestroyQueryPool(h_.device(), pool_, nullptr);
+}
+
+void GpuTimer::begin(VkCommandBuffer cmd) {
+  fetched_ = false;
+  if (pool_) vkCmdResetQueryPool(cmd, pool_, 0, marks_);
+}
+
+void GpuTimer::mark(VkCommandBuffer cmd, uint32_t index) {
+  if (pool_) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, pool_, index);
+}
+
+double GpuTimer::elapsedMs(uint32_t from, uint32_t to) {
+  if (!pool_) return 0.0;
+  if (!fetched_) {
+    if (vkGetQueryPoolResults(h_.device(), pool_, 0, marks_, ticks_.size() * sizeof(uint64_t), ticks_.data(),
+                              sizeof(uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT) != VK_SUCCESS)
+      return 0.0;
+    fetched_ = true;
+  }
+  return double(ticks_[to] - ticks_[from]) * double(h_.properties().limits.timestampPeriod) * 1e-6;
+}
+
+double median(std::vector<double> values) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  const size_t n = values.size();
+  return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+}
+
+double processCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) * 1e3 + double(ts.tv_nsec) * 1e-6;
+}
+
+}  // namespace shrefract::bench

@@ -1,0 +1,71 @@
+// Shared by the GPU benchmarks (decompression, frame, memory): synthetic fields of a given size,
+// order and quantization, an engine context on the headless harness, GPU timestamps, medians.
+// Benchmarks print what they measured and the ratio that matters; they are not tests.
+#pragma once
+
+#include <shrefract/context.h>
+#include <shrefract/field.h>
+#include <shrefract/harness/harness.h>
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace shrefract::bench {
+
+// A valid field whose every texel (or the first `sampleFraction` of them, row-major; the others
+// are empty) is a sample of a flat patch facing +z, with uniform random coefficients in [-1, 1]
+// (band 0 of x, y, z offset to keep the sums away from zero) quantized as asked. Values do not
+// matter for throughput; sizes, order, channels and quantization are those of a real field.
+struct SyntheticOptions {
+  uint32_t width = 256;
+  uint32_t height = 256;
+  uint32_t order = 8;
+  uint32_t channels = 4;
+  Quantization quantization = Quantization::U8;
+  float sampleFraction = 1.0f;
+  uint32_t seed = 1;
+};
+Field syntheticField(const SyntheticOptions& options);
+
+// Parses "u8" / "f16".
+bool parseQuantization(const std::string& text, Quantization& out);
+
+// The harness (validation off: benchmarks measure the driver, not the layer) and a context on it.
+// Returns null after printing "SKIPPED: no Vulkan device" when there is none, or the error.
+struct Gpu {
+  std::unique_ptr<harness::Harness> harness;
+  std::unique_ptr<Context> context;
+  ~Gpu();
+};
+std::unique_ptr<Gpu> createGpu(bool validation, bool* noDevice);
+
+// Timestamp queries for one command buffer at a time: begin(cmd) resets the pool; mark(cmd, i)
+// writes timestamp i after all earlier commands; read() returns the milliseconds between marks.
+class GpuTimer {
+ public:
+  GpuTimer(harness::Harness& h, uint32_t marks);
+  ~GpuTimer();
+  bool available() const { return pool_ != VK_NULL_HANDLE; }
+  void begin(VkCommandBuffer cmd);
+  void mark(VkCommandBuffer cmd, uint32_t index);
+  // Milliseconds from mark `from` to mark `to` of the last submitted command buffer.
+  double elapsedMs(uint32_t from, uint32_t to);
+
+ private:
+  harness::Harness& h_;
+  uint32_t marks_;
+  VkQueryPool pool_ = VK_NULL_HANDLE;
+  std::vector<uint64_t> ticks_;
+  bool fetched_ = false;
+};
+
+double median(std::vector<double> values);
+
+// CPU time of the whole process (every thread) in milliseconds. On a software Vulkan device the
+// device's worker threads belong to the process, so the difference around a submission is the
+// CPU cost of its work, however busy the machine is.
+double processCpuMs();
+
+}  // namespace shrefract::bench

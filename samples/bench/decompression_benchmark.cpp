@@ -1,0 +1,567 @@
+// Decompression benchmark: bytes of SH coefficients read per second by the engine's decompression
+// pass, against plain copies of the same number of bytes on the same device in the same run (GPU
+// timestamps, several repetitions, medians). Target (issue 8): at least half of the copy's rate.
+//
+//   shrefract_decompression_benchmark [FIELD.shrf] [--size WxH] [--order L] [--quant u8|f16]
+//                                     [--channels 3|4] [--reps N] [--validation] [--profile]
+//
+// Without FIELD.shrf a synthetic field of the given size, order, channels and quantization is
+// built in memory (random coefficients: the values do not change the work). The references are
+// compute shaders with no arithmetic that copy as many bytes as the decompression reads, through
+// each path the engine could read them by: storage buffer to storage buffer (a word per
+// invocation), texel buffer to storage texel buffer (a word, or four words, per invocation). The
+// ratio is taken against the fastest of them. For reference only, a copy of the layout the engine
+// used before (an RGBA 2D-array image of every texel and layer, a texelFetch each) is timed too.
+// Bytes are coefficient bytes; the frames and texel indices the decompression also reads are not
+// counted. The process CPU time is printed as well: on a software device (llvmpipe) it is the
+// work itself, whatever else competes for the cores, while timestamps include the waiting.
+// --profile repeats the decompression alone (for perf) and prints its times.
+// Exit code 0 with "SKIPPED:" when there is no Vulkan device or FIELD.shrf is missing.
+#include <shrefract/decompressor.h>
+#include <shrefract/renderer.h>
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "bench/bench_support.h"
+#include "bench_spirv.h"
+
+namespace shrefract::bench {
+namespace {
+
+struct Options {
+  std::string field;
+  SyntheticOptions synthetic;
+  uint32_t reps = 15;
+  bool validation = false;
+  bool profile = false;
+};
+
+int usage(const char* message) {
+  if (message) std::fprintf(stderr, "%s\n", message);
+  std::fprintf(stderr,
+               "usage: shrefract_decompression_benchmark [FIELD.shrf] [--size WxH] [--order L] [--quant u8|f16]\n"
+               "                                         [--channels 3|4] [--reps N] [--validation] [--profile]\n");
+  return 2;
+}
+
+// Every Vulkan object the copies need, destroyed together.
+struct Resources {
+  harness::Harness& h;
+  std::vector<VkBuffer> buffers;
+  std::vector<VkDeviceMemory> memories;
+  std::vector<VkBufferView> views;
+  std::vector<VkImage> images;
+  std::vector<VkImageView> imageViews;
+  std::vector<VkSampler> samplers;
+  std::vector<VkDescriptorSetLayout> setLayouts;
+  std::vector<VkPipelineLayout> layouts;
+  std::vector<VkPipeline> pipelines;
+  std::vector<VkDescriptorPool> pools;
+
+  explicit Resources(harness::Harness& harness) : h(harness) {}
+  ~Resources() {
+    const VkDevice d = h.device();
+    for (auto p : pools) vkDestroyDescriptorPool(d, p, nullptr);
+    for (auto p : pipelines) vkDestroyPipeline(d, p, nullptr);
+    for (auto l : layouts) vkDestroyPipelineLayout(d, l, nullptr);
+    for (auto l : setLayouts) vkDestroyDescriptorSetLayout(d, l, nullptr);
+    for (auto s : samplers) vkDestroySampler(d, s, nullptr);
+    for (auto v : imageViews) vkDestroyImageView(d, v, nullptr);
+    for (auto i : images) vkDestroyImage(d, i, nullptr);
+    for (auto v : views) vkDestroyBufferView(d, v, nullptr);
+    for (auto b : buffers) vkDestroyBuffer(d, b, nullptr);
+    for (auto m : memories) vkFreeMemory(d, m, nullptr);
+  }
+
+  bool allocate(const VkMemoryRequirements& req, VkDeviceMemory& memory) {
+    VkMemoryAllocateInfo info{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+    info.allocationSize = req.size;
+    info.memoryTypeIndex = h.findMemoryType(req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+    if (info.memoryTypeIndex == UINT32_MAX || vkAllocateMemory(h.device(), &info, nullptr, &memory) != VK_SUCCESS)
+      return false;
+    memories.push_back(memory);
+    return true;
+  }
+
+  VkBuffer buffer(VkDeviceSize size, VkBufferUsageFlags usage) {
+    VkBufferCreateInfo info{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+    info.size = size;
+    info.usage = usage | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    VkBuffer b = VK_NULL_HANDLE;
+    if (vkCreateBuffer(h.device(), &info, nullptr, &b) != VK_SUCCESS) return VK_NULL_HANDLE;
+    buffers.push_back(b);
+    VkMemoryRequirements req{};
+    vkGetBufferMemoryRequirements(h.device(), b, &req);
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    if (!allocate(req, memory) || vkBindBufferMemory(h.device(), b, memory, 0) != VK_SUCCESS) return VK_NULL_HANDLE;
+    return b;
+  }
+
+  VkBufferView view(VkBuffer b, VkFormat format, VkDeviceSize range) {
+    VkBufferViewCreateInfo info{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
+    info.buffer = b;
+    info.format = format;
+    info.range = range;
+    VkBufferView v = VK_NULL_HANDLE;
+    if (vkCreateBufferView(h.device(), &info, nullptr, &v) != VK_SUCCESS) return VK_NULL_HANDLE;
+    views.push_back(v);
+    return v;
+  }
+};
+
+// A copy shader with its descriptor set: binding 0 the source, binding 1 the destination.
+struct Copy {
+  const char* name;
+  VkPipeline pipeline = VK_NULL_HANDLE;
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+  VkDescriptorSet set = VK_NULL_HANDLE;
+  std::array<uint32_t, 4> push{};
+  uint32_t groups = 0;         // workgroups in x
+  uint64_t bytes = 0;          // bytes read
+  bool reference = true;       // counts for the ratio
+  double ms = 0.0, cpuMs = 0.0;
+};
+
+bool createCopy(Resources& r, const uint32_t* code, size_t codeBytes, VkDescriptorType sourceType,
+                VkDescriptorType destinationType, Copy& out) {
+  const VkDevice d = r.h.device();
+  const std::array<VkDescriptorSetLayoutBinding, 2> bindings{{
+      {0, sourceType, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
+      {1, destinationType, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
+  }};
+  VkDescriptorSetLayoutCreateInfo dslci{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+  dslci.bindingCount = 2;
+  dslci.pBindings = bindings.data();
+  VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
+  if (vkCreateDescriptorSetLayout(d, &dslci, nullptr, &setLayout) != VK_SUCCESS) return false;
+  r.setLayouts.push_back(setLayout);
+  const VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, 16};
+  VkPipelineLayoutCreateInfo plci{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+  plci.setLayoutCount = 1;
+  plci.pSetLayouts = &setLayout;
+  plci.pushConstantRangeCount = 1;
+  plci.pPushConstantRanges = &range;
+  if (vkCreatePipelineLayout(d, &plci, nullptr, &out.layout) != VK_SUCCESS) return false;
+  r.layouts.push_back(out.layout);
+  VkShaderModuleCreateInfo smci{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+  smci.codeSize = codeBytes;
+  smci.pCode = code;
+  VkShaderModule module = VK_NULL_HANDLE;
+  if (vkCreateShaderModule(d, &smci, nullptr, &module) != VK_SUCCESS) return false;
+  VkComputePipelineCreateInfo cpci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+  cpci.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+  cpci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+  cpci.stage.module = module;
+  cpci.stage.pName = "main";
+  cpci.layout = out.layout;
+  const VkResult result = vkCreateComputePipelines(d, VK_NULL_HANDLE, 1, &cpci, nullptr, &out.pipeline);
+  vkDestroyShaderModule(d, module, nullptr);
+  if (result != VK_SUCCESS) return false;
+  r.pipelines.push_back(out.pipeline);
+  const std::array<VkDescriptorPoolSize, 2> sizes{{{sourceType, 1}, {destinationType, 1}}};
+  VkDescriptorPoolCreateInfo dpci{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+  dpci.maxSets = 1;
+  dpci.poolSizeCount = 2;
+  dpci.pPoolSizes = sizes.data();
+  VkDescriptorPool pool = VK_NULL_HANDLE;
+  if (vkCreateDescriptorPool(d, &dpci, nullptr, &pool) != VK_SUCCESS) return false;
+  r.pools.push_back(pool);
+  VkDescriptorSetAllocateInfo dsai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+  dsai.descriptorPool = pool;
+  dsai.descriptorSetCount = 1;
+  dsai.pSetLayouts = &setLayout;
+  return vkAllocateDescriptorSets(d, &dsai, &out.set) == VK_SUCCESS;
+}
+
+// One descriptor write: exactly one of the three infos is used, by type.
+void writeDescriptor(VkDevice d, VkDescriptorSet set, uint32_t binding, VkDescriptorType type,
+                     const VkDescriptorBufferInfo* buffer, const VkBufferView* view, const VkDescriptorImageInfo* image) {
+  VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+  w.dstSet = set;
+  w.dstBinding = binding;
+  w.descriptorCount = 1;
+  w.descriptorType = type;
+  w.pBufferInfo = buffer;
+  w.pTexelBufferView = view;
+  w.pImageInfo = image;
+  vkUpdateDescriptorSets(d, 1, &w, 0, nullptr);
+}
+
+// The coefficients as the engine used to upload them: RGBA per texel and layer, layer-major,
+// alpha 0 when the field has 3 channels (the source of the previous-layout copy).
+std::vector<uint8_t> rgbaCoefficients(const Field& field) {
+  const size_t n = size_t(field.texelCount()) * field.basisCount();
+  const size_t componentBytes = field.quantization == Quantization::U8 ? 1 : 2;
+  std::vector<uint8_t> out(n * 4 * componentBytes, 0);
+  for (size_t i = 0; i < n; ++i)
+    for (uint32_t c = 0; c < field.channels; ++c) {
+      if (componentBytes == 1) out[i * 4 + c] = field.coefficientsU8[i * field.channels + c];
+      else std::memcpy(&out[(i * 4 + c) * 2], &field.coefficientsF16[i * field.channels + c], 2);
+    }
+  return out;
+}
+
+// Median GPU milliseconds (and process CPU milliseconds) of each recorder over `reps` rounds,
+// after two warm-up rounds. The recorders take turns within a round, each in its own submission,
+// so that a change in the load of a shared machine affects all of them alike.
+struct Timing {
+  double ms = 0.0, fastestMs = 0.0, cpuMs = 0.0;
+};
+std::vector<Timing> timeTurns(harness::Harness& h, GpuTimer& timer, uint32_t reps,
+                              const std::vector<std::function<void(VkCommandBuffer)>>& recorders, bool& failed) {
+  std::vector<std::vector<double>> ms(recorders.size()), cpu(recorders.size());
+  for (uint32_t round = 0; round < reps + 2 && !failed; ++round)
+    for (size_t k = 0; k < recorders.size() && !failed; ++k) {
+      const double cpuStart = processCpuMs();
+      auto submitted = h.submitAndWait([&](VkCommandBuffer cmd) {
+        timer.begin(cmd);
+        timer.mark(cmd, 0);
+        recorders[k](cmd);
+        timer.mark(cmd, 1);
+      });
+      const double cpuEnd = processCpuMs();
+      if (!submitted) {
+        std::fprintf(stderr, "%s\n", submitted.error().message.c_str());
+        failed = true;
+      } else if (round >= 2) {
+        ms[k].push_back(timer.elapsedMs(0, 1));
+        cpu[k].push_back(cpuEnd - cpuStart);
+      }
+    }
+  std::vector<Timing> out(recorders.size());
+  for (size_t k = 0; k < recorders.size() && !failed; ++k)
+    out[k] = {median(ms[k]), *std::min_element(ms[k].begin(), ms[k].end()), median(cpu[k])};
+  return out;
+}
+
+int run(const Options& options) {
+  Field field;
+  if (!options.field.empty()) {
+    if (!std::filesystem::exists(options.field)) {
+      std::printf("SKIPPED: %s does not exist\n", options.field.c_str());
+      return 0;
+    }
+    auto read = readField(options.field);
+    if (!read) {
+      std::fprintf(stderr, "%s\n", read.error().message.c_str());
+      return 1;
+    }
+    field = std::move(read).value();
+  } else {
+    field = syntheticField(options.synthetic);
+  }
+  bool noDevice = false;
+  auto gpu = createGpu(options.validation, &noDevice);
+  if (!gpu) return noDevice ? 0 : 1;
+  harness::Harness& h = *gpu->harness;
+  Context& context = *gpu->context;
+  GpuTimer timer(h, 2);
+  if (!timer.available()) {
+    std::printf("SKIPPED: the queue has no timestamps\n");
+    return 0;
+  }
+
+  std::unique_ptr<Object> object;
+  auto uploaded = context.uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
+    auto created = Object::createFromField(context, field, cmd);
+    if (!created) return created.error();
+    object = std::move(created).value();
+    return {};
+  });
+  if (!uploaded) {
+    std::fprintf(stderr, "%s\n", uploaded.error().message.c_str());
+    return 1;
+  }
+  auto decompressor = Decompressor::create(context);
+  if (!decompressor || !decompressor.value()->prepare(*object)) {
+    std::fprintf(stderr, "cannot create the decompression pipeline\n");
+    return 1;
+  }
+  decompressor.value()->setSkipUnchanged(false);  // every repetition does the whole work
+
+  uint64_t samples = 0;
+  for (uint8_t k : field.texelKinds) samples += k == kTexelSample;
+  const uint32_t layers = field.basisCount();
+  const bool u8 = field.quantization == Quantization::U8;
+  const uint32_t componentBytes = u8 ? 1u : 2u;
+  // What the decompression reads: the sample texels' coefficients, the field's channels only.
+  const uint64_t decompressBytes = samples * layers * field.channels * componentBytes;
+
+  bool failed = false;
+  const std::array<float, 3> eye{0.3f, 0.2f, 2.0f};
+  auto recordDecompression = [&](VkCommandBuffer cmd) {
+    if (auto r = decompressor.value()->record(cmd, eye, {object.get()}); !r) failed = true;
+  };
+  if (options.profile) {
+    const std::vector<Timing> t = timeTurns(h, timer, options.reps, {recordDecompression}, failed);
+    if (!failed)
+      std::printf("decompression alone: %.3f ms GPU (fastest %.3f), %.3f ms process CPU (median of %u)\n", t[0].ms,
+                  t[0].fastestMs, t[0].cpuMs, options.reps);
+    return failed ? 1 : 0;
+  }
+
+  // The copies' resources: a source and a destination buffer of the bytes the decompression
+  // reads (rounded up to whole 16-byte texels), and the previous layout's image.
+  Resources r(h);
+  const uint64_t copyWords = (decompressBytes + 15) / 16 * 4;
+  const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT |
+                                   VK_BUFFER_USAGE_STORAGE_TEXEL_BUFFER_BIT;
+  const std::vector<uint8_t> rgba = rgbaCoefficients(field);
+  const VkDeviceSize destinationBytes = std::max<VkDeviceSize>(copyWords * 4, rgba.size());
+  const VkBuffer source = r.buffer(copyWords * 4, usage);
+  const VkBuffer destination = r.buffer(destinationBytes, usage);
+  VkImageCreateInfo ici{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+  ici.imageType = VK_IMAGE_TYPE_2D;
+  ici.format = u8 ? VK_FORMAT_R8G8B8A8_UNORM : VK_FORMAT_R16G16B16A16_SFLOAT;
+  ici.extent = {field.width, field.height, 1};
+  ici.mipLevels = 1;
+  ici.arrayLayers = layers;
+  ici.samples = VK_SAMPLE_COUNT_1_BIT;
+  ici.tiling = VK_IMAGE_TILING_OPTIMAL;
+  ici.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+  VkImage image = VK_NULL_HANDLE;
+  bool ok = source && destination && vkCreateImage(h.device(), &ici, nullptr, &image) == VK_SUCCESS;
+  if (image) r.images.push_back(image);
+  VkImageView imageView = VK_NULL_HANDLE;
+  VkSampler sampler = VK_NULL_HANDLE;
+  if (ok) {
+    VkMemoryRequirements req{};
+    vkGetImageMemoryRequirements(h.device(), image, &req);
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    ok = r.allocate(req, memory) && vkBindImageMemory(h.device(), image, memory, 0) == VK_SUCCESS;
+    VkImageViewCreateInfo ivci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+    ivci.image = image;
+    ivci.viewType = VK_IMAGE_VIEW_TYPE_2D_ARRAY;
+    ivci.format = ici.format;
+    ivci.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, layers};
+    VkSamplerCreateInfo sci{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+    ok = ok && vkCreateImageView(h.device(), &ivci, nullptr, &imageView) == VK_SUCCESS;
+    if (imageView) r.imageViews.push_back(imageView);
+    ok = ok && vkCreateSampler(h.device(), &sci, nullptr, &sampler) == VK_SUCCESS;
+    if (sampler) r.samplers.push_back(sampler);
+  }
+  // Texel views of at most maxTexelBufferElements words (the copies read that many; see below).
+  const VkDeviceSize viewBytes =
+      std::min<uint64_t>(copyWords, uint64_t(h.properties().limits.maxTexelBufferElements) / 4 * 4) * 4;
+  const VkBufferView source1 = ok ? r.view(source, VK_FORMAT_R32_UINT, viewBytes) : VK_NULL_HANDLE;
+  const VkBufferView destination1 = ok ? r.view(destination, VK_FORMAT_R32_UINT, viewBytes) : VK_NULL_HANDLE;
+  const VkBufferView source4 = ok ? r.view(source, VK_FORMAT_R32G32B32A32_UINT, viewBytes) : VK_NULL_HANDLE;
+  const VkBufferView destination4 = ok ? r.view(destination, VK_FORMAT_R32G32B32A32_UINT, viewBytes) : VK_NULL_HANDLE;
+  ok = ok && source1 && destination1 && source4 && destination4;
+
+  std::array<Copy, 4> copies{{{"copy, storage buffer -> storage buffer, 1 word/invocation"},
+                              {"copy, texel buffer -> storage texel buffer, 1 word/invocation"},
+                              {"copy, texel buffer -> storage texel buffer, 4 words/invocation"},
+                              {"copy, RGBA 2D-array image (previous layout), texelFetch"}}};
+  const VkDescriptorType storageBuffer = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  const VkDescriptorType texel = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
+  const VkDescriptorType storageTexel = VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER;
+  ok = ok && createCopy(r, kSpirv_copy_buffer_comp, sizeof(kSpirv_copy_buffer_comp), storageBuffer, storageBuffer, copies[0]) &&
+       createCopy(r, kSpirv_copy_texel_comp, sizeof(kSpirv_copy_texel_comp), texel, storageTexel, copies[1]) &&
+       createCopy(r, kSpirv_copy_texel4_comp, sizeof(kSpirv_copy_texel4_comp), texel, storageTexel, copies[2]) &&
+       createCopy(r, kSpirv_copy_image_comp, sizeof(kSpirv_copy_image_comp), VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER,
+                  storageBuffer, copies[3]);
+  auto staging = h.createHostBuffer(std::max<VkDeviceSize>(rgba.size(), copyWords * 4), VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
+  if (!ok || !staging) {
+    std::fprintf(stderr, "cannot set up the copy shaders\n");
+    if (staging) h.destroyBuffer(staging.value());
+    return 1;
+  }
+  {
+    // Upload the previous layout's image; the copy sources hold whatever (a copy does not look).
+    harness::Harness::Buffer stage = staging.value();
+    std::memcpy(stage.mapped, rgba.data(), rgba.size());
+    auto submitted = h.submitAndWait([&](VkCommandBuffer cmd) {
+      VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
+      b.dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+      b.dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+      b.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+      b.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+      b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+      b.image = image;
+      b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, layers};
+      VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+      dep.imageMemoryBarrierCount = 1;
+      dep.pImageMemoryBarriers = &b;
+      vkCmdPipelineBarrier2(cmd, &dep);
+      VkBufferImageCopy region{};
+      region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, layers};
+      region.imageExtent = {field.width, field.height, 1};
+      vkCmdCopyBufferToImage(cmd, stage.buffer, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+      const VkBufferCopy words{0, 0, copyWords * 4};
+      vkCmdCopyBuffer(cmd, stage.buffer, source, 1, &words);
+      b.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+      b.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+      b.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+      b.dstAccessMask = VK_ACCESS_2_SHADER_SAMPLED_READ_BIT;
+      b.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+      b.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+      VkMemoryBarrier2 m{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
+      m.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+      m.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+      m.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+      m.dstAccessMask = VK_ACCESS_2_SHADER_READ_BIT;
+      dep.memoryBarrierCount = 1;
+      dep.pMemoryBarriers = &m;
+      vkCmdPipelineBarrier2(cmd, &dep);
+    });
+    h.destroyBuffer(stage);
+    if (!submitted) {
+      std::fprintf(stderr, "%s\n", submitted.error().message.c_str());
+      return 1;
+    }
+  }
+  // Each copy reads as many bytes as its path's limit allows (all of them unless the field is huge).
+  const VkPhysicalDeviceLimits& limits = h.properties().limits;
+  const uint64_t storageWords = std::min<uint64_t>(copyWords, limits.maxStorageBufferRange / 16 * 4);
+  const uint64_t texelWords = std::min<uint64_t>(copyWords, uint64_t(limits.maxTexelBufferElements) / 4 * 4);
+  const VkDevice d = h.device();
+  const VkDescriptorBufferInfo sourceInfo{source, 0, storageWords * 4};
+  const VkDescriptorBufferInfo destinationInfo{destination, 0, storageWords * 4};
+  const VkDescriptorImageInfo imageInfo{sampler, imageView, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  writeDescriptor(d, copies[0].set, 0, storageBuffer, &sourceInfo, nullptr, nullptr);
+  writeDescriptor(d, copies[0].set, 1, storageBuffer, &destinationInfo, nullptr, nullptr);
+  writeDescriptor(d, copies[1].set, 0, texel, nullptr, &source1, nullptr);
+  writeDescriptor(d, copies[1].set, 1, storageTexel, nullptr, &destination1, nullptr);
+  writeDescriptor(d, copies[2].set, 0, texel, nullptr, &source4, nullptr);
+  writeDescriptor(d, copies[2].set, 1, storageTexel, nullptr, &destination4, nullptr);
+  writeDescriptor(d, copies[3].set, 0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, nullptr, nullptr, &imageInfo);
+  // The previous layout's copy writes every texel of as many layers as the binding can hold.
+  const VkDeviceSize layerBytes = field.texelCount() * 4 * componentBytes;
+  const uint32_t imageLayers = static_cast<uint32_t>(
+      std::min<VkDeviceSize>(layers, std::min<VkDeviceSize>(rgba.size(), limits.maxStorageBufferRange) / layerBytes));
+  const VkDescriptorBufferInfo imageDestinationInfo{destination, 0, std::max<VkDeviceSize>(imageLayers, 1) * layerBytes};
+  writeDescriptor(d, copies[3].set, 1, storageBuffer, &imageDestinationInfo, nullptr, nullptr);
+  const uint32_t words = static_cast<uint32_t>(storageWords), texels = static_cast<uint32_t>(texelWords);
+  copies[0].push = {words, 0, 0, 0};
+  copies[0].groups = (words + 63) / 64;
+  copies[0].bytes = storageWords * 4;
+  copies[1].push = {texels, 0, 0, 0};
+  copies[1].groups = (texels + 63) / 64;
+  copies[1].bytes = texelWords * 4;
+  copies[2].push = {texels / 4, 0, 0, 0};
+  copies[2].groups = (texels / 4 + 63) / 64;
+  copies[2].bytes = texelWords * 4;
+  copies[3].push = {field.width, field.height, imageLayers, u8 ? 0u : 1u};
+  copies[3].groups = 0;  // 2D dispatch below
+  copies[3].bytes = imageLayers * layerBytes;
+  copies[3].reference = false;
+
+  std::vector<std::function<void(VkCommandBuffer)>> recorders{recordDecompression};
+  for (const Copy& c : copies)
+    recorders.push_back([&h, &field, c](VkCommandBuffer cmd) {
+      (void)h;
+      // Like the decompression's first barrier: wait for earlier writes of the destination.
+      VkMemoryBarrier2 m{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
+      m.srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+      m.srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+      m.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+      m.dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+      VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+      dep.memoryBarrierCount = 1;
+      dep.pMemoryBarriers = &m;
+      vkCmdPipelineBarrier2(cmd, &dep);
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c.pipeline);
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c.layout, 0, 1, &c.set, 0, nullptr);
+      vkCmdPushConstants(cmd, c.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, 16, c.push.data());
+      if (c.groups) vkCmdDispatch(cmd, std::min(c.groups, 32768u), (c.groups + 32767u) / 32768u, 1);
+      else vkCmdDispatch(cmd, (field.width + 7) / 8, (field.height + 7) / 8, 1);
+    });
+  const std::vector<Timing> t = timeTurns(h, timer, options.reps, recorders, failed);
+  object.reset();
+  decompressor.value().reset();
+  if (failed) return 1;
+
+  auto rate = [](uint64_t bytesRead, double ms) { return ms > 0.0 ? double(bytesRead) / (ms * 1e-3) / 1e9 : 0.0; };
+  const double decompressRate = rate(decompressBytes, t[0].ms);
+  const double decompressCpuRate = rate(decompressBytes, t[0].cpuMs);
+  double bestRate = 0.0, bestCpuRate = 0.0;
+  const Copy* best = nullptr;
+  for (size_t k = 0; k < copies.size(); ++k) {
+    copies[k].ms = t[k + 1].ms;
+    copies[k].cpuMs = t[k + 1].cpuMs;
+    if (!copies[k].reference) continue;
+    if (rate(copies[k].bytes, copies[k].ms) > bestRate) {
+      bestRate = rate(copies[k].bytes, copies[k].ms);
+      best = &copies[k];
+    }
+    bestCpuRate = std::max(bestCpuRate, rate(copies[k].bytes, copies[k].cpuMs));
+  }
+  const double ratio = bestRate > 0.0 ? decompressRate / bestRate : 0.0;
+  std::printf("device: %s\n", h.deviceName().c_str());
+  std::printf("field: %s, %ux%u atlas, %llu samples, order %u (%u basis functions), %u channels, %s\n",
+              options.field.empty() ? "synthetic" : options.field.c_str(), field.width, field.height,
+              static_cast<unsigned long long>(samples), field.order, layers, field.channels,
+              toString(field.quantization));
+  std::printf("coefficient bytes read per decompression: %.2f MiB (%u per sample and basis function)\n",
+              double(decompressBytes) / 1048576.0, field.channels * componentBytes);
+  std::printf("median of %u repetitions taking turns; GPU timestamps (and process CPU time):\n", options.reps);
+  std::printf("  %-64s %8.3f ms %7.3f GB/s  (CPU %8.3f ms)\n", "decompression pass", t[0].ms, decompressRate,
+              t[0].cpuMs);
+  for (const Copy& c : copies)
+    std::printf("  %-64s %8.3f ms %7.3f GB/s  (CPU %8.3f ms)%s\n", c.name, c.ms, rate(c.bytes, c.ms), c.cpuMs,
+                c.reference ? "" : "  [not a reference: other bytes]");
+  std::printf("ratio decompression / fastest copy of the same bytes (%s): %.2f (target >= 0.50: %s)\n",
+              best ? best->name : "-", ratio, ratio >= 0.5 ? "met" : "NOT met");
+  std::printf("ratio by process CPU time: %.2f\n", bestCpuRate > 0.0 ? decompressCpuRate / bestCpuRate : 0.0);
+  if (const uint32_t messages = h.messageCount(); messages) {
+    std::fprintf(stderr, "%u Vulkan validation message(s)\n", messages);
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+}  // namespace shrefract::bench
+
+int main(int argc, char** argv) {
+  using namespace shrefract::bench;
+  Options options;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
+    if (a == "--help" || a == "-h") {
+      usage(nullptr);
+      return 0;
+    } else if (a == "--size") {
+      const char* v = value();
+      unsigned w = 0, h = 0;
+      if (!v || std::sscanf(v, "%ux%u", &w, &h) != 2 || w == 0 || h == 0 || w > 8192 || h > 8192)
+        return usage("--size expects WxH (1..8192)");
+      options.synthetic.width = w;
+      options.synthetic.height = h;
+    } else if (a == "--order") {
+      const char* v = value();
+      if (!v || std::atoi(v) < 0 || std::atoi(v) > 16) return usage("--order expects 0..16");
+      options.synthetic.order = static_cast<uint32_t>(std::atoi(v));
+    } else if (a == "--quant") {
+      const char* v = value();
+      if (!v || !parseQuantization(v, options.synthetic.quantization)) return usage("--quant expects u8 or f16");
+    } else if (a == "--channels") {
+      const char* v = value();
+      if (!v || (std::atoi(v) != 3 && std::atoi(v) != 4)) return usage("--channels expects 3 or 4");
+      options.synthetic.channels = static_cast<uint32_t>(std::atoi(v));
+    } else if (a == "--reps") {
+      const char* v = value();
+      if (!v || std::atoi(v) < 1 || std::atoi(v) > 1000) return usage("--reps expects 1..1000");
+      options.reps = static_cast<uint32_t>(std::atoi(v));
+    } else if (a == "--validation") {
+      options.validation = true;
+    } else if (a == "--profile") {
+      options.profile = true;
+    } else if (!a.empty() && a[0] != '-' && options.field.empty()) {
+      options.field = a;
+    } else {
+      return usage(("unknown argument " + a).c_str());
+    }
+  }
+  return run(options);
+}

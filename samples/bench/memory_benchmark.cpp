@@ -1,0 +1,169 @@
+// Memory benchmark: device memory per sample and per object for each SH order and quantization,
+// from real uploads (Object::gpuMemoryBytes(): the memory requirements of every buffer and image
+// the engine creates for the object), against the paper's figure: (L+1)^2 basis functions x 4
+// channels x 1 byte per sample (order 8, 8 bits: 324 bytes).
+//
+//   shrefract_memory_benchmark [FIELD.shrf ...] [--size WxH] [--fill F] [--validation]
+//
+// The table uses synthetic fields of one atlas (default 338x311 with 51% of the texels holding a
+// sample: the occupancy of the bunny baked with the charts layout and 35k samples) for orders 1,
+// 2, 4, 8, 12, 16, both quantizations, with and without the optical-depth channel. Each FIELD.shrf
+// given adds a row for that real field. Exit code 0 with "SKIPPED:" when there is no Vulkan device.
+#include <shrefract/renderer.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "bench/bench_support.h"
+
+namespace shrefract::bench {
+namespace {
+
+struct Options {
+  std::vector<std::string> fields;
+  SyntheticOptions synthetic{338, 311, 8, 4, Quantization::U8, 0.515f, 1};
+  bool validation = false;
+};
+
+int usage(const char* message) {
+  if (message) std::fprintf(stderr, "%s\n", message);
+  std::fprintf(stderr, "usage: shrefract_memory_benchmark [FIELD.shrf ...] [--size WxH] [--fill F] [--validation]\n");
+  return 2;
+}
+
+struct Row {
+  std::string name;
+  uint32_t order = 0, channels = 0;
+  Quantization quantization = Quantization::U8;
+  uint64_t samples = 0, texels = 0, triangles = 0;
+  uint64_t objectBytes = 0;
+};
+
+void printRow(const Row& r) {
+  const uint64_t basis = uint64_t(r.order + 1) * (r.order + 1);
+  const uint64_t componentBytes = r.quantization == Quantization::U8 ? 1 : 2;
+  const uint64_t coefficientBytes = basis * r.channels * componentBytes;  // per sample, as uploaded
+  const uint64_t paper = basis * 4;                                       // 4 channels, 8 bits
+  const double perSample = r.samples ? double(r.objectBytes) / double(r.samples) : 0.0;
+  std::printf("| %-10s | %5u | %5llu | %-3s | %u | %9.1f | %6llu | %6llu | %5.2f | %8.2f |\n", r.name.c_str(), r.order,
+              static_cast<unsigned long long>(basis), toString(r.quantization), r.channels, perSample,
+              static_cast<unsigned long long>(coefficientBytes), static_cast<unsigned long long>(paper),
+              perSample / double(paper), double(r.objectBytes) / 1048576.0);
+}
+
+int run(const Options& options) {
+  bool noDevice = false;
+  auto gpu = createGpu(options.validation, &noDevice);
+  if (!gpu) return noDevice ? 0 : 1;
+  Context& context = *gpu->context;
+  auto measure = [&](const Field& field, const std::string& name, Row& row) -> bool {
+    std::unique_ptr<Object> object;
+    auto uploaded = context.uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
+      auto created = Object::createFromField(context, field, cmd);
+      if (!created) return created.error();
+      object = std::move(created).value();
+      return {};
+    });
+    if (!uploaded) {
+      std::fprintf(stderr, "%s: %s\n", name.c_str(), uploaded.error().message.c_str());
+      return false;
+    }
+    row.name = name;
+    row.order = field.order;
+    row.channels = field.channels;
+    row.quantization = field.quantization;
+    row.texels = field.texelCount();
+    row.triangles = field.mesh.indices.size() / 3;
+    row.samples = 0;
+    for (uint8_t k : field.texelKinds) row.samples += k == kTexelSample;
+    row.objectBytes = object->gpuMemoryBytes();
+    object.reset();
+    context.releaseDeferred();
+    return true;
+  };
+
+  std::printf("device: %s\n", gpu->harness->deviceName().c_str());
+  std::printf("synthetic atlas %ux%u, %.1f%% of the texels are samples; bytes per sample = all of the object's "
+              "device memory / samples\n",
+              options.synthetic.width, options.synthetic.height, 100.0 * double(options.synthetic.sampleFraction));
+  std::printf("paper: (L+1)^2 x 4 channels x 1 byte per sample (order 8, 8 bits: 324 bytes)\n\n");
+  std::printf("| field      | order | basis | q   | c | bytes/sample | coeff/sample | paper | ratio | MiB/object |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
+  Row paperCase;
+  for (uint32_t order : {1u, 2u, 4u, 8u, 12u, 16u})
+    for (Quantization q : {Quantization::U8, Quantization::F16})
+      for (uint32_t channels : {4u, 3u}) {
+        SyntheticOptions o = options.synthetic;
+        o.order = order;
+        o.quantization = q;
+        o.channels = channels;
+        Row row;
+        if (!measure(syntheticField(o), "synthetic", row)) return 1;
+        printRow(row);
+        if (order == 8 && q == Quantization::U8 && channels == 4) paperCase = row;
+      }
+  for (const std::string& path : options.fields) {
+    if (!std::filesystem::exists(path)) {
+      std::printf("SKIPPED: %s does not exist\n", path.c_str());
+      continue;
+    }
+    auto field = readField(path);
+    if (!field) {
+      std::fprintf(stderr, "%s\n", field.error().message.c_str());
+      return 1;
+    }
+    Row row;
+    if (!measure(field.value(), std::filesystem::path(path).filename().string(), row)) return 1;
+    printRow(row);
+    std::printf("  (%s: %llu samples in a %llu-texel atlas, %llu triangles)\n", path.c_str(),
+                static_cast<unsigned long long>(row.samples), static_cast<unsigned long long>(row.texels),
+                static_cast<unsigned long long>(row.triangles));
+  }
+  const double perSample = double(paperCase.objectBytes) / double(paperCase.samples);
+  std::printf("\norder 8, u8, 4 channels: %.1f bytes per sample in all, against the paper's 324 (ratio %.2f); of "
+              "which coefficients 324, frame 48, texel index 4, and the distortion image and mesh the rest\n",
+              perSample, perSample / 324.0);
+  if (const uint32_t messages = gpu->harness->messageCount(); messages) {
+    std::fprintf(stderr, "%u Vulkan validation message(s)\n", messages);
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+}  // namespace shrefract::bench
+
+int main(int argc, char** argv) {
+  using namespace shrefract::bench;
+  Options options;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
+    if (a == "--help" || a == "-h") {
+      usage(nullptr);
+      return 0;
+    } else if (a == "--size") {
+      const char* v = value();
+      unsigned w = 0, h = 0;
+      if (!v || std::sscanf(v, "%ux%u", &w, &h) != 2 || w == 0 || h == 0 || w > 4096 || h > 4096)
+        return usage("--size expects WxH (1..4096)");
+      options.synthetic.width = w;
+      options.synthetic.height = h;
+    } else if (a == "--fill") {
+      const char* v = value();
+      const double f = v ? std::atof(v) : 0.0;
+      if (!(f > 0.0 && f <= 1.0)) return usage("--fill expects a fraction in (0, 1]");
+      options.synthetic.sampleFraction = static_cast<float>(f);
+    } else if (a == "--validation") {
+      options.validation = true;
+    } else if (!a.empty() && a[0] != '-') {
+      options.fields.push_back(a);
+    } else {
+      return usage(("unknown argument " + a).c_str());
+    }
+  }
+  return run(options);
+}
