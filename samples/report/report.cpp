@@ -150,6 +150,15 @@ std::vector<SweepEntry> sweep(const SizeProfile& p) {
   return out;
 }
 
+void setErrors(ReportRow& row, const bake::ImageErrors& e) {
+  row.psnr = e.psnr;
+  row.ssim = e.ssim;
+  row.meanAngle = e.meanAngleDegrees;
+  row.p95Angle = e.p95AngleDegrees;
+  row.maxAngle = e.maxAngleDegrees;
+  row.pixels = e.pixels;
+}
+
 std::string sanitize(const std::string& s) {
   std::string out;
   for (char c : s) out += (std::isalnum(static_cast<unsigned char>(c)) || c == '-') ? c : '_';
@@ -282,12 +291,7 @@ Result<ReportResult> runReport(const ReportOptions& options) {
       auto e = bake::compareImages(tree.value().color, ex.color, ex.mask, tree.value().directions, ex.directions);
       if (!e) return e.error();
       ReportRow row = baselineRow(fmt("full tree d%u (CPU)", to.treeDepth));
-      row.psnr = e.value().psnr;
-      row.ssim = e.value().ssim;
-      row.meanAngle = e.value().meanAngleDegrees;
-      row.p95Angle = e.value().p95AngleDegrees;
-      row.maxAngle = e.value().maxAngleDegrees;
-      row.pixels = e.value().pixels;
+      setErrors(row, e.value());
       row.frameMs = tree.value().seconds * 1000.0;
       row.gpu = false;
       result.rows.push_back(row);
@@ -318,12 +322,7 @@ Result<ReportResult> runReport(const ReportOptions& options) {
       auto e = bake::compareImages(image.value(), ex.color, ex.mask, single.value().directions, ex.directions);
       if (!e) return e.error();
       ReportRow row = baselineRow("single interface (GPU)");
-      row.psnr = e.value().psnr;
-      row.ssim = e.value().ssim;
-      row.meanAngle = e.value().meanAngleDegrees;
-      row.p95Angle = e.value().p95AngleDegrees;
-      row.maxAngle = e.value().maxAngleDegrees;
-      row.pixels = e.value().pixels;
+      setErrors(row, e.value());
       row.rasterMs = timings.rasterMs;
       row.frameMs = median(timings.wallMs);
       result.rows.push_back(row);
@@ -393,12 +392,7 @@ Result<ReportResult> runReport(const ReportOptions& options) {
       }
       auto e = bake::compareImages(image.value(), ex.color, mask, dirs, ex.directions);
       if (!e) return e.error();
-      row.psnr = e.value().psnr;
-      row.ssim = e.value().ssim;
-      row.meanAngle = e.value().meanAngleDegrees;
-      row.p95Angle = e.value().p95AngleDegrees;
-      row.maxAngle = e.value().maxAngleDegrees;
-      row.pixels = e.value().pixels;
+      setErrors(row, e.value());
       row.decompressionMs = timings.decompressionMs;
       row.rasterMs = timings.rasterMs;
       row.frameMs = median(timings.wallMs);
