@@ -3,6 +3,9 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
+
+#include <unistd.h>
 
 namespace shrefract::cli {
 
@@ -131,6 +134,17 @@ std::string usageLines(const std::vector<FlagSpec>& flags) {
     out += left + " " + f.help + "\n";
   }
   return out;
+}
+
+Result<void> checkOutputPath(const std::string& path) {
+  namespace fs = std::filesystem;
+  fs::path dir = fs::path(path).parent_path();
+  if (dir.empty()) dir = ".";
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) return makeError(ErrorCode::Io, path + ": is a directory");
+  if (!fs::is_directory(dir, ec)) return makeError(ErrorCode::Io, path + ": directory does not exist");
+  if (access(dir.c_str(), W_OK) != 0) return makeError(ErrorCode::Io, path + ": directory is not writable");
+  return {};
 }
 
 }  // namespace shrefract::cli

@@ -42,4 +42,8 @@ class Args {
 
 std::string usageLines(const std::vector<FlagSpec>& flags);
 
+// Checked before long work (a bake, a GPU session): the output is not a directory and its
+// directory exists and is writable. Errors name the path.
+Result<void> checkOutputPath(const std::string& path);
+
 }  // namespace shrefract::cli

@@ -51,17 +51,6 @@ bool endsWith(std::string s, const std::string& tail) {
   return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
 }
 
-// Checked before a bake that may take minutes: the output directory exists and is writable.
-Result<void> checkWritable(const std::string& path) {
-  namespace fs = std::filesystem;
-  fs::path dir = fs::path(path).parent_path();
-  if (dir.empty()) dir = ".";
-  std::error_code ec;
-  if (fs::is_directory(path, ec)) return makeError(ErrorCode::Io, path + ": is a directory");
-  if (!fs::is_directory(dir, ec)) return makeError(ErrorCode::Io, path + ": directory does not exist");
-  if (access(dir.c_str(), W_OK) != 0) return makeError(ErrorCode::Io, path + ": directory is not writable");
-  return {};
-}
 
 }  // namespace
 
@@ -148,7 +137,7 @@ int bakeCommand(int argc, char** argv) {
   else if (quant == "f16") s.quantization = Quantization::F16;
   else return fail("shrefract bake: --quant must be u8 or f16, got '" + quant + "'", 2);
 
-  if (auto writable = checkWritable(*output); !writable) return fail(writable.error().message);
+  if (auto writable = checkOutputPath(*output); !writable) return fail(writable.error().message);
 
   SceneOverrides overrides;
   if (ior.value()) overrides.ior = static_cast<float>(*ior.value());

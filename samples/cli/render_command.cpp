@@ -94,6 +94,8 @@ int renderCommand(int argc, char** argv) {
   if (!hasExtension(*output, ".png") && !hasExtension(*output, ".exr"))
     return fail(makeError(ErrorCode::InvalidArgument, *output + ": output must end in .png or .exr"), 2);
 
+  if (auto writable = checkOutputPath(*output); !writable) return fail(writable.error());
+
   auto eye = args.vec3("eye");
   auto target = args.vec3("target");
   auto up = args.vec3("up");
