@@ -1,5 +1,6 @@
 #include "cli/args.h"
 
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -134,6 +135,15 @@ std::string usageLines(const std::vector<FlagSpec>& flags) {
     out += left + " " + f.help + "\n";
   }
   return out;
+}
+
+bool hasExtension(const std::string& path, const std::string& extension) {
+  if (path.size() < extension.size()) return false;
+  for (size_t i = 0; i < extension.size(); ++i) {
+    const auto a = static_cast<unsigned char>(path[path.size() - extension.size() + i]);
+    if (std::tolower(a) != std::tolower(static_cast<unsigned char>(extension[i]))) return false;
+  }
+  return true;
 }
 
 Result<void> checkOutputPath(const std::string& path) {

@@ -42,6 +42,9 @@ class Args {
 
 std::string usageLines(const std::vector<FlagSpec>& flags);
 
+// True when `path` ends in `extension` (e.g. ".png"), ignoring case.
+bool hasExtension(const std::string& path, const std::string& extension);
+
 // Checked before long work (a bake, a GPU session): the output is not a directory and its
 // directory exists and is writable. Errors name the path.
 Result<void> checkOutputPath(const std::string& path);

@@ -46,12 +46,6 @@ int fail(const std::string& message, int code = 1) {
   return code;
 }
 
-bool endsWith(std::string s, const std::string& tail) {
-  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
-}
-
-
 }  // namespace
 
 int bakeCommand(int argc, char** argv) {
@@ -66,7 +60,7 @@ int bakeCommand(int argc, char** argv) {
   if (args.positional().size() != 1) return fail("shrefract bake: expected exactly one SCENE argument", 2);
   const auto output = args.get("output");
   if (!output) return fail("shrefract bake: missing -o FILE.shrf", 2);
-  if (!endsWith(*output, ".shrf")) return fail(*output + ": the output must end in .shrf", 2);
+  if (!hasExtension(*output, ".shrf")) return fail(*output + ": the output must end in .shrf", 2);
 
   BakeSettings s;
   s.source = args.positional()[0];

@@ -44,14 +44,6 @@ const std::vector<FlagSpec> kFlags = {
     {"help", false, "this text"},
 };
 
-bool hasExtension(const std::string& path, const char* ext) {
-  const size_t n = std::strlen(ext);
-  if (path.size() < n) return false;
-  std::string tail = path.substr(path.size() - n);
-  for (auto& ch : tail) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-  return tail == ext;
-}
-
 int fail(const Error& e, int code = 1) {
   std::fprintf(stderr, "%s\n", e.message.c_str());
   return code;

@@ -1,4 +1,5 @@
 #include <shrefract/bake/reference_render.h>
+#include <shrefract/cpu_reference.h>
 
 #include <algorithm>
 #include <atomic>
@@ -27,13 +28,8 @@ float fresnelDielectric(float cosI, float eta) {
 }  // namespace
 
 glm::vec3 pixelDirection(const Camera& camera, uint32_t width, uint32_t height, uint32_t x, uint32_t y) {
-  glm::mat4 proj = glm::perspectiveRH_ZO(glm::radians(camera.verticalFovDegrees), float(width) / float(height),
-                                         camera.nearPlane, camera.farPlane);
-  proj[1][1] *= -1.0f;
-  glm::mat4 view = glm::lookAtRH(toVec(camera.eye), toVec(camera.target), toVec(camera.up));
-  view[3] = glm::vec4(0.0f, 0.0f, 0.0f, 1.0f);
-  const glm::vec2 ndc((float(x) + 0.5f) / float(width) * 2.0f - 1.0f, (float(y) + 0.5f) / float(height) * 2.0f - 1.0f);
-  return glm::normalize(glm::vec3(glm::inverse(proj * view) * glm::vec4(ndc, 1.0f, 1.0f)));
+  const auto r = reference::pixelRay(camera, width, height, x, y);  // the engine's projection
+  return glm::normalize(glm::vec3(r[0], r[1], r[2]));
 }
 
 Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene, const Image& env,
@@ -51,7 +47,7 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
   out.directions.assign(pixels, glm::vec3(0.0f));
   out.mask.assign(pixels, 0);
 
-  // Precompute the inverse projection once; pixelDirection() is the same math, kept for callers.
+  // The inverse projection of reference::pixelRay, computed once per image instead of per pixel.
   glm::mat4 proj = glm::perspectiveRH_ZO(glm::radians(o.camera.verticalFovDegrees), float(o.width) / float(o.height),
                                          o.camera.nearPlane, o.camera.farPlane);
   proj[1][1] *= -1.0f;
