@@ -2,6 +2,7 @@
 #include <shrefract/bake/fit.h>
 #include <shrefract/bake/layout.h>
 #include <shrefract/bake/sample_frame.h>
+#include <shrefract/bake/table_fit.h>
 #include <shrefract/bake/tracer.h>
 #include <shrefract/sh.h>
 
@@ -12,11 +13,14 @@
 #include <chrono>
 #include <cmath>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include <glm/geometric.hpp>
+
+#include "fit/encoding_model.h"
 
 namespace shrefract::bake {
 namespace {
@@ -178,14 +182,193 @@ Result<Selection> selectOrderAndDirections(const SampleAtlas& atlas, const Trace
   if (!haveBest) return fallback;
   return best;
 }
+
+// Fits one sample's traced grid values into the floats the field stores for it (Pca: into its
+// table; the weights come once the whole field has been traced).
+class SampleEncoder {
+ public:
+  static Result<SampleEncoder> create(const DirectionGrid& grid, const BakeSettings& s, uint32_t channels) {
+    SampleEncoder e;
+    e.channels_ = channels;
+    if (s.encoding == Encoding::Sh) {
+      auto fit = HemisphereFit::create(grid, static_cast<int>(s.order), static_cast<double>(s.regularization));
+      if (!fit) return fit.error();
+      e.sh_.emplace(std::move(fit.value()));
+      e.stride_ = size_t(e.sh_->basisCount()) * channels;
+    } else {
+      auto fit = TableFit::create(grid, s.tableSize);
+      if (!fit) return fit.error();
+      e.table_.emplace(std::move(fit.value()));
+      e.stride_ = size_t(e.table_->nodeCount()) * channels;
+    }
+    return e;
+  }
+  size_t stride() const { return stride_; }
+  void fit(const float* values, float* out) const {
+    if (sh_) sh_->fit(values, channels_, out);
+    else table_->fit(values, channels_, out);
+  }
+
+ private:
+  std::optional<HemisphereFit> sh_;
+  std::optional<TableFit> table_;
+  uint32_t channels_ = 0;
+  size_t stride_ = 0;
+};
+
+// What the statistics need after the field is encoded: the traced exits at held-out directions of
+// every sample, and at the grid directions of every kGridCheckStride-th sample.
+constexpr size_t kGridCheckStride = 16;
+struct TracedChecks {
+  std::vector<glm::vec3> heldDirections, heldExits;  // samples x heldOut
+  std::vector<glm::vec3> gridExits;                  // (samples / stride, rounded up) x directions
+};
+
+Result<void> checkEncoding(const BakeSettings& s) {
+  auto bad = [](const std::string& m) { return makeError(ErrorCode::InvalidArgument, m); };
+  if (s.encoding == Encoding::Sh) return {};
+  if (s.encoding != Encoding::Table && s.encoding != Encoding::Pca) return bad("unknown encoding");
+  if (s.tableSize < 2 || s.tableSize > kMaxBakeTableSize)
+    return bad("--table-size must be 2.." + std::to_string(kMaxBakeTableSize) + ", got " + std::to_string(s.tableSize));
+  if (s.encoding == Encoding::Pca && (s.components < 1 || s.components > kMaxComponents))
+    return bad("--components must be 1.." + std::to_string(kMaxComponents) + ", got " + std::to_string(s.components));
+  return {};
+}
+
+// Traces every grid direction of every sample (threads), fits each sample with `encoder`, and
+// records the checks. coeffs: samples x encoder.stride().
+void traceAndFit(const SampleAtlas& atlas, const Tracer& tracer, const DirectionGrid& grid, const SampleEncoder& encoder,
+                 const BakeSettings& settings, uint32_t channels, const BakeOptions& options, uint32_t threads,
+                 Clock::time_point start, std::vector<float>& coeffs, TracedChecks& checks,
+                 std::vector<SampleError>& errors) {
+  const size_t sampleCount = atlas.samples.size();
+  const uint32_t nd = static_cast<uint32_t>(grid.directions.size());
+  const uint32_t held = options.heldOutDirections;
+  coeffs.assign(sampleCount * encoder.stride(), 0.0f);
+  checks.heldDirections.assign(sampleCount * held, glm::vec3(0.0f));
+  checks.heldExits.assign(sampleCount * held, glm::vec3(0.0f));
+  checks.gridExits.assign((sampleCount + kGridCheckStride - 1) / kGridCheckStride * nd, glm::vec3(0.0f));
+  errors.assign(sampleCount, SampleError{});
+  TraceSettings traceSettings;
+  traceSettings.maxBounces = settings.maxBounces;
+  traceSettings.pathRule = settings.pathRule;
+  const uint32_t depthChannel = 3, throughputChannel = channels - 1;
+  const bool depth = channels == (settings.throughput ? 5u : 4u);
+
+  std::atomic<size_t> next{0};
+  std::atomic<uint64_t> done{0}, raysSoFar{0};
+  constexpr size_t kChunk = 8;
+  auto worker = [&]() {
+    std::vector<float> values(size_t(nd) * channels);
+    for (;;) {
+      const size_t begin = next.fetch_add(kChunk);
+      if (begin >= sampleCount) break;
+      const size_t end = std::min(sampleCount, begin + kChunk);
+      uint64_t chunkRays = 0;
+      for (size_t s = begin; s < end; ++s) {
+        const auto sampleStart = Clock::now();
+        const SurfacePoint& point = atlas.samples[s];
+        const LocalFrame frame = frameFromNormal(point.shadingNormal);
+        SampleError& err = errors[s];
+        for (uint32_t d = 0; d < nd; ++d) {
+          // The eye looks along -w: the incident ray travels toward the surface.
+          const glm::vec3 incident = -localToWorld(frame, glm::vec3(grid.directions[d]));
+          const PathResult path = tracer.traceFromSurface(point, incident, traceSettings);
+          err.rays += path.rays;
+          err.paths += 1;
+          err.trapped += path.trapped ? 1u : 0u;
+          float* v = &values[size_t(d) * channels];
+          for (int c = 0; c < 3; ++c) v[c] = path.exitDirection[c];
+          if (depth) v[depthChannel] = path.opticalDepth;
+          if (settings.throughput) v[throughputChannel] = path.energy;
+          if (s % kGridCheckStride == 0) checks.gridExits[s / kGridCheckStride * nd + d] = path.exitDirection;
+        }
+        const auto fitStart = Clock::now();
+        encoder.fit(values.data(), &coeffs[s * encoder.stride()]);
+        const auto heldOutStart = Clock::now();
+        uint64_t rng = 0x5348524546ull ^ (uint64_t(s) * 0x9e3779b97f4a7c15ull);
+        for (uint32_t h = 0; h < held; ++h) {
+          // Uniform over the hemisphere, away from the exact horizon.
+          const float z = 0.02f + 0.98f * unitFloat(rng);
+          const float phi = 6.28318530718f * unitFloat(rng);
+          const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+          const glm::vec3 w(r * std::cos(phi), r * std::sin(phi), z);
+          const PathResult path = tracer.traceFromSurface(point, -localToWorld(frame, w), traceSettings);
+          err.rays += path.rays;
+          err.paths += 1;
+          checks.heldDirections[s * held + h] = w;
+          checks.heldExits[s * held + h] = path.exitDirection;
+        }
+        chunkRays += err.rays;
+        const auto sampleEnd = Clock::now();
+        err.fitSeconds = std::chrono::duration<double>(heldOutStart - fitStart).count();
+        err.traceSeconds = std::chrono::duration<double>((fitStart - sampleStart) + (sampleEnd - heldOutStart)).count();
+      }
+      raysSoFar.fetch_add(chunkRays);
+      done.fetch_add(end - begin);
+    }
+  };
+  std::vector<std::thread> pool;
+  for (uint32_t t = 1; t < threads; ++t) pool.emplace_back(worker);
+  std::thread mainWorker(worker);
+  while (done.load() < sampleCount) {
+    if (options.progress) options.progress({done.load(), sampleCount, raysSoFar.load(), secondsSince(start)});
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  mainWorker.join();
+  for (auto& t : pool) t.join();
+  if (options.progress) options.progress({sampleCount, sampleCount, raysSoFar.load(), secondsSince(start)});
+}
+
+// Fit and held-out errors of the float encoding (grid: every kGridCheckStride-th sample).
+void measureFit(const EncodingModel& model, const std::vector<float>& coeffs, const DirectionGrid& grid,
+                const TracedChecks& checks, uint32_t held, std::vector<SampleError>& errors) {
+  const uint32_t nd = static_cast<uint32_t>(grid.directions.size());
+  std::vector<float> out(model.channels);
+  for (size_t s = 0; s < errors.size(); ++s) {
+    SampleError& err = errors[s];
+    const float* c = &coeffs[s * model.stride()];
+    for (uint32_t d = 0; d < (s % kGridCheckStride == 0 ? nd : 0u); ++d) {
+      decodeFloat(model, c, glm::vec3(grid.directions[d]), out.data());
+      const double a = angleDegrees(glm::vec3(out[0], out[1], out[2]), checks.gridExits[s / kGridCheckStride * nd + d]);
+      err.gridSquares += a * a;
+      err.gridMax = std::max(err.gridMax, a);
+      ++err.gridCount;
+    }
+    for (uint32_t h = 0; h < held; ++h) {
+      decodeFloat(model, c, checks.heldDirections[s * held + h], out.data());
+      const double a = angleDegrees(glm::vec3(out[0], out[1], out[2]), checks.heldExits[s * held + h]);
+      err.heldSquares += a * a;
+      err.heldMax = std::max(err.heldMax, a);
+      ++err.heldCount;
+    }
+  }
+}
+
+// Pca: replaces each sample's table by its weights over a basis learned from all of them.
+Result<void> learnBasis(EncodingModel& model, std::vector<float>& coeffs, std::vector<float>& basis,
+                        size_t sampleCount) {
+  std::vector<float> weights;
+  auto pca = fitPcaBasis(coeffs, sampleCount, model.tableSize, model.channels, model.components, weights);
+  if (!pca) return pca.error();
+  basis = std::move(pca.value().basis);
+  coeffs = std::move(weights);
+  model.basis = &basis;
+  return {};
+}
+
 }  // namespace
 
 Result<Field> bakeField(const Scene& scene, const BakeOptions& options) {
   const auto start = Clock::now();
   BakeSettings settings = options.settings;
   if (auto ok = checkSettings(settings); !ok) return ok.error();
+  if (auto ok = checkEncoding(settings); !ok) return ok.error();
   if (auto ok = validateScene(scene); !ok) return ok.error();
   if (settings.regularization == 0.0f) settings.regularization = static_cast<float>(kDefaultRegularization);
+  if (settings.encoding != Encoding::Sh) settings.order = 0;
+  if (settings.encoding != Encoding::Pca) settings.components = 0;
+  if (settings.encoding == Encoding::Sh) settings.tableSize = 0;
   const uint32_t threads =
       settings.threads ? settings.threads : std::max(1u, std::thread::hardware_concurrency());
   settings.threads = threads;
@@ -202,7 +385,7 @@ Result<Field> bakeField(const Scene& scene, const BakeOptions& options) {
   if (!tracerResult) return tracerResult.error();
   const Tracer& tracer = *tracerResult.value();
 
-  if (settings.maxErrorDegrees > 0.0f) {
+  if (settings.maxErrorDegrees > 0.0f && settings.encoding == Encoding::Sh) {
     auto chosen = selectOrderAndDirections(atlas, tracer, settings, threads, options.note);
     if (!chosen) return chosen.error();
     const Selection& sel = chosen.value();
@@ -216,163 +399,89 @@ Result<Field> bakeField(const Scene& scene, const BakeOptions& options) {
     settings.directionsPhi = sel.columns;
   }
 
-  const DirectionGrid grid = makeHemisphereGrid(settings.directionsTheta, settings.directionsPhi);
-  const int order = static_cast<int>(settings.order);
-  auto fitResult = HemisphereFit::create(grid, order, static_cast<double>(settings.regularization));
-  if (!fitResult) return fitResult.error();
-  const HemisphereFit& fit = fitResult.value();
-
   bool absorbs = false;
   for (size_t m = 1; m < scene.media.size(); ++m) absorbs = absorbs || scene.media[m].absorption > 0.0f;
   // Leave out what the scene does not need: without absorption the optical depth is always zero.
-  const uint32_t channels = absorbs ? 4u : 3u;
-  const int nb = sh::basisCount(order);
-  const size_t stride = size_t(nb) * channels;
+  const uint32_t channels = 3u + (absorbs ? 1u : 0u) + (settings.throughput ? 1u : 0u);
+  const DirectionGrid grid = makeHemisphereGrid(settings.directionsTheta, settings.directionsPhi);
+  auto encoderResult = SampleEncoder::create(grid, settings, channels);
+  if (!encoderResult) return encoderResult.error();
   const size_t sampleCount = atlas.samples.size();
   const uint32_t nd = static_cast<uint32_t>(grid.directions.size());
 
-  std::vector<float> coeffs(sampleCount * stride, 0.0f);
-  std::vector<SampleError> errors(sampleCount);
-  TraceSettings traceSettings;
-  traceSettings.maxBounces = settings.maxBounces;
-
+  std::vector<float> coeffs;
+  TracedChecks checks;
+  std::vector<SampleError> errors;
   const auto traceStart = Clock::now();
-  std::atomic<size_t> next{0};
-  std::atomic<uint64_t> done{0}, raysSoFar{0};
-  constexpr size_t kChunk = 8;
-  auto worker = [&]() {
-    std::vector<float> values(size_t(nd) * channels);
-    std::vector<float> reconstructed(channels);
-    for (;;) {
-      const size_t begin = next.fetch_add(kChunk);
-      if (begin >= sampleCount) break;
-      const size_t end = std::min(sampleCount, begin + kChunk);
-      uint64_t chunkRays = 0;
-      for (size_t s = begin; s < end; ++s) {
-        const auto sampleStart = Clock::now();
-        const SurfacePoint& point = atlas.samples[s];
-        const LocalFrame frame = frameFromNormal(point.shadingNormal);
-        SampleError& err = errors[s];
-        std::vector<glm::vec3> traced(nd);
-        for (uint32_t d = 0; d < nd; ++d) {
-          // The eye looks along -w: the incident ray travels toward the surface.
-          const glm::vec3 incident = -localToWorld(frame, glm::vec3(grid.directions[d]));
-          const PathResult path = tracer.traceFromSurface(point, incident, traceSettings);
-          err.rays += path.rays;
-          err.paths += 1;
-          err.trapped += path.trapped ? 1u : 0u;
-          traced[d] = path.exitDirection;
-          float* v = &values[size_t(d) * channels];
-          v[0] = path.exitDirection.x;
-          v[1] = path.exitDirection.y;
-          v[2] = path.exitDirection.z;
-          if (channels == 4) v[3] = path.opticalDepth;
-        }
-        const auto fitStart = Clock::now();
-        float* c = &coeffs[s * stride];
-        fit.fit(values.data(), channels, c);
-        // The error at the grid directions is a statistic: measured on every 8th sample.
-        for (uint32_t d = 0; d < (s % 8 == 0 ? nd : 0u); ++d) {
-          fit.reconstructAtGrid(c, channels, d, reconstructed.data());
-          const double a = angleDegrees(glm::vec3(reconstructed[0], reconstructed[1], reconstructed[2]), traced[d]);
-          err.gridSquares += a * a;
-          err.gridMax = std::max(err.gridMax, a);
-          ++err.gridCount;
-        }
-        const auto heldOutStart = Clock::now();
-        uint64_t rng = 0x5348524546ull ^ (uint64_t(s) * 0x9e3779b97f4a7c15ull);
-        for (uint32_t h = 0; h < options.heldOutDirections; ++h) {
-          // Uniform over the hemisphere, away from the exact horizon.
-          const float z = 0.02f + 0.98f * unitFloat(rng);
-          const float phi = 6.28318530718f * unitFloat(rng);
-          const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
-          const glm::vec3 w(r * std::cos(phi), r * std::sin(phi), z);
-          const PathResult path = tracer.traceFromSurface(point, -localToWorld(frame, w), traceSettings);
-          err.rays += path.rays;
-          err.paths += 1;
-          evaluateExpansion(order, c, channels, w, reconstructed.data());
-          const double a =
-              angleDegrees(glm::vec3(reconstructed[0], reconstructed[1], reconstructed[2]), path.exitDirection);
-          err.heldSquares += a * a;
-          err.heldMax = std::max(err.heldMax, a);
-          ++err.heldCount;
-        }
-        chunkRays += err.rays;
-        const auto sampleEnd = Clock::now();
-        err.fitSeconds = std::chrono::duration<double>(heldOutStart - fitStart).count();
-        err.traceSeconds = std::chrono::duration<double>((fitStart - sampleStart) + (sampleEnd - heldOutStart)).count();
-      }
-      raysSoFar.fetch_add(chunkRays);
-      done.fetch_add(end - begin);
-    }
-  };
-  std::vector<std::thread> pool;
-  for (uint32_t t = 1; t < threads; ++t) pool.emplace_back(worker);
-  std::thread mainWorker(worker);
-  while (done.load() < sampleCount) {
-    if (options.progress)
-      options.progress({done.load(), sampleCount, raysSoFar.load(), secondsSince(start)});
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  }
-  mainWorker.join();
-  for (auto& t : pool) t.join();
+  traceAndFit(atlas, tracer, grid, encoderResult.value(), settings, channels, options, threads, start, coeffs, checks,
+              errors);
   const double traceSeconds = secondsSince(traceStart);
-  if (options.progress) options.progress({sampleCount, sampleCount, raysSoFar.load(), secondsSince(start)});
 
   const auto fitStart = Clock::now();
+  EncodingModel model{settings.encoding, static_cast<int>(settings.order), settings.tableSize, settings.components,
+                      channels, nullptr};
+  std::vector<float> basis;
+  if (settings.encoding == Encoding::Pca)
+    if (auto r = learnBasis(model, coeffs, basis, sampleCount); !r) return r.error();
+  const size_t stride = model.stride();
   if (settings.spatialNeighbours != 0) {
     std::vector<glm::vec3> positions(sampleCount);
     for (size_t s = 0; s < sampleCount; ++s) positions[s] = atlas.samples[s].position;
     smoothSpatially(coeffs, stride, positions, atlas.neighbours, settings.spatialNeighbours);
   }
-  if (settings.window != SmoothingWindow::None) {
-    const std::vector<double> weights = bandWindow(settings.window, order);
+  if (settings.window != SmoothingWindow::None && settings.encoding == Encoding::Sh) {
+    const std::vector<double> weights = bandWindow(settings.window, model.order);
     for (size_t s = 0; s < sampleCount; ++s)
-      sh::applyWindow(order, weights.data(), &coeffs[s * stride], static_cast<int>(channels));
+      sh::applyWindow(model.order, weights.data(), &coeffs[s * stride], static_cast<int>(channels));
   }
+  measureFit(model, coeffs, grid, checks, options.heldOutDirections, errors);
 
   Field field;
   field.width = atlas.width;
   field.height = atlas.height;
+  field.encoding = settings.encoding;
   field.order = settings.order;
+  field.tableSize = settings.tableSize;
+  field.components = settings.components;
   field.channels = channels;
+  field.throughput = settings.throughput;
+  field.basis = basis;
   field.quantization = settings.quantization;
   field.texelKinds = atlas.texelKinds;
   field.gutters = atlas.gutters;
   field.mesh = atlas.mesh;
   const size_t texels = size_t(atlas.width) * atlas.height;
+  const uint32_t layers = model.layers(), values = model.values();
   field.frames.assign(texels * 12, 0.0f);
-  std::vector<float> texelCoeffs(size_t(nb) * texels * channels, 0.0f);
+  std::vector<float> texelCoeffs(size_t(layers) * texels * values, 0.0f);
   for (size_t t = 0; t < texels; ++t) {
     if (atlas.texelKinds[t] != kTexelSample) continue;
     const uint32_t s = atlas.texelSample[t];
     const SurfacePoint& p = atlas.samples[s];
     const auto rows = localFromWorldRows(p.position, frameFromNormal(p.shadingNormal));
     std::copy(rows.begin(), rows.end(), &field.frames[t * 12]);
-    for (int i = 0; i < nb; ++i)
-      for (uint32_t c = 0; c < channels; ++c)
-        texelCoeffs[(size_t(i) * texels + t) * channels + c] = coeffs[size_t(s) * stride + size_t(i) * channels + c];
+    for (uint32_t i = 0; i < layers; ++i)
+      for (uint32_t v = 0; v < values; ++v)
+        texelCoeffs[(size_t(i) * texels + t) * values + v] = coeffs[size_t(s) * stride + size_t(i) * values + v];
   }
   if (auto encoded = encodeCoefficients(field, texelCoeffs); !encoded) return encoded.error();
 
-  // Quantization error: the decoded direction from quantized coefficients against the float fit,
-  // at every grid direction of every 7th sample (deterministic subset).
+  // Quantization error: the decoded direction from quantized coefficients against the float
+  // encoding, at every third grid direction of every 7th sample (deterministic subset).
   double quantSquares = 0.0, quantMax = 0.0;
   uint64_t quantCount = 0;
   {
-    std::vector<float> dequantized(stride), a(channels), b(channels);
+    std::vector<float> a(channels), b(channels);
     std::vector<uint64_t> texelOf(sampleCount, UINT64_MAX);
     for (size_t t = 0; t < texels; ++t)
       if (atlas.texelKinds[t] == kTexelSample && texelOf[atlas.texelSample[t]] == UINT64_MAX)
         texelOf[atlas.texelSample[t]] = t;
     for (size_t s = 0; s < sampleCount; s += 7) {
       if (texelOf[s] == UINT64_MAX) continue;
-      for (int i = 0; i < nb; ++i)
-        for (uint32_t c = 0; c < channels; ++c)
-          dequantized[size_t(i) * channels + c] = fieldCoefficient(field, static_cast<uint32_t>(i), texelOf[s], c);
       for (uint32_t d = 0; d < nd; d += 3) {
-        fit.reconstructAtGrid(&coeffs[s * stride], channels, d, a.data());
-        fit.reconstructAtGrid(dequantized.data(), channels, d, b.data());
+        const glm::vec3 w(grid.directions[d]);
+        decodeFloat(model, &coeffs[s * stride], w, a.data());
+        evaluateSample(field, texelOf[s], {w.x, w.y, w.z}, b.data());
         const double angle = angleDegrees(glm::vec3(a[0], a[1], a[2]), glm::vec3(b[0], b[1], b[2]));
         quantSquares += angle * angle;
         quantMax = std::max(quantMax, angle);

@@ -29,6 +29,13 @@ const std::vector<FlagSpec> kFlags = {
     {"window", true, "frequency smoothing: none (default), hann, lanczos"},
     {"spatial", true, "spatial smoothing with 0 (default), 3 or 5 neighbours"},
     {"quant", true, "coefficient storage: u8 (default) or f16"},
+    {"encoding", true, "hemisphere encoding: sh (default), table (hemi-octahedral map) or pca (learned basis)"},
+    {"table-size", true, "table: nodes per side N, 2..32 (default 9); pca: N of the basis tables (default 16)"},
+    {"components", true, "pca: basis functions K, 1..1024 (default 64)"},
+    {"path-rule", true, "branch followed at every interface: highest-energy (default) or first-refraction"},
+    {"throughput", false, "store the path's Fresnel throughput as a channel"},
+    {"max-bytes-per-sample", true, "choose the encoding and its parameters with the lowest error within this "
+                                   "many encoded bytes per sample (1..65536)"},
     {"regularization", true, "Tikhonov weight of the hemisphere fit (default 1e-5)"},
     {"max-error", true, "choose the smallest order (<= --order) and direction grid (<= --directions) "
                         "meeting this mean angular error in degrees"},
@@ -78,13 +85,18 @@ int bakeCommand(int argc, char** argv) {
   auto tess = args.integer("tessellation");
   auto dirs = args.size("directions");
   auto maxError = args.number("max-error");
+  auto tableSize = args.integer("table-size");
+  auto components = args.integer("components");
+  auto maxBytes = args.number("max-bytes-per-sample");
   for (const Error* e :
        {order.ok() ? nullptr : &order.error(), samples.ok() ? nullptr : &samples.error(),
         density.ok() ? nullptr : &density.error(), threads.ok() ? nullptr : &threads.error(),
         bounces.ok() ? nullptr : &bounces.error(), spatial.ok() ? nullptr : &spatial.error(),
         reg.ok() ? nullptr : &reg.error(), heldOut.ok() ? nullptr : &heldOut.error(), ior.ok() ? nullptr : &ior.error(),
         absorption.ok() ? nullptr : &absorption.error(), tess.ok() ? nullptr : &tess.error(),
-        dirs.ok() ? nullptr : &dirs.error(), maxError.ok() ? nullptr : &maxError.error()})
+        dirs.ok() ? nullptr : &dirs.error(), maxError.ok() ? nullptr : &maxError.error(),
+        tableSize.ok() ? nullptr : &tableSize.error(), components.ok() ? nullptr : &components.error(),
+        maxBytes.ok() ? nullptr : &maxBytes.error()})
     if (e) return fail(e->message, 2);
   auto inRange = [](const std::optional<int64_t>& v, int64_t lo, int64_t hi) { return !v || (*v >= lo && *v <= hi); };
   if (!inRange(order.value(), 0, 24)) return fail("shrefract bake: --order must be 0..24", 2);
@@ -99,6 +111,14 @@ int bakeCommand(int argc, char** argv) {
   if (density.value() && samples.value()) return fail("shrefract bake: give --samples or --density, not both", 2);
   if (maxError.value() && !(*maxError.value() > 0.0 && *maxError.value() <= 180.0))
     return fail("shrefract bake: --max-error must be in (0, 180] degrees", 2);
+  if (!inRange(tableSize.value(), 2, bake::kMaxBakeTableSize))
+    return fail("shrefract bake: --table-size must be 2.." + std::to_string(bake::kMaxBakeTableSize), 2);
+  if (!inRange(components.value(), 1, kMaxComponents))
+    return fail("shrefract bake: --components must be 1.." + std::to_string(kMaxComponents), 2);
+  if (maxBytes.value() && !(*maxBytes.value() >= 1.0 && *maxBytes.value() <= 65536.0))
+    return fail("shrefract bake: --max-bytes-per-sample must be 1..65536", 2);
+  if (maxBytes.value() && maxError.value())
+    return fail("shrefract bake: give --max-bytes-per-sample or --max-error, not both", 2);
   if (maxError.value()) {
     s.maxErrorDegrees = static_cast<float>(*maxError.value());
     s.order = 16;  // the ceiling of the search unless --order lowers it
@@ -130,6 +150,22 @@ int bakeCommand(int argc, char** argv) {
   if (quant == "u8") s.quantization = Quantization::U8;
   else if (quant == "f16") s.quantization = Quantization::F16;
   else return fail("shrefract bake: --quant must be u8 or f16, got '" + quant + "'", 2);
+
+  const std::string encoding = args.get("encoding").value_or("sh");
+  if (encoding == "sh") s.encoding = Encoding::Sh;
+  else if (encoding == "table") s.encoding = Encoding::Table;
+  else if (encoding == "pca") s.encoding = Encoding::Pca;
+  else return fail("shrefract bake: --encoding must be sh, table or pca, got '" + encoding + "'", 2);
+  if ((tableSize.value() || components.value()) && s.encoding == Encoding::Sh && !maxBytes.value())
+    return fail("shrefract bake: --table-size and --components need --encoding table or pca", 2);
+  s.tableSize = tableSize.value() ? static_cast<uint32_t>(*tableSize.value()) : s.encoding == Encoding::Pca ? 16u : 9u;
+  s.components = components.value() ? static_cast<uint32_t>(*components.value()) : 64u;
+  const std::string rule = args.get("path-rule").value_or("highest-energy");
+  if (rule == "highest-energy") s.pathRule = PathRule::HighestEnergy;
+  else if (rule == "first-refraction") s.pathRule = PathRule::FirstRefraction;
+  else return fail("shrefract bake: --path-rule must be highest-energy or first-refraction, got '" + rule + "'", 2);
+  s.throughput = args.has("throughput");
+  if (maxBytes.value()) s.maxBytesPerSample = static_cast<float>(*maxBytes.value());
 
   if (auto writable = checkOutputPath(*output); !writable) return fail(writable.error().message);
 

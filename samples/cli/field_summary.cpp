@@ -44,13 +44,24 @@ std::string bytesText(uint64_t b) {
 
 }  // namespace
 
+static std::string encodingText(const Field& f) {
+  switch (f.encoding) {
+    case Encoding::Sh: return format("SH order %u (%u functions)", f.order, f.layerCount());
+    case Encoding::Table: return format("table %ux%u (hemi-octahedral, bilinear)", f.tableSize, f.tableSize);
+    case Encoding::Pca: return format("pca %u components over %ux%u tables", f.components, f.tableSize, f.tableSize);
+  }
+  return "unknown encoding";
+}
+
 std::string fieldSummaryText(const Field& f, uint64_t fileBytes) {
   const BakeSettings& s = f.settings;
   const BakeStatistics& st = f.statistics;
   std::string out;
-  out += format("field: %ux%u texels, SH order %u (%u functions), %u channels%s, %s, layout %s\n", f.width, f.height,
-                f.order, f.basisCount(), f.channels, f.channels == 3 ? " (no absorption)" : "",
-                toString(f.quantization), toString(s.layout));
+  out += format("field: %ux%u texels, %s, %u channels%s%s, %s, layout %s, %u bytes per sample\n", f.width, f.height,
+                encodingText(f).c_str(), f.channels, f.hasOpticalDepth() ? "" : " (no absorption)",
+                f.throughput ? " (with throughput)" : "", toString(f.quantization), toString(s.layout),
+                f.bytesPerSample());
+  out += format("path rule: %s\n", toString(s.pathRule));
   out += format("source: %s; %zu media; mesh %zu vertices, %zu triangles\n", s.source.c_str(), f.media.size(),
                 f.mesh.positions.size() / 3, f.mesh.indices.size() / 3);
   out += format("settings: directions %ux%u, max bounces %u, window %s, spatial %u, regularization %g, threads %u\n",
@@ -87,6 +98,10 @@ std::string fieldSummaryJson(const Field& f, uint64_t fileBytes) {
                 kFieldFormatVersion, f.width, f.height, f.order, f.basisCount());
   out += format("\"channels\": %u, \"quantization\": \"%s\", \"file_bytes\": %" PRIu64 ", ", f.channels,
                 toString(f.quantization), fileBytes);
+  out += format("\"encoding\": \"%s\", \"table_size\": %u, \"components\": %u, \"throughput\": %s, "
+                "\"bytes_per_sample\": %u, \"path_rule\": \"%s\", ",
+                toString(f.encoding), f.tableSize, f.components, f.throughput ? "true" : "false", f.bytesPerSample(),
+                toString(s.pathRule));
   out += format("\"mesh\": {\"vertices\": %zu, \"triangles\": %zu}, \"media\": %s, ", f.mesh.positions.size() / 3,
                 f.mesh.indices.size() / 3, media.c_str());
   out += "\"settings\": {";

@@ -367,14 +367,15 @@ struct Tracer::Impl {
     state.origin = glm::vec3(step.hit.position + step.hit.offset * side);
   }
 
-  static bool refractionWins(const Split& split) {
-    return split.refracted.has_value() && split.reflected.weight < 0.5;
+  static bool refractionWins(const Split& split, PathRule rule) {
+    if (!split.refracted.has_value()) return false;  // total internal reflection: no choice
+    return rule == PathRule::FirstRefraction || split.reflected.weight < 0.5;
   }
 
-  PathResult follow(PathState state, uint32_t cap) const {
+  PathResult follow(PathState state, const TraceSettings& settings) const {
     PathResult result;
-    while (const std::optional<Step> step = advance(state, cap, result)) {
-      take(state, *step, refractionWins(step->split), /*countWeight=*/true);
+    while (const std::optional<Step> step = advance(state, settings.maxBounces, result)) {
+      take(state, *step, refractionWins(step->split, settings.pathRule), /*countWeight=*/true);
     }
     return result;
   }
@@ -526,7 +527,7 @@ PathResult Tracer::traceFromSurface(const SurfacePoint& point, glm::vec3 inciden
                                     const TraceSettings& settings) const {
   const std::optional<PathState> state = impl_->enter(point, incident);
   if (!state) return invalidInput();
-  return impl_->follow(*state, settings.maxBounces);
+  return impl_->follow(*state, settings);
 }
 
 void Tracer::traceTree(const SurfacePoint& point, glm::vec3 incident, uint32_t depth,
@@ -571,7 +572,7 @@ EyeRayResult Tracer::traceEyeRay(glm::vec3 origin, glm::vec3 direction,
   PathState transmitted;
   transmitted.labelConflicts = eye.labelConflicts;
   Impl::take(transmitted, *step, /*refract=*/true, /*countWeight=*/false);
-  result.transmitted = impl_->follow(transmitted, settings.maxBounces);
+  result.transmitted = impl_->follow(transmitted, settings);
   result.rays += result.transmitted.rays;
   return result;
 }

@@ -2,9 +2,15 @@
 //
 // For every surface sample s (a texel of the sample atlas) and every view direction w over the
 // hemisphere of the sample's local frame, the bake traced where the refracted path leaves the
-// object (world-space unit direction) and how much optical depth it crossed. Each of the four
-// channels (x, y, z of the exit direction, optical depth tau) is stored as real SH coefficients
-// of order L (see shrefract/sh.h for the convention).
+// object (world-space unit direction), how much optical depth it crossed and, optionally, the
+// Fresnel throughput of the path. These channels (x, y, z, [tau], [throughput]) are functions on
+// the hemisphere, stored in one of three encodings (docs/encodings.md):
+//  - Sh: real SH coefficients of order L (see shrefract/sh.h), the paper's scheme;
+//  - Table: the values at the N x N nodes of a hemi-octahedral grid, bilinear between nodes;
+//  - Pca: K weights per sample of a basis learned from the whole field (each basis function a
+//    hemi-octahedral table of all channels, stored once per field).
+// All three are linear: value_c(s, w) = sum_j a_j(s) * B_j,c(w) over the field's layers j, with
+// B_j the SH function, the bilinear hat of node j, or the learned basis function j.
 //
 // The local frame: w = normalize(M_s * (eye, 1)) where M_s (3 rows of 4 floats, `frames`) maps a
 // world-space eye position to the direction toward the eye in the sample's frame (z = normal).
@@ -21,7 +27,7 @@
 
 namespace shrefract {
 
-inline constexpr uint32_t kFieldFormatVersion = 1;
+inline constexpr uint32_t kFieldFormatVersion = 2;  // 1: SH only, no throughput (still read)
 
 // Largest magnitude of a decoded coefficient (validateField, encodeCoefficients). With at most
 // 1089 basis functions (order 32) the sum of |Y_i| is at most 1089 / sqrt(4 pi) = 307, so every
@@ -45,9 +51,42 @@ enum class Quantization : uint32_t {
 
 enum class SmoothingWindow : uint32_t { None = 0, Hann = 1, Lanczos = 2 };
 
+// How the hemisphere functions of a sample are stored (see the top of this file).
+enum class Encoding : uint32_t { Sh = 0, Table = 1, Pca = 2 };
+
+// Which branch a single traced path follows at every interface (docs/tracing.md).
+enum class PathRule : uint32_t {
+  HighestEnergy = 0,    // the paper: the branch with the larger Fresnel factor
+  FirstRefraction = 1,  // refract wherever refraction is possible, reflect only on total internal reflection
+};
+
 const char* toString(SampleLayout layout);
 const char* toString(Quantization quantization);
 const char* toString(SmoothingWindow window);
+const char* toString(Encoding encoding);
+const char* toString(PathRule rule);
+
+// Largest table size N (nodes per side) of the Table encoding and of Pca basis functions, and the
+// largest number of Pca components.
+inline constexpr uint32_t kMaxTableSize = 64;
+inline constexpr uint32_t kMaxComponents = 1024;
+
+// The hemi-octahedral grid of the Table and Pca encodings. A local direction w (z >= 0) maps to
+//   p = (x, y) / (|x| + |y| + z),  (u, v) = ((p.x + p.y + 1) / 2, (p.x - p.y + 1) / 2) in [0,1]^2,
+// the square whose border is the horizon. Node (i, j) of an N x N table sits at (i, j) / (N - 1),
+// index j * N + i; a value is the bilinear blend of the 4 nodes around (u, v) (N >= 2).
+struct HemiOctCoordinates {
+  float u = 0.5f, v = 0.5f;
+};
+HemiOctCoordinates hemiOctFromDirection(float x, float y, float z);  // z is clamped to >= 0
+// The unit local direction of node (i, j) of an N x N grid (inverse of the map above).
+std::array<float, 3> hemiOctDirection(uint32_t i, uint32_t j, uint32_t n);
+// The 4 nodes around a direction and their bilinear weights (sum 1): node indices j * N + i.
+struct HemiOctBilinear {
+  std::array<uint32_t, 4> node{};
+  std::array<float, 4> weight{};
+};
+HemiOctBilinear hemiOctBilinear(float x, float y, float z, uint32_t n);
 
 struct FieldMedium {
   std::string name;
@@ -63,6 +102,12 @@ struct BakeSettings {
   uint32_t directionsTheta = 32;     // hemisphere grid: rows in polar angle
   uint32_t directionsPhi = 64;       // columns in azimuth
   SampleLayout layout = SampleLayout::Split;
+  Encoding encoding = Encoding::Sh;
+  uint32_t tableSize = 0;            // Table / Pca: nodes per side N of the hemi-octahedral grid
+  uint32_t components = 0;           // Pca: basis functions K
+  PathRule pathRule = PathRule::HighestEnergy;
+  bool throughput = false;           // the path's Fresnel throughput is stored as a channel
+  float maxBytesPerSample = 0.0f;    // > 0: encoding and parameters were chosen to fit this budget
   uint64_t sampleBudget = 0;         // requested total samples (0: not used)
   float samplesPerUnitArea = 0.0f;   // requested density (0: not used)
   uint32_t maxBounces = 16;          // cap on interactions after entering the object
@@ -121,16 +166,26 @@ inline constexpr uint8_t kTexelGutter = 2;  // split layout: filled by a GutterT
 struct Field {
   uint32_t width = 0;            // atlas size in texels
   uint32_t height = 0;
-  uint32_t order = 0;            // SH order L: basisCount = (L+1)^2 layers
-  uint32_t channels = 4;         // 4: x, y, z, tau; 3: no medium absorbs, tau not stored
+  Encoding encoding = Encoding::Sh;
+  uint32_t order = 0;            // Sh: order L, (L+1)^2 layers; 0 for the other encodings
+  uint32_t tableSize = 0;        // Table: N, N^2 layers; Pca: N of the basis tables; 0 for Sh
+  uint32_t components = 0;       // Pca: K layers; 0 otherwise
+  // Decoded channels: x, y, z, then tau when a medium absorbs, then the throughput when
+  // `throughput` is set: 3, 4 or 5.
+  uint32_t channels = 4;
+  bool throughput = false;
   Quantization quantization = Quantization::U8;
 
-  // Coefficients, layer-major: index ((layer * height + y) * width + x) * channels + channel.
-  // U8: value = bias[layer * channels + c] + scale[layer * channels + c] * q / 255.
+  // Coefficients a_j(s), layer-major: index ((layer * height + y) * width + x) * values + v, with
+  // values = valuesPerLayer() (Sh, Table: one per channel; Pca: one weight shared by all channels).
+  // U8: value = bias[layer * values + v] + scale[layer * values + v] * q / 255.
   std::vector<uint8_t> coefficientsU8;
   std::vector<uint16_t> coefficientsF16;  // binary16 bit patterns
-  std::vector<float> scale;               // basisCount * channels (U8 only)
-  std::vector<float> bias;                // basisCount * channels (U8 only)
+  std::vector<float> scale;               // layerCount * values (U8 only)
+  std::vector<float> bias;                // layerCount * values (U8 only)
+  // Pca: the basis, components * tableSize^2 * channels floats: function k at node n, channel c at
+  // (k * tableSize^2 + n) * channels + c. Empty for the other encodings.
+  std::vector<float> basis;
 
   std::vector<float> frames;        // width * height * 12: rows of M_s (zero for empty texels)
   std::vector<uint8_t> texelKinds;  // width * height: kTexelEmpty, kTexelSample, kTexelGutter
@@ -141,12 +196,30 @@ struct Field {
   BakeSettings settings;
   BakeStatistics statistics;
 
-  uint32_t basisCount() const { return (order + 1) * (order + 1); }
+  // Layers (coefficients per sample and stored value): Sh (L+1)^2, Table N^2, Pca K.
+  uint32_t layerCount() const {
+    return encoding == Encoding::Sh ? (order + 1) * (order + 1)
+                                    : encoding == Encoding::Table ? tableSize * tableSize : components;
+  }
+  uint32_t basisCount() const { return layerCount(); }  // the name of SH-era callers
+  uint32_t valuesPerLayer() const { return encoding == Encoding::Pca ? 1u : channels; }
+  bool hasOpticalDepth() const { return channels == (throughput ? 5u : 4u); }
+  uint32_t throughputChannel() const { return channels - 1; }  // meaningful when throughput is set
   uint64_t texelCount() const { return uint64_t(width) * height; }
+  // Encoded bytes per sample: the coefficients only (frames, mesh, tables and basis not counted).
+  uint32_t bytesPerSample() const {
+    return layerCount() * valuesPerLayer() * (quantization == Quantization::U8 ? 1u : 2u);
+  }
 };
 
-// Dequantized coefficient. Preconditions: validateField(field) succeeded, indices in range.
-float fieldCoefficient(const Field& field, uint32_t layer, uint64_t texel, uint32_t channel);
+// Decoded channels at a local direction of one sample (texel of kind kTexelSample): the linear
+// sum of the encoding before normalization, in out[0..channels). z is clamped to >= 0 (the engine
+// does the same). Preconditions: validateField(field) succeeded, texel in range and a sample.
+void evaluateSample(const Field& field, uint64_t texel, const std::array<float, 3>& localDirection, float* out);
+
+// Dequantized coefficient a_layer(texel), value v < valuesPerLayer(). Preconditions:
+// validateField(field) succeeded, indices in range.
+float fieldCoefficient(const Field& field, uint32_t layer, uint64_t texel, uint32_t value);
 
 // Encodes float coefficients (same indexing as the quantized arrays) into field.coefficientsU8 +
 // scale/bias or field.coefficientsF16, per field.quantization. A channel of zero range gets

@@ -55,13 +55,35 @@ const char* toString(SmoothingWindow window) {
   return "unknown";
 }
 
+const char* toString(Encoding encoding) {
+  switch (encoding) {
+    case Encoding::Sh: return "sh";
+    case Encoding::Table: return "table";
+    case Encoding::Pca: return "pca";
+  }
+  return "unknown";
+}
+
+const char* toString(PathRule rule) {
+  switch (rule) {
+    case PathRule::HighestEnergy: return "highest-energy";
+    case PathRule::FirstRefraction: return "first-refraction";
+  }
+  return "unknown";
+}
+
 namespace {
 
 // Limits of the format (docs/field-format.md, "Limits"). They bound what a hostile file can ask for.
 constexpr uint32_t kMaxAtlasSize = 16384;      // texels per side
 constexpr uint32_t kMaxOrder = 32;             // SH order
 constexpr uint32_t kMaxStringBytes = 65536;    // any length-prefixed string
-constexpr uint32_t kSectionCount = 6;
+// Version 1 has the first six sections; version 2 adds ENCD (encoding, throughput, path rule, basis).
+constexpr uint32_t kSectionCountV1 = 6;
+constexpr uint32_t kSectionCount = 7;
+// Largest magnitude of a Pca basis value: with |weights| <= kMaxCoefficientMagnitude and at most
+// kMaxComponents functions, every decoded sum stays below 1e15 * 1e6 * 1024 = 1e24, finite in float.
+constexpr float kMaxBasisMagnitude = 1e6f;
 constexpr size_t kHeaderBytes = 40;
 constexpr size_t kFrameBytes = 16;             // magic, version, file size: fixed in every version
 constexpr size_t kSectionHeaderBytes = 12;     // tag, u64 payload length
@@ -82,6 +104,7 @@ constexpr std::array<SectionInfo, kSectionCount> kSections{{
     {{'A', 'T', 'L', 'S'}, "atlas"},
     {{'Q', 'T', 'B', 'L'}, "quantization"},
     {{'C', 'O', 'E', 'F'}, "coefficient"},
+    {{'E', 'N', 'C', 'D'}, "encoding"},
 }};
 
 // CRC-32 (IEEE 802.3, reflected polynomial 0xEDB88320, init and final xor 0xFFFFFFFF): the
@@ -396,6 +419,37 @@ void readMesh(SectionReader& r, FieldMesh& mesh) {
   r.arrayU32(mesh.indices, "mesh.indices");
 }
 
+// ENCD (version 2): how the coefficients are to be decoded, and the bake's choices that go with it.
+void readEncoding(SectionReader& r, Field& field) {
+  field.encoding = static_cast<Encoding>(r.u32("encoding"));
+  field.tableSize = r.u32("encoding.tableSize");
+  field.components = r.u32("encoding.components");
+  field.throughput = r.u32("encoding.throughput") != 0;
+  BakeSettings& s = field.settings;
+  s.encoding = static_cast<Encoding>(r.u32("settings.encoding"));
+  s.tableSize = r.u32("settings.tableSize");
+  s.components = r.u32("settings.components");
+  s.throughput = r.u32("settings.throughput") != 0;
+  s.pathRule = static_cast<PathRule>(r.u32("settings.pathRule"));
+  s.maxBytesPerSample = r.f32("settings.maxBytesPerSample");
+  r.arrayF32(field.basis, "basis");
+}
+
+void writeEncoding(ByteWriter& w, const Field& field) {
+  w.u32(static_cast<uint32_t>(field.encoding));
+  w.u32(field.tableSize);
+  w.u32(field.components);
+  w.u32(field.throughput ? 1u : 0u);
+  const BakeSettings& s = field.settings;
+  w.u32(static_cast<uint32_t>(s.encoding));
+  w.u32(s.tableSize);
+  w.u32(s.components);
+  w.u32(s.throughput ? 1u : 0u);
+  w.u32(static_cast<uint32_t>(s.pathRule));
+  w.f32(s.maxBytesPerSample);
+  w.arrayF32(field.basis);
+}
+
 void readAtlas(SectionReader& r, Field& field) {
   r.arrayU8(field.texelKinds, "texel kinds");
   r.arrayF32(field.frames, "frames");
@@ -415,6 +469,42 @@ bool allFinite(const float* v, size_t n) {
 
 Error invalid(const std::string& message) { return makeError(ErrorCode::CorruptData, message); }
 
+// The encoding's parameters, channels and (Pca) basis: what every decoder relies on.
+Result<void> validateEncoding(const Field& field) {
+  const std::string n = std::to_string(field.tableSize);
+  if (field.channels != (field.throughput ? 4u : 3u) && field.channels != (field.throughput ? 5u : 4u))
+    return invalid("channels is " + std::to_string(field.channels) + ", expected " +
+                   (field.throughput ? "4 or 5 (with throughput)" : "3 or 4"));
+  switch (field.encoding) {
+    case Encoding::Sh:
+      if (field.order > kMaxOrder)
+        return invalid("order " + std::to_string(field.order) + " is over the limit of " + std::to_string(kMaxOrder));
+      if (field.tableSize != 0 || field.components != 0) return invalid("an sh field has a table size or components");
+      break;
+    case Encoding::Table:
+    case Encoding::Pca:
+      if (field.order != 0) return invalid(std::string("a ") + toString(field.encoding) + " field has an SH order");
+      if (field.tableSize < 2 || field.tableSize > kMaxTableSize)
+        return invalid("table size " + n + " is outside 2.." + std::to_string(kMaxTableSize));
+      if (field.encoding == Encoding::Table && field.components != 0) return invalid("a table field has components");
+      if (field.encoding == Encoding::Pca && (field.components < 1 || field.components > kMaxComponents))
+        return invalid("components " + std::to_string(field.components) + " is outside 1.." +
+                       std::to_string(kMaxComponents));
+      break;
+    default:
+      return invalid("encoding " + std::to_string(static_cast<uint32_t>(field.encoding)) + " is not sh (0), table (1) or pca (2)");
+  }
+  const size_t basisValues =
+      field.encoding == Encoding::Pca ? size_t(field.components) * field.tableSize * field.tableSize * field.channels : 0;
+  if (field.basis.size() != basisValues)
+    return invalid("basis has " + std::to_string(field.basis.size()) + " values, expected " + std::to_string(basisValues));
+  for (size_t i = 0; i < field.basis.size(); ++i)
+    if (!(std::fabs(field.basis[i]) <= kMaxBasisMagnitude))
+      return invalid("basis[" + std::to_string(i) + "] = " + formatFloat(field.basis[i]) + " is not finite or beyond +-" +
+                     formatFloat(kMaxBasisMagnitude));
+  return {};
+}
+
 Result<void> validateSettings(const Field& field) {
   const BakeSettings& s = field.settings;
   if (s.source.size() > kMaxStringBytes)
@@ -423,6 +513,13 @@ Result<void> validateSettings(const Field& field) {
   if (s.order != field.order)
     return invalid("settings.order " + std::to_string(s.order) + " differs from the field's order " +
                    std::to_string(field.order));
+  if (s.encoding != field.encoding || s.tableSize != field.tableSize || s.components != field.components ||
+      s.throughput != field.throughput)
+    return invalid("settings (encoding, table size, components, throughput) differ from the field's");
+  if (s.pathRule != PathRule::HighestEnergy && s.pathRule != PathRule::FirstRefraction)
+    return invalid("settings.pathRule " + std::to_string(static_cast<uint32_t>(s.pathRule)) + " is not a path rule");
+  if (!std::isfinite(s.maxBytesPerSample) || s.maxBytesPerSample < 0.0f)
+    return invalid("settings.maxBytesPerSample " + formatFloat(s.maxBytesPerSample) + " is not finite and >= 0");
   if (s.directionsTheta < 1 || s.directionsPhi < 1)
     return invalid("settings: direction grid " + std::to_string(s.directionsTheta) + "x" +
                    std::to_string(s.directionsPhi) + " is empty");
@@ -473,9 +570,9 @@ Result<void> validateMedia(const Field& field) {
       return invalid(label + ".absorption " + formatFloat(m.absorption) + " is not finite and >= 0");
     for (float c : m.color)
       if (!std::isfinite(c) || c < 0.0f) return invalid(label + ".color has " + formatFloat(c) + ", not finite and >= 0");
-    if (field.channels == 3 && m.absorption != 0.0f)
-      return invalid(label + " absorbs (" + formatFloat(m.absorption) +
-                     ") but the field has 3 channels (no optical depth stored)");
+    if (!field.hasOpticalDepth() && m.absorption != 0.0f)
+      return invalid(label + " absorbs (" + formatFloat(m.absorption) + ") but the field has " +
+                     std::to_string(field.channels) + " channels (no optical depth stored)");
   }
   return {};
 }
@@ -557,34 +654,35 @@ Result<void> validateAtlas(const Field& field) {
 
 Result<void> validateCoefficients(const Field& field) {
   const uint64_t texels = field.texelCount();
-  const uint64_t tables = uint64_t(field.basisCount()) * field.channels;
+  const uint32_t values = field.valuesPerLayer();
+  const uint64_t tables = uint64_t(field.layerCount()) * values;
   const uint64_t count = tables * texels;
   if (field.quantization == Quantization::U8) {
     if (field.coefficientsU8.size() != count)
       return invalid("coefficientsU8 has " + std::to_string(field.coefficientsU8.size()) + " entries, expected " +
-                     std::to_string(count) + " (basisCount x texels x channels)");
+                     std::to_string(count) + " (layers x texels x values)");
     if (!field.coefficientsF16.empty())
       return invalid("coefficientsF16 has " + std::to_string(field.coefficientsF16.size()) +
                      " entries but the field is quantized to u8");
     if (field.scale.size() != tables || field.bias.size() != tables)
       return invalid("scale/bias have " + std::to_string(field.scale.size()) + "/" + std::to_string(field.bias.size()) +
-                     " entries, expected " + std::to_string(tables) + " (basisCount x channels)");
+                     " entries, expected " + std::to_string(tables) + " (layers x values)");
     for (size_t i = 0; i < tables; ++i) {
       const float top = field.bias[i] + field.scale[i];  // the decoded value of q = 255
       if (!std::isfinite(field.scale[i]) || !std::isfinite(field.bias[i]) || !std::isfinite(top))
-        return invalid("scale/bias of layer " + std::to_string(i / field.channels) + " channel " +
-                       std::to_string(i % field.channels) + " (" + formatFloat(field.scale[i]) + ", " +
+        return invalid("scale/bias of layer " + std::to_string(i / values) + " value " +
+                       std::to_string(i % values) + " (" + formatFloat(field.scale[i]) + ", " +
                        formatFloat(field.bias[i]) + ") do not decode to finite values");
       // Every level lies between bias and top; bounding both keeps every SH sum finite in float.
       if (!(std::fabs(field.bias[i]) <= kMaxCoefficientMagnitude) || !(std::fabs(top) <= kMaxCoefficientMagnitude))
-        return invalid("scale/bias of layer " + std::to_string(i / field.channels) + " channel " +
-                       std::to_string(i % field.channels) + " (" + formatFloat(field.scale[i]) + ", " +
+        return invalid("scale/bias of layer " + std::to_string(i / values) + " value " +
+                       std::to_string(i % values) + " (" + formatFloat(field.scale[i]) + ", " +
                        formatFloat(field.bias[i]) + ") decode beyond +-" + formatFloat(kMaxCoefficientMagnitude));
     }
   } else {
     if (field.coefficientsF16.size() != count)
       return invalid("coefficientsF16 has " + std::to_string(field.coefficientsF16.size()) + " entries, expected " +
-                     std::to_string(count) + " (basisCount x texels x channels)");
+                     std::to_string(count) + " (layers x texels x values)");
     if (!field.coefficientsU8.empty())
       return invalid("coefficientsU8 has " + std::to_string(field.coefficientsU8.size()) +
                      " entries but the field is quantized to f16");
@@ -594,10 +692,10 @@ Result<void> validateCoefficients(const Field& field) {
     for (size_t i = 0; i < count; ++i) {
       const uint16_t h = field.coefficientsF16[i];
       if ((h & 0x7C00u) == 0x7C00u) {
-        const uint64_t perLayer = texels * field.channels;
+        const uint64_t perLayer = texels * values;
         return invalid("coefficientsF16[" + std::to_string(i) + "] (layer " + std::to_string(i / perLayer) + ", " +
-                       texelName(field, (i % perLayer) / field.channels) + ", channel " +
-                       std::to_string(i % field.channels) + ") is " + ((h & 0x3FFu) ? "NaN" : "Inf") + " (bits " +
+                       texelName(field, (i % perLayer) / values) + ", value " +
+                       std::to_string(i % values) + ") is " + ((h & 0x3FFu) ? "NaN" : "Inf") + " (bits " +
                        hex32(h) + ")");
       }
     }
@@ -611,18 +709,18 @@ std::string errnoMessage(int error) { return std::generic_category().message(err
 
 // -------------------------------------------------------------------------------------------------
 
-float fieldCoefficient(const Field& field, uint32_t layer, uint64_t texel, uint32_t channel) {
-  const size_t index = static_cast<size_t>((uint64_t(layer) * field.texelCount() + texel) * field.channels + channel);
+float fieldCoefficient(const Field& field, uint32_t layer, uint64_t texel, uint32_t value) {
+  const uint32_t values = field.valuesPerLayer();
+  const size_t index = static_cast<size_t>((uint64_t(layer) * field.texelCount() + texel) * values + value);
   if (field.quantization == Quantization::F16) return halfToFloat(field.coefficientsF16[index]);
-  const size_t table = size_t(layer) * field.channels + channel;
+  const size_t table = size_t(layer) * values + value;
   return field.bias[table] + field.scale[table] * (static_cast<float>(field.coefficientsU8[index]) / 255.0f);
 }
 
 Result<void> encodeCoefficients(Field& field, const std::vector<float>& coefficients) {
-  if (field.channels != 3 && field.channels != 4)
-    return makeError(ErrorCode::InvalidArgument,
-                     "encodeCoefficients: channels is " + std::to_string(field.channels) + ", not 3 or 4");
-  if (field.order > kMaxOrder || field.width > kMaxAtlasSize || field.height > kMaxAtlasSize)
+  if (auto r = validateEncoding(field); !r)
+    return makeError(ErrorCode::InvalidArgument, "encodeCoefficients: " + r.error().message);
+  if (field.width > kMaxAtlasSize || field.height > kMaxAtlasSize)
     return makeError(ErrorCode::InvalidArgument, "encodeCoefficients: order " + std::to_string(field.order) + " or atlas " +
                                                      std::to_string(field.width) + "x" + std::to_string(field.height) +
                                                      " beyond the format's limits");
@@ -630,14 +728,15 @@ Result<void> encodeCoefficients(Field& field, const std::vector<float>& coeffici
     return makeError(ErrorCode::InvalidArgument, "encodeCoefficients: unknown quantization " +
                                                      std::to_string(static_cast<uint32_t>(field.quantization)));
   const uint64_t texels = field.texelCount();
-  const uint32_t layers = field.basisCount();
-  const uint32_t channels = field.channels;
+  const uint32_t layers = field.layerCount();
+  // "channels" below are the stored values per layer (Pca: one weight).
+  const uint32_t channels = field.valuesPerLayer();
   const uint64_t perLayer = texels * channels;
   const uint64_t count = perLayer * layers;
   if (coefficients.size() != count)
     return makeError(ErrorCode::InvalidArgument, "encodeCoefficients: " + std::to_string(coefficients.size()) +
                                                      " coefficients, expected " + std::to_string(count) +
-                                                     " (basisCount x texels x channels)");
+                                                     " (layers x texels x values)");
   for (size_t i = 0; i < coefficients.size(); ++i) {
     const float v = coefficients[i];
     if (!std::isfinite(v))
@@ -709,10 +808,7 @@ Result<void> validateField(const Field& field) {
   if (field.width == 0 || field.height == 0 || field.width > kMaxAtlasSize || field.height > kMaxAtlasSize)
     return invalid("atlas is " + std::to_string(field.width) + "x" + std::to_string(field.height) + ", expected 1.." +
                    std::to_string(kMaxAtlasSize) + " texels per side");
-  if (field.order > kMaxOrder)
-    return invalid("order " + std::to_string(field.order) + " is over the limit of " + std::to_string(kMaxOrder));
-  if (field.channels != 3 && field.channels != 4)
-    return invalid("channels is " + std::to_string(field.channels) + ", not 3 or 4");
+  if (auto r = validateEncoding(field); !r) return r;
   if (field.quantization != Quantization::U8 && field.quantization != Quantization::F16)
     return invalid("quantization " + std::to_string(static_cast<uint32_t>(field.quantization)) +
                    " is neither u8 (0) nor f16 (1)");
@@ -779,6 +875,10 @@ std::vector<uint8_t> serializeField(const Field& field) {
   w.arrayU16(field.coefficientsF16);
   w.endSection();
 
+  w.beginSection(kSections[6].tag);
+  writeEncoding(w, field);
+  w.endSection();
+
   std::vector<uint8_t>& bytes = w.bytes();
   w.patchU64(8, bytes.size() + kChecksumBytes);
   w.u32(crc32(bytes.data(), bytes.size()));
@@ -830,12 +930,13 @@ Result<Field> parseField(const uint8_t* data, size_t size, const std::string& na
                    std::to_string(kMaxAtlasSize) + " texels per side");
   if (field.order > kMaxOrder)
     return corrupt("order " + std::to_string(field.order) + " is over the limit of " + std::to_string(kMaxOrder));
-  if (sectionCount != kSectionCount)
-    return corrupt("header lists " + std::to_string(sectionCount) + " sections, version 1 has " +
-                   std::to_string(kSectionCount));
+  const uint32_t expectedSections = version == 1 ? kSectionCountV1 : kSectionCount;
+  if (sectionCount != expectedSections)
+    return corrupt("header lists " + std::to_string(sectionCount) + " sections, version " + std::to_string(version) +
+                   " has " + std::to_string(expectedSections));
 
   size_t pos = kHeaderBytes;
-  for (uint32_t s = 0; s < kSectionCount; ++s) {
+  for (uint32_t s = 0; s < expectedSections; ++s) {
     const SectionInfo& info = kSections[s];
     if (body - pos < kSectionHeaderBytes)
       return corrupt(std::string("truncated: ") + info.label + " section header needs " +
@@ -863,10 +964,11 @@ Result<Field> parseField(const uint8_t* data, size_t size, const std::string& na
         r.arrayF32(field.scale, "scale");
         r.arrayF32(field.bias, "bias");
         break;
-      default:
+      case 5:
         r.arrayU8(field.coefficientsU8, "u8 coefficients");
         r.arrayU16(field.coefficientsF16, "f16 coefficients");
         break;
+      default: readEncoding(r, field); break;
     }
     if (r.failed()) return makeError(ErrorCode::CorruptData, r.message());
     if (r.consumed() != length)

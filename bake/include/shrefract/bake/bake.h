@@ -41,6 +41,10 @@ struct BakeOptions {
 // candidate wins: fewest basis functions, then fewest directions. If no candidate meets the target,
 // the largest order and grid are used and a note says so.
 
+// Largest table size the bake fits (the Table fit inverts an N^2 x N^2 matrix; the format allows
+// kMaxTableSize).
+inline constexpr uint32_t kMaxBakeTableSize = 32;
+
 // Bakes `scene`. Errors: invalid settings (order 0..24, directions 1..512 per axis, spatial 0/3/5),
 // an invalid scene, layout failures. The result passes validateField().
 Result<Field> bakeField(const Scene& scene, const BakeOptions& options);

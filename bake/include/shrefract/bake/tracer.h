@@ -11,6 +11,7 @@
 
 #include <shrefract/bake/sample_frame.h>
 #include <shrefract/bake/scene.h>
+#include <shrefract/field.h>
 #include <shrefract/result.h>
 
 #include <glm/vec3.hpp>
@@ -26,6 +27,8 @@ struct TraceSettings {
   // Interfaces a path may meet after its first refraction. A path that would meet one more is
   // stopped and marked trapped (see PathResult).
   uint32_t maxBounces = 16;
+  // Which branch a single path follows at every interface (field.h PathRule; docs/tracing.md).
+  PathRule pathRule = PathRule::HighestEnergy;
 };
 
 // Outcome of one light path, from its first refraction into the object to its escape.
@@ -77,7 +80,8 @@ class Tracer {
   // A ray arriving at `point` from the outer side of its surface, travelling along `incident`
   // (world space, pointing into the surface: dot(incident, point.shadingNormal) < 0). It refracts
   // into the surface's innerMedium (reflects on total internal reflection) and then follows, at
-  // every interface, the branch of higher energy until it escapes or hits settings.maxBounces.
+  // every interface, the branch settings.pathRule picks (the higher energy by default) until it
+  // escapes or hits settings.maxBounces.
   // point.surface must index the scene's surfaces. When point.triangle is in range, the geometric
   // normal is that triangle's and the position is projected onto its plane; otherwise
   // point.geometricNormal and point.position are used as given. A non-finite or zero incident, or

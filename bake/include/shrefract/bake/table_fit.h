@@ -1,0 +1,58 @@
+// Fits for the Table and Pca encodings (field.h, docs/encodings.md).
+//
+// Table: a sample's hemisphere functions as the N x N node values of a hemi-octahedral table,
+// bilinear between nodes. The nodes are fitted by weighted least squares to the traced grid
+// directions (each direction constrains the 4 nodes around it), with a small penalty on the
+// differences between neighbouring nodes: nodes that no direction reaches take the harmonic
+// blend of their neighbours, and the fit stays well conditioned at every N.
+//
+// Pca: the per-sample tables of a whole field, as K weights of a basis learned from them (the
+// leading eigenvectors of their second-moment matrix, uncentred, so that the first function
+// carries the mean and K weights are the best rank-K least-squares approximation of the tables).
+#pragma once
+
+#include <shrefract/bake/fit.h>
+#include <shrefract/result.h>
+
+#include <cstdint>
+#include <vector>
+
+namespace shrefract::bake {
+
+// Relative weight of the neighbour-difference penalty: lambda = kDefaultTableRegularization *
+// (solid angle per node). docs/encodings.md gives the measurement behind it.
+inline constexpr double kDefaultTableRegularization = 1e-2;
+
+class TableFit {
+ public:
+  // Errors: n outside 2..kMaxTableSize, an empty grid, lambda not finite and > 0.
+  static Result<TableFit> create(const DirectionGrid& grid, uint32_t n, double lambda = kDefaultTableRegularization);
+
+  uint32_t tableSize() const { return n_; }
+  uint32_t nodeCount() const { return n_ * n_; }
+  // values[d * channels + c] at grid direction d -> nodes[node * channels + c].
+  void fit(const float* values, uint32_t channels, float* nodes) const;
+
+ private:
+  uint32_t n_ = 0;
+  std::vector<uint32_t> gridNodes_;  // 4 per grid direction
+  std::vector<float> gridWeights_;   // 4 per grid direction: solid angle * bilinear weight
+  std::vector<float> inverse_;       // nodeCount^2: the inverse of the normal matrix, row-major
+};
+
+// Channel weights for the Pca fit: the decoded error that matters is angular, so x, y, z count
+// fully; tau and throughput are scaled to a comparable range (1 / their RMS, at most 1).
+struct PcaBasis {
+  uint32_t components = 0;
+  uint32_t tableSize = 0;
+  uint32_t channels = 0;
+  std::vector<float> basis;  // field.h layout: (k * N^2 + node) * channels + c
+};
+
+// tables: samples x (N^2 * channels), node-major as TableFit writes them. Returns the basis of
+// min(K, N^2 * channels) functions and writes each sample's weights to weights (samples x K, zero
+// for functions beyond the rank).
+Result<PcaBasis> fitPcaBasis(const std::vector<float>& tables, size_t samples, uint32_t tableSize, uint32_t channels,
+                             uint32_t components, std::vector<float>& weights);
+
+}  // namespace shrefract::bake

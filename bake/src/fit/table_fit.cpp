@@ -1,0 +1,121 @@
+#include <shrefract/bake/table_fit.h>
+#include <shrefract/field.h>
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+namespace shrefract::bake {
+
+Result<TableFit> TableFit::create(const DirectionGrid& grid, uint32_t n, double lambda) {
+  if (n < 2 || n > kMaxTableSize)
+    return makeError(ErrorCode::InvalidArgument,
+                     "table size " + std::to_string(n) + " is outside 2.." + std::to_string(kMaxTableSize));
+  if (grid.directions.empty()) return makeError(ErrorCode::InvalidArgument, "empty direction grid");
+  if (!(lambda > 0.0) || !std::isfinite(lambda))
+    return makeError(ErrorCode::InvalidArgument, "table regularization must be finite and > 0");
+  TableFit fit;
+  fit.n_ = n;
+  const uint32_t nodes = n * n;
+  Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(nodes, nodes);
+  double totalWeight = 0.0;
+  for (size_t d = 0; d < grid.directions.size(); ++d) {
+    const glm::dvec3 w = grid.directions[d];
+    const HemiOctBilinear b = hemiOctBilinear(float(w.x), float(w.y), float(w.z), n);
+    totalWeight += grid.weights[d];
+    for (int i = 0; i < 4; ++i) {
+      fit.gridNodes_.push_back(b.node[i]);
+      fit.gridWeights_.push_back(static_cast<float>(grid.weights[d] * double(b.weight[i])));
+      for (int j = 0; j < 4; ++j) normal(b.node[i], b.node[j]) += grid.weights[d] * double(b.weight[i]) * double(b.weight[j]);
+    }
+  }
+  // Neighbour differences (a graph Laplacian over the 4-neighbourhood), scaled to a node's share
+  // of the solid angle so that lambda means the same at every N.
+  const double penalty = lambda * totalWeight / nodes;
+  for (uint32_t j = 0; j < n; ++j)
+    for (uint32_t i = 0; i < n; ++i)
+      for (const auto& [di, dj] : {std::pair{1u, 0u}, std::pair{0u, 1u}}) {
+        if (i + di >= n || j + dj >= n) continue;
+        const uint32_t a = j * n + i, b = (j + dj) * n + i + di;
+        normal(a, a) += penalty;
+        normal(b, b) += penalty;
+        normal(a, b) -= penalty;
+        normal(b, a) -= penalty;
+      }
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(normal);
+  if (ldlt.info() != Eigen::Success)
+    return makeError(ErrorCode::InvalidArgument, "table fit: the normal equations are singular for table size " +
+                                                     std::to_string(n));
+  const Eigen::MatrixXd inverse = ldlt.solve(Eigen::MatrixXd::Identity(nodes, nodes));
+  fit.inverse_.resize(size_t(nodes) * nodes);
+  for (uint32_t r = 0; r < nodes; ++r)
+    for (uint32_t c = 0; c < nodes; ++c) fit.inverse_[size_t(r) * nodes + c] = static_cast<float>(inverse(r, c));
+  return fit;
+}
+
+void TableFit::fit(const float* values, uint32_t channels, float* out) const {
+  // The right-hand side A^T W f touches 4 nodes per direction; then one product with the inverse.
+  const uint32_t nodes = nodeCount();
+  thread_local std::vector<float> rhs;
+  rhs.assign(size_t(nodes) * channels, 0.0f);
+  const size_t directions = gridNodes_.size() / 4;
+  for (size_t d = 0; d < directions; ++d)
+    for (int i = 0; i < 4; ++i) {
+      const float w = gridWeights_[4 * d + i];
+      float* r = &rhs[size_t(gridNodes_[4 * d + i]) * channels];
+      for (uint32_t c = 0; c < channels; ++c) r[c] += w * values[d * channels + c];
+    }
+  std::fill(out, out + size_t(nodes) * channels, 0.0f);
+  for (uint32_t a = 0; a < nodes; ++a) {
+    const float* row = &inverse_[size_t(a) * nodes];
+    float* o = &out[size_t(a) * channels];
+    for (uint32_t b = 0; b < nodes; ++b)
+      for (uint32_t c = 0; c < channels; ++c) o[c] += row[b] * rhs[size_t(b) * channels + c];
+  }
+}
+
+Result<PcaBasis> fitPcaBasis(const std::vector<float>& tables, size_t samples, uint32_t tableSize, uint32_t channels,
+                             uint32_t components, std::vector<float>& weights) {
+  const size_t dim = size_t(tableSize) * tableSize * channels;
+  if (samples == 0 || tables.size() != samples * dim || components == 0)
+    return makeError(ErrorCode::InvalidArgument, "pca: no samples or mismatched table sizes");
+  // Channel weights: x, y, z as they are; tau, when its RMS is above 1, scaled down to unit RMS so
+  // that long optical depths do not take the functions the angular error needs.
+  std::vector<double> scale(channels, 1.0);
+  for (uint32_t c = 3; c < channels; ++c) {
+    double sum = 0.0;
+    for (size_t i = c; i < tables.size(); i += channels) sum += double(tables[i]) * double(tables[i]);
+    const double rms = std::sqrt(sum / double(tables.size() / channels));
+    scale[c] = 1.0 / std::max(rms, 1.0);
+  }
+  Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> raw(tables.data(),
+                                                                                              Eigen::Index(samples),
+                                                                                              Eigen::Index(dim));
+  Eigen::VectorXf columnScale(dim);
+  for (size_t i = 0; i < dim; ++i) columnScale[Eigen::Index(i)] = static_cast<float>(scale[i % channels]);
+  const Eigen::MatrixXf x = raw * columnScale.asDiagonal();
+  Eigen::MatrixXd gram = (x.transpose() * x).cast<double>();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(gram);
+  if (eigen.info() != Eigen::Success) return makeError(ErrorCode::Unsupported, "pca: the eigen solver did not converge");
+  const uint32_t k = static_cast<uint32_t>(std::min<size_t>(components, dim));
+  // Eigenvalues ascend: the leading functions are the last columns.
+  Eigen::MatrixXf basis = Eigen::MatrixXf::Zero(Eigen::Index(dim), Eigen::Index(components));
+  for (uint32_t j = 0; j < k; ++j) basis.col(Eigen::Index(j)) = eigen.eigenvectors().col(Eigen::Index(dim - 1 - j)).cast<float>();
+  const Eigen::MatrixXf w = x * basis;  // samples x components
+  weights.resize(samples * components);
+  for (size_t s = 0; s < samples; ++s)
+    for (uint32_t j = 0; j < components; ++j) weights[s * components + j] = w(Eigen::Index(s), Eigen::Index(j));
+  PcaBasis out;
+  out.components = components;
+  out.tableSize = tableSize;
+  out.channels = channels;
+  out.basis.resize(size_t(components) * dim);
+  for (uint32_t j = 0; j < components; ++j)
+    for (size_t i = 0; i < dim; ++i)  // undo the channel weights: decoded values are in the data's units
+      out.basis[size_t(j) * dim + i] = basis(Eigen::Index(i), Eigen::Index(j)) / static_cast<float>(scale[i % channels]);
+  return out;
+}
+
+}  // namespace shrefract::bake
