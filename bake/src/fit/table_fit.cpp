@@ -111,10 +111,29 @@ Result<PcaBasis> fitPcaBasis(const std::vector<float>& tables, size_t samples, u
   out.components = components;
   out.tableSize = tableSize;
   out.channels = channels;
+  out.channelScale.assign(scale.begin(), scale.end());
   out.basis.resize(size_t(components) * dim);
   for (uint32_t j = 0; j < components; ++j)
     for (size_t i = 0; i < dim; ++i)  // undo the channel weights: decoded values are in the data's units
       out.basis[size_t(j) * dim + i] = basis(Eigen::Index(i), Eigen::Index(j)) / static_cast<float>(scale[i % channels]);
+  return out;
+}
+
+std::vector<float> projectOnBasis(const std::vector<float>& tables, size_t samples, const PcaBasis& basis) {
+  // The stored basis is in the data's units (B = D^-1 B_scaled), so the projection on the
+  // orthonormal B_scaled of the weighted table D t is w = B_scaled^T D t = (D^2 B)^T t.
+  const size_t dim = size_t(basis.tableSize) * basis.tableSize * basis.channels;
+  std::vector<double> scale2(basis.channels);
+  for (uint32_t c = 0; c < basis.channels; ++c) scale2[c] = double(basis.channelScale[c]) * double(basis.channelScale[c]);
+  std::vector<float> out(samples * basis.components, 0.0f);
+  for (size_t s = 0; s < samples; ++s)
+    for (uint32_t k = 0; k < basis.components; ++k) {
+      double w = 0.0;
+      const float* b = &basis.basis[k * dim];
+      const float* t = &tables[s * dim];
+      for (size_t i = 0; i < dim; ++i) w += scale2[i % basis.channels] * double(b[i]) * double(t[i]);
+      out[s * basis.components + k] = static_cast<float>(w);
+    }
   return out;
 }
 

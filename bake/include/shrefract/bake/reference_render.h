@@ -1,27 +1,56 @@
-// CPU renderers the SH field is measured against, on the same cameras and environments as
+// CPU renderers the field is measured against, on the same cameras and environments as
 // `shrefract render`:
-//  - Exact: per pixel, the true highest-energy path from the eye (with parallax), plus the front
-//    Fresnel reflection: what the field approximates.
-//  - FullTree: every Fresnel branch at every interface to a depth, weighted by energy: what the
-//    highest-energy pruning costs.
+//  - Exact: per pixel, the true path from the eye (with parallax) under a path rule (the
+//    highest-energy branch by default), plus the front Fresnel reflection: what the field
+//    approximates.
+//  - FullTree: every Fresnel branch at every interface to a depth, weighted by energy: the
+//    physical reference (depth 8 at 4x4 samples per pixel in the report).
 //  - SingleInterface: one Snell bend at the front surface, then the environment: what engines
 //    usually ship as a glass shader.
 // Shading matches the engine: F * env(reflected) + (1 - F) * env(exit) * exp2(-tau * k).
+//
+// For the error decomposition of a field (report, docs/fitting.md), two more pieces:
+//  - exactDistortion: the field's distortion image with the exact path at every sample texel,
+//    in place of the decoded encoding (no angular fit, no quantization; the spatial sampling of
+//    the atlas stays);
+//  - renderDistortion: the raster pass's CPU twin (reference::render's per-pixel operations)
+//    drawing a distortion image through the field's render mesh.
+//
+// Supersampling (every renderer here): samplesPerAxis = S traces S x S rays per pixel, through
+// the centres of an S x S grid of equal sub-pixel cells (stratified, deterministic), and averages
+// their linear colours (a box filter). Sub-sample (i, j) of pixel (x, y) is exactly the centre of
+// pixel (S x + i, S y + j) of the same camera at S times the size, so a render at S x S equals a
+// 1-sample render at S times the size reduced by boxFilter: the GPU path (offscreen) does that.
+// The mask marks pixels where more than half of the sub-samples hit the object (coverage > 0.5;
+// with S = 1: the pixel-centre ray hits).
 #pragma once
 
 #include <shrefract/bake/image.h>
 #include <shrefract/bake/scene.h>
 #include <shrefract/bake/tracer.h>
+#include <shrefract/cpu_reference.h>
+#include <shrefract/field.h>
 #include <shrefract/renderer.h>
 
 #include <glm/vec3.hpp>
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 namespace shrefract::bake {
 
 enum class ReferenceMode { Exact, FullTree, SingleInterface };
+
+// Largest samplesPerAxis of every renderer here (64 samples per pixel).
+inline constexpr uint32_t kMaxSamplesPerAxis = 8;
+
+struct ReferenceProgress {
+  uint32_t rowsDone = 0;
+  uint32_t rowsTotal = 0;
+  uint64_t rays = 0;  // rays (or tree leaves) counted so far
+  double seconds = 0.0;
+};
 
 struct ReferenceOptions {
   ReferenceMode mode = ReferenceMode::Exact;
@@ -32,14 +61,27 @@ struct ReferenceOptions {
   bool reflection = true;        // add the front Fresnel reflection
   float exposure = 1.0f;
   uint32_t maxBounces = 16;      // Exact; FullTree uses treeDepth
-  uint32_t treeDepth = 6;
-  uint32_t threads = 0;          // 0: all hardware threads
+  // Exact: the branch the path follows at every interface after the front one (field.h PathRule).
+  PathRule pathRule = PathRule::HighestEnergy;
+  // Exact: multiply the transmitted term by the path's Fresnel throughput (PathResult::energy, the
+  // product of the factors of the branches taken after the front interface). Without it the path
+  // carries all of the transmitted light, as the field's shading assumes.
+  bool throughput = false;
+  uint32_t treeDepth = 8;          // FullTree: interfaces after the front one
+  uint32_t samplesPerAxis = 1;     // S: S x S stratified samples per pixel (see the top), 1..kMaxSamplesPerAxis
+  uint32_t threads = 0;            // 0: all hardware threads
+  // Called from the calling thread, between the rows it renders, at most every 100 ms, and once
+  // at the end. May be empty.
+  std::function<void(const ReferenceProgress&)> progress;
 };
 
 struct ReferenceImage {
-  Image color;                        // linear RGBA, alpha 1
-  std::vector<glm::vec3> directions;  // per pixel: the transmitted exit direction (zero off the object)
-  std::vector<uint8_t> mask;          // per pixel: 1 where the eye ray hits the object
+  Image color;  // linear RGBA, alpha 1: the mean of the pixel's sub-samples
+  // Per pixel: the normalized mean of the transmitted exit directions of the sub-samples that hit
+  // the object (FullTree: each sub-sample's energy-weighted mean); zero where none hits.
+  std::vector<glm::vec3> directions;
+  std::vector<uint8_t> mask;     // per pixel: 1 where coverage > 0.5 (see the top)
+  std::vector<float> coverage;   // per pixel: fraction of the sub-samples that hit the object
   uint64_t rays = 0;
   double seconds = 0.0;
 };
@@ -48,7 +90,65 @@ struct ReferenceImage {
 // projection (Vulkan clip space, y down).
 glm::vec3 pixelDirection(const Camera& camera, uint32_t width, uint32_t height, uint32_t x, uint32_t y);
 
+// Errors (InvalidArgument): a size outside 1..16384 per axis, samplesPerAxis outside
+// 1..kMaxSamplesPerAxis or a supersampled size beyond 65536 per axis, an empty environment.
 Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene, const Image& environment,
                                        const ReferenceOptions& options);
+
+// The mean of every samplesPerAxis x samplesPerAxis block of `image` (its size must be a
+// multiple of samplesPerAxis per axis; alpha averaged too), summed in row-major order within the
+// block: how every supersampled image here and in the tools is reduced.
+Image boxFilter(const Image& image, uint32_t samplesPerAxis);
+
+struct ExactDistortionOptions {
+  PathRule pathRule = PathRule::HighestEnergy;
+  uint32_t maxBounces = 16;
+  uint32_t threads = 0;  // 0: all hardware threads
+};
+
+struct ExactDistortion {
+  reference::DistortionImage image;
+  uint64_t samples = 0;    // sample texels traced
+  uint64_t unmatched = 0;  // sample texels whose surface point the tracer did not find (see below)
+  uint64_t rays = 0;
+  double seconds = 0.0;
+};
+
+// The distortion image the engine would hold for `eye` if every sample texel stored its exact
+// path: for each texel of kind kTexelSample, the sample's position p and normal n are recovered
+// from its frame (rows of M_s = [R | -R p]: p = -R^T t, n = row 2 of R), its surface and triangle
+// from tracer.firstHit along -n from just outside p; the view direction is the one the engine
+// decodes for (w = M_s (eye, 1), w.z clamped to >= 0, normalized; zero -> +z), and the path is
+// tracer.traceFromSurface(p, -R^T w) under `options` (what the bake traces at a grid direction).
+// The texel holds (exit direction normalized, or zero below the engine's length threshold;
+// optical depth when the field stores it, else 0, clamped to +-65504), rounded to binary16, then
+// the field's gutter rules run as in reference::decompress. Empty and gutter texels start at zero.
+// A texel whose surface is not found within 1e-3 of the scene's extent is traced from the nearest
+// surface found along -n, or (nothing found) from p with the frame's normal as its geometric
+// normal, and counted in `unmatched`.
+// Errors (InvalidArgument): frames, texel kinds or gutters that disagree with the atlas size.
+// The field's encoding and coefficients are not read.
+Result<ExactDistortion> exactDistortion(const Tracer& tracer, const Field& field, glm::vec3 eye,
+                                        const ExactDistortionOptions& options);
+
+struct DistortionRenderOptions {
+  uint32_t width = 640;
+  uint32_t height = 480;
+  Camera camera;
+  ObjectShading shading;      // as Object::createFromField sets it by default
+  float exposure = 1.0f;
+  uint32_t samplesPerAxis = 1;  // as ReferenceOptions
+  uint32_t threads = 0;
+};
+
+// The engine's raster pass on the CPU for one field object: per sub-sample, the same operations
+// as reference::render (the nearest front-facing triangle of `mesh` in double precision, its
+// perspective-correct attributes, reference::shadeField with `distortion`; the environment where
+// no triangle is hit), but only the triangles whose screen bounds cover the sample are tested, so
+// it runs on big meshes. `rays` counts sub-samples. Per-pixel results equal reference::render's
+// at S = 1 (reference_test checks it). Errors as renderReference's, and a distortion image whose
+// size disagrees with its pixels.
+Result<ReferenceImage> renderDistortion(const FieldMesh& mesh, const reference::DistortionImage& distortion,
+                                        const Image& environment, const DistortionRenderOptions& options);
 
 }  // namespace shrefract::bake

@@ -47,6 +47,7 @@ struct PcaBasis {
   uint32_t tableSize = 0;
   uint32_t channels = 0;
   std::vector<float> basis;  // field.h layout: (k * N^2 + node) * channels + c
+  std::vector<float> channelScale;  // the channel weights D the basis was fitted with (see above)
 };
 
 // tables: samples x (N^2 * channels), node-major as TableFit writes them. Returns the basis of
@@ -54,5 +55,8 @@ struct PcaBasis {
 // for functions beyond the rank).
 Result<PcaBasis> fitPcaBasis(const std::vector<float>& tables, size_t samples, uint32_t tableSize, uint32_t channels,
                              uint32_t components, std::vector<float>& weights);
+
+// The weights of `samples` further tables on a basis fitted by fitPcaBasis (samples x K).
+std::vector<float> projectOnBasis(const std::vector<float>& tables, size_t samples, const PcaBasis& basis);
 
 }  // namespace shrefract::bake
