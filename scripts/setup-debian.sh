@@ -9,12 +9,12 @@ packages=(
   libglm-dev libembree-dev libtinygltf-dev nlohmann-json3-dev
   libopenimageio-dev openimageio-tools python3-imath libopencv-core-dev libglfw3-dev libgtest-dev
   xvfb xauth
-  libeigen3-dev
-  # libeigen3-dev: the PCA basis of the learned encoding (bake only; third_party_notes/eigen.md).
   # openimageio-tools, python3-imath, libopencv-core-dev: Debian 12's OpenImageIO and Imath CMake configs
   # reference files from these packages and fail to import without them.
   clang libclang-rt-14-dev
   # clang, libclang-rt-14-dev: libFuzzer for the fuzz targets (tests/fuzz, built and run by fuzz_* tests).
+  libeigen3-dev
+  # libeigen3-dev: the Table fit and the Pca basis of the bake (third_party_notes/README.md).
 )
 
 missing=()

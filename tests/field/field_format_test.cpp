@@ -277,22 +277,23 @@ TEST_P(FieldFormat, HeaderMatchesTheSpec) {
   EXPECT_EQ(getU32(b, 24), kOrder);
   EXPECT_EQ(getU32(b, 28), GetParam().channels);
   EXPECT_EQ(getU32(b, 32), static_cast<uint32_t>(GetParam().quantization));
-  EXPECT_EQ(getU32(b, 36), 6u);
+  EXPECT_EQ(getU32(b, 36), 7u);
   EXPECT_EQ(getU32(b, b.size() - 4), referenceCrc32(b.data(), b.size() - 4));
   // The file size formula of the spec.
   const uint64_t B = kLayers, T = kWidth * kHeight, C = GetParam().channels, V = f.mesh.positions.size() / 3;
   uint64_t media = 4;
   for (const FieldMedium& m : f.media) media += 24 + m.name.size();
-  const uint64_t expected = 40 + 6 * 12 + (164 + 4 + f.settings.source.size() + 4) + media +
+  const uint64_t expected = 40 + 7 * 12 + (164 + 4 + f.settings.source.size() + 4) + media +
                             (5 * 8 + 4 * 9 * V + 4 * f.mesh.indices.size()) +
                             (8 + T + 8 + 48 * T + 8 + 16 * f.gutters.size()) +
                             (GetParam().quantization == Quantization::U8 ? 16 + 8 * B * C + 16 + B * T * C
                                                                          : 16 + 16 + 2 * B * T * C) +
+                            (9 * 4 + 4 + 8) +  // ENCD: nine u32/f32 and an empty basis array
                             4;
   EXPECT_EQ(b.size(), expected);
   // Sections in their fixed order, ending exactly at the checksum.
   size_t pos = 40;
-  for (const char* tag : {"SETS", "MDIA", "MESH", "ATLS", "QTBL", "COEF"}) {
+  for (const char* tag : {"SETS", "MDIA", "MESH", "ATLS", "QTBL", "COEF", "ENCD"}) {
     ASSERT_LE(pos + 12, b.size() - 4);
     EXPECT_EQ(std::string(b.begin() + static_cast<std::ptrdiff_t>(pos), b.begin() + static_cast<std::ptrdiff_t>(pos) + 4), tag);
     pos += 12 + static_cast<size_t>(getU64(b, pos + 4));
@@ -432,7 +433,7 @@ TEST(FieldFormatHeader, HostileLengthsAreRejected) {
       {"width", [](auto& b) { putU32(b, 16, 16385); }, "16384"},
       {"height", [](auto& b) { putU32(b, 20, 0); }, "atlas"},
       {"order", [](auto& b) { putU32(b, 24, 1000); }, "order"},
-      {"section count", [](auto& b) { putU32(b, 36, 7); }, "sections"},
+      {"section count", [](auto& b) { putU32(b, 36, 8); }, "sections"},
       {"section tag", [](auto& b) { b[sectionPayload(b, "MESH") - 12] = 'X'; }, "tag"},
   };
   for (const Edit& edit : edits) {
@@ -793,6 +794,170 @@ TEST_F(FieldFiles, ReadOfTruncatedFileNamesIt) {
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.error().code, ErrorCode::CorruptData);
   EXPECT_TRUE(contains(r.error().message, path + ": truncated")) << r.error().message;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Version 2: the Table and Pca encodings, the throughput channel, version 1 files.
+
+// makeField's atlas with a Table (N = 3) or Pca (N = 3, K = 5) encoding, optionally with throughput.
+Field makeEncodedField(Encoding encoding, Quantization q, bool throughput) {
+  Field f = makeField({4, q});
+  f.encoding = f.settings.encoding = encoding;
+  f.order = f.settings.order = 0;
+  f.tableSize = f.settings.tableSize = 3;
+  f.components = f.settings.components = encoding == Encoding::Pca ? 5 : 0;
+  f.throughput = f.settings.throughput = throughput;
+  f.channels = throughput ? 5 : 4;
+  f.settings.pathRule = PathRule::FirstRefraction;
+  f.settings.maxBytesPerSample = 324.0f;
+  if (encoding == Encoding::Pca) {
+    f.basis.resize(size_t(f.components) * 9 * f.channels);
+    for (size_t i = 0; i < f.basis.size(); ++i) f.basis[i] = std::sin(0.37f * float(i));
+  }
+  std::vector<float> c(size_t(f.layerCount()) * f.texelCount() * f.valuesPerLayer());
+  for (size_t i = 0; i < c.size(); ++i) c[i] = std::cos(0.11f * float(i)) * 0.5f + 0.5f;
+  const Result<void> encoded = encodeCoefficients(f, c);
+  EXPECT_TRUE(encoded.ok()) << encoded.error().message;
+  return f;
+}
+
+struct EncodedVariant {
+  Encoding encoding;
+  Quantization quantization;
+  bool throughput;
+};
+
+class FieldEncodings : public ::testing::TestWithParam<EncodedVariant> {
+ protected:
+  Field field() const { return makeEncodedField(GetParam().encoding, GetParam().quantization, GetParam().throughput); }
+};
+
+TEST_P(FieldEncodings, RoundTripIsExact) {
+  const Field f = field();
+  ASSERT_TRUE(validateField(f).ok()) << validateField(f).error().message;
+  const std::vector<uint8_t> bytes = serializeField(f);
+  const Result<Field> parsed = parse(bytes, "encoded.shrf");
+  ASSERT_TRUE(parsed.ok()) << parsed.error().message;
+  const Field& g = parsed.value();
+  expectSameField(f, g);
+  EXPECT_EQ(g.encoding, f.encoding);
+  EXPECT_EQ(g.tableSize, f.tableSize);
+  EXPECT_EQ(g.components, f.components);
+  EXPECT_EQ(g.throughput, f.throughput);
+  EXPECT_EQ(bits(g.basis), bits(f.basis));
+  EXPECT_EQ(g.settings.pathRule, PathRule::FirstRefraction);
+  EXPECT_EQ(bits(g.settings.maxBytesPerSample), bits(324.0f));
+  EXPECT_EQ(serializeField(g), bytes);
+}
+
+TEST_P(FieldEncodings, EveryTruncationIsRejected) {
+  const std::vector<uint8_t> bytes = serializeField(field());
+  for (size_t size = 0; size < bytes.size(); ++size) {
+    const std::vector<uint8_t> cut(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(size));
+    const Result<Field> r = parse(cut, "cut.shrf");
+    ASSERT_FALSE(r.ok()) << "a file cut to " << size << " of " << bytes.size() << " bytes was accepted";
+  }
+}
+
+TEST_P(FieldEncodings, BytesPerSampleCountsTheStoredCoefficients) {
+  const Field f = field();
+  const uint32_t perValue = GetParam().quantization == Quantization::U8 ? 1 : 2;
+  const uint32_t expected = GetParam().encoding == Encoding::Table ? 9 * f.channels * perValue : 5 * perValue;
+  EXPECT_EQ(f.bytesPerSample(), expected);
+}
+
+INSTANTIATE_TEST_SUITE_P(Encodings, FieldEncodings,
+                         ::testing::Values(EncodedVariant{Encoding::Table, Quantization::U8, false},
+                                           EncodedVariant{Encoding::Table, Quantization::F16, true},
+                                           EncodedVariant{Encoding::Pca, Quantization::U8, true},
+                                           EncodedVariant{Encoding::Pca, Quantization::F16, false}),
+                         [](const ::testing::TestParamInfo<EncodedVariant>& p) {
+                           return std::string(toString(p.param.encoding)) + "_" + toString(p.param.quantization) +
+                                  (p.param.throughput ? "_throughput" : "");
+                         });
+
+TEST(FieldEncodingValidation, BrokenEncodingsAreRejected) {
+  const std::vector<std::pair<std::string, std::function<void(Field&)>>> cases = {
+      {"table size", [](Field& f) { f.tableSize = f.settings.tableSize = 1; }},
+      {"components", [](Field& f) { f.components = f.settings.components = 0; }},
+      {"basis", [](Field& f) { f.basis.pop_back(); }},
+      {"basis", [](Field& f) { f.basis[3] = std::numeric_limits<float>::quiet_NaN(); }},
+      {"basis", [](Field& f) { f.basis[3] = 1e30f; }},
+      {"channels", [](Field& f) { f.throughput = f.settings.throughput = false; }},  // 5 channels, no throughput
+      {"settings", [](Field& f) { f.settings.encoding = Encoding::Table; }},
+      {"SH order", [](Field& f) { f.order = f.settings.order = 2; }},
+      {"path rule", [](Field& f) { f.settings.pathRule = static_cast<PathRule>(7); }},
+      {"encoding", [](Field& f) { f.encoding = f.settings.encoding = static_cast<Encoding>(9); }},
+  };
+  for (const auto& [what, breakIt] : cases) {
+    Field f = makeEncodedField(Encoding::Pca, Quantization::U8, true);
+    breakIt(f);
+    const Result<void> r = validateField(f);
+    ASSERT_FALSE(r.ok()) << what;
+    EXPECT_TRUE(contains(r.error().message, what)) << what << ": " << r.error().message;
+  }
+}
+
+TEST(FieldVersion1, StillReadAsAnShFieldWithoutThroughput) {
+  // A version 1 file is version 2 without the ENCD section.
+  const Field f = makeField({4, Quantization::U8});
+  std::vector<uint8_t> b = serializeField(f);
+  const size_t encd = sectionPayload(b, "ENCD") - 12;
+  b.erase(b.begin() + static_cast<std::ptrdiff_t>(encd), b.end() - 4);
+  putU32(b, 4, 1);
+  putU32(b, 36, 6);
+  putU64(b, 8, b.size());
+  resign(b);
+  const Result<Field> r = parse(b, "v1.shrf");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  expectSameField(f, r.value());
+  EXPECT_EQ(r.value().encoding, Encoding::Sh);
+  EXPECT_FALSE(r.value().throughput);
+  // Version 1 with the version 2 section count is corrupt.
+  putU32(b, 36, 7);
+  resign(b);
+  EXPECT_FALSE(parse(b, "v1.shrf").ok());
+}
+
+// The hemi-octahedral map: nodes map back to their grid positions, the border is the horizon, and
+// evaluateSample at a node direction returns that node's value exactly (bilinear weight 1).
+TEST(HemiOctahedral, NodesRoundTripAndTheBorderIsTheHorizon) {
+  const uint32_t n = 9;
+  for (uint32_t j = 0; j < n; ++j)
+    for (uint32_t i = 0; i < n; ++i) {
+      const std::array<float, 3> w = hemiOctDirection(i, j, n);
+      EXPECT_NEAR(std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]), 1.0f, 1e-6f);
+      EXPECT_GE(w[2], 0.0f);
+      if (i == 0 || j == 0 || i == n - 1 || j == n - 1) {
+        EXPECT_NEAR(w[2], 0.0f, 1e-6f);
+      }
+      const HemiOctCoordinates uv = hemiOctFromDirection(w[0], w[1], w[2]);
+      EXPECT_NEAR(uv.u, float(i) / float(n - 1), 1e-6f);
+      EXPECT_NEAR(uv.v, float(j) / float(n - 1), 1e-6f);
+    }
+  const std::array<float, 3> pole = hemiOctDirection(4, 4, 9);
+  EXPECT_NEAR(pole[2], 1.0f, 1e-6f);
+}
+
+TEST(HemiOctahedral, EvaluateSampleReturnsNodeValuesAtNodes) {
+  for (Encoding e : {Encoding::Table, Encoding::Pca}) {
+    const Field f = makeEncodedField(e, Quantization::U8, false);
+    const uint64_t texel = 3;
+    for (uint32_t j = 0; j < 3; ++j)
+      for (uint32_t i = 0; i < 3; ++i) {
+        const uint32_t node = j * 3 + i;
+        float out[4];
+        evaluateSample(f, texel, hemiOctDirection(i, j, 3), out);
+        for (uint32_t c = 0; c < 4; ++c) {
+          float expected = 0.0f;
+          if (e == Encoding::Table) expected = fieldCoefficient(f, node, texel, c);
+          else
+            for (uint32_t k = 0; k < f.components; ++k)
+              expected += fieldCoefficient(f, k, texel, 0) * f.basis[(k * 9 + node) * 4 + c];
+          EXPECT_NEAR(out[c], expected, 1e-5f) << toString(e) << " node " << node << " channel " << c;
+        }
+      }
+  }
 }
 
 }  // namespace
