@@ -1,16 +1,18 @@
 #version 460
-// Decompression in data space: for every sample of the atlas, the eye goes into the sample's frame
-// (w = M_s (eye, 1), w.z clamped to >= 0, then normalized by the SH evaluator), and
-// sum_i c_i Y_i(w) over the basis functions of the field's order gives the exit direction
-// (normalized) and the optical depth. Empty texels keep the zero the image was created with; the
-// gutter pass fills gutter texels. Mirrored by engine/src/reference/cpu_reference.cpp (decodeTexel).
+// Decompression in data space of the Sh encoding: for every sample of the atlas, the eye goes into
+// the sample's frame (w = M_s (eye, 1), w.z clamped to >= 0, then normalized by the SH evaluator),
+// and sum_i c_i Y_i(w) over the basis functions of the field's order gives each channel; the
+// sample's texel gets their distortion texel (decompress_common.glsl: the normalized direction,
+// scaled by the throughput when the field has one, and the optical depth). Empty texels keep the
+// zero the image was created with; the gutter pass fills gutter texels. Mirrored by
+// engine/src/reference/cpu_reference.cpp (decodeTexel).
 //
 // One invocation decompresses 4 consecutive samples, as the 4 components of vec4s: the SH
 // recurrence runs on vec4s (SH_FOR_EACH_BASIS_X4), and per basis function it reads one word per
 // channel (U8: that channel's byte of the 4 samples; F16: two words) from the channel planes
 // (gpu_layout.h), dequantizes them with the function's scale and bias (uniform: one load for all
 // 4 samples) and accumulates with one vec4 multiply-add per channel. So a field without optical
-// depth reads 3 bytes per sample and basis function, not 4, with no unaligned reads; and
+// depth reads 3 bytes per sample and basis function, not 4 (or 5), with no unaligned reads; and
 // consecutive invocations read consecutive words (coalesced on a GPU, streamed on a CPU).
 //
 // Measured on llvmpipe (docs/performance.md, "Decompression"): against one sample per invocation
@@ -18,46 +20,37 @@
 // 3-channel field; the scale/bias table is a uniform buffer because llvmpipe reads a uniform
 // buffer at a uniform address once for all lanes, but a storage buffer once per lane inside loops.
 #extension GL_GOOGLE_include_directive : require
-#include "shrefract/gpu_layout.h"
+#include "decompress_common.glsl"
 #include "shrefract/sh.glsl"
 
 // The field's SH order: only bands 0..SH_ORDER are evaluated (the loops fold for a constant).
 layout(constant_id = kSpecShOrder) const int SH_ORDER = 8;
-// 4: x, y, z, tau; 3: x, y, z (tau is 0 and neither read nor summed).
-layout(constant_id = kSpecChannels) const int CHANNELS = 4;
-layout(constant_id = kSpecQuantization) const uint QUANTIZATION = kQuantizationU8;
-// true: the scale/bias table exceeds kMaxUniformScaleBiasBytes (orders above 21); read the storage one.
+// true: the scale/bias table exceeds kMaxUniformScaleBiasBytes; read the storage one.
 layout(constant_id = kSpecScaleBiasStorage) const bool SCALE_BIAS_STORAGE = false;
-// true: the coefficients exceed the device's texel buffer limit; read the storage buffer.
-layout(constant_id = kSpecCoefficientsStorage) const bool COEFFICIENTS_STORAGE = false;
 layout(local_size_x = kDecompressLocalSize) in;
 
 const int SH_BASIS = (SH_ORDER + 1) * (SH_ORDER + 1);
+// vec4s of the scale/bias table per basis function (gpu_layout.h).
+const int SCALE_BIAS_VEC4S = SHR_SH_SCALE_BIAS_VEC4S(CHANNELS);
 
-layout(push_constant) uniform Push { DecompressPushConstants pc; };
-layout(set = 0, binding = kBindingCoefficients) uniform usamplerBuffer coefficientWords;
-layout(std430, set = 0, binding = kBindingCoefficientsStorage) readonly buffer CoefficientsStorage {
-  uint coefficientStorage[];
-};
 layout(std140, set = 0, binding = kBindingScaleBias) uniform ScaleBias {
-  vec4 scaleBias[SCALE_BIAS_STORAGE ? 2 : 2 * SH_BASIS];
+  vec4 scaleBias[SCALE_BIAS_STORAGE ? 1 : SCALE_BIAS_VEC4S * SH_BASIS];
 };
 layout(std430, set = 0, binding = kBindingScaleBiasStorage) readonly buffer ScaleBiasStorage {
   vec4 scaleBiasStorage[];
 };
-layout(std430, set = 0, binding = kBindingFrames) readonly buffer Frames { vec4 frames[]; };
-layout(std430, set = 0, binding = kBindingSampleTexels) readonly buffer SampleTexels { uint sampleTexels[]; };
-layout(set = 0, binding = kBindingDistortionOut, rgba16f) uniform writeonly image2D distortion;
 
 // The four bytes of a word as floats 0..255 (shifts and conversions; the table carries scale / 255).
 vec4 bytesOf(uint word) { return vec4((uvec4(word) >> uvec4(0u, 8u, 16u, 24u)) & 0xffu); }
 
-uint fetchWord(uint index) {
-  return COEFFICIENTS_STORAGE ? coefficientStorage[index] : texelFetch(coefficientWords, int(index)).x;
+vec4 scaleBiasEntry(int k) { return SCALE_BIAS_STORAGE ? scaleBiasStorage[k] : scaleBias[k]; }
+// Scale / 255 and bias of basis function i, channel c (a constant after unrolling).
+float scaleOf(int i, int c) {
+  return c < 4 ? scaleBiasEntry(SCALE_BIAS_VEC4S * i)[c] : scaleBiasEntry(SCALE_BIAS_VEC4S * i + 2).x;
 }
-
-vec4 scaleOf(int i) { return SCALE_BIAS_STORAGE ? scaleBiasStorage[2 * i] : scaleBias[2 * i]; }
-vec4 biasOf(int i) { return SCALE_BIAS_STORAGE ? scaleBiasStorage[2 * i + 1] : scaleBias[2 * i + 1]; }
+float biasOf(int i, int c) {
+  return c < 4 ? scaleBiasEntry(SCALE_BIAS_VEC4S * i + 1)[c] : scaleBiasEntry(SCALE_BIAS_VEC4S * i + 2).y;
+}
 
 // The stored values of plane `plane` for the invocation's 4 samples: bytes 0..255 (U8) or half
 // values (F16). `planeWords` words per plane; `quad` is the invocation's group of 4 samples.
@@ -72,8 +65,7 @@ void main() {
   uint quads = (sampleCount + 3u) / 4u;
   // No early return: invocations past the end repeat the last group and store nothing, so that the
   // whole pass runs in uniform control flow (llvmpipe then reads uniform addresses once).
-  // Dispatches beyond maxComputeWorkGroupCount[0] groups are split into rows (dispatchGrid).
-  uint invocation = gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * kDecompressLocalSize;
+  uint invocation = invocationIndex();
   bool inside = invocation < quads;
   uint quad = min(invocation, quads - 1u);
   uint planeWords = QUANTIZATION == kQuantizationU8 ? quads : 2u * quads;
@@ -81,41 +73,36 @@ void main() {
   // The eye in each sample's frame (the padding samples of the last group repeat the last sample).
   vec4 eye = vec4(pc.eyeWorld.xyz, 1.0);
   vec4 wx, wy, wz;
-  uvec4 texel;
   for (int j = 0; j < 4; ++j) {
-    uint s = min(4u * quad + uint(j), sampleCount - 1u);
-    texel[j] = sampleTexels[s];
-    wx[j] = dot(frames[3u * s], eye);
-    wy[j] = dot(frames[3u * s + 1u], eye);
-    wz[j] = dot(frames[3u * s + 2u], eye);
+    vec3 w = eyeInFrame(min(4u * quad + uint(j), sampleCount - 1u), eye);
+    wx[j] = w.x;
+    wy[j] = w.y;
+    wz[j] = w.z;
   }
-  // Below the sample's tangent plane the field has no data: use the horizon.
-  wz = max(wz, vec4(0.0));
 
-  // sumC[j]: channel C of sample j.
-  vec4 sumX = vec4(0.0), sumY = vec4(0.0), sumZ = vec4(0.0), sumW = vec4(0.0);
+  // sumC[j]: channel C of sample j (sum3, sum4: channels 3 and 4, when the field has them).
+  vec4 sumX = vec4(0.0), sumY = vec4(0.0), sumZ = vec4(0.0), sum3 = vec4(0.0), sum4 = vec4(0.0);
   // Dequantize: U8 reads q (then bias + (scale / 255) * q), F16 reads the value (no table).
-#define SHR_DEQUANTIZE(q, i, c) \
-  (QUANTIZATION == kQuantizationU8 ? biasOf(i)[c] + scaleOf(i)[c] * (q) : (q))
-#define SHR_ACCUMULATE(i, y)                                                                  \
-  {                                                                                          \
-    uint plane_ = uint(i) * uint(CHANNELS);                                                  \
-    sumX += SHR_DEQUANTIZE(fetchPlane(plane_, planeWords, quad), i, 0) * (y);                \
-    sumY += SHR_DEQUANTIZE(fetchPlane(plane_ + 1u, planeWords, quad), i, 1) * (y);           \
-    sumZ += SHR_DEQUANTIZE(fetchPlane(plane_ + 2u, planeWords, quad), i, 2) * (y);           \
-    if (CHANNELS == 4) sumW += SHR_DEQUANTIZE(fetchPlane(plane_ + 3u, planeWords, quad), i, 3) * (y); \
+#define SHR_DEQUANTIZE(q, i, c) (QUANTIZATION == kQuantizationU8 ? biasOf(i, c) + scaleOf(i, c) * (q) : (q))
+#define SHR_CHANNEL(sum, i, c, y) \
+  sum += SHR_DEQUANTIZE(fetchPlane(uint(i) * uint(CHANNELS) + uint(c), planeWords, quad), i, c) * (y)
+#define SHR_ACCUMULATE(i, y)                      \
+  {                                               \
+    SHR_CHANNEL(sumX, i, 0, y);                   \
+    SHR_CHANNEL(sumY, i, 1, y);                   \
+    SHR_CHANNEL(sumZ, i, 2, y);                   \
+    if (CHANNELS > 3) SHR_CHANNEL(sum3, i, 3, y); \
+    if (CHANNELS > 4) SHR_CHANNEL(sum4, i, 4, y); \
   }
   SH_FOR_EACH_BASIS_X4(wx, wy, wz, SH_ORDER, SHR_ACCUMULATE)
 #undef SHR_ACCUMULATE
+#undef SHR_CHANNEL
 #undef SHR_DEQUANTIZE
 
   if (!inside) return;
   for (int j = 0; j < 4; ++j) {
-    if (4u * quad + uint(j) >= sampleCount) break;
-    vec3 sum = vec3(sumX[j], sumY[j], sumZ[j]);
-    float len2 = dot(sum, sum);
-    vec3 direction = len2 > kMinDirectionLength2 ? sum * inversesqrt(len2) : vec3(0.0);
-    float tau = CHANNELS == 4 ? clamp(sumW[j], -kMaxOpticalDepth, kMaxOpticalDepth) : 0.0;
-    imageStore(distortion, ivec2(texel[j] % pc.size.x, texel[j] / pc.size.x), vec4(direction, tau));
+    uint s = 4u * quad + uint(j);
+    if (s >= sampleCount) break;
+    storeSample(s, distortionTexel(vec3(sumX[j], sumY[j], sumZ[j]), sum3[j], sum4[j]));
   }
 }

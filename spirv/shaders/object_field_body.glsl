@@ -34,6 +34,10 @@ void main() {
     return;
   }
   float transmittance = exp2(-max(d.w, 0.0) * pc.medium.y);
+  // A field with throughput stores direction * clamp(throughput, 0, 1) (gpu_layout.h): the
+  // filtered length is the throughput, blended as the direction is. Others store unit lengths,
+  // which bilinear filtering shortens between diverging texels: they must not be scaled.
+  if (pc.params.y > 0.5) transmittance *= min(sqrt(len2), 1.0);
   vec3 color = (1.0 - fresnel) * transmittance * pc.tint.rgb * lookupEnvironment(exitDirection);
   if (pc.medium.z > 0.5) color += fresnel * lookupEnvironment(reflect(v, n));
   outColor = vec4(color * pc.params.x, 1.0);

@@ -1,6 +1,7 @@
 // The CPU reference on cases with an analytic answer: the GPU tests compare against it, so it
-// must be right on its own. Decoding (frame, horizon clamp, SH sum, normalization), gutter rules,
-// bilinear sampling at texel centres and clamp-to-edge, field shading, and the ray caster.
+// must be right on its own. Decoding (frame, horizon clamp, SH sum, Table and Pca grids,
+// normalization, throughput), gutter rules, bilinear sampling at texel centres and clamp-to-edge,
+// field shading (with throughput), and the ray caster.
 #include <gtest/gtest.h>
 #include <shrefract/cpu_reference.h>
 
@@ -85,6 +86,81 @@ TEST(CpuReference, ZeroSumHasNoDirection) {
   EXPECT_NEAR(d[3], kY0, 1e-6f);
 }
 
+// A 1x1 atlas holding one sample with the identity frame at the origin (w = eye), of a Table or
+// Pca encoding on a 2x2 grid (nodes (0,0), (1,0), (0,1), (1,1) at u, v in {0, 1}), U8. `values`
+// are the coefficients in encodeCoefficients' order (Table: node-major, every channel; Pca: one
+// weight per component). With a single texel every value has zero range and decodes exactly.
+Field gridField(Encoding encoding, uint32_t channels, bool throughput, const std::vector<float>& values,
+                const std::vector<float>& basis = {}) {
+  Field f;
+  f.width = f.height = 1;
+  f.encoding = encoding;
+  f.tableSize = 2;
+  f.components = encoding == Encoding::Pca ? static_cast<uint32_t>(values.size()) : 0;
+  f.channels = channels;
+  f.throughput = throughput;
+  f.quantization = Quantization::U8;
+  f.basis = basis;
+  f.settings.order = 0;
+  f.settings.encoding = encoding;
+  f.settings.tableSize = f.tableSize;
+  f.settings.components = f.components;
+  f.settings.throughput = throughput;
+  f.settings.quantization = Quantization::U8;
+  f.media.push_back(FieldMedium{"air", 1.0f, 0.0f, {1, 1, 1}});
+  f.texelKinds = {kTexelSample};
+  f.frames = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+  EXPECT_TRUE(encodeCoefficients(f, values).ok());
+  f.mesh.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  f.mesh.normals = {0, 0, 1, 0, 0, 1, 0, 0, 1};
+  f.mesh.uvs = {0, 0, 1, 0, 0, 1};
+  f.mesh.frontIor = {1.5f, 1.5f, 1.5f};
+  f.mesh.indices = {0, 1, 2};
+  EXPECT_TRUE(validateField(f).ok()) << validateField(f).error().message;
+  return f;
+}
+
+TEST(CpuReference, TableBlendsNodesAndScalesByTheClampedThroughput) {
+  // Nodes (x, y, z, tau, throughput). The eye on the normal lies at u = v = 1/2: all four nodes
+  // weigh 1/4. Along +x it lies at (u, v) = (1, 1), node 3; along -y at (0, 1), node 2.
+  const Field f = gridField(Encoding::Table, 5, true,
+                            {1, 0, 0, 1, 0.2f, 0, 1, 0, 2, 0.4f, 0, 0, 1, 3, 0.6f, 1, 1, 1, 4, 1.6f});
+  const float s = 1.0f / std::sqrt(3.0f);
+  reference::Vec4 d = reference::decodeTexel(f, 0, {0, 0, 2});
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(d[size_t(k)], s * 0.7f, 1e-6f) << k;  // (0.5, 0.5, 0.5) scaled by 0.7
+  EXPECT_NEAR(d[3], 2.5f, 1e-6f);
+  d = reference::decodeTexel(f, 0, {3, 0, 0});
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(d[size_t(k)], s, 1e-6f) << k;  // throughput 1.6 clamped to 1
+  EXPECT_NEAR(d[3], 4.0f, 1e-6f);
+  d = reference::decodeTexel(f, 0, {0, -1, 0});
+  EXPECT_NEAR(d[0], 0.0f, 1e-6f);
+  EXPECT_NEAR(d[2], 0.6f, 1e-6f);
+  EXPECT_NEAR(d[3], 3.0f, 1e-6f);
+  // Without throughput (4 channels: x, y, z, tau) the same nodes decode to unit directions.
+  const Field g = gridField(Encoding::Table, 4, false, {1, 0, 0, 1, 0, 1, 0, 2, 0, 0, 1, 3, 1, 1, 1, 4});
+  d = reference::decodeTexel(g, 0, {0, 0, 2});
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(d[size_t(k)], s, 1e-6f) << k;
+}
+
+TEST(CpuReference, PcaSumsWeightedBasisFunctions) {
+  // Two components of 3 channels, weights 2 and -1. At node 3 (eye along +x): 2 B0 - B1.
+  const std::vector<float> basis{0, 0, 1, 0, 0, 1, 0, 0, 1, 1, 0, 1,   // B0 at nodes 0..3
+                                 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2, 0};  // B1 at nodes 0..3
+  const Field f = gridField(Encoding::Pca, 3, false, {2.0f, -1.0f}, basis);
+  reference::Vec4 d = reference::decodeTexel(f, 0, {5, 0, 0});
+  const float len = std::sqrt(4.0f + 4.0f + 4.0f);  // (2, -2, 2)
+  EXPECT_NEAR(d[0], 2.0f / len, 1e-6f);
+  EXPECT_NEAR(d[1], -2.0f / len, 1e-6f);
+  EXPECT_NEAR(d[2], 2.0f / len, 1e-6f);
+  EXPECT_EQ(d[3], 0.0f);  // no optical depth channel
+  // On the normal: the mean of the nodes, (0.5, -0.5, 2) after the weights.
+  d = reference::decodeTexel(f, 0, {0, 0, 1});
+  const float len2 = std::sqrt(0.25f + 0.25f + 4.0f);
+  EXPECT_NEAR(d[0], 0.5f / len2, 1e-6f);
+  EXPECT_NEAR(d[1], -0.5f / len2, 1e-6f);
+  EXPECT_NEAR(d[2], 2.0f / len2, 1e-6f);
+}
+
 TEST(CpuReference, GutterRulesAndEmptyTexels) {
   testing::SyntheticFieldOptions o;
   o.emptyAndGutters = true;
@@ -159,6 +235,14 @@ TEST(CpuReference, ShadeFieldOnAConstantEnvironment) {
   shading.ior = 1.0f;
   const reference::Vec3 c3 = reference::shadeField(distortion, env, p, {0, 0, 4}, shading, 1.0f);
   EXPECT_NEAR(c3[0], 0.5f * 1.0f * 0.5f, 1e-6f);
+  // An image with throughput: the transmitted term scales by min(|d|, 1); an image without it
+  // ignores the length.
+  distortion.rgba = {0.0f, 0.0f, -0.25f, 2.0f};
+  EXPECT_NEAR(reference::shadeField(distortion, env, p, {0, 0, 4}, shading, 1.0f)[0], c3[0], 1e-6f);
+  distortion.throughput = true;
+  EXPECT_NEAR(reference::shadeField(distortion, env, p, {0, 0, 4}, shading, 1.0f)[0], 0.25f * c3[0], 1e-6f);
+  distortion.rgba = {0.0f, 0.0f, -1.5f, 2.0f};  // a blend longer than 1 counts as 1
+  EXPECT_NEAR(reference::shadeField(distortion, env, p, {0, 0, 4}, shading, 1.0f)[0], c3[0], 1e-6f);
 }
 
 TEST(CpuReference, RenderHitsFrontFacesOnly) {

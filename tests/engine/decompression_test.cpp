@@ -5,11 +5,9 @@
 #include <shrefract/cpu_reference.h>
 #include <shrefract/decompressor.h>
 
-#include <algorithm>
-#include <cmath>
 #include <cstdio>
 
-#include "engine/engine_test_support.h"
+#include "engine/distortion_check.h"
 #include "engine/synthetic_field.h"
 
 namespace shrefract {
@@ -20,17 +18,13 @@ using testing::SyntheticFieldOptions;
 // Tolerances. The GPU and the CPU run the same float operations on the same dequantized
 // coefficients (U8: bias + scale * q / 255 on both sides), in a different summation order, with
 // the GPU's own inversesqrt; both results are then stored as binary16 (half an ulp: 2.4e-4 below
-// 1), so sample texels may differ by one half-ulp plus float noise.
-constexpr float kDirectionTolerance = 1e-3f;  // the bound, per component of the unit direction
-constexpr float kTauRelative = 1e-3f;         // optical depth: relative (binary16 ulp is 2^-10 relative)
-// Gutter texels are a + b - c of three stored values (each within the tolerance above), rounded
-// once more: 3 x 1e-3 plus one ulp of the result.
-constexpr float kGutterTolerance = 3e-3f;
-
-struct Stats {
-  float maxDirection = 0.0f, maxTau = 0.0f, maxGutter = 0.0f;
-  uint32_t samples = 0, gutters = 0, empty = 0;
-};
+// 1), so sample texels may differ by one half-ulp plus float noise. Gutter texels are a + b - c of
+// three stored values (each within the direction tolerance), rounded once more: 3 x 1e-3 plus one
+// ulp of the result.
+constexpr testing::DistortionTolerance kTolerance{
+    /*direction=*/1e-3f,    // the bound, per component of the unit direction
+    /*tauRelative=*/1e-3f,  // optical depth: relative (binary16 ulp is 2^-10 relative)
+    /*gutter=*/3e-3f};
 
 TEST(Decompression, GpuMatchesCpuReference) {
   auto h = testing::harnessOrSkip();
@@ -55,64 +49,21 @@ TEST(Decompression, GpuMatchesCpuReference) {
         options.seed = 17 + order * 4 + channels;
         const Field field = testing::makeSyntheticField(options);
         ASSERT_TRUE(validateField(field).ok()) << validateField(field).error().message;
+        auto object = testing::uploadFieldNow(ctx, field);
+        ASSERT_TRUE(object.ok()) << object.error().message;
+        ASSERT_EQ(object.value()->fieldOrder(), order);
 
-        std::unique_ptr<Object> object;
-        auto uploaded = ctx.uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
-          auto created = Object::createFromField(ctx, field, cmd);
-          if (!created) return created.error();
-          object = std::move(created).value();
-          return {};
-        });
-        ASSERT_TRUE(uploaded.ok()) << uploaded.error().message;
-        ASSERT_EQ(object->fieldOrder(), order);
-
-        Stats stats;
+        testing::DistortionStats stats;
         std::vector<std::vector<float>> perEye;
         for (const auto& eye : eyes) {
-          auto submitted = h->submitAndWait([&](VkCommandBuffer cmd) {
-            auto recorded = decompressor.value()->record(cmd, eye, {object.get()});
-            ASSERT_TRUE(recorded.ok()) << recorded.error().message;
-          });
-          ASSERT_TRUE(submitted.ok()) << submitted.error().message;
-          auto gpu = testing::readDistortion(*h, *object);
+          auto gpu = testing::decompressAndRead(*h, *decompressor.value(), *object.value(), eye);
           ASSERT_TRUE(gpu.ok()) << gpu.error().message;
-          const reference::DistortionImage cpu = reference::decompress(field, eye);
-          ASSERT_EQ(gpu.value().size(), cpu.rgba.size());
-          perEye.push_back(gpu.value());
-          for (uint64_t t = 0; t < field.texelCount(); ++t) {
-            const float* g = &gpu.value()[t * 4];
-            const float* c = &cpu.rgba[t * 4];
-            const uint8_t kind = field.texelKinds[t];
-            if (kind == kTexelEmpty) {
-              ++stats.empty;
-              for (int k = 0; k < 4; ++k) ASSERT_EQ(g[k], 0.0f) << "empty texel " << t;
-            } else if (kind == kTexelSample) {
-              ++stats.samples;
-              for (int k = 0; k < 3; ++k) {
-                const float e = std::fabs(g[k] - c[k]);
-                stats.maxDirection = std::max(stats.maxDirection, e);
-                ASSERT_LE(e, kDirectionTolerance) << "texel " << t << " component " << k << ": gpu " << g[k]
-                                                  << " cpu " << c[k];
-              }
-              const float e = std::fabs(g[3] - c[3]);
-              stats.maxTau = std::max(stats.maxTau, e / std::max(1.0f, std::fabs(c[3])));
-              ASSERT_LE(e, kTauRelative * std::max(1.0f, std::fabs(c[3]))) << "texel " << t << " tau";
-              if (channels == 3) {
-                ASSERT_EQ(g[3], 0.0f);
-              }
-            } else {
-              ++stats.gutters;
-              for (int k = 0; k < 4; ++k) {
-                const float e = std::fabs(g[k] - c[k]);
-                stats.maxGutter = std::max(stats.maxGutter, e / std::max(1.0f, std::fabs(c[k])));
-                ASSERT_LE(e, kGutterTolerance * std::max(1.0f, std::fabs(c[k]))) << "gutter texel " << t;
-              }
-            }
-          }
+          ASSERT_NO_FATAL_FAILURE(
+              testing::compareDistortion(field, gpu.value(), reference::decompress(field, eye), kTolerance, stats));
+          perEye.push_back(std::move(gpu).value());
         }
         // The eye must matter from order 1 on: the texels' directions differ between two eyes.
-        uint32_t changed = 0;
-        for (size_t i = 0; i < perEye[0].size(); ++i) changed += std::fabs(perEye[0][i] - perEye[1][i]) > 1e-2f;
+        const uint32_t changed = testing::countChanged(perEye[0], perEye[1]);
         if (order == 0) EXPECT_EQ(changed, 0u) << "band 0 does not depend on the eye";
         else EXPECT_GT(changed, 100u) << "the decoded field does not follow the eye";
         EXPECT_GT(stats.samples, 0u);
@@ -122,7 +73,7 @@ TEST(Decompression, GpuMatchesCpuReference) {
                     " (%u sample, %u gutter, %u empty texel checks)\n",
                     order, toString(q), channels, double(stats.maxDirection), double(stats.maxTau),
                     double(stats.maxGutter), stats.samples, stats.gutters, stats.empty);
-        object.reset();
+        object.value().reset();
         ctx.releaseDeferred();
       }
   decompressor.value().reset();

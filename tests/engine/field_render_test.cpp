@@ -1,6 +1,7 @@
 // The raster pass in Field mode against the CPU reference renderer (shrefract/cpu_reference.h):
 // two field objects in one frame, decompressed on the GPU for the camera's eye, over a smooth
-// environment; and the cube-map environment against the lat-long one. Failing images are written
+// environment; a field with a throughput channel against the CPU reference and against the same
+// field without it; and the cube-map environment against the lat-long one. Failing images are written
 // to the test's working directory as PNG (GPU, CPU reference, and the per-pixel difference x10);
 // with SHREFRACT_WRITE_TEST_IMAGES set in the environment they are written on success too.
 #include <gtest/gtest.h>
@@ -191,6 +192,103 @@ TEST_F(FieldRender, TwoObjectsMatchCpuReference) {
     writeForInspection("field_render_gpu.png", gpu.value());
     writeForInspection("field_render_cpu.png", bake::Image{cpu.width, cpu.height, cpu.rgba});
     writeForInspection("field_render_diff_x10.png", diff);
+  }
+}
+
+// A field with a throughput channel darkens the transmitted light by the stored throughput: two
+// Table fields with the same directions and optical depths, one with a throughput channel that is
+// 0.6 everywhere, drawn without reflection. The GPU image with throughput must match the CPU
+// reference (shadeField scales by min(|d|, 1)) and be the GPU image without it times the factor
+// the CPU reference applies, which is 0.6 up to bilinear filtering.
+TEST_F(FieldRender, ThroughputScalesTransmittedLight) {
+  const bake::Image env = smoothEnvironment(256);
+  auto gpuEnv = offscreen::uploadEnvironment(*session, env);
+  ASSERT_TRUE(gpuEnv.ok()) << gpuEnv.error().message;
+  constexpr float kThroughput = 0.6f;
+  testing::SyntheticFieldOptions plain;
+  plain.encoding = Encoding::Table;
+  plain.tableSize = 6;
+  plain.channels = 4;
+  plain.width = 48;
+  plain.height = 24;
+  plain.seed = 21;
+  testing::SyntheticFieldOptions withThroughput = plain;
+  withThroughput.channels = 5;
+  withThroughput.throughput = true;
+  withThroughput.constantThroughput = kThroughput;
+  const Field fieldPlain = testing::makeSyntheticField(plain);
+  const Field fieldThroughput = testing::makeSyntheticField(withThroughput);
+  ASSERT_TRUE(validateField(fieldThroughput).ok()) << validateField(fieldThroughput).error().message;
+
+  offscreen::FrameSettings frame;
+  frame.width = 160;
+  frame.height = 120;
+  frame.camera.eye = {0.4f, 0.5f, 3.2f};
+  frame.mode = ShadingMode::Field;
+  ObjectShading shading;
+  shading.reflection = false;  // the transmitted term alone
+  shading.absorptionScale = 0.3f;
+  auto render = [&](const Field& field) -> Result<bake::Image> {
+    auto object = offscreen::uploadField(*session, field);
+    if (!object) return object.error();
+    object.value()->shading = shading;
+    return offscreen::renderFrame(*session, *gpuEnv.value(), {object.value().get()}, frame);
+  };
+  auto gpuPlain = render(fieldPlain);
+  ASSERT_TRUE(gpuPlain.ok()) << gpuPlain.error().message;
+  auto gpuThroughput = render(fieldThroughput);
+  ASSERT_TRUE(gpuThroughput.ok()) << gpuThroughput.error().message;
+
+  const reference::DistortionImage distortion = reference::decompress(fieldThroughput, frame.camera.eye);
+  ASSERT_TRUE(distortion.throughput);
+  const reference::LatLongImage cpuEnv{env.width, env.height, env.rgba.data()};
+  const reference::RenderedImage cpu = reference::render({{&fieldThroughput.mesh, &distortion, shading}}, cpuEnv,
+                                                         frame.camera, frame.width, frame.height, frame.exposure);
+  const Comparison mirror = compare(gpuThroughput.value(), cpu.rgba, kFieldTolerance);
+  std::printf("throughput render: %u of %u pixels outside tolerance against the CPU reference, max |diff| %.4f\n",
+              mirror.failed, mirror.pixels, double(mirror.maxDiff));
+  const bool mirrorPass = float(mirror.failed) <= kFieldTolerance.failFraction * float(mirror.pixels);
+  EXPECT_TRUE(mirrorPass) << mirror.failed << " of " << mirror.pixels << " pixels outside tolerance";
+
+  // The GPU darkens by the factor the CPU reference applies: per pixel, GPU with throughput =
+  // (CPU with / CPU without) x GPU without. Both GPU images use the same bilinear weights, so this
+  // is tighter than the image tolerance: what remains is the binary16 rounding of 0.6 x d against
+  // d (2.4e-4 per component, about 3e-4 of colour for this environment's gradient of under 1 per
+  // radian) and the GPU's coarser filter weights (1/512 of a texel) on a factor that varies by 2% at
+  // most across a texel: 1e-3. Pixels on a silhouette may be covered on one side only.
+  const reference::DistortionImage distortionPlain = reference::decompress(fieldPlain, frame.camera.eye);
+  const reference::RenderedImage cpuPlain = reference::render({{&fieldPlain.mesh, &distortionPlain, shading}}, cpuEnv,
+                                                              frame.camera, frame.width, frame.height, frame.exposure);
+  constexpr ImageTolerance kFactorTolerance{1e-3f, 0.0f, 0.005f};
+  std::vector<float> expected(gpuPlain.value().rgba);
+  float minFactor = 1.0f, maxFactor = 0.0f;
+  for (size_t p = 0; p < cpu.object.size(); ++p)
+    for (size_t k = 0; k < 3 && cpu.object[p] >= 0; ++k) {
+      const size_t i = p * 4 + k;
+      float factor = kThroughput;  // where the colour is too dark for a ratio
+      if (cpuPlain.rgba[i] >= 0.05f) {
+        factor = cpu.rgba[i] / cpuPlain.rgba[i];
+        minFactor = std::min(minFactor, factor);
+        maxFactor = std::max(maxFactor, factor);
+      }
+      expected[i] *= factor;
+    }
+  const Comparison scaled = compare(gpuThroughput.value(), expected, kFactorTolerance, &cpu.object);
+  std::printf("throughput factor (CPU) %.4f..%.4f; GPU with throughput against factor x GPU without: %u of %u object "
+              "pixels beyond %.0e, max |diff| %.2e\n",
+              double(minFactor), double(maxFactor), scaled.failed, scaled.pixels, double(kFactorTolerance.absolute),
+              double(scaled.maxDiff));
+  EXPECT_GT(scaled.pixels, 1500u) << "the object must cover a good part of the image";
+  const bool scaledPass = float(scaled.failed) <= kFactorTolerance.failFraction * float(scaled.pixels);
+  EXPECT_TRUE(scaledPass) << scaled.failed << " of " << scaled.pixels << " object pixels outside tolerance";
+  // The factor is the stored throughput, shortened only where filtering blends diverging
+  // directions (by 1 - cos(a / 2) for an angle a between texels: a few percent at most here).
+  EXPECT_LE(maxFactor, kThroughput + 1e-3f);
+  EXPECT_GE(minFactor, 0.95f * kThroughput);
+  if (!mirrorPass || !scaledPass || std::getenv("SHREFRACT_WRITE_TEST_IMAGES")) {
+    writeForInspection("throughput_gpu.png", gpuThroughput.value());
+    writeForInspection("throughput_cpu.png", bake::Image{cpu.width, cpu.height, cpu.rgba});
+    writeForInspection("throughput_plain_gpu.png", gpuPlain.value());
   }
 }
 

@@ -1,15 +1,20 @@
 // Synthetic refraction fields for the engine tests: a band of a sphere (theta in [0.2 pi, 0.8 pi],
 // so no degenerate pole triangles) whose atlas texel (x, y) is the surface point at
 // phi = 2 pi (x + 0.5) / width, theta between the band's limits at (y + 0.5) / height, with the
-// frame of that point's outward normal, and smooth pseudo-random SH coefficients (a dominant
-// band-0 term so that the decoded sums never come near zero). Optional empty texels (last column)
-// and gutter texels (last row, each filled by a rule from sample texels above it).
-// Deterministic for a given seed.
+// frame of that point's outward normal, and smooth pseudo-random coefficients in any encoding
+// (field.h) whose decoded direction is dominated by the direction into the sphere, so that the
+// decoded sums never come near zero: Sh (a dominant band-0 term), Table (every node near it) or
+// Pca (a mean component and three axis components weighted by it, plus random components).
+// Optional empty texels (last column) and gutter texels (last row, each filled by a rule from
+// sample texels above it), optical depth and throughput channels. Deterministic for a given seed;
+// for Table and Pca, the x, y, z and tau values do not depend on the channel layout, so fields
+// that differ only in their throughput channel decode to the same directions.
 #pragma once
 
 #include <shrefract/field.h>
-#include <shrefract/sh.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <numbers>
@@ -21,8 +26,17 @@ namespace shrefract::testing {
 struct SyntheticFieldOptions {
   uint32_t width = 24;
   uint32_t height = 16;
-  uint32_t order = 2;
+  Encoding encoding = Encoding::Sh;
+  uint32_t order = 2;       // Sh
+  uint32_t tableSize = 5;   // Table, Pca: N
+  uint32_t components = 6;  // Pca: K
+  // 3 (x, y, z) or 4 (and tau) without throughput; 4 (x, y, z, throughput) or 5 with it.
   uint32_t channels = 4;
+  bool throughput = false;
+  // >= 0: the throughput channel holds this value at every layer's node (Table), as the mean
+  // component (Pca) or in band 0 (Sh), so that it decodes to it (up to rounding) everywhere.
+  // < 0: a smooth pseudo-random throughput around 0.7 that leaves [0, 1] in places.
+  float constantThroughput = -1.0f;
   Quantization quantization = Quantization::U8;
   bool emptyAndGutters = false;  // last column empty, last row gutters
   uint32_t seed = 1;
@@ -46,18 +60,155 @@ inline void bandPoint(const SyntheticFieldOptions& o, float u, float v, float* p
   for (int k = 0; k < 3; ++k) position[k] = o.center[size_t(k)] + o.radius * normal[k];
 }
 
+// The channel roles of a field with these options.
+inline bool syntheticHasTau(const SyntheticFieldOptions& o) { return o.channels == (o.throughput ? 5u : 4u); }
+inline bool isThroughputChannel(const SyntheticFieldOptions& o, uint32_t c) {
+  return o.throughput && c == o.channels - 1;
+}
+
+// Sh: per (layer, channel) an amplitude and two phases, band 0 dominant. The throughput channel
+// (not drawn from the generator, so that the other channels stay as they were before it existed)
+// is about 0.7 + 0.35 sin(...) in band 0 with small higher bands.
+inline std::vector<float> syntheticShCoefficients(const SyntheticFieldOptions& o, const Field& f,
+                                                  const std::vector<float>& directions) {
+  constexpr float kY0 = 0.282094792f;
+  const uint32_t texels = o.width * o.height;
+  std::mt19937 rng(o.seed);
+  std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+  const uint32_t layers = f.layerCount();
+  std::vector<float> amplitude(size_t(layers) * 4), phaseX(size_t(layers) * 4), phaseY(size_t(layers) * 4);
+  for (size_t i = 0; i < amplitude.size(); ++i) {
+    amplitude[i] = uniform(rng);
+    phaseX[i] = 3.0f * uniform(rng);
+    phaseY[i] = 3.0f * uniform(rng);
+  }
+  std::vector<float> coefficients(size_t(layers) * texels * o.channels, 0.0f);
+  for (uint32_t layer = 0; layer < layers; ++layer) {
+    const int l = static_cast<int>(std::sqrt(float(layer)));
+    const float bandScale = 0.25f / float(1 + l);
+    for (uint32_t t = 0; t < texels; ++t) {
+      if (f.texelKinds[t] != kTexelSample) continue;
+      const float x = float(t % o.width), y = float(t / o.width);
+      for (uint32_t c = 0; c < o.channels; ++c) {
+        float value = 0.0f;
+        if (isThroughputChannel(o, c)) {
+          if (o.constantThroughput >= 0.0f) value = layer == 0 ? o.constantThroughput / kY0 : 0.0f;
+          else if (layer == 0) value = (0.7f + 0.35f * std::sin(0.23f * x + 0.19f * y)) / kY0;
+          else value = 0.3f * bandScale * std::sin(0.37f * x + 1.3f * float(layer)) * std::cos(0.29f * y);
+        } else {
+          const size_t k = size_t(layer) * 4 + c;
+          value = bandScale * amplitude[k] * (1.0f + 0.5f * std::sin(0.31f * x + phaseX[k]) * std::cos(0.27f * y + phaseY[k]));
+          // Band 0 carries the dominant direction (into the sphere) and a positive optical depth.
+          if (layer == 0) value += c < 3 ? 3.0f * directions[size_t(t) * 3 + c] : 2.0f + 0.5f * std::sin(0.2f * x);
+        }
+        coefficients[(size_t(layer) * texels + t) * o.channels + c] = value;
+      }
+    }
+  }
+  return coefficients;
+}
+
+// Table and Pca: per (layer, role) an amplitude and two phases, role 0..2 the direction, 3 tau,
+// 4 the throughput (drawn whether or not the field has the channel: see the top of this file).
+struct SyntheticNoise {
+  std::vector<float> amplitude, phaseX, phaseY;
+  SyntheticNoise(uint32_t layers, uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+    for (size_t i = 0; i < size_t(layers) * 5; ++i) {
+      amplitude.push_back(uniform(rng));
+      phaseX.push_back(3.0f * uniform(rng));
+      phaseY.push_back(3.0f * uniform(rng));
+    }
+  }
+  // A smooth function of the texel (x, y) with the amplitude of (layer, role), in [-1.5, 1.5].
+  float at(uint32_t layer, uint32_t role, float x, float y) const {
+    const size_t k = size_t(layer) * 5 + role;
+    return amplitude[k] * (1.0f + 0.5f * std::sin(0.31f * x + phaseX[k]) * std::cos(0.27f * y + phaseY[k]));
+  }
+};
+
+// The role (0..2 direction, 3 tau, 4 throughput) of channel c.
+inline uint32_t syntheticRole(const SyntheticFieldOptions& o, uint32_t c) { return isThroughputChannel(o, c) ? 4 : c; }
+
+// Table: every node near the direction into the sphere, tau near 2, throughput near 0.7 (or the
+// constant), with noise that differs between nodes so that the decoded value follows the eye.
+inline std::vector<float> syntheticTableCoefficients(const SyntheticFieldOptions& o, const Field& f,
+                                                     const std::vector<float>& directions) {
+  const uint32_t texels = o.width * o.height, layers = f.layerCount();
+  const SyntheticNoise noise(layers, o.seed);
+  std::vector<float> coefficients(size_t(layers) * texels * o.channels, 0.0f);
+  for (uint32_t node = 0; node < layers; ++node)
+    for (uint32_t t = 0; t < texels; ++t) {
+      if (f.texelKinds[t] != kTexelSample) continue;
+      const float x = float(t % o.width), y = float(t / o.width);
+      for (uint32_t c = 0; c < o.channels; ++c) {
+        const uint32_t role = syntheticRole(o, c);
+        const float n = noise.at(node, role, x, y);
+        float value = role < 3 ? 3.0f * directions[size_t(t) * 3 + role] + 0.6f * n
+                      : role == 3 ? 2.0f + 0.5f * std::sin(0.2f * x) + 0.3f * n
+                      : o.constantThroughput >= 0.0f ? o.constantThroughput
+                                                     : 0.7f + 0.45f * n;
+        coefficients[(size_t(node) * texels + t) * o.channels + c] = value;
+      }
+    }
+  return coefficients;
+}
+
+// Pca: component 0 a mean (weight 1; basis: small direction, tau near 2, throughput near
+// 0.7 or the constant), components 1..3 the axes weighted by 3 x the direction into the sphere,
+// the others random; every basis function has per-node noise. Fills f.basis; returns the weights.
+inline std::vector<float> syntheticPcaCoefficients(const SyntheticFieldOptions& o, Field& f,
+                                                   const std::vector<float>& directions) {
+  const uint32_t texels = o.width * o.height, nodes = o.tableSize * o.tableSize;
+  const SyntheticNoise noise(o.components, o.seed);
+  const SyntheticNoise basisNoise(o.components * nodes, o.seed + 1000);
+  f.basis.assign(size_t(o.components) * nodes * o.channels, 0.0f);
+  for (uint32_t k = 0; k < o.components; ++k)
+    for (uint32_t n = 0; n < nodes; ++n)
+      for (uint32_t c = 0; c < o.channels; ++c) {
+        const uint32_t role = syntheticRole(o, c);
+        const float r = basisNoise.amplitude[(size_t(k) * nodes + n) * 5 + role];
+        float value = k == 0 ? (role < 3 ? 0.3f * r : role == 3 ? 2.0f + 0.3f * r : 0.7f + 0.2f * r)
+                      : k < 4 ? (role == k - 1 ? 1.0f : 0.0f) + 0.2f * r
+                              : 0.5f * r;
+        if (role == 4 && o.constantThroughput >= 0.0f) value = k == 0 ? o.constantThroughput : 0.0f;
+        f.basis[(size_t(k) * nodes + n) * o.channels + c] = value;
+      }
+  std::vector<float> weights(size_t(o.components) * texels, 0.0f);
+  for (uint32_t k = 0; k < o.components; ++k)
+    for (uint32_t t = 0; t < texels; ++t) {
+      if (f.texelKinds[t] != kTexelSample) continue;
+      const float x = float(t % o.width), y = float(t / o.width);
+      // The mean's weight is exactly 1 (U8: a zero-range layer decodes to its bias), so that a
+      // constant throughput decodes to the constant.
+      weights[size_t(k) * texels + t] = k == 0  ? 1.0f
+                                        : k < 4 ? 3.0f * directions[size_t(t) * 3 + k - 1]
+                                                : 0.3f * noise.at(k, 0, x, y);
+    }
+  return weights;
+}
+
 inline Field makeSyntheticField(const SyntheticFieldOptions& o) {
   Field f;
   f.width = o.width;
   f.height = o.height;
-  f.order = o.order;
+  f.encoding = o.encoding;
+  f.order = o.encoding == Encoding::Sh ? o.order : 0;
+  f.tableSize = o.encoding == Encoding::Sh ? 0 : o.tableSize;
+  f.components = o.encoding == Encoding::Pca ? o.components : 0;
   f.channels = o.channels;
+  f.throughput = o.throughput;
   f.quantization = o.quantization;
-  f.settings.order = o.order;
+  f.settings.order = f.order;
+  f.settings.encoding = f.encoding;
+  f.settings.tableSize = f.tableSize;
+  f.settings.components = f.components;
+  f.settings.throughput = f.throughput;
   f.settings.quantization = o.quantization;
   f.settings.source = "synthetic";
   f.media.push_back(FieldMedium{"air", 1.0f, 0.0f, {1.0f, 1.0f, 1.0f}});
-  f.media.push_back(FieldMedium{"glass", o.frontIor, o.channels == 4 ? 0.5f : 0.0f, {1.0f, 1.0f, 1.0f}});
+  f.media.push_back(FieldMedium{"glass", o.frontIor, syntheticHasTau(o) ? 0.5f : 0.0f, {1.0f, 1.0f, 1.0f}});
 
   const uint32_t texels = o.width * o.height;
   f.texelKinds.assign(texels, kTexelSample);
@@ -103,34 +254,9 @@ inline Field makeSyntheticField(const SyntheticFieldOptions& o) {
                                     (y - 2) * o.width + x - 1});
   }
 
-  // Smooth coefficients: per (layer, channel) an amplitude and two phases.
-  std::mt19937 rng(o.seed);
-  std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
-  const uint32_t layers = f.basisCount();
-  std::vector<float> amplitude(size_t(layers) * 4), phaseX(size_t(layers) * 4), phaseY(size_t(layers) * 4);
-  for (size_t i = 0; i < amplitude.size(); ++i) {
-    amplitude[i] = uniform(rng);
-    phaseX[i] = 3.0f * uniform(rng);
-    phaseY[i] = 3.0f * uniform(rng);
-  }
-  std::vector<float> coefficients(size_t(layers) * texels * o.channels, 0.0f);
-  for (uint32_t layer = 0; layer < layers; ++layer) {
-    const int l = static_cast<int>(std::sqrt(float(layer)));
-    const float bandScale = 0.25f / float(1 + l);
-    for (uint32_t t = 0; t < texels; ++t) {
-      if (f.texelKinds[t] != kTexelSample) continue;
-      const float x = float(t % o.width), y = float(t / o.width);
-      for (uint32_t c = 0; c < o.channels; ++c) {
-        const size_t k = size_t(layer) * 4 + c;
-        float value = bandScale * amplitude[k] * (1.0f + 0.5f * std::sin(0.31f * x + phaseX[k]) * std::cos(0.27f * y + phaseY[k]));
-        if (layer == 0) {
-          // Band 0 carries the dominant direction (into the sphere) and a positive optical depth.
-          value += c < 3 ? 3.0f * directions[size_t(t) * 3 + c] : 2.0f + 0.5f * std::sin(0.2f * x);
-        }
-        coefficients[(size_t(layer) * texels + t) * o.channels + c] = value;
-      }
-    }
-  }
+  const std::vector<float> coefficients = o.encoding == Encoding::Sh      ? syntheticShCoefficients(o, f, directions)
+                                          : o.encoding == Encoding::Table ? syntheticTableCoefficients(o, f, directions)
+                                                                          : syntheticPcaCoefficients(o, f, directions);
   (void)encodeCoefficients(f, coefficients);
 
   // Render mesh: the band as (segments) x (segments / 2) quads, atlas coordinates at the corners.

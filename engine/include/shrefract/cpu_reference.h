@@ -1,5 +1,6 @@
 // CPU reference of the run-time passes, for tests and tools: the same decompression
-// (spirv/shaders/decompress.comp, gutter.comp) and field shading (object_field_body.glsl), in the
+// (spirv/shaders/decompress.comp, decompress_table.comp, gutter.comp) and field shading
+// (object_field_body.glsl), in the
 // same float operations where it matters (clamping, normalization, thresholds), and a small ray
 // caster that plays the rasterizer. Slow and simple on purpose; not for production rendering.
 //
@@ -27,11 +28,14 @@ using Vec4 = std::array<float, 4>;
 // do): the value an RGBA16F image holds for `value`.
 float roundToBinary16(float value);
 
-// Texel `texel` (y * width + x) of the field decoded for the world-space eye position, as
-// decompress.comp computes it before the RGBA16F store: for a sample texel,
-//   w = M_s (eye, 1), w.z = max(w.z, 0), w normalized (zero -> +z),
-//   s = sum_i c_i Y_i(w) with c_i = fieldCoefficient(...) (tau = 0 when channels == 3),
-//   result = (s.xyz normalized or zero if |s.xyz|^2 <= 1e-20, s.w clamped to +-65504);
+// Texel `texel` (y * width + x) of the field decoded for the world-space eye position, as the
+// decompression shaders compute it before the RGBA16F store (decompress.comp for Sh,
+// decompress_table.comp for Table and Pca): for a sample texel,
+//   w = M_s (eye, 1), w.z = max(w.z, 0) (zero counts as +z),
+//   s = evaluateSample(field, texel, w) (field.h: the linear sum of any encoding, every channel),
+//   xyz = s.xyz normalized, or zero if |s.xyz|^2 <= 1e-20;
+//         times clamp(s.throughput, 0, 1) when field.throughput (the last channel),
+//   w = s.tau clamped to +-65504 when the field has an optical depth channel, 0 otherwise;
 // zero for empty and gutter texels. Preconditions: validateField(field) succeeded, texel in range.
 Vec4 decodeTexel(const Field& field, uint64_t texel, const Vec3& eye);
 
@@ -41,6 +45,8 @@ struct DistortionImage {
   uint32_t width = 0;
   uint32_t height = 0;
   std::vector<float> rgba;  // ((y * width) + x) * 4 + channel
+  // The field has a throughput channel: |xyz| is the clamped throughput, not 1 (decompress sets it).
+  bool throughput = false;
 };
 
 // The whole atlas for `eye`: decodeTexel for every texel, rounded to binary16, then every gutter
@@ -77,7 +83,9 @@ struct SurfacePoint {
 };
 
 // ShadingMode::Field for one fragment (see renderer.h), before the colour attachment's format
-// conversion. `distortion` must be decompressed for the same eye.
+// conversion. `distortion` must be decompressed for the same eye. When distortion.throughput is
+// set, the transmitted term is multiplied by min(|d.xyz|, 1) of the bilinear sample d, as the GPU
+// does for an object whose field has a throughput channel (ObjectPushConstants.params.y).
 Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environment, const SurfacePoint& point,
                 const Vec3& eye, const ObjectShading& shading, float exposure = 1.0f);
 

@@ -1,19 +1,24 @@
-// Decompression in data space: a compute pass that turns each field object's SH coefficients into
-// its distortion image for the current eye (TECHNIQUE.md, "How it is replayed", step 1).
+// Decompression in data space: a compute pass that turns each field object's coefficients (SH,
+// hemi-octahedral table or PCA, field.h) into its distortion image for the current eye
+// (TECHNIQUE.md, "How it is replayed", step 1).
 //
-// Per texel t of an object's atlas that holds a sample (only samples are stored on the GPU; one
-// invocation decodes 4 of them):
+// Per texel t of an object's atlas that holds a sample (only samples are stored on the GPU; an SH
+// invocation decodes 4 of them, a Table or Pca invocation one):
 //   w = M_s (eye, 1);  w.z = max(w.z, 0);  w = normalize(w)  (the zero vector counts as +z)
-//   s = sum_i c_i Y_i(w)  over i < (L+1)^2, c_i dequantized (U8: bias + scale * q / 255)
-//   texel = (s.xyz / |s.xyz|, clamp(s.w, -65504, 65504))  (zero direction if |s.xyz|^2 <= 1e-20;
-//           tau = 0 for a field of 3 channels, which stores and sums no optical depth)
+//   s = the field's linear sum at w (evaluateSample in field.h): SH sum_i c_i Y_i(w); Table the
+//       bilinear blend of the 4 grid nodes around w; Pca sum_k a_k times that blend of basis k;
+//       coefficients dequantized (U8: bias + scale * q / 255)
+//   texel = (s.xyz / |s.xyz|, clamp(s.tau, -65504, 65504))  (zero direction if |s.xyz|^2 <= 1e-20;
+//           tau = 0 for a field without optical depth, which stores and sums none; with a
+//           throughput channel the direction is multiplied by clamp(s.throughput, 0, 1))
 // Empty texels stay zero (as createFromField cleared them). Then, after a barrier, a second
 // dispatch applies the split layout's gutter rules: texel target = value(a) + value(b) - value(c)
 // (a, b, c hold samples). The CPU mirror is shrefract/cpu_reference.h (decodeTexel, decompress).
 //
-// Pipelines: one per SH order, channel count and quantization (specialization constants, so only
-// the basis functions in use are evaluated and only the stored channels read), created on first
-// use or by prepare(), and passed the host's pipeline cache.
+// Pipelines: one per encoding and its parameters (SH order; table size and components), channel
+// layout and quantization (specialization constants, so only the basis functions in use are
+// evaluated and only the stored channels read), created on first use or by prepare(), and passed
+// the host's pipeline cache.
 //
 // Contract for record():
 //  - `cmd` is in the recording state, outside dynamic rendering, on a queue family with compute;
@@ -78,8 +83,9 @@ class Decompressor {
   Decompressor(const Decompressor&) = delete;
   Decompressor& operator=(const Decompressor&) = delete;
 
-  // Creates the pipelines for SH order `order` now, for both quantizations and channel counts
-  // (otherwise record() creates the one it needs on first use). Error (InvalidArgument): order > 32.
+  // Creates the pipelines for SH fields of order `order` now, for both quantizations and every
+  // channel layout (3 or 4 channels, 4 or 5 with throughput; otherwise record() creates the one it
+  // needs on first use). Error (InvalidArgument): order > 32.
   Result<void> prepare(uint32_t order);
   // Creates just the pipeline `object` needs (nothing for an object without a field).
   Result<void> prepare(const Object& object);

@@ -86,19 +86,20 @@ class Object {
   // command buffer in the recording state, on the context's queue family; staging buffers are
   // retired through the context's deferred destruction):
   //  - coefficients of the sample texels only, in one buffer (read as a texel buffer, or as a
-  //    storage buffer beyond the device's texel-buffer limit): one plane per basis function and
-  //    channel (x, y, z of the exit direction, then tau when the field has 4 channels; nothing for
-  //    tau when it has 3), bytes (U8, with the per-(layer, channel) scale/bias in a second buffer)
-  //    or binary16 (F16); layout in gpu_layout.h;
-  //  - the samples' frames M_s (3 vec4 rows per sample), their texel indices and the gutter rules
-  //    as storage buffers;
+  //    storage buffer beyond the device's texel-buffer limit): Sh, one plane per basis function and
+  //    stored channel (x, y, z of the exit direction, then tau and the throughput where the field
+  //    has them); Table and Pca, each sample's values contiguous; bytes (U8, with the
+  //    per-(layer, value) scale/bias in a second buffer) or binary16 (F16); layout in gpu_layout.h;
+  //  - the samples' frames M_s (3 vec4 rows per sample), their texel indices, the gutter rules and
+  //    (Pca) the basis functions as storage buffers;
   //  - the distortion image: width x height R16G16B16A16_SFLOAT, cleared to zero (empty texels stay
   //    zero for the object's lifetime).
   // After `cmd` executes, the distortion image is in SHADER_READ_ONLY_OPTIMAL and every upload is
   // visible to compute and fragment shaders.
   // Errors: CorruptData when validateField rejects the field; Unsupported when the atlas exceeds
-  // the device's 2D image limit, the coefficients both its texel and storage buffer limits, or the
-  // samples' frames its storage buffer range; Vulkan on allocation failures.
+  // the device's 2D image limit, the coefficients both its texel and storage buffer limits (or, for
+  // Table and Pca, 2^32 values), or the samples' frames or the basis its storage buffer range;
+  // Vulkan on allocation failures.
   static Result<std::unique_ptr<Object>> createFromField(Context& context, const Field& field, VkCommandBuffer cmd);
   // readField(path), then createFromField. Errors name the file.
   static Result<std::unique_ptr<Object>> createFromFieldFile(Context& context, const std::string& path,
@@ -111,12 +112,13 @@ class Object {
   Object& operator=(const Object&) = delete;
 
   bool hasField() const;
-  // The field's SH order and atlas size (0 without a field).
+  // The field's SH order (0 for Table and Pca fields) and atlas size (0 without a field).
   uint32_t fieldOrder() const;
   VkExtent2D fieldExtent() const;
   // The distortion image (R16G16B16A16_SFLOAT, extent fieldExtent(), one level, one layer;
   // VK_NULL_HANDLE without a field): texel (x, y) holds the decoded exit direction (xyz, unit, or
-  // zero for empty texels) and optical depth (w) for the eye of the last decompression. Between
+  // zero for empty texels; for a field with throughput, of length the clamped throughput) and
+  // optical depth (w) for the eye of the last decompression. Between
   // engine passes it is in SHADER_READ_ONLY_OPTIMAL. Created with TRANSFER_SRC usage so that tools
   // and tests can copy it out; a host that does must return it to SHADER_READ_ONLY_OPTIMAL with its
   // contents kept (from the layout it used, not UNDEFINED): empty texels are never rewritten.
@@ -130,8 +132,8 @@ class Object {
   std::array<float, 3> boundsMin() const;
   std::array<float, 3> boundsMax() const;
   // Device memory the object holds: the sum of the memory requirements of its buffers and images
-  // (mesh; for a field also coefficients, scale/bias, frames, sample texel indices, gutter rules
-  // and the distortion image). Staging memory of the upload is not counted (released after it).
+  // (mesh; for a field also coefficients, scale/bias, frames, sample texel indices, gutter rules,
+  // the Pca basis and the distortion image). Staging memory of the upload is not counted (released after it).
   uint64_t gpuMemoryBytes() const;
 
   ObjectShading shading;
@@ -149,8 +151,10 @@ enum class ShadingMode : uint32_t {
   // coordinate, gives the exit direction d and optical depth tau; the colour is
   //   (1 - F) * exp2(-max(tau, 0) * k) * tint * env(d) + F * env(reflect(v, n))
   // with F the dielectric Fresnel reflectance for frontIor (ObjectShading::ior where the mesh has
-  // none). A zero sample (no data) looks straight through: d = v. Objects without a field are
-  // drawn with SingleInterface.
+  // none). For a field with a throughput channel the first term is also multiplied by
+  // min(|d_stored|, 1), the bilinearly filtered throughput (the image stores d times it). A zero
+  // sample (no data) looks straight through: d = v. Objects without a field are drawn with
+  // SingleInterface.
   Field = 1,
   // For measurements: field objects write the decoded unit exit direction (xyz) and the optical
   // depth (w) instead of a colour, so a host can compare directions per pixel with a reference.

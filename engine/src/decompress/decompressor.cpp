@@ -3,8 +3,10 @@
 
 #include <algorithm>
 #include <array>
+#include <compare>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/context_impl.h"
@@ -21,13 +23,28 @@ namespace {
 constexpr uint32_t kMaxDecompressOrder = 32;
 }  // namespace
 
+// What selects a decompression pipeline: the shader (by encoding) and its specialization constants.
+struct DecompressVariant {
+  Encoding encoding = Encoding::Sh;
+  uint32_t order = 0;       // Sh
+  uint32_t tableSize = 0;   // Table, Pca
+  uint32_t components = 0;  // Pca
+  uint32_t channels = 4;
+  bool throughput = false;
+  Quantization quantization = Quantization::U8;
+  bool scaleBiasStorage = false;  // Sh
+  bool coefficientsStorage = false;
+  auto operator<=>(const DecompressVariant&) const = default;
+};
+
 struct DecompressorImpl {
   ContextImpl* context = nullptr;
   VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
   VkPipelineLayout layout = VK_NULL_HANDLE;
-  VkShaderModule decompressModule = VK_NULL_HANDLE;
+  VkShaderModule shModule = VK_NULL_HANDLE;     // decompress.comp
+  VkShaderModule tableModule = VK_NULL_HANDLE;  // decompress_table.comp (Table and Pca)
   VkPipeline gutter = VK_NULL_HANDLE;
-  std::map<uint32_t, VkPipeline> byVariant;  // by variantKey(...)
+  std::map<DecompressVariant, VkPipeline> byVariant;
   bool skipUnchanged = true;
   DecompressStats lastStats;
 
@@ -37,23 +54,18 @@ struct DecompressorImpl {
     for (auto& [key, p] : byVariant) c.vk.vkDestroyPipeline(c.device(), p, c.alloc());
     byVariant.clear();
     if (gutter) c.vk.vkDestroyPipeline(c.device(), gutter, c.alloc());
-    if (decompressModule) c.vk.vkDestroyShaderModule(c.device(), decompressModule, c.alloc());
+    for (VkShaderModule m : {shModule, tableModule})
+      if (m) c.vk.vkDestroyShaderModule(c.device(), m, c.alloc());
     if (layout) c.vk.vkDestroyPipelineLayout(c.device(), layout, c.alloc());
     if (setLayout) c.vk.vkDestroyDescriptorSetLayout(c.device(), setLayout, c.alloc());
     context = nullptr;
   }
 
-  static uint32_t variantKey(uint32_t order, uint32_t channels, Quantization quantization, bool scaleBiasStorage,
-                             bool coefficientsStorage) {
-    return order | (channels << 8) | (static_cast<uint32_t>(quantization) << 16) | (uint32_t(scaleBiasStorage) << 24) |
-           (uint32_t(coefficientsStorage) << 25);
-  }
-  // The decompression pipeline for a field's order, channels, quantization and the buffers its
-  // tables are read from, created on first use.
-  Result<VkPipeline> variant(uint32_t order, uint32_t channels, Quantization quantization, bool scaleBiasStorage,
-                             bool coefficientsStorage);
+  // The decompression pipeline of a variant, created on first use.
+  Result<VkPipeline> variant(const DecompressVariant& v);
   Result<VkPipeline> variant(const FieldResources& f) {
-    return variant(f.order, f.channels, f.quantization, f.scaleBiasStorage, f.coefficientsStorage);
+    return variant(DecompressVariant{f.encoding, f.order, f.tableSize, f.components, f.channels, f.throughput,
+                                     f.quantization, f.scaleBiasStorage, f.coefficientsStorage});
   }
 
   Result<VkPipeline> createPipeline(VkShaderModule module, const VkSpecializationInfo* specialization) {
@@ -110,10 +122,13 @@ Result<std::unique_ptr<Decompressor>> Decompressor::create(Context& context) {
   VkResult r = c.vk.vkCreatePipelineLayout(c.device(), &plci, c.alloc(), &impl->layout);
   if (r != VK_SUCCESS) return vulkanError("vkCreatePipelineLayout", r);
 
-  // The decompression module stays alive: one pipeline per order is specialized from it later.
-  auto module = c.createShaderModule(kSpirv_decompress_comp, sizeof(kSpirv_decompress_comp));
-  if (!module) return module.error();
-  impl->decompressModule = module.value();
+  // The decompression modules stay alive: one pipeline per variant is specialized from them later.
+  auto shModule = c.createShaderModule(kSpirv_decompress_comp, sizeof(kSpirv_decompress_comp));
+  if (!shModule) return shModule.error();
+  impl->shModule = shModule.value();
+  auto tableModule = c.createShaderModule(kSpirv_decompress_table_comp, sizeof(kSpirv_decompress_table_comp));
+  if (!tableModule) return tableModule.error();
+  impl->tableModule = tableModule.value();
   auto gutterModule = c.createShaderModule(kSpirv_gutter_comp, sizeof(kSpirv_gutter_comp));
   if (!gutterModule) return gutterModule.error();
   auto gutter = impl->createPipeline(gutterModule.value(), nullptr);
@@ -124,40 +139,53 @@ Result<std::unique_ptr<Decompressor>> Decompressor::create(Context& context) {
   return std::unique_ptr<Decompressor>(new Decompressor(std::move(impl)));
 }
 
-Result<VkPipeline> DecompressorImpl::variant(uint32_t order, uint32_t channels, Quantization quantization,
-                                             bool scaleBiasStorage, bool coefficientsStorage) {
-  if (order > kMaxDecompressOrder)
-    return makeError(ErrorCode::InvalidArgument, "Decompressor: SH order " + std::to_string(order) + " exceeds " +
+Result<VkPipeline> DecompressorImpl::variant(const DecompressVariant& v) {
+  if (v.encoding == Encoding::Sh && v.order > kMaxDecompressOrder)
+    return makeError(ErrorCode::InvalidArgument, "Decompressor: SH order " + std::to_string(v.order) + " exceeds " +
                                                      std::to_string(kMaxDecompressOrder));
-  const uint32_t key = variantKey(order, channels, quantization, scaleBiasStorage, coefficientsStorage);
-  if (auto found = byVariant.find(key); found != byVariant.end()) return found->second;
-  // { SH_ORDER = order, CHANNELS = channels, QUANTIZATION = quantization,
-  //   SCALE_BIAS_STORAGE = scaleBiasStorage, COEFFICIENTS_STORAGE = coefficientsStorage }
-  // (a bool specialization constant is 32 bits wide)
-  const std::array<uint32_t, 5> values{order, channels, static_cast<uint32_t>(quantization),
-                                       scaleBiasStorage ? uint32_t(VK_TRUE) : uint32_t(VK_FALSE),
-                                       coefficientsStorage ? uint32_t(VK_TRUE) : uint32_t(VK_FALSE)};
-  const std::array<VkSpecializationMapEntry, 5> entries{{
-      {gpu::kSpecShOrder, 0, sizeof(uint32_t)},
-      {gpu::kSpecChannels, sizeof(uint32_t), sizeof(uint32_t)},
-      {gpu::kSpecQuantization, 2 * sizeof(uint32_t), sizeof(uint32_t)},
-      {gpu::kSpecScaleBiasStorage, 3 * sizeof(uint32_t), sizeof(uint32_t)},
-      {gpu::kSpecCoefficientsStorage, 4 * sizeof(uint32_t), sizeof(uint32_t)},
-  }};
+  if (auto found = byVariant.find(v); found != byVariant.end()) return found->second;
+  // Both shaders get every constant; each ignores those it does not declare. (A bool
+  // specialization constant is 32 bits wide.)
+  auto flag = [](bool b) { return b ? uint32_t(VK_TRUE) : uint32_t(VK_FALSE); };
+  // { SH_ORDER, CHANNELS, QUANTIZATION, SCALE_BIAS_STORAGE, COEFFICIENTS_STORAGE, THROUGHPUT,
+  //   ENCODING, TABLE_SIZE, COMPONENTS }
+  const std::array<uint32_t, 9> values{v.order,
+                                       v.channels,
+                                       static_cast<uint32_t>(v.quantization),
+                                       flag(v.scaleBiasStorage),
+                                       flag(v.coefficientsStorage),
+                                       flag(v.throughput),
+                                       static_cast<uint32_t>(v.encoding),
+                                       v.tableSize,
+                                       v.components};
+  const std::array<uint32_t, 9> ids{gpu::kSpecShOrder,          gpu::kSpecChannels,    gpu::kSpecQuantization,
+                                    gpu::kSpecScaleBiasStorage, gpu::kSpecCoefficientsStorage,
+                                    gpu::kSpecThroughput,       gpu::kSpecEncoding,    gpu::kSpecTableSize,
+                                    gpu::kSpecComponents};
+  std::array<VkSpecializationMapEntry, 9> entries{};
+  for (uint32_t i = 0; i < entries.size(); ++i) entries[i] = {ids[i], i * uint32_t(sizeof(uint32_t)), sizeof(uint32_t)};
   const VkSpecializationInfo specialization{static_cast<uint32_t>(entries.size()), entries.data(), sizeof(values),
                                             values.data()};
-  auto pipeline = createPipeline(decompressModule, &specialization);
+  auto pipeline = createPipeline(v.encoding == Encoding::Sh ? shModule : tableModule, &specialization);
   if (!pipeline) return pipeline.error();
-  byVariant[key] = pipeline.value();
+  byVariant[v] = pipeline.value();
   return pipeline.value();
 }
 
 Result<void> Decompressor::prepare(uint32_t order) {
-  // The table each field of this order uses (see createFromField).
-  const bool storage = uint64_t(order + 1) * (order + 1) * 8 * sizeof(float) > gpu::kMaxUniformScaleBiasBytes;
+  // Every channel layout (field.h: 3 or 4 without throughput, 4 or 5 with it), with the table each
+  // field of this order uses (as createFromField decides).
+  const std::array<std::pair<uint32_t, bool>, 4> layouts{{{4, false}, {3, false}, {5, true}, {4, true}}};
   for (Quantization q : {Quantization::U8, Quantization::F16})
-    for (uint32_t channels : {4u, 3u})
-      if (auto p = impl_->variant(order, channels, q, storage, false); !p) return p.error();
+    for (const auto& [channels, throughput] : layouts) {
+      DecompressVariant v;
+      v.order = order;
+      v.channels = channels;
+      v.throughput = throughput;
+      v.quantization = q;
+      v.scaleBiasStorage = shScaleBiasStorage(order, channels);
+      if (auto p = impl_->variant(v); !p) return p.error();
+    }
   return {};
 }
 
@@ -244,7 +272,7 @@ Result<void> recordFields(DecompressorImpl& d, VkCommandBuffer cmd, const std::a
   }
   submitBarriers(barriers);
 
-  // 2. One dispatch per object, one invocation per 4 samples.
+  // 2. One dispatch per object.
   gpu::DecompressPushConstants push{};
   push.eyeWorld = {eye[0], eye[1], eye[2], 1.0f};
   VkPipeline bound = VK_NULL_HANDLE;
@@ -258,8 +286,9 @@ Result<void> recordFields(DecompressorImpl& d, VkCommandBuffer cmd, const std::a
     c.vk.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, d.layout, 0, 1, &f->decompressSet, 0, nullptr);
     push.size = {f->width, f->height, f->gutterCount, f->sampleCount};
     c.vk.vkCmdPushConstants(cmd, d.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-    const uint32_t invocations =
-        (f->sampleCount + gpu::kDecompressSamplesPerInvocation - 1) / gpu::kDecompressSamplesPerInvocation;
+    // Sh: one invocation per 4 samples; Table, Pca: one per sample (gpu_layout.h).
+    const uint32_t perInvocation = f->encoding == Encoding::Sh ? gpu::kDecompressSamplesPerInvocation : 1;
+    const uint32_t invocations = (f->sampleCount + perInvocation - 1) / perInvocation;
     dispatchGrid(c, cmd, (invocations + gpu::kDecompressLocalSize - 1) / gpu::kDecompressLocalSize);
     ++stats.dispatches;
   }

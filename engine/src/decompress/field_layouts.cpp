@@ -25,7 +25,7 @@ Result<VkDescriptorSetLayout> createDecompressSetLayout(ContextImpl& c) {
   auto binding = [](uint32_t index, VkDescriptorType type) {
     return VkDescriptorSetLayoutBinding{index, type, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   };
-  const std::array<VkDescriptorSetLayoutBinding, 8> bindings{{
+  const std::array<VkDescriptorSetLayoutBinding, 9> bindings{{
       binding(gpu::kBindingCoefficients, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER),
       binding(gpu::kBindingScaleBias, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER),
       binding(gpu::kBindingScaleBiasStorage, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
@@ -34,8 +34,17 @@ Result<VkDescriptorSetLayout> createDecompressSetLayout(ContextImpl& c) {
       binding(gpu::kBindingSampleTexels, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
       binding(gpu::kBindingDistortionOut, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE),
       binding(gpu::kBindingGutters, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
+      binding(gpu::kBindingBasis, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
   }};
   return createLayout(c, bindings.data(), static_cast<uint32_t>(bindings.size()));
+}
+
+VkDeviceSize shScaleBiasBytes(uint32_t order, uint32_t channels) {
+  return VkDeviceSize(order + 1) * (order + 1) * SHR_SH_SCALE_BIAS_VEC4S(channels) * 4 * sizeof(float);
+}
+
+bool shScaleBiasStorage(uint32_t order, uint32_t channels) {
+  return shScaleBiasBytes(order, channels) > gpu::kMaxUniformScaleBiasBytes;
 }
 
 Result<VkDescriptorSetLayout> createDistortionSetLayout(ContextImpl& c) {

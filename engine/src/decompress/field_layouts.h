@@ -8,8 +8,15 @@
 namespace shrefract {
 
 // Decompression (compute): coefficients, scale/bias, frames, sample texels, distortion image
-// (storage), gutter rules; bindings and layouts in gpu_layout.h.
+// (storage), gutter rules, Pca basis; bindings and layouts in gpu_layout.h. Both decompression
+// shaders use this one layout, so a field object has one set whatever its encoding.
 Result<VkDescriptorSetLayout> createDecompressSetLayout(ContextImpl& c);
+
+// Bytes of the scale/bias table of an Sh field (gpu_layout.h, kBindingScaleBias), and whether the
+// decompression reads it from the storage binding (it exceeds kMaxUniformScaleBiasBytes). Shared
+// by createFromField and Decompressor::prepare, which must agree on the pipeline variant.
+VkDeviceSize shScaleBiasBytes(uint32_t order, uint32_t channels);
+bool shScaleBiasStorage(uint32_t order, uint32_t channels);
 
 // Field raster pass, set 1: the distortion image as a combined image sampler (fragment stage).
 Result<VkDescriptorSetLayout> createDistortionSetLayout(ContextImpl& c);

@@ -1,6 +1,6 @@
 // Object::createFromField: uploads a refraction field (coefficients and frames of its samples, the
-// samples' texels, gutter rules, render mesh) and creates the object's distortion image and
-// descriptor sets.
+// samples' texels, gutter rules, the Pca basis, render mesh) and creates the object's distortion
+// image and descriptor sets.
 #include <shrefract/field.h>
 #include <shrefract/renderer.h>
 
@@ -20,19 +20,22 @@ namespace shrefract {
 static_assert(gpu::kGpuTexelEmpty == kTexelEmpty && gpu::kGpuTexelSample == kTexelSample &&
               gpu::kGpuTexelGutter == kTexelGutter, "gpu_layout.h and field.h must agree on texel kinds");
 
+static_assert(gpu::kEncodingSh == uint32_t(Encoding::Sh) && gpu::kEncodingTable == uint32_t(Encoding::Table) &&
+              gpu::kEncodingPca == uint32_t(Encoding::Pca), "gpu_layout.h and field.h must agree on encodings");
+
 namespace {
 
 Result<BufferAllocation> createDeviceBuffer(ContextImpl& c, VkDeviceSize bytes, VkBufferUsageFlags usage) {
   return c.createBuffer(bytes, usage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, false);
 }
 
-// Values per plane of the coefficients: the sample count rounded up to whole invocations.
+// Values per plane of the Sh coefficients: the sample count rounded up to whole invocations.
 uint64_t paddedSampleCount(uint64_t samples) {
   const uint64_t group = gpu::kDecompressSamplesPerInvocation;
   return (samples + group - 1) / group * group;
 }
 
-// Writes the coefficients of the sample texels as planes (gpu_layout.h, kBindingCoefficients):
+// Sh: writes the coefficients of the sample texels as planes (gpu_layout.h, kBindingCoefficients):
 // value (layer, channel c, sample s) at ((layer * channels + c) * padded + s); the padding stays as
 // the caller zeroed it. T: uint8_t (U8) or uint16_t (F16).
 template <class T>
@@ -48,6 +51,235 @@ void packPlanes(const std::vector<T>& in, uint32_t channels, uint32_t layers, ui
   }
 }
 
+// Table, Pca: writes the values of each sample texel contiguously (gpu_layout.h): value (layer, v)
+// of sample s at (s * layers + layer) * values + v.
+template <class T>
+void packSampleMajor(const std::vector<T>& in, uint32_t values, uint32_t layers, uint64_t texels,
+                     const std::vector<uint32_t>& sampleTexels, T* out) {
+  for (size_t s = 0; s < sampleTexels.size(); ++s)
+    for (uint32_t layer = 0; layer < layers; ++layer) {
+      const T* from = in.data() + (size_t(layer) * texels + sampleTexels[s]) * values;
+      std::copy(from, from + values, out + (s * layers + layer) * values);
+    }
+}
+
+template <class T>
+void packCoefficients(const Field& field, const std::vector<T>& in, const std::vector<uint32_t>& sampleTexels,
+                      void* out) {
+  if (field.encoding == Encoding::Sh)
+    packPlanes(in, field.channels, field.layerCount(), field.texelCount(), sampleTexels, static_cast<T*>(out));
+  else
+    packSampleMajor(in, field.valuesPerLayer(), field.layerCount(), field.texelCount(), sampleTexels,
+                    static_cast<T*>(out));
+}
+
+// The scale/bias table the decompression reads for a U8 field (gpu_layout.h): Sh:
+// SHR_SH_SCALE_BIAS_VEC4S(channels) vec4s per basis function; Table, Pca: (scale, bias) per
+// (layer, value). Scales are divided by 255: the shaders multiply the byte q itself. An F16 field
+// gets zeros (its shaders never read the table).
+std::vector<float> scaleBiasTable(const Field& field) {
+  const uint32_t layers = field.layerCount(), values = field.valuesPerLayer();
+  const bool u8 = field.quantization == Quantization::U8;
+  if (field.encoding != Encoding::Sh) {
+    std::vector<float> table(size_t(layers) * values * 2, 0.0f);
+    for (size_t i = 0; u8 && i < size_t(layers) * values; ++i) {
+      table[2 * i] = field.scale[i] / 255.0f;
+      table[2 * i + 1] = field.bias[i];
+    }
+    return table;
+  }
+  const size_t stride = size_t(SHR_SH_SCALE_BIAS_VEC4S(field.channels)) * 4;
+  std::vector<float> table(size_t(layers) * stride, 0.0f);
+  for (uint32_t i = 0; u8 && i < layers; ++i)
+    for (uint32_t ch = 0; ch < field.channels; ++ch) {
+      const size_t from = size_t(i) * field.channels + ch;
+      // Channels 0..3: [scale vec4, bias vec4]; channel 4: (scale, bias) of the third vec4.
+      const size_t scaleAt = size_t(i) * stride + (ch < 4 ? ch : 8), biasAt = ch < 4 ? scaleAt + 4 : scaleAt + 1;
+      table[scaleAt] = field.scale[from] / 255.0f;
+      table[biasAt] = field.bias[from];
+    }
+  return table;
+}
+
+// "sh field of order 8", "table field of 16x16 nodes", "pca field of 12 components of 16x16 nodes".
+std::string describeEncoding(const Field& field) {
+  const std::string nodes = std::to_string(field.tableSize) + "x" + std::to_string(field.tableSize) + " nodes";
+  switch (field.encoding) {
+    case Encoding::Sh: return "sh field of order " + std::to_string(field.order);
+    case Encoding::Table: return "table field of " + nodes;
+    default: return "pca field of " + std::to_string(field.components) + " components of " + nodes;
+  }
+}
+
+struct FieldBufferSizes {
+  VkDeviceSize coefficients = 0;     // at least one word
+  bool coefficientsStorage = false;  // beyond the device's texel buffer limit: a storage buffer
+  VkDeviceSize frames = 0;
+  VkDeviceSize basis = 0;            // Pca: the basis; otherwise one placeholder vec4
+};
+
+// The sizes of the buffers whose size depends on the field, checked against the device's limits.
+Result<FieldBufferSizes> fieldBufferSizes(const Field& field, uint64_t samples, const VkPhysicalDeviceLimits& limits) {
+  const uint64_t perSample = uint64_t(field.layerCount()) * field.valuesPerLayer();
+  const uint64_t valueBytes = field.quantization == Quantization::U8 ? 1 : 2;
+  const uint64_t stored = field.encoding == Encoding::Sh ? paddedSampleCount(samples) : samples;
+  auto tooBig = [&](const std::string& what, uint64_t bytes, uint64_t limit, const char* limitName) {
+    return makeError(ErrorCode::Unsupported, describeEncoding(field) + " with " + std::to_string(samples) +
+                                                 " samples needs " + what + " of " + std::to_string(bytes) +
+                                                 " bytes; the device's " + limitName + " is " + std::to_string(limit));
+  };
+  // decompress_table.comp indexes the values of all samples with 32-bit element numbers.
+  if (field.encoding != Encoding::Sh && stored * perSample > UINT32_MAX)
+    return tooBig("coefficients", stored * perSample * valueBytes, uint64_t(UINT32_MAX) * valueBytes,
+                  "largest sample-major coefficient buffer (32-bit element indices)");
+  FieldBufferSizes sizes;
+  sizes.coefficients = std::max<VkDeviceSize>((stored * perSample * valueBytes + 3) / 4 * 4, 4);
+  sizes.coefficientsStorage = sizes.coefficients / sizeof(uint32_t) > limits.maxTexelBufferElements;
+  sizes.frames = std::max<VkDeviceSize>(VkDeviceSize(samples) * 12 * sizeof(float), 16);
+  sizes.basis = std::max<VkDeviceSize>(VkDeviceSize(field.basis.size()) * sizeof(float), 16);
+  if (sizes.coefficientsStorage && sizes.coefficients > limits.maxStorageBufferRange)
+    return tooBig("coefficients", sizes.coefficients,
+                  std::max<VkDeviceSize>(VkDeviceSize(limits.maxTexelBufferElements) * sizeof(uint32_t),
+                                         limits.maxStorageBufferRange),
+                  "largest texel or storage buffer");
+  if (sizes.frames > limits.maxStorageBufferRange)
+    return tooBig("sample frames", sizes.frames, limits.maxStorageBufferRange, "maxStorageBufferRange");
+  if (sizes.basis > limits.maxStorageBufferRange)
+    return tooBig("a basis", sizes.basis, limits.maxStorageBufferRange, "maxStorageBufferRange");
+  return sizes;
+}
+
+// The distortion image: RGBA16F, storage (decompression), sampled (raster), transfer (clear, and
+// copies out for tools and tests).
+Result<ImageAllocation> createDistortionImage(ContextImpl& c, uint32_t width, uint32_t height) {
+  VkImageCreateInfo ici{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+  ici.imageType = VK_IMAGE_TYPE_2D;
+  ici.format = VK_FORMAT_R16G16B16A16_SFLOAT;
+  ici.extent = {width, height, 1};
+  ici.mipLevels = 1;
+  ici.arrayLayers = 1;
+  ici.samples = VK_SAMPLE_COUNT_1_BIT;
+  ici.tiling = VK_IMAGE_TILING_OPTIMAL;
+  ici.usage = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT |
+              VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  return c.createImage(ici, VK_IMAGE_VIEW_TYPE_2D, VK_IMAGE_ASPECT_COLOR_BIT);
+}
+
+VkImageMemoryBarrier2 wholeImageBarrier(VkImage image) {
+  VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
+  b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  b.image = image;
+  b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+  return b;
+}
+
+// The new distortion image to TRANSFER_DST_OPTIMAL and cleared to zero.
+void recordClear(ContextImpl& c, VkCommandBuffer cmd, VkImage image) {
+  VkImageMemoryBarrier2 toDst = wholeImageBarrier(image);
+  toDst.srcStageMask = VK_PIPELINE_STAGE_2_NONE;
+  toDst.dstStageMask = VK_PIPELINE_STAGE_2_CLEAR_BIT;
+  toDst.dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  toDst.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  toDst.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+  dep.imageMemoryBarrierCount = 1;
+  dep.pImageMemoryBarriers = &toDst;
+  c.vk.vkCmdPipelineBarrier2(cmd, &dep);
+  const VkClearColorValue zero{};
+  c.vk.vkCmdClearColorImage(cmd, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &zero, 1, &toDst.subresourceRange);
+}
+
+// The cleared image to SHADER_READ_ONLY_OPTIMAL and the buffer copies, visible to the compute and
+// fragment shaders (Object::createFromField's contract).
+void recordUploadsVisible(ContextImpl& c, VkCommandBuffer cmd, VkImage image) {
+  VkImageMemoryBarrier2 toRead = wholeImageBarrier(image);
+  toRead.srcStageMask = VK_PIPELINE_STAGE_2_CLEAR_BIT;
+  toRead.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  toRead.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+  toRead.dstAccessMask = VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
+  toRead.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+  toRead.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+  VkMemoryBarrier2 buffersToRead{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
+  buffersToRead.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+  buffersToRead.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  buffersToRead.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  buffersToRead.dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
+  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+  dep.imageMemoryBarrierCount = 1;
+  dep.pImageMemoryBarriers = &toRead;
+  dep.memoryBarrierCount = 1;
+  dep.pMemoryBarriers = &buffersToRead;
+  c.vk.vkCmdPipelineBarrier2(cmd, &dep);
+}
+
+// Allocates and writes the decompression set (every binding of createDecompressSetLayout) and the
+// raster pass's distortion set of `f`, whose buffers, views, image and sampler exist.
+Result<void> createDescriptorSets(ContextImpl& c, FieldResources& f, VkDeviceSize coefficientBytes) {
+  const std::array<VkDescriptorPoolSize, 5> sizes{{
+      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1},
+      {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 6},
+      {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 1},
+      {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
+      {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1},
+  }};
+  VkDescriptorPoolCreateInfo dpci{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+  dpci.maxSets = 2;
+  dpci.poolSizeCount = static_cast<uint32_t>(sizes.size());
+  dpci.pPoolSizes = sizes.data();
+  VkResult r = c.vk.vkCreateDescriptorPool(c.device(), &dpci, c.alloc(), &f.pool);
+  if (r != VK_SUCCESS) return vulkanError("vkCreateDescriptorPool", r);
+  const std::array<VkDescriptorSetLayout, 2> setLayouts{f.decompressSetLayout, f.distortionSetLayout};
+  std::array<VkDescriptorSet, 2> sets{};
+  VkDescriptorSetAllocateInfo dsai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+  dsai.descriptorPool = f.pool;
+  dsai.descriptorSetCount = 2;
+  dsai.pSetLayouts = setLayouts.data();
+  r = c.vk.vkAllocateDescriptorSets(c.device(), &dsai, sets.data());
+  if (r != VK_SUCCESS) return vulkanError("vkAllocateDescriptorSets", r);
+  f.decompressSet = sets[0];
+  f.distortionSet = sets[1];
+
+  const VkDescriptorImageInfo storageInfo{VK_NULL_HANDLE, f.distortion.view, VK_IMAGE_LAYOUT_GENERAL};
+  const VkDescriptorImageInfo sampledInfo{f.sampler, f.distortion.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  // Every binding is written whichever shader and path reads it (unread ones over their first
+  // bytes): the uniform scale/bias binding up to the uniform limit, the coefficients' storage
+  // binding up to maxStorageBufferRange (all of them when it is the path).
+  const VkDescriptorBufferInfo scaleBiasUniform{f.scaleBias.buffer, 0,
+                                                std::min<VkDeviceSize>(f.scaleBias.size, gpu::kMaxUniformScaleBiasBytes)};
+  const std::array<VkDescriptorBufferInfo, 6> bufferInfos{{
+      {f.coefficients.buffer, 0, std::min<VkDeviceSize>(coefficientBytes, c.properties.limits.maxStorageBufferRange)},
+      {f.scaleBias.buffer, 0, VK_WHOLE_SIZE},
+      {f.frames.buffer, 0, VK_WHOLE_SIZE},
+      {f.sampleTexels.buffer, 0, VK_WHOLE_SIZE},
+      {f.gutters.buffer, 0, VK_WHOLE_SIZE},
+      {f.basis.buffer, 0, VK_WHOLE_SIZE},
+  }};
+  const std::array<uint32_t, 6> bufferBindings{gpu::kBindingCoefficientsStorage, gpu::kBindingScaleBiasStorage,
+                                               gpu::kBindingFrames,  gpu::kBindingSampleTexels,
+                                               gpu::kBindingGutters, gpu::kBindingBasis};
+  std::vector<VkWriteDescriptorSet> writes;
+  auto write = [&](VkDescriptorSet set, uint32_t binding, VkDescriptorType type) -> VkWriteDescriptorSet& {
+    VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+    w.dstSet = set;
+    w.dstBinding = binding;
+    w.descriptorCount = 1;
+    w.descriptorType = type;
+    writes.push_back(w);
+    return writes.back();
+  };
+  writes.reserve(10);
+  write(f.decompressSet, gpu::kBindingDistortionOut, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE).pImageInfo = &storageInfo;
+  write(f.decompressSet, gpu::kBindingCoefficients, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER).pTexelBufferView =
+      &f.coefficientWords;
+  for (size_t i = 0; i < bufferBindings.size(); ++i)
+    write(f.decompressSet, bufferBindings[i], VK_DESCRIPTOR_TYPE_STORAGE_BUFFER).pBufferInfo = &bufferInfos[i];
+  write(f.decompressSet, gpu::kBindingScaleBias, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER).pBufferInfo = &scaleBiasUniform;
+  write(f.distortionSet, gpu::kBindingDistortion, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER).pImageInfo =
+      &sampledInfo;
+  c.vk.vkUpdateDescriptorSets(c.device(), static_cast<uint32_t>(writes.size()), writes.data(), 0, nullptr);
+  return {};
+}
+
 }  // namespace
 
 void destroyFieldResources(ContextImpl& c, FieldResources& f) {
@@ -58,7 +290,7 @@ void destroyFieldResources(ContextImpl& c, FieldResources& f) {
   if (f.sampler) c.vk.vkDestroySampler(d, f.sampler, c.alloc());
   if (f.coefficientWords) c.vk.vkDestroyBufferView(d, f.coefficientWords, c.alloc());
   c.destroyImage(f.distortion);
-  for (BufferAllocation* b : {&f.coefficients, &f.scaleBias, &f.frames, &f.sampleTexels, &f.gutters})
+  for (BufferAllocation* b : {&f.coefficients, &f.scaleBias, &f.frames, &f.sampleTexels, &f.gutters, &f.basis})
     c.destroyBuffer(*b);
   f = FieldResources{};
 }
@@ -74,7 +306,6 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   if (auto valid = validateField(field); !valid) return valid.error();
   ContextImpl& c = context.impl();
   const VkPhysicalDeviceLimits& limits = c.properties.limits;
-  const uint32_t layers = field.basisCount();
   if (field.width > limits.maxImageDimension2D || field.height > limits.maxImageDimension2D)
     return makeError(ErrorCode::Unsupported, "field atlas " + std::to_string(field.width) + "x" +
                                                  std::to_string(field.height) + " exceeds the device's 2D image limit " +
@@ -83,27 +314,9 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   std::vector<uint32_t> sampleTexels;
   for (uint64_t t = 0; t < field.texelCount(); ++t)
     if (field.texelKinds[t] == kTexelSample) sampleTexels.push_back(static_cast<uint32_t>(t));
-  const bool u8 = field.quantization == Quantization::U8;
-  const size_t componentBytes = u8 ? 1 : 2;
-  // Coefficient planes (gpu_layout.h), read through a texel buffer when the device's limit allows
-  // and from a storage buffer otherwise; the frames are always a storage buffer.
-  const VkDeviceSize coefficientBytes =
-      std::max<VkDeviceSize>(paddedSampleCount(sampleTexels.size()) * layers * field.channels * componentBytes, 4);
-  const bool coefficientsStorage = coefficientBytes / sizeof(uint32_t) > limits.maxTexelBufferElements;
-  const VkDeviceSize framesBytes = std::max<VkDeviceSize>(VkDeviceSize(sampleTexels.size()) * 12 * sizeof(float), 16);
-  auto tooBig = [&](const char* what, VkDeviceSize bytes, VkDeviceSize limit, const char* limitName) {
-    return makeError(ErrorCode::Unsupported, "field of order " + std::to_string(field.order) + " with " +
-                                                 std::to_string(sampleTexels.size()) + " samples needs " + what + " of " +
-                                                 std::to_string(bytes) + " bytes; the device's " + limitName + " is " +
-                                                 std::to_string(limit));
-  };
-  if (coefficientsStorage && coefficientBytes > limits.maxStorageBufferRange)
-    return tooBig("coefficients", coefficientBytes,
-                  std::max<VkDeviceSize>(VkDeviceSize(limits.maxTexelBufferElements) * sizeof(uint32_t),
-                                         limits.maxStorageBufferRange),
-                  "largest texel or storage buffer");
-  if (framesBytes > limits.maxStorageBufferRange)
-    return tooBig("sample frames", framesBytes, limits.maxStorageBufferRange, "maxStorageBufferRange");
+  auto sized = fieldBufferSizes(field, sampleTexels.size(), limits);
+  if (!sized) return sized.error();
+  const FieldBufferSizes sizes = sized.value();
   const FieldMesh& m = field.mesh;
   MeshDesc mesh;
   mesh.positions = m.positions.data();
@@ -130,41 +343,31 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   FieldResources& f = *object->impl().field;
   f.width = field.width;
   f.height = field.height;
+  f.encoding = field.encoding;
   f.order = field.order;
+  f.tableSize = field.tableSize;
+  f.components = field.components;
   f.channels = field.channels;
+  f.throughput = field.throughput;
   f.quantization = field.quantization;
   f.sampleCount = static_cast<uint32_t>(sampleTexels.size());
-  // 32 bytes per basis function: a uniform buffer when it fits (gpu_layout.h, kSpecScaleBiasStorage).
-  f.scaleBiasStorage = VkDeviceSize(layers) * 8 * sizeof(float) > gpu::kMaxUniformScaleBiasBytes;
+  // Sh: a uniform buffer when the table fits (gpu_layout.h, kSpecScaleBiasStorage); the Table and
+  // Pca shader always reads the storage binding.
+  f.scaleBiasStorage = field.encoding == Encoding::Sh && shScaleBiasStorage(field.order, field.channels);
+  f.coefficientsStorage = sizes.coefficientsStorage;
   f.gutterCount = static_cast<uint32_t>(field.gutters.size());
 
-  // The distortion image.
-  VkImageCreateInfo ici{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
-  ici.imageType = VK_IMAGE_TYPE_2D;
-  ici.format = VK_FORMAT_R16G16B16A16_SFLOAT;
-  ici.extent = {field.width, field.height, 1};
-  ici.mipLevels = 1;
-  ici.arrayLayers = 1;
-  ici.samples = VK_SAMPLE_COUNT_1_BIT;
-  ici.tiling = VK_IMAGE_TILING_OPTIMAL;
-  ici.usage = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT |
-              VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
-  auto distortion = c.createImage(ici, VK_IMAGE_VIEW_TYPE_2D, VK_IMAGE_ASPECT_COLOR_BIT);
+  auto distortion = createDistortionImage(c, field.width, field.height);
   if (!distortion) return distortion.error();
   f.distortion = distortion.value();
 
   // Buffers.
-  std::vector<float> scaleBias(size_t(layers) * 8, 0.0f);
-  for (uint32_t i = 0; i < layers; ++i)
-    for (uint32_t ch = 0; ch < field.channels; ++ch) {
-      const size_t table = size_t(i) * field.channels + ch;
-      // U8: the shader reads the byte q itself, so the table holds scale / 255.
-      scaleBias[size_t(i) * 8 + ch] = u8 ? field.scale[table] / 255.0f : 1.0f;
-      scaleBias[size_t(i) * 8 + 4 + ch] = u8 ? field.bias[table] : 0.0f;
-    }
-  std::vector<float> frames(size_t(framesBytes / sizeof(float)), 0.0f);
+  std::vector<float> scaleBias = scaleBiasTable(field);
+  scaleBias.resize(std::max<size_t>(scaleBias.size(), 4), 0.0f);  // one vec4 at least (a Pca table of K = 1)
+  std::vector<float> frames(size_t(sizes.frames / sizeof(float)), 0.0f);
   for (size_t s = 0; s < sampleTexels.size(); ++s)
     std::memcpy(&frames[s * 12], &field.frames[size_t(sampleTexels[s]) * 12], 12 * sizeof(float));
+  const std::vector<uint32_t> samplesOnly = sampleTexels;
   if (sampleTexels.empty()) sampleTexels.push_back(0);  // never read: sampleCount is 0
   std::vector<uint32_t> gutters(std::max<size_t>(field.gutters.size(), 1) * 4, 0u);
   for (size_t g = 0; g < field.gutters.size(); ++g) {
@@ -174,17 +377,19 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
     gutters[g * 4 + 2] = r.b;
     gutters[g * 4 + 3] = r.c;
   }
+  const float placeholder[4] = {0.0f, 0.0f, 0.0f, 0.0f};  // the basis binding of a field without one
   const VkBufferUsageFlags storage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
   struct Upload {
     BufferAllocation* target;
     const void* data;
     VkDeviceSize bytes;
   };
-  const std::array<Upload, 4> uploads{{
+  const std::array<Upload, 5> uploads{{
       {&f.scaleBias, scaleBias.data(), scaleBias.size() * sizeof(float)},
       {&f.frames, frames.data(), frames.size() * sizeof(float)},
       {&f.sampleTexels, sampleTexels.data(), sampleTexels.size() * sizeof(uint32_t)},
       {&f.gutters, gutters.data(), gutters.size() * sizeof(uint32_t)},
+      {&f.basis, field.basis.empty() ? placeholder : field.basis.data(), sizes.basis},
   }};
   for (const Upload& u : uploads) {
     // The scale/bias table is read as a uniform buffer when it fits (gpu_layout.h).
@@ -192,15 +397,14 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
     if (!b) return b.error();
     *u.target = b.value();
   }
-  auto coefficients =
-      createDeviceBuffer(c, coefficientBytes, VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+  auto coefficients = createDeviceBuffer(c, sizes.coefficients,
+                                         VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
   if (!coefficients) return coefficients.error();
   f.coefficients = coefficients.value();
   {
     // Read through a texel buffer when the device's limit allows (gpu_layout.h,
     // kSpecCoefficientsStorage); otherwise the view covers a prefix and is not read.
-    const VkDeviceSize words = coefficientBytes / sizeof(uint32_t);
-    f.coefficientsStorage = coefficientsStorage;
+    const VkDeviceSize words = sizes.coefficients / sizeof(uint32_t);
     VkBufferViewCreateInfo bvci{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
     bvci.buffer = f.coefficients.buffer;
     bvci.format = VK_FORMAT_R32_UINT;
@@ -209,64 +413,29 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
     if (vr != VK_SUCCESS) return vulkanError("vkCreateBufferView", vr);
   }
   ObjectImpl& o = object->impl();
-  for (const BufferAllocation* b : {&f.coefficients, &f.scaleBias, &f.frames, &f.sampleTexels, &f.gutters})
+  for (const BufferAllocation* b : {&f.coefficients, &f.scaleBias, &f.frames, &f.sampleTexels, &f.gutters, &f.basis})
     countMemory(c, o, *b);
   countMemory(c, o, f.distortion);
 
   // Coefficient staging, written in place (the largest upload: no intermediate copy).
-  auto staging = c.createBuffer(coefficientBytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
+  auto staging = c.createBuffer(sizes.coefficients, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
   if (!staging) return staging.error();
   BufferAllocation st = staging.value();
   c.retire([&c, st]() mutable { c.destroyBuffer(st); });
-  std::memset(st.mapped, 0, coefficientBytes);
-  const std::vector<uint32_t> samplesOnly(sampleTexels.begin(), sampleTexels.begin() + f.sampleCount);
-  if (u8)
-    packPlanes(field.coefficientsU8, field.channels, layers, field.texelCount(), samplesOnly,
-               static_cast<uint8_t*>(st.mapped));
+  std::memset(st.mapped, 0, sizes.coefficients);
+  if (field.quantization == Quantization::U8)
+    packCoefficients(field, field.coefficientsU8, samplesOnly, st.mapped);
   else
-    packPlanes(field.coefficientsF16, field.channels, layers, field.texelCount(), samplesOnly,
-               static_cast<uint16_t*>(st.mapped));
+    packCoefficients(field, field.coefficientsF16, samplesOnly, st.mapped);
 
-  // Record: the distortion image to TRANSFER_DST and cleared (empty texels stay zero from here
-  // on), the buffers copied, then everything made visible to the passes.
-  VkImageMemoryBarrier2 toDst{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
-  toDst.srcStageMask = VK_PIPELINE_STAGE_2_NONE;
-  toDst.dstStageMask = VK_PIPELINE_STAGE_2_CLEAR_BIT;
-  toDst.dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  toDst.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-  toDst.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-  toDst.srcQueueFamilyIndex = toDst.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  toDst.image = f.distortion.image;
-  toDst.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-  dep.imageMemoryBarrierCount = 1;
-  dep.pImageMemoryBarriers = &toDst;
-  c.vk.vkCmdPipelineBarrier2(cmd, &dep);
-  const VkClearColorValue zero{};
-  const VkImageSubresourceRange distortionRange{VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-  c.vk.vkCmdClearColorImage(cmd, f.distortion.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &zero, 1,
-                            &distortionRange);
-  const VkBufferCopy whole{0, 0, coefficientBytes};
+  // Record: the distortion image cleared (empty texels stay zero from here on), the buffers
+  // copied, then everything made visible to the passes.
+  recordClear(c, cmd, f.distortion.image);
+  const VkBufferCopy whole{0, 0, sizes.coefficients};
   c.vk.vkCmdCopyBuffer(cmd, st.buffer, f.coefficients.buffer, 1, &whole);
   for (const Upload& u : uploads)
     if (auto r = c.recordBufferUpload(cmd, u.target->buffer, u.data, u.bytes); !r) return r.error();
-
-  VkImageMemoryBarrier2 toRead = toDst;
-  toRead.srcStageMask = VK_PIPELINE_STAGE_2_CLEAR_BIT;
-  toRead.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  toRead.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
-  toRead.dstAccessMask = VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
-  toRead.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-  toRead.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
-  VkMemoryBarrier2 buffersToRead{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
-  buffersToRead.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-  buffersToRead.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  buffersToRead.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-  buffersToRead.dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
-  dep.pImageMemoryBarriers = &toRead;
-  dep.memoryBarrierCount = 1;
-  dep.pMemoryBarriers = &buffersToRead;
-  c.vk.vkCmdPipelineBarrier2(cmd, &dep);
+  recordUploadsVisible(c, cmd, f.distortion.image);
 
   // Sampler and descriptor sets.
   VkSamplerCreateInfo sci{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
@@ -274,7 +443,7 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   sci.minFilter = VK_FILTER_LINEAR;
   sci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
   sci.addressModeU = sci.addressModeV = sci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-  VkResult r = c.vk.vkCreateSampler(c.device(), &sci, c.alloc(), &f.sampler);
+  const VkResult r = c.vk.vkCreateSampler(c.device(), &sci, c.alloc(), &f.sampler);
   if (r != VK_SUCCESS) return vulkanError("vkCreateSampler", r);
   auto decompressLayout = createDecompressSetLayout(c);
   if (!decompressLayout) return decompressLayout.error();
@@ -282,68 +451,7 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   auto distortionLayout = createDistortionSetLayout(c);
   if (!distortionLayout) return distortionLayout.error();
   f.distortionSetLayout = distortionLayout.value();
-
-  const std::array<VkDescriptorPoolSize, 5> sizes{{
-      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1},
-      {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 5},
-      {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 1},
-      {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-      {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1},
-  }};
-  VkDescriptorPoolCreateInfo dpci{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
-  dpci.maxSets = 2;
-  dpci.poolSizeCount = static_cast<uint32_t>(sizes.size());
-  dpci.pPoolSizes = sizes.data();
-  r = c.vk.vkCreateDescriptorPool(c.device(), &dpci, c.alloc(), &f.pool);
-  if (r != VK_SUCCESS) return vulkanError("vkCreateDescriptorPool", r);
-  const std::array<VkDescriptorSetLayout, 2> setLayouts{f.decompressSetLayout, f.distortionSetLayout};
-  std::array<VkDescriptorSet, 2> sets{};
-  VkDescriptorSetAllocateInfo dsai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
-  dsai.descriptorPool = f.pool;
-  dsai.descriptorSetCount = 2;
-  dsai.pSetLayouts = setLayouts.data();
-  r = c.vk.vkAllocateDescriptorSets(c.device(), &dsai, sets.data());
-  if (r != VK_SUCCESS) return vulkanError("vkAllocateDescriptorSets", r);
-  f.decompressSet = sets[0];
-  f.distortionSet = sets[1];
-
-  const VkDescriptorImageInfo storageInfo{VK_NULL_HANDLE, f.distortion.view, VK_IMAGE_LAYOUT_GENERAL};
-  const VkDescriptorImageInfo sampledInfo{f.sampler, f.distortion.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-  const VkDeviceSize scaleBiasBytes = VkDeviceSize(layers) * 8 * sizeof(float);
-  // Storage-table fields still bind the uniform one (the layout has both), over its first bytes.
-  const VkDescriptorBufferInfo scaleBiasUniform{f.scaleBias.buffer, 0,
-                                                std::min<VkDeviceSize>(scaleBiasBytes, gpu::kMaxUniformScaleBiasBytes)};
-  // Like the texel view, the storage binding of the coefficients is bound whichever path reads them,
-  // over at most maxStorageBufferRange bytes (all of them when it is the path).
-  const std::array<VkDescriptorBufferInfo, 5> bufferInfos{{
-      {f.coefficients.buffer, 0, std::min<VkDeviceSize>(coefficientBytes, limits.maxStorageBufferRange)},
-      {f.scaleBias.buffer, 0, VK_WHOLE_SIZE},
-      {f.frames.buffer, 0, VK_WHOLE_SIZE},
-      {f.sampleTexels.buffer, 0, VK_WHOLE_SIZE},
-      {f.gutters.buffer, 0, VK_WHOLE_SIZE},
-  }};
-  const std::array<uint32_t, 5> bufferBindings{gpu::kBindingCoefficientsStorage, gpu::kBindingScaleBiasStorage,
-                                               gpu::kBindingFrames, gpu::kBindingSampleTexels, gpu::kBindingGutters};
-  std::vector<VkWriteDescriptorSet> writes;
-  auto write = [&](VkDescriptorSet set, uint32_t binding, VkDescriptorType type) -> VkWriteDescriptorSet& {
-    VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
-    w.dstSet = set;
-    w.dstBinding = binding;
-    w.descriptorCount = 1;
-    w.descriptorType = type;
-    writes.push_back(w);
-    return writes.back();
-  };
-  writes.reserve(9);
-  write(f.decompressSet, gpu::kBindingDistortionOut, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE).pImageInfo = &storageInfo;
-  write(f.decompressSet, gpu::kBindingCoefficients, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER).pTexelBufferView =
-      &f.coefficientWords;
-  for (size_t i = 0; i < bufferBindings.size(); ++i)
-    write(f.decompressSet, bufferBindings[i], VK_DESCRIPTOR_TYPE_STORAGE_BUFFER).pBufferInfo = &bufferInfos[i];
-  write(f.decompressSet, gpu::kBindingScaleBias, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER).pBufferInfo = &scaleBiasUniform;
-  write(f.distortionSet, gpu::kBindingDistortion, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER).pImageInfo =
-      &sampledInfo;
-  c.vk.vkUpdateDescriptorSets(c.device(), static_cast<uint32_t>(writes.size()), writes.data(), 0, nullptr);
+  if (auto sets = createDescriptorSets(c, f, sizes.coefficients); !sets) return sets.error();
   return object;
 }
 

@@ -17,17 +17,22 @@ inline constexpr uint32_t kVertexFloats = 9;
 // GPU layouts of the buffers: spirv/include/shrefract/gpu_layout.h (decompression bindings).
 struct FieldResources {
   uint32_t width = 0, height = 0;
-  uint32_t order = 0;
+  Encoding encoding = Encoding::Sh;  // picks the decompression shader (Sh, or Table and Pca)
+  uint32_t order = 0;                // Sh
+  uint32_t tableSize = 0;            // Table, Pca
+  uint32_t components = 0;           // Pca
   uint32_t channels = 4;
+  bool throughput = false;           // the last channel is the throughput (raster: params.y)
   Quantization quantization = Quantization::U8;
   uint32_t sampleCount = 0;
-  bool scaleBiasStorage = false;     // the scale/bias table exceeds kMaxUniformScaleBiasBytes
+  bool scaleBiasStorage = false;     // Sh: the scale/bias table exceeds kMaxUniformScaleBiasBytes
   bool coefficientsStorage = false;  // the coefficients exceed the device's maxTexelBufferElements
   uint32_t gutterCount = 0;
-  BufferAllocation coefficients;  // channel planes of the samples (gpu_layout.h)
+  BufferAllocation coefficients;  // Sh: channel planes; Table, Pca: sample-major (gpu_layout.h)
   VkBufferView coefficientWords = VK_NULL_HANDLE;  // R32_UINT texel view of `coefficients`
   ImageAllocation distortion;     // RGBA16F, written by the decompression pass
-  BufferAllocation scaleBias;     // vec4 per (basis function, scale|bias)
+  BufferAllocation scaleBias;     // Sh: vec4s per basis function; Table, Pca: vec2 per (layer, value)
+  BufferAllocation basis;         // Pca: the basis functions as floats (a placeholder otherwise)
   BufferAllocation frames;        // 3 vec4 per sample
   BufferAllocation sampleTexels;  // texel index per sample
   BufferAllocation gutters;       // uvec4 per rule (at least one entry, unused when gutterCount = 0)

@@ -451,7 +451,8 @@ void Renderer::recordObjects(VkCommandBuffer cmd, const Environment& environment
     const uint32_t gpuMode = !field                                      ? gpu::kModeSingleInterface
                              : mode == ShadingMode::FieldExitDirection ? gpu::kModeFieldExitDirection
                                                                        : gpu::kModeField;
-    push.params = {r.info.exposure, 0.0f, static_cast<float>(gpuMode), 0.0f};
+    const bool throughput = field && o.field->throughput;  // the distortion image carries it (gpu_layout.h)
+    push.params = {r.info.exposure, throughput ? 1.0f : 0.0f, static_cast<float>(gpuMode), 0.0f};
     c.vk.vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push),
                             &push);
     VkDeviceSize offset = 0;

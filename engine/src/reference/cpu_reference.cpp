@@ -1,7 +1,7 @@
 #include <shrefract/cpu_reference.h>
-#include <shrefract/sh.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -40,20 +40,22 @@ float roundToBinary16(float value) { return halfToFloat(floatToHalf(value)); }
 Vec4 decodeTexel(const Field& field, uint64_t texel, const Vec3& eye) {
   if (field.texelKinds[texel] != kTexelSample) return {0.0f, 0.0f, 0.0f, 0.0f};
   const float* m = &field.frames[texel * 12];
-  float w[3];
+  std::array<float, 3> w{};
   for (int k = 0; k < 3; ++k) w[k] = m[4 * k] * eye[0] + m[4 * k + 1] * eye[1] + m[4 * k + 2] * eye[2] + m[4 * k + 3];
   w[2] = std::max(w[2], 0.0f);
-  const int order = static_cast<int>(field.order);
-  std::vector<float> y(static_cast<size_t>(sh::basisCount(order)));
-  sh::evaluate(order, w[0], w[1], w[2], y.data());
-  float sum[4] = {0.0f, 0.0f, 0.0f, 0.0f};
-  for (uint32_t i = 0; i < field.basisCount(); ++i)
-    for (uint32_t c = 0; c < field.channels; ++c) sum[c] += fieldCoefficient(field, i, texel, c) * y[i];
+  float sum[5] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+  evaluateSample(field, texel, w, sum);
+  // As decompress_common.glsl (distortionTexel).
+  const float tau = field.hasOpticalDepth() ? std::clamp(sum[3], -gpu::kMaxOpticalDepth, gpu::kMaxOpticalDepth) : 0.0f;
+  Vec4 out{0.0f, 0.0f, 0.0f, tau};
   const float len2 = sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2];
-  Vec4 out{0.0f, 0.0f, 0.0f, std::clamp(sum[3], -gpu::kMaxOpticalDepth, gpu::kMaxOpticalDepth)};
   if (len2 > gpu::kMinDirectionLength2) {
     const float inv = 1.0f / std::sqrt(len2);
     for (int k = 0; k < 3; ++k) out[k] = sum[k] * inv;
+    if (field.throughput) {
+      const float throughput = std::clamp(sum[field.throughputChannel()], 0.0f, 1.0f);
+      for (int k = 0; k < 3; ++k) out[k] *= throughput;
+    }
   }
   return out;
 }
@@ -62,6 +64,7 @@ DistortionImage decompress(const Field& field, const Vec3& eye) {
   DistortionImage image;
   image.width = field.width;
   image.height = field.height;
+  image.throughput = field.throughput;
   image.rgba.resize(size_t(field.texelCount()) * 4);
   for (uint64_t t = 0; t < field.texelCount(); ++t) {
     const Vec4 v = decodeTexel(field, t, eye);
@@ -127,7 +130,8 @@ Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environme
   const glm::vec3 dir(d[0], d[1], d[2]);
   const float len2 = glm::dot(dir, dir);
   const glm::vec3 exitDirection = len2 > gpu::kMinDirectionLength2 ? dir / std::sqrt(len2) : v;
-  const float transmittance = std::exp2(-std::max(d[3], 0.0f) * shading.absorptionScale);
+  float transmittance = std::exp2(-std::max(d[3], 0.0f) * shading.absorptionScale);
+  if (distortion.throughput) transmittance *= std::min(std::sqrt(len2), 1.0f);
   glm::vec3 color = (1.0f - fresnel) * transmittance * toGlm(shading.tint) *
                     toGlm(sampleLatLong(environment, fromGlm(exitDirection)));
   if (shading.reflection) color += fresnel * toGlm(sampleLatLong(environment, fromGlm(glm::reflect(v, n))));

@@ -38,46 +38,79 @@ SHR_CONST(kModeFieldExitDirection, 2u)  // writes (exit direction, tau) instead 
 // Decompression compute pass, descriptor set 0 (one set per field object). Only sample texels are
 // stored and decompressed: sample s (0 <= s < sampleCount, in increasing texel order) is texel
 // sampleTexels[s]. Empty texels of the distortion image stay as createFromField cleared them (zero);
-// gutter texels are written by the gutter pass.
+// gutter texels are written by the gutter pass. Two shaders read the same set: decompress.comp
+// (Sh encoding) and decompress_table.comp (Table and Pca); the coefficients are laid out for each.
 //
-// Coefficients: one invocation decompresses kDecompressSamplesPerInvocation = 4 consecutive
+// Channels (field.h): 3 (x, y, z), 4 (x, y, z and tau, or x, y, z and the throughput) or 5 (x, y, z,
+// tau, throughput); the throughput, when the field has one, is always the last channel.
+//
+// Sh coefficients: one invocation decompresses kDecompressSamplesPerInvocation = 4 consecutive
 // samples and reads, per basis function i and channel c, one word (U8: that channel's byte of its
 // 4 samples) or two (F16: the halves). The values form planes, one per (i, c) at p = i * channels +
-// c (3 channels: x, y, z; 4: and tau), each holding paddedSamples = sampleCount rounded up to a
-// multiple of 4 values (padding zero): value (p, s) is number p * paddedSamples + s. Consecutive
-// invocations read consecutive words of a plane, and nothing is stored for channels a field does
-// not have. (Measured on llvmpipe, docs/performance.md: faster than one invocation per sample
-// reading its own 3 or 4 bytes, and than blocks holding a workgroup's planes contiguously.) Values
-// are bytes (U8: value = bias + scale * q / 255) or binary16 (F16), read as uint words
+// c, each holding paddedSamples = sampleCount rounded up to a multiple of 4 values (padding zero):
+// value (p, s) is number p * paddedSamples + s. Consecutive invocations read consecutive words of
+// a plane, and nothing is stored for channels a field does not have. (Measured on llvmpipe,
+// docs/performance.md: faster than one invocation per sample reading its own 3 or 4 bytes, and than
+// blocks holding a workgroup's planes contiguously.)
+//
+// Table and Pca coefficients: sample-major, one invocation per sample. The values of sample s are
+// contiguous: value (s, layer, v) is element (s * layers + layer) * values + v, with layers = N^2
+// (Table) or K (Pca) and values = channels (Table) or 1 (Pca, the component's weight). A sample
+// reads only its own 4 grid nodes (Table) or K weights (Pca), at addresses no other sample shares,
+// so planes would gain nothing; elements are not padded (U8: element e is bits 8 (e % 4) of word
+// e / 4; F16: bits 16 (e % 2) of word e / 2).
+//
+// Values are bytes (U8: value = bias + scale * q / 255) or binary16 (F16), read as uint words
 // (little-endian) through an R32_UINT texel buffer view (a storage buffer when the words exceed the
 // device's maxTexelBufferElements, kSpecCoefficientsStorage: on llvmpipe a texel fetch is one
 // vector gather, a storage-buffer read one load per lane).
-SHR_CONST(kBindingCoefficients, 0u)     // usamplerBuffer (R32_UINT): the planes above
-SHR_CONST(kBindingScaleBias, 1u)        // uniform: vec4 scaleBias[2 * basisCount]: [2i] scale / 255, [2i+1] bias
+SHR_CONST(kBindingCoefficients, 0u)     // usamplerBuffer (R32_UINT): the coefficients above
+// Sh scale/bias (U8 only): per basis function i, SHR_SH_SCALE_BIAS_VEC4S(channels) vec4s from
+// S = i * SHR_SH_SCALE_BIAS_VEC4S(channels): [S] scale / 255 of channels 0..3, [S + 1] their bias,
+// and with 5 channels [S + 2] = (scale / 255, bias, 0, 0) of channel 4. A uniform buffer when the
+// table fits in kMaxUniformScaleBiasBytes, the same bytes as a storage buffer otherwise
+// (kSpecScaleBiasStorage). A macro, so that GLSL can size an array with it from spec constants.
+#define SHR_SH_SCALE_BIAS_VEC4S(channels) ((channels) > 4 ? 3 : 2)
+SHR_CONST(kBindingScaleBias, 1u)        // uniform: the Sh scale/bias table
 SHR_CONST(kBindingFrames, 2u)           // vec4 frames[3 * sampleCount]: rows of M_s, sample s at 3s..3s+2
 SHR_CONST(kBindingSampleTexels, 3u)     // uint sampleTexels[sampleCount]: texel index y * width + x
 SHR_CONST(kBindingDistortionOut, 4u)    // image2D rgba16f: xyz = exit direction, w = tau
 SHR_CONST(kBindingGutters, 5u)          // uvec4 gutters[]: (target, a, b, c) texel indices
-SHR_CONST(kBindingScaleBiasStorage, 6u) // the scale/bias table as a storage buffer (tables too big for a UBO)
-SHR_CONST(kBindingCoefficientsStorage, 7u) // uint coefficients[]: the planes as a storage buffer
+// The Sh table as a storage buffer (tables too big for a UBO); for Table and Pca (U8 only) always
+// this binding, as vec2 scaleBias[layers * values]: (scale / 255, bias) of (layer, value) at
+// layer * values + value (the index a sample reads depends on its grid nodes: no uniform address).
+SHR_CONST(kBindingScaleBiasStorage, 6u)
+SHR_CONST(kBindingCoefficientsStorage, 7u) // uint coefficients[]: the coefficients as a storage buffer
+// Pca only: float basis[K * N^2 * channels], function k at node n, channel c at (k * N^2 + n) *
+// channels + c (field.h Field::basis, as stored).
+SHR_CONST(kBindingBasis, 8u)
 
-// Specialization constants of the decompression shader: the SH order L (bands 0..L evaluated),
-// the stored channels (3: no optical depth, nothing of it read or summed; 4), the quantization,
-// and where the scale/bias table is read from (false: the uniform buffer, when its 32 bytes per
-// basis function fit in kMaxUniformScaleBiasBytes, orders up to 21; true: the storage buffer).
+// Specialization constants of the decompression shaders: the SH order L (bands 0..L evaluated),
+// the stored channels (3, 4 or 5: nothing of an absent channel is read or summed), the
+// quantization, and where the Sh scale/bias table is read from (false: the uniform buffer, when it
+// fits in kMaxUniformScaleBiasBytes, orders up to 21 with 3 or 4 channels and 17 with 5; true: the
+// storage buffer). kSpecThroughput: the last channel is the throughput. kSpecEncoding, kSpecTableSize
+// and kSpecComponents select what decompress_table.comp decodes (Table: N; Pca: N and K).
 SHR_CONST(kSpecShOrder, 0u)
 SHR_CONST(kSpecChannels, 1u)
 SHR_CONST(kSpecQuantization, 2u)
 SHR_CONST(kSpecScaleBiasStorage, 3u)
 SHR_CONST(kSpecCoefficientsStorage, 4u)  // true: read the coefficients from the storage buffer
+SHR_CONST(kSpecThroughput, 5u)
+SHR_CONST(kSpecEncoding, 6u)
+SHR_CONST(kSpecTableSize, 7u)
+SHR_CONST(kSpecComponents, 8u)
 // Largest scale/bias table read as a uniform buffer: the maxUniformBufferRange every device offers,
 // so that the choice (and the code path) is the same on every device.
 SHR_CONST(kMaxUniformScaleBiasBytes, 16384u)
 SHR_CONST(kQuantizationU8, 0u)   // field.h Quantization::U8
 SHR_CONST(kQuantizationF16, 1u)  // field.h Quantization::F16
-// Workgroup sizes: the decompression pass runs one invocation per 4 samples, 64 to a workgroup
-// (whole subgroups on every device: 8 x 8 SIMD lanes on llvmpipe, 2 x 32 on NVIDIA, 1 x 64 on AMD);
-// the gutter pass runs one invocation per rule.
+SHR_CONST(kEncodingSh, 0u)       // field.h Encoding::Sh
+SHR_CONST(kEncodingTable, 1u)    // field.h Encoding::Table
+SHR_CONST(kEncodingPca, 2u)      // field.h Encoding::Pca
+// Workgroup sizes: the Sh decompression runs one invocation per 4 samples, the Table and Pca
+// decompression one per sample, 64 to a workgroup (whole subgroups on every device: 8 x 8 SIMD
+// lanes on llvmpipe, 2 x 32 on NVIDIA, 1 x 64 on AMD); the gutter pass runs one invocation per rule.
 SHR_CONST(kDecompressSamplesPerInvocation, 4u)
 SHR_CONST(kDecompressLocalSize, 64u)
 SHR_CONST(kGutterLocalSize, 64u)
@@ -85,9 +118,15 @@ SHR_CONST(kGutterLocalSize, 64u)
 // and the rest as further rows in y; the shaders number invocations row after row.
 SHR_CONST(kMaxDispatchGroupsX, 32768u)
 
-// A decoded SH sum (or a bilinear sample of decoded directions) whose squared length is at most
+// A decoded sum (or a bilinear sample of decoded directions) whose squared length is at most
 // this has no direction: decompression writes the zero vector, and the raster pass then looks
 // straight through the surface (the view direction).
+//
+// Distortion image texels (both decompression shaders): xyz = the normalized direction (zero as
+// above), times clamp(throughput, 0, 1) when the field has a throughput channel, so that the
+// sampler's bilinear filter blends throughput and direction together and the raster pass reads
+// the throughput back as min(|d.xyz|, 1) (ObjectPushConstants.params.y); w = tau clamped to
+// +-kMaxOpticalDepth (0 without an optical depth channel).
 SHR_CONSTF(kMinDirectionLength2, 1e-20f)
 // Optical depth is clamped to the finite range of the RGBA16F distortion image.
 SHR_CONSTF(kMaxOpticalDepth, 65504.0f)
@@ -109,7 +148,8 @@ struct ObjectPushConstants {
   vec4 medium;    // x: IOR of the object where the mesh has no per-vertex frontIor (0),
                   // y: absorption scale k, z: reflection on (1) or off (0)
   vec4 tint;      // rgb: attenuation colour; a unused
-  vec4 params;    // x: exposure, y unused, z: shading mode, w unused
+  vec4 params;    // x: exposure, y: 1 when the distortion image carries the throughput (below), 0 otherwise,
+                  // z: shading mode, w unused
 };
 
 // Decompression and gutter passes.

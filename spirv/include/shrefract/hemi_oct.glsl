@@ -1,0 +1,36 @@
+// The hemi-octahedral grid of the Table and Pca encodings (shrefract/field.h), in the same float
+// operations as engine/src/field/field_decode.cpp (hemiOctFromDirection, hemiOctBilinear), so that
+// the GPU picks the same cell and weights as the CPU decoder.
+#ifndef SHREFRACT_HEMI_OCT_GLSL
+#define SHREFRACT_HEMI_OCT_GLSL
+
+// (u, v) in [0,1]^2 of a local direction of any length, z clamped to >= 0. Without a direction
+// (the zero vector) the pole, as the SH evaluator treats it as +z.
+vec2 hemiOctFromDirection(vec3 w) {
+  float z = max(w.z, 0.0);
+  float l1 = abs(w.x) + abs(w.y) + z;
+  if (!(l1 > 0.0)) return vec2(0.5);
+  float px = w.x / l1, py = w.y / l1;
+  return clamp(vec2(px + py + 1.0, px - py + 1.0) * 0.5, 0.0, 1.0);
+}
+
+// The 4 nodes around a direction in an n x n grid (n >= 2; index j * n + i) and their bilinear
+// weights: (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1) for the cell's lower corner (i, j).
+struct HemiOctBilinear {
+  uvec4 node;
+  vec4 weight;
+};
+
+HemiOctBilinear hemiOctBilinear(vec3 w, uint n) {
+  vec2 f = hemiOctFromDirection(w) * float(n - 1u);
+  // The top row and column belong to the cell below them (u or v = 1 has no cell above).
+  uvec2 cell = min(uvec2(f), uvec2(n - 2u));
+  vec2 t = f - vec2(cell);
+  uint corner = cell.y * n + cell.x;
+  HemiOctBilinear b;
+  b.node = uvec4(corner, corner + 1u, corner + n, corner + n + 1u);
+  b.weight = vec4((1.0 - t.x) * (1.0 - t.y), t.x * (1.0 - t.y), (1.0 - t.x) * t.y, t.x * t.y);
+  return b;
+}
+
+#endif  // SHREFRACT_HEMI_OCT_GLSL

@@ -1,0 +1,58 @@
+// Shared by the decompression shaders (decompress.comp: Sh; decompress_table.comp: Table, Pca):
+// the specialization constants and bindings both read, the eye in a sample's frame, and the
+// distortion texel of a decoded sum (gpu_layout.h). Mirrored by engine/src/reference/
+// cpu_reference.cpp (decodeTexel).
+#include "shrefract/gpu_layout.h"
+
+// 3: x, y, z; 4: x, y, z and tau, or (THROUGHPUT) x, y, z and the throughput; 5: x, y, z, tau and
+// the throughput. Nothing of an absent channel is read or summed.
+layout(constant_id = kSpecChannels) const int CHANNELS = 4;
+// true: the last channel is the path's throughput, which scales the stored direction.
+layout(constant_id = kSpecThroughput) const bool THROUGHPUT = false;
+layout(constant_id = kSpecQuantization) const uint QUANTIZATION = kQuantizationU8;
+// true: the coefficients exceed the device's texel buffer limit; read the storage buffer.
+layout(constant_id = kSpecCoefficientsStorage) const bool COEFFICIENTS_STORAGE = false;
+// Channel 3 is the optical depth (and not the throughput).
+const bool HAS_TAU = CHANNELS == (THROUGHPUT ? 5 : 4);
+
+layout(push_constant) uniform Push { DecompressPushConstants pc; };
+layout(set = 0, binding = kBindingCoefficients) uniform usamplerBuffer coefficientWords;
+layout(std430, set = 0, binding = kBindingCoefficientsStorage) readonly buffer CoefficientsStorage {
+  uint coefficientStorage[];
+};
+layout(std430, set = 0, binding = kBindingFrames) readonly buffer Frames { vec4 frames[]; };
+layout(std430, set = 0, binding = kBindingSampleTexels) readonly buffer SampleTexels { uint sampleTexels[]; };
+layout(set = 0, binding = kBindingDistortionOut, rgba16f) uniform writeonly image2D distortion;
+
+uint fetchWord(uint index) {
+  return COEFFICIENTS_STORAGE ? coefficientStorage[index] : texelFetch(coefficientWords, int(index)).x;
+}
+
+// Dispatches beyond maxComputeWorkGroupCount[0] groups are split into rows (dispatchGrid), numbered
+// row after row.
+uint invocationIndex() {
+  return gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * kDecompressLocalSize;
+}
+
+// w = M_s (eye, 1) of sample s. Below the sample's tangent plane the field has no data: w.z is
+// clamped to the horizon. Not normalized: the SH evaluator and the hemi-octahedral map both are
+// invariant to the length (and both take the zero vector as +z).
+vec3 eyeInFrame(uint s, vec4 eye) {
+  vec3 w = vec3(dot(frames[3u * s], eye), dot(frames[3u * s + 1u], eye), dot(frames[3u * s + 2u], eye));
+  w.z = max(w.z, 0.0);
+  return w;
+}
+
+// The distortion texel (gpu_layout.h) of a decoded sum: xyz the sum of channels 0..2, channel3
+// and channel4 those channels' sums (ignored where the field has no such channel).
+vec4 distortionTexel(vec3 xyz, float channel3, float channel4) {
+  float len2 = dot(xyz, xyz);
+  vec3 direction = len2 > kMinDirectionLength2 ? xyz * inversesqrt(len2) : vec3(0.0);
+  if (THROUGHPUT) direction *= clamp(CHANNELS == 5 ? channel4 : channel3, 0.0, 1.0);
+  return vec4(direction, HAS_TAU ? clamp(channel3, -kMaxOpticalDepth, kMaxOpticalDepth) : 0.0);
+}
+
+void storeSample(uint s, vec4 texel) {
+  uint t = sampleTexels[s];
+  imageStore(distortion, ivec2(t % pc.size.x, t / pc.size.x), texel);
+}

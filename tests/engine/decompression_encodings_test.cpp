@@ -1,0 +1,185 @@
+// The decompression of the Table and Pca encodings (decompress_table.comp) and of fields with a
+// throughput channel (both shaders) against the CPU reference (shrefract/cpu_reference.h, which
+// decodes through field.h's evaluateSample): synthetic fields in both quantizations and every
+// channel layout (3: x, y, z; 4: and tau; 4: x, y, z and throughput; 5: all), with empty texels
+// and split-layout gutter rules, decompressed on the GPU for several eyes and read back. Also the
+// storage-buffer read path of the coefficients (white box, as tests/perf/decompress_paths_test.cpp).
+#include <gtest/gtest.h>
+#include <shrefract/cpu_reference.h>
+#include <shrefract/decompressor.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "engine/distortion_check.h"
+#include "engine/synthetic_field.h"
+#include "raster/object_impl.h"
+
+namespace shrefract {
+namespace {
+
+using testing::SyntheticFieldOptions;
+
+// Tolerances, as for SH (tests/engine/decompression_test.cpp). Both sides pick the hemi-octahedral
+// cell and weights in the same float operations (the GPU's division by |x| + |y| + z may differ by
+// 2.5 ulp, moving a weight by ~1e-7; where that moves the point across a cell border the other cell
+// gives the same value, bilinear interpolation being continuous) and sum the same dequantized
+// values (U8: bias + scale * q / 255 on both sides) in the same order: 4 terms (Table) or 4 K
+// terms (Pca) of magnitude ~3, so the sums differ by ~1e-6. Both results are then stored as
+// binary16, whose half-ulp (2.4e-4 below 1) the two sides can straddle: one ulp, 4.9e-4, plus
+// float noise. A throughput only scales the unit direction down. Gutter texels are a + b - c of
+// three stored values, rounded once more: 3 x 1e-3 plus one ulp of the result.
+constexpr testing::DistortionTolerance kTolerance{/*direction=*/1e-3f, /*tauRelative=*/1e-3f, /*gutter=*/3e-3f};
+
+struct ChannelLayout {
+  uint32_t channels;
+  bool throughput;
+};
+constexpr ChannelLayout kLayouts[] = {{3, false}, {4, false}, {4, true}, {5, true}};
+
+// Eyes: above the band, to the side, grazing, and below most samples' tangent planes (horizon clamp).
+constexpr std::array<std::array<float, 3>, 4> kEyes{
+    {{0.3f, 0.8f, 3.0f}, {-2.5f, -0.4f, 1.0f}, {0.0f, 0.05f, 1.2f}, {0.2f, -3.0f, 0.1f}}};
+
+std::string describe(const SyntheticFieldOptions& o) {
+  std::string s = std::string(toString(o.encoding)) + " " + toString(o.quantization) + " channels " +
+                  std::to_string(o.channels) + (o.throughput ? " (throughput)" : "");
+  if (o.encoding == Encoding::Sh) return s + " order " + std::to_string(o.order);
+  s += " N " + std::to_string(o.tableSize);
+  return o.encoding == Encoding::Pca ? s + " K " + std::to_string(o.components) : s;
+}
+
+// Lengths of the xyz of the sample texels, sorted: with a throughput they spread below 1.
+std::vector<float> sampleLengths(const Field& field, const std::vector<float>& image) {
+  std::vector<float> lengths;
+  for (uint64_t t = 0; t < field.texelCount(); ++t)
+    if (field.texelKinds[t] == kTexelSample)
+      lengths.push_back(std::sqrt(image[t * 4] * image[t * 4] + image[t * 4 + 1] * image[t * 4 + 1] +
+                                  image[t * 4 + 2] * image[t * 4 + 2]));
+  std::sort(lengths.begin(), lengths.end());
+  return lengths;
+}
+
+class DecompressionEncodings : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    h = testing::harnessOrSkip();
+    ASSERT_TRUE(h);
+    auto c = testing::createContext(*h);
+    ASSERT_TRUE(c.ok()) << c.error().message;
+    context = std::move(c).value();
+    auto d = Decompressor::create(*context);
+    ASSERT_TRUE(d.ok()) << d.error().message;
+    decompressor = std::move(d).value();
+  }
+  void TearDown() override {
+    decompressor.reset();
+    if (context) context->releaseDeferred();
+    context.reset();
+    if (h) SHREFRACT_EXPECT_NO_VALIDATION_MESSAGES(*h);
+  }
+
+  // Decompresses a field built from `o` for every eye and compares with the CPU reference;
+  // `forceCoefficientsStorage` reads the coefficients from the storage buffer instead of the texel
+  // buffer (lavapipe's limits never call for it).
+  void check(const SyntheticFieldOptions& o, bool forceCoefficientsStorage = false) {
+    SCOPED_TRACE(describe(o));
+    const Field field = testing::makeSyntheticField(o);
+    ASSERT_TRUE(validateField(field).ok()) << validateField(field).error().message;
+    auto object = testing::uploadFieldNow(*context, field);
+    ASSERT_TRUE(object.ok()) << object.error().message;
+    object.value()->impl().field->coefficientsStorage |= forceCoefficientsStorage;
+    testing::DistortionStats stats;
+    std::vector<std::vector<float>> perEye;
+    for (const auto& eye : kEyes) {
+      auto gpu = testing::decompressAndRead(*h, *decompressor, *object.value(), eye);
+      ASSERT_TRUE(gpu.ok()) << gpu.error().message;
+      ASSERT_NO_FATAL_FAILURE(
+          testing::compareDistortion(field, gpu.value(), reference::decompress(field, eye), kTolerance, stats));
+      perEye.push_back(std::move(gpu).value());
+    }
+    EXPECT_GT(testing::countChanged(perEye[0], perEye[1]), 100u) << "the decoded field does not follow the eye";
+    EXPECT_GT(stats.samples, 0u);
+    EXPECT_GT(stats.gutters, 0u);
+    EXPECT_GT(stats.empty, 0u);
+    const std::vector<float> lengths = sampleLengths(field, perEye[0]);
+    if (o.throughput) {
+      EXPECT_LT(lengths[lengths.size() / 10], 0.9f) << "the throughput does not scale the directions";
+    } else {
+      EXPECT_NEAR(lengths.front(), 1.0f, 1e-3f);
+      EXPECT_NEAR(lengths.back(), 1.0f, 1e-3f);
+    }
+    std::printf("%-40s%s: max |direction diff| %.2e, max tau rel diff %.2e, max gutter diff %.2e, |xyz| %.3f..%.3f "
+                "(%u sample, %u gutter, %u empty texel checks)\n",
+                describe(o).c_str(), forceCoefficientsStorage ? " storage" : "", double(stats.maxDirection),
+                double(stats.maxTau), double(stats.maxGutter), double(lengths.front()), double(lengths.back()),
+                stats.samples, stats.gutters, stats.empty);
+    object.value().reset();
+    context->releaseDeferred();
+  }
+
+  std::unique_ptr<harness::Harness> h;
+  std::unique_ptr<Context> context;
+  std::unique_ptr<Decompressor> decompressor;
+};
+
+TEST_F(DecompressionEncodings, TableAndPcaMatchCpuReference) {
+  std::printf("device: %s\n", h->deviceName().c_str());
+  uint32_t seed = 100;
+  for (Encoding encoding : {Encoding::Table, Encoding::Pca})
+    for (Quantization q : {Quantization::U8, Quantization::F16})
+      for (size_t l = 0; l < std::size(kLayouts); ++l) {
+        SyntheticFieldOptions o;
+        o.encoding = encoding;
+        o.quantization = q;
+        o.channels = kLayouts[l].channels;
+        o.throughput = kLayouts[l].throughput;
+        // The smallest grid (one cell) and larger ones; few and many components.
+        o.tableSize = encoding == Encoding::Table ? (l % 2 ? 7 : 2) : (l % 2 ? 6 : 3);
+        o.components = q == Quantization::U8 ? 9 : 4;
+        o.emptyAndGutters = true;
+        o.seed = ++seed;
+        ASSERT_NO_FATAL_FAILURE(check(o));
+      }
+}
+
+TEST_F(DecompressionEncodings, ShWithThroughputMatchesCpuReference) {
+  uint32_t seed = 200;
+  // Order 20 with 5 channels reads its scale/bias table from the storage buffer (gpu_layout.h).
+  for (uint32_t order : {1u, 4u, 8u, 20u})
+    for (Quantization q : {Quantization::U8, Quantization::F16})
+      for (const ChannelLayout& layout : {kLayouts[2], kLayouts[3]}) {
+        SyntheticFieldOptions o;
+        o.order = order;
+        o.quantization = q;
+        o.channels = layout.channels;
+        o.throughput = true;
+        o.emptyAndGutters = true;
+        o.seed = ++seed;
+        ASSERT_NO_FATAL_FAILURE(check(o));
+      }
+}
+
+TEST_F(DecompressionEncodings, StorageCoefficientsMatchCpuReference) {
+  uint32_t seed = 300;
+  for (Encoding encoding : {Encoding::Table, Encoding::Pca})
+    for (Quantization q : {Quantization::U8, Quantization::F16}) {
+      SyntheticFieldOptions o;
+      o.encoding = encoding;
+      o.quantization = q;
+      o.channels = 5;
+      o.throughput = true;
+      o.tableSize = 4;
+      o.components = 5;
+      o.emptyAndGutters = true;
+      o.seed = ++seed;
+      ASSERT_NO_FATAL_FAILURE(check(o, /*forceCoefficientsStorage=*/true));
+    }
+}
+
+}  // namespace
+}  // namespace shrefract
