@@ -960,5 +960,22 @@ TEST(HemiOctahedral, EvaluateSampleReturnsNodeValuesAtNodes) {
   }
 }
 
+// Extreme but valid: weights at the coefficient bound and direction basis values at theirs decode
+// to finite sums whose squared length is finite too (the bound of validateField).
+TEST(FieldEncodingValidation, ExtremePcaFieldDecodesFinite) {
+  Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false);
+  for (size_t i = 0; i < f.basis.size(); ++i) f.basis[i] = i % f.channels < 3 ? 8.0f : 1e6f;
+  std::vector<float> w(size_t(f.components) * f.texelCount(), 1e15f);
+  ASSERT_TRUE(encodeCoefficients(f, w).ok());
+  ASSERT_TRUE(validateField(f).ok()) << validateField(f).error().message;
+  float out[4];
+  evaluateSample(f, 3, {0.3f, -0.2f, 0.9f}, out);
+  const float len2 = out[0] * out[0] + out[1] * out[1] + out[2] * out[2];
+  EXPECT_TRUE(std::isfinite(len2)) << len2;
+  for (float v : out) EXPECT_TRUE(std::isfinite(v));
+  f.basis[0] = 8.5f;  // just past the bound
+  EXPECT_FALSE(validateField(f).ok());
+}
+
 }  // namespace
 }  // namespace shrefract

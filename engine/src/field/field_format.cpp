@@ -81,8 +81,12 @@ constexpr uint32_t kMaxStringBytes = 65536;    // any length-prefixed string
 // Version 1 has the first six sections; version 2 adds ENCD (encoding, throughput, path rule, basis).
 constexpr uint32_t kSectionCountV1 = 6;
 constexpr uint32_t kSectionCount = 7;
-// Largest magnitude of a Pca basis value: with |weights| <= kMaxCoefficientMagnitude and at most
-// kMaxComponents functions, every decoded sum stays below 1e15 * 1e6 * 1024 = 1e24, finite in float.
+// Largest magnitude of a Pca basis value. Direction channels (x, y, z): with |weights| <=
+// kMaxCoefficientMagnitude and at most kMaxComponents functions every decoded sum stays below
+// 1e15 * 8 * 1024 = 8.2e18, so the squared length of (x, y, z) stays below 2.1e38, finite in
+// float. tau and throughput are clamped after decoding; a bound of 1e6 keeps their sums finite.
+// Baked bases hold unit eigenvectors (direction entries within 1).
+constexpr float kMaxBasisDirectionMagnitude = 8.0f;
 constexpr float kMaxBasisMagnitude = 1e6f;
 constexpr size_t kHeaderBytes = 40;
 constexpr size_t kFrameBytes = 16;             // magic, version, file size: fixed in every version
@@ -498,10 +502,12 @@ Result<void> validateEncoding(const Field& field) {
       field.encoding == Encoding::Pca ? size_t(field.components) * field.tableSize * field.tableSize * field.channels : 0;
   if (field.basis.size() != basisValues)
     return invalid("basis has " + std::to_string(field.basis.size()) + " values, expected " + std::to_string(basisValues));
-  for (size_t i = 0; i < field.basis.size(); ++i)
-    if (!(std::fabs(field.basis[i]) <= kMaxBasisMagnitude))
+  for (size_t i = 0; i < field.basis.size(); ++i) {
+    const float bound = i % field.channels < 3 ? kMaxBasisDirectionMagnitude : kMaxBasisMagnitude;
+    if (!(std::fabs(field.basis[i]) <= bound))
       return invalid("basis[" + std::to_string(i) + "] = " + formatFloat(field.basis[i]) + " is not finite or beyond +-" +
-                     formatFloat(kMaxBasisMagnitude));
+                     formatFloat(bound));
+  }
   return {};
 }
 
