@@ -8,17 +8,26 @@
 namespace shrefract::bench {
 
 Field syntheticField(const SyntheticOptions& o) {
+  const bool sh = o.encoding == Encoding::Sh;
   Field f;
   f.width = o.width;
   f.height = o.height;
-  f.order = o.order;
+  f.encoding = o.encoding;
+  f.order = sh ? o.order : 0;
+  f.tableSize = sh ? 0 : o.tableSize;
+  f.components = o.encoding == Encoding::Pca ? o.components : 0;
   f.channels = o.channels;
+  f.throughput = o.throughput;
   f.quantization = o.quantization;
-  f.settings.order = o.order;
+  f.settings.order = f.order;
+  f.settings.encoding = f.encoding;
+  f.settings.tableSize = f.tableSize;
+  f.settings.components = f.components;
+  f.settings.throughput = f.throughput;
   f.settings.quantization = o.quantization;
   f.settings.source = "synthetic";
   f.media.push_back(FieldMedium{"air", 1.0f, 0.0f, {1.0f, 1.0f, 1.0f}});
-  f.media.push_back(FieldMedium{"glass", 1.5f, o.channels == 4 ? 0.5f : 0.0f, {1.0f, 1.0f, 1.0f}});
+  f.media.push_back(FieldMedium{"glass", 1.5f, f.hasOpticalDepth() ? 0.5f : 0.0f, {1.0f, 1.0f, 1.0f}});
 
   const uint64_t texels = f.texelCount();
   const uint64_t samples =
@@ -38,14 +47,27 @@ Field syntheticField(const SyntheticOptions& o) {
 
   std::mt19937 rng(o.seed);
   std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
-  const uint32_t layers = f.basisCount();
-  std::vector<float> coefficients(size_t(layers) * texels * o.channels, 0.0f);
+  const uint32_t layers = f.layerCount(), values = f.valuesPerLayer();
+  auto isThroughput = [&](uint32_t c) { return o.throughput && c == o.channels - 1; };
+  if (o.encoding == Encoding::Pca) {  // before the coefficients: encodeCoefficients checks its size
+    const size_t nodes = size_t(o.tableSize) * o.tableSize;
+    f.basis.resize(size_t(o.components) * nodes * o.channels);
+    for (size_t i = 0; i < f.basis.size(); ++i) {
+      const size_t k = i / (nodes * o.channels), c = i % o.channels;
+      f.basis[i] = 0.25f * uniform(rng);
+      if (isThroughput(uint32_t(c))) f.basis[i] = k == 0 ? 0.5f + f.basis[i] : 0.1f * f.basis[i];
+      else if (k == 0 && c == 2) f.basis[i] -= 1.0f;
+    }
+  }
+  std::vector<float> coefficients(size_t(layers) * texels * values, 0.0f);
   for (uint32_t layer = 0; layer < layers; ++layer)
     for (uint64_t t = 0; t < samples; ++t)
-      for (uint32_t c = 0; c < o.channels; ++c) {
-        float v = uniform(rng);
-        if (layer == 0 && c < 3) v += c == 2 ? -4.0f : 0.0f;  // mostly -z: never a zero sum
-        coefficients[(size_t(layer) * texels + t) * o.channels + c] = v;
+      for (uint32_t v = 0; v < values; ++v) {
+        float x = uniform(rng);
+        if (o.encoding == Encoding::Pca) x += layer == 0 ? 4.0f : 0.0f;  // the mean component
+        else if (isThroughput(v)) x = 0.5f + 0.5f * x;
+        else if (v == 2 && (layer == 0 || o.encoding == Encoding::Table)) x -= 4.0f;  // mostly -z: never a zero sum
+        coefficients[(size_t(layer) * texels + t) * values + v] = x;
       }
   (void)encodeCoefficients(f, coefficients);
 

@@ -16,16 +16,23 @@ namespace shrefract::bench {
 
 // A valid field whose every texel (or the first `sampleFraction` of them, row-major; the others
 // are empty) is a sample of a flat patch facing +z, with uniform random coefficients in [-1, 1]
-// (band 0 of x, y, z offset to keep the sums away from zero) quantized as asked. Values do not
-// matter for throughput; sizes, order, channels and quantization are those of a real field.
+// quantized as asked, in any encoding (field.h): Sh (band 0 of z offset to -4), Table (every
+// node's z offset to -4) or Pca (the first component's weight offset to 4, its basis function's z
+// to -1; the basis otherwise random in [-0.25, 0.25]), so that the decoded sums stay away from
+// zero. A throughput channel, when asked for, holds values in [0, 1]. Values do not matter for
+// throughput; sizes, encoding, layers, channels and quantization are those of a real field.
 struct SyntheticOptions {
   uint32_t width = 256;
   uint32_t height = 256;
-  uint32_t order = 8;
-  uint32_t channels = 4;
+  uint32_t order = 8;        // Sh
+  uint32_t channels = 4;     // 3 or 4; with throughput 4 or 5 (the throughput last)
   Quantization quantization = Quantization::U8;
   float sampleFraction = 1.0f;
   uint32_t seed = 1;
+  Encoding encoding = Encoding::Sh;
+  uint32_t tableSize = 0;    // Table, Pca: nodes per side N
+  uint32_t components = 0;   // Pca: K
+  bool throughput = false;
 };
 Field syntheticField(const SyntheticOptions& options);
 

@@ -4,6 +4,7 @@
 //
 //   shrefract_decompression_benchmark [FIELD.shrf] [--size WxH] [--order L] [--quant u8|f16]
 //                                     [--channels 3|4] [--reps N] [--validation] [--profile]
+//   shrefract_decompression_benchmark --encodings [--size WxH] [--reps N] [--validation]
 //
 // Without FIELD.shrf a synthetic field of the given size, order, channels and quantization is
 // built in memory (random coefficients: the values do not change the work). The references are
@@ -16,6 +17,18 @@
 // counted. The process CPU time is printed as well: on a software device (llvmpipe) it is the
 // work itself, whatever else competes for the cores, while timestamps include the waiting.
 // --profile repeats the decompression alone (for perf) and prints its times.
+//
+// --encodings compares the encodings (field.h) at the paper's budget of 324 coefficient bytes per
+// sample instead: synthetic fields of the same atlas (--size, default 233x233 = 54289 samples,
+// about the bunny's 54123; every texel a sample) in each encoding the bake's
+// --max-bytes-per-sample picks from at 324 bytes (bake.cpp budgetCandidates), plus Pca K = 64 and
+// the same order or table over the budget with the throughput channel, each uploaded as its own
+// object and decompressed by the engine (Decompressor::record) in turns within every repetition.
+// It prints the median GPU milliseconds of a decompression, the median over repetitions of its
+// ratio to SH order 8 (u8, 4 channels: the paper's field) in the same repetition, the process
+// CPU time, and the device memory of each field's buffers (coefficients, scale/bias table, Pca
+// basis: their sizes as gpu_layout.h lays them out) and of the whole object
+// (Object::gpuMemoryBytes(), with the frames, texel indices, distortion image and mesh).
 // Exit code 0 with "SKIPPED:" when there is no Vulkan device or FIELD.shrf is missing.
 #include <shrefract/decompressor.h>
 #include <shrefract/renderer.h>
@@ -42,13 +55,16 @@ struct Options {
   uint32_t reps = 15;
   bool validation = false;
   bool profile = false;
+  bool encodings = false;  // compare the encodings at 324 bytes per sample (see the top)
+  bool sizeGiven = false;
 };
 
 int usage(const char* message) {
   if (message) std::fprintf(stderr, "%s\n", message);
   std::fprintf(stderr,
                "usage: shrefract_decompression_benchmark [FIELD.shrf] [--size WxH] [--order L] [--quant u8|f16]\n"
-               "                                         [--channels 3|4] [--reps N] [--validation] [--profile]\n");
+               "                                         [--channels 3|4] [--reps N] [--validation] [--profile]\n"
+               "       shrefract_decompression_benchmark --encodings [--size WxH] [--reps N] [--validation]\n");
   return 2;
 }
 
@@ -198,13 +214,14 @@ void writeDescriptor(VkDevice d, VkDescriptorSet set, uint32_t binding, VkDescri
 // The coefficients as the engine used to upload them: RGBA per texel and layer, layer-major,
 // alpha 0 when the field has 3 channels (the source of the previous-layout copy).
 std::vector<uint8_t> rgbaCoefficients(const Field& field) {
-  const size_t n = size_t(field.texelCount()) * field.basisCount();
+  const size_t n = size_t(field.texelCount()) * field.layerCount();
   const size_t componentBytes = field.quantization == Quantization::U8 ? 1 : 2;
+  const uint32_t values = field.valuesPerLayer();
   std::vector<uint8_t> out(n * 4 * componentBytes, 0);
   for (size_t i = 0; i < n; ++i)
-    for (uint32_t c = 0; c < field.channels; ++c) {
-      if (componentBytes == 1) out[i * 4 + c] = field.coefficientsU8[i * field.channels + c];
-      else std::memcpy(&out[(i * 4 + c) * 2], &field.coefficientsF16[i * field.channels + c], 2);
+    for (uint32_t c = 0; c < std::min(values, 4u); ++c) {  // a fifth channel has no place in RGBA
+      if (componentBytes == 1) out[i * 4 + c] = field.coefficientsU8[i * values + c];
+      else std::memcpy(&out[(i * 4 + c) * 2], &field.coefficientsF16[i * values + c], 2);
     }
   return out;
 }
@@ -214,6 +231,7 @@ std::vector<uint8_t> rgbaCoefficients(const Field& field) {
 // so that a change in the load of a shared machine affects all of them alike.
 struct Timing {
   double ms = 0.0, fastestMs = 0.0, cpuMs = 0.0;
+  std::vector<double> rounds;  // GPU milliseconds of each timed round, in order
 };
 std::vector<Timing> timeTurns(harness::Harness& h, GpuTimer& timer, uint32_t reps,
                               const std::vector<std::function<void(VkCommandBuffer)>>& recorders, bool& failed) {
@@ -238,8 +256,168 @@ std::vector<Timing> timeTurns(harness::Harness& h, GpuTimer& timer, uint32_t rep
     }
   std::vector<Timing> out(recorders.size());
   for (size_t k = 0; k < recorders.size() && !failed; ++k)
-    out[k] = {median(ms[k]), *std::min_element(ms[k].begin(), ms[k].end()), median(cpu[k])};
+    out[k] = {median(ms[k]), *std::min_element(ms[k].begin(), ms[k].end()), median(cpu[k]), ms[k]};
   return out;
+}
+
+// --encodings: one field of the comparison (see the top of this file).
+struct EncodingCase {
+  const char* name;
+  Encoding encoding;
+  uint32_t order, tableSize, components, channels;
+  bool throughput;
+  Quantization quantization;
+};
+// At 324 bytes per sample the bake's budget candidates (bake.cpp budgetCandidates) are, with 4
+// channels: SH order 8, Table 9x9 and Pca K = 324 in u8, SH order 5 and Table 6x6 in f16 (288
+// bytes); with the throughput as a fifth channel: SH order 7 and Table 8x8 in u8 (320 bytes).
+// Pca K = 64 shows how the Pca cost scales with K; SH order 8 and Table 9x9 with 5 channels show
+// what the throughput channel alone costs at the same order or table.
+constexpr std::array<EncodingCase, 11> kEncodingCases{{
+    {"sh L=8 (paper)", Encoding::Sh, 8, 0, 0, 4, false, Quantization::U8},
+    {"sh L=5", Encoding::Sh, 5, 0, 0, 4, false, Quantization::F16},
+    {"table 9x9", Encoding::Table, 0, 9, 0, 4, false, Quantization::U8},
+    {"table 6x6", Encoding::Table, 0, 6, 0, 4, false, Quantization::F16},
+    {"pca K=324 N=16", Encoding::Pca, 0, 16, 324, 4, false, Quantization::U8},
+    {"pca K=64 N=16", Encoding::Pca, 0, 16, 64, 4, false, Quantization::U8},
+    {"sh L=8 +throughput", Encoding::Sh, 8, 0, 0, 5, true, Quantization::U8},
+    {"sh L=7 +throughput", Encoding::Sh, 7, 0, 0, 5, true, Quantization::U8},
+    {"table 9x9 +throughput", Encoding::Table, 0, 9, 0, 5, true, Quantization::U8},
+    {"table 8x8 +throughput", Encoding::Table, 0, 8, 0, 5, true, Quantization::U8},
+    {"pca K=324 N=16 +throughput", Encoding::Pca, 0, 16, 324, 5, true, Quantization::U8},
+}};
+
+// Bytes of the field's buffers as createFromField sizes them (gpu_layout.h): the coefficients of
+// the sample texels (Sh: planes of the sample count rounded up to 4), the scale/bias table (Sh:
+// SHR_SH_SCALE_BIAS_VEC4S(channels) = 2 or 3 vec4s per basis function, allocated for f16 too;
+// Table and Pca: a vec2 per layer and value, at least one vec4) and the Pca basis (floats; a
+// placeholder vec4 otherwise). Memory requirements may round each up to the device's alignment;
+// Object::gpuMemoryBytes() counts those.
+struct FieldBufferBytes {
+  uint64_t coefficients = 0, scaleBias = 0, basis = 0;
+};
+FieldBufferBytes fieldBufferBytes(const Field& field, uint64_t samples) {
+  const uint64_t valueBytes = field.quantization == Quantization::U8 ? 1 : 2;
+  const uint64_t layers = field.layerCount(), values = field.valuesPerLayer();
+  const uint64_t stored = field.encoding == Encoding::Sh ? (samples + 3) / 4 * 4 : samples;
+  FieldBufferBytes b;
+  b.coefficients = std::max<uint64_t>((stored * layers * values * valueBytes + 3) / 4 * 4, 4);
+  b.scaleBias = field.encoding == Encoding::Sh ? layers * (field.channels > 4 ? 3 : 2) * 16
+                                               : std::max<uint64_t>(layers * values * 8, 16);
+  b.basis = std::max<uint64_t>(field.basis.size() * sizeof(float), 16);
+  return b;
+}
+
+int runEncodings(const Options& options) {
+  bool noDevice = false;
+  auto gpu = createGpu(options.validation, &noDevice);
+  if (!gpu) return noDevice ? 0 : 1;
+  harness::Harness& h = *gpu->harness;
+  Context& context = *gpu->context;
+  GpuTimer timer(h, 2);
+  if (!timer.available()) {
+    std::printf("SKIPPED: the queue has no timestamps\n");
+    return 0;
+  }
+  auto decompressor = Decompressor::create(context);
+  if (!decompressor) {
+    std::fprintf(stderr, "%s\n", decompressor.error().message.c_str());
+    return 1;
+  }
+  decompressor.value()->setSkipUnchanged(false);  // every repetition does the whole work
+
+  SyntheticOptions base = options.synthetic;
+  if (!options.sizeGiven) base.width = base.height = 233;
+  base.sampleFraction = 1.0f;
+  struct Entry {
+    EncodingCase c;
+    std::unique_ptr<Object> object;
+    uint32_t bytesPerSample = 0;
+    uint64_t samples = 0;
+    FieldBufferBytes buffers;
+    uint64_t objectBytes = 0;
+  };
+  std::vector<Entry> entries;
+  // One field at a time: the CPU copy (and its float coefficients) is dropped after the upload.
+  for (const EncodingCase& c : kEncodingCases) {
+    SyntheticOptions o = base;
+    o.encoding = c.encoding;
+    o.order = c.order;
+    o.tableSize = c.tableSize;
+    o.components = c.components;
+    o.channels = c.channels;
+    o.throughput = c.throughput;
+    o.quantization = c.quantization;
+    Entry e{c, nullptr};
+    {
+      const Field field = syntheticField(o);
+      for (uint8_t k : field.texelKinds) e.samples += k == kTexelSample;
+      e.bytesPerSample = field.bytesPerSample();
+      e.buffers = fieldBufferBytes(field, e.samples);
+      auto uploaded = context.uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
+        auto created = Object::createFromField(context, field, cmd);
+        if (!created) return created.error();
+        e.object = std::move(created).value();
+        return {};
+      });
+      if (!uploaded) {
+        std::fprintf(stderr, "%s: %s\n", c.name, uploaded.error().message.c_str());
+        return 1;
+      }
+    }
+    context.releaseDeferred();  // the upload's staging buffers
+    if (auto prepared = decompressor.value()->prepare(*e.object); !prepared) {
+      std::fprintf(stderr, "%s: %s\n", c.name, prepared.error().message.c_str());
+      return 1;
+    }
+    e.objectBytes = e.object->gpuMemoryBytes();
+    entries.push_back(std::move(e));
+  }
+
+  bool failed = false;
+  const std::array<float, 3> eye{0.3f, 0.2f, 2.0f};
+  std::vector<std::function<void(VkCommandBuffer)>> recorders;
+  for (Entry& e : entries)
+    recorders.push_back([&, object = e.object.get()](VkCommandBuffer cmd) {
+      auto r = decompressor.value()->record(cmd, eye, {object});
+      if (!r || decompressor.value()->lastStats().decompressed != 1) failed = true;
+    });
+  const std::vector<Timing> t = timeTurns(h, timer, options.reps, recorders, failed);
+  if (failed) {
+    std::fprintf(stderr, "a decompression could not be recorded\n");
+    return 1;
+  }
+
+  std::printf("device: %s\n", h.deviceName().c_str());
+  std::printf("synthetic fields: %ux%u atlas, %llu samples each; eye (%.1f, %.1f, %.1f)\n", base.width, base.height,
+              static_cast<unsigned long long>(entries[0].samples), double(eye[0]), double(eye[1]), double(eye[2]));
+  std::printf("median of %u repetitions taking turns; GPU timestamps around Decompressor::record; ratio: median over "
+              "repetitions of ms / ms of %s in the same repetition\n",
+              options.reps, entries[0].c.name);
+  std::printf("memory: buffers as laid out (KiB); object: Object::gpuMemoryBytes() (MiB, with frames, texel indices, "
+              "distortion image, mesh)\n\n");
+  std::printf("| field | q | c | coefficient bytes/sample | GPU ms | ratio | CPU ms | coefficients KiB | scale/bias KiB | basis KiB "
+              "| object MiB |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
+  for (size_t k = 0; k < entries.size(); ++k) {
+    const Entry& e = entries[k];
+    std::vector<double> ratios;
+    for (size_t r = 0; r < t[k].rounds.size() && r < t[0].rounds.size(); ++r)
+      if (t[0].rounds[r] > 0.0) ratios.push_back(t[k].rounds[r] / t[0].rounds[r]);
+    char basis[32] = "-";  // the placeholder vec4 of a field without a basis is not shown
+    if (e.c.encoding == Encoding::Pca) std::snprintf(basis, sizeof(basis), "%.1f", double(e.buffers.basis) / 1024.0);
+    std::printf("| %-26s | %-3s | %u | %3u | %9.3f | %6.2f | %9.3f | %9.1f | %7.2f | %8s | %7.2f |\n", e.c.name,
+                toString(e.c.quantization), e.c.channels, e.bytesPerSample, t[k].ms, median(ratios), t[k].cpuMs,
+                double(e.buffers.coefficients) / 1024.0, double(e.buffers.scaleBias) / 1024.0, basis,
+                double(e.objectBytes) / 1048576.0);
+  }
+  entries.clear();
+  decompressor.value().reset();
+  if (const uint32_t messages = h.messageCount(); messages) {
+    std::fprintf(stderr, "%u Vulkan validation message(s)\n", messages);
+    return 1;
+  }
+  return 0;
 }
 
 int run(const Options& options) {
@@ -289,11 +467,11 @@ int run(const Options& options) {
 
   uint64_t samples = 0;
   for (uint8_t k : field.texelKinds) samples += k == kTexelSample;
-  const uint32_t layers = field.basisCount();
+  const uint32_t layers = field.layerCount();
   const bool u8 = field.quantization == Quantization::U8;
   const uint32_t componentBytes = u8 ? 1u : 2u;
   // What the decompression reads: the sample texels' coefficients, the field's channels only.
-  const uint64_t decompressBytes = samples * layers * field.channels * componentBytes;
+  const uint64_t decompressBytes = samples * field.bytesPerSample();
 
   bool failed = false;
   const std::array<float, 3> eye{0.3f, 0.2f, 2.0f};
@@ -502,7 +680,11 @@ int run(const Options& options) {
               static_cast<unsigned long long>(samples), field.order, layers, field.channels,
               toString(field.quantization));
   std::printf("coefficient bytes read per decompression: %.2f MiB (%u per sample and basis function)\n",
-              double(decompressBytes) / 1048576.0, field.channels * componentBytes);
+              double(decompressBytes) / 1048576.0, field.valuesPerLayer() * componentBytes);
+  if (field.encoding != Encoding::Sh)
+    std::printf("note: a %s field; the bytes above are all it stores, of which a decompression reads less (a Table "
+                "sample 4 nodes); --encodings compares the encodings\n",
+                toString(field.encoding));
   std::printf("median of %u repetitions taking turns; GPU timestamps (and process CPU time):\n", options.reps);
   std::printf("  %-64s %8.3f ms %7.3f GB/s  (CPU %8.3f ms)\n", "decompression pass", t[0].ms, decompressRate,
               t[0].cpuMs);
@@ -538,6 +720,7 @@ int main(int argc, char** argv) {
         return usage("--size expects WxH (1..8192)");
       options.synthetic.width = w;
       options.synthetic.height = h;
+      options.sizeGiven = true;
     } else if (a == "--order") {
       const char* v = value();
       if (!v || std::atoi(v) < 0 || std::atoi(v) > 16) return usage("--order expects 0..16");
@@ -557,11 +740,15 @@ int main(int argc, char** argv) {
       options.validation = true;
     } else if (a == "--profile") {
       options.profile = true;
+    } else if (a == "--encodings") {
+      options.encodings = true;
     } else if (!a.empty() && a[0] != '-' && options.field.empty()) {
       options.field = a;
     } else {
       return usage(("unknown argument " + a).c_str());
     }
   }
-  return run(options);
+  if (options.encodings && (!options.field.empty() || options.profile))
+    return usage("--encodings takes no FIELD.shrf and no --profile");
+  return options.encodings ? runEncodings(options) : run(options);
 }
