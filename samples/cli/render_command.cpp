@@ -31,7 +31,12 @@ const std::vector<FlagSpec> kFlags = {
     {"mode", true, "sh (default for .shrf; also 'field'), single-interface (default for builtin:), "
                    "exact or full-tree (CPU references traced with Embree)"},
     {"max-bounces", true, "exact mode: cap on interactions (default 16)"},
-    {"tree-depth", true, "full-tree mode: depth of the Fresnel tree (default 6)"},
+    {"path-rule", true, "exact mode: branch a path follows at every interface: highest-energy (default) or "
+                        "first-refraction (refract unless totally reflected)"},
+    {"throughput", false, "exact mode: weight the transmitted light by the path's Fresnel throughput"},
+    {"tree-depth", true, "full-tree mode: depth of the Fresnel tree (default 8)"},
+    {"spp", true, "samples per pixel N, a perfect square 1..64: sqrt(N) x sqrt(N) stratified samples, averaged "
+                  "(default 1; every mode)"},
     {"threads", true, "CPU modes: worker threads (default: all cores)"},
     {"absorption", true, "absorption scale k in exp2(-tau * k) (default 1)"},
     {"exposure", true, "linear scale applied before writing (default 1)"},
@@ -132,6 +137,36 @@ int renderCommand(int argc, char** argv) {
     return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: --tree-depth must be 1..16"), 2);
   if (threads.value() && (*threads.value() < 1 || *threads.value() > 1024))
     return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: --threads must be 1..1024"), 2);
+  auto spp = args.integer("spp");
+  if (!spp) return fail(spp.error(), 2);
+  uint32_t samplesPerAxis = 1;
+  if (spp.value()) {
+    const int64_t n = *spp.value();
+    while (n <= 64 && int64_t(samplesPerAxis + 1) * (samplesPerAxis + 1) <= n) ++samplesPerAxis;
+    if (n < 1 || n > 64 || int64_t(samplesPerAxis) * samplesPerAxis != n)
+      return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: --spp must be a perfect square in 1..64 "
+                                                        "(1, 4, 9, 16, 25, 36, 49, 64), got " + std::to_string(n)), 2);
+  }
+  PathRule pathRule = PathRule::HighestEnergy;
+  if (const auto rule = args.get("path-rule")) {
+    if (*rule == "first-refraction") pathRule = PathRule::FirstRefraction;
+    else if (*rule != "highest-energy")
+      return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: unknown --path-rule '" + *rule +
+                                                            "' (available: highest-energy, first-refraction)"), 2);
+  }
+  if (mode != "exact" && (args.has("path-rule") || args.has("throughput")))
+    return fail(makeError(ErrorCode::InvalidArgument, std::string("shrefract render: ") +
+                                                          (args.has("path-rule") ? "--path-rule" : "--throughput") +
+                                                          " applies to --mode exact only"), 2);
+  if (size.value()) {
+    // Checked here, before any work: the reference renderers' limit on the sub-sample grid.
+    const auto wh = *size.value();
+    if (uint64_t(wh[0]) * samplesPerAxis > 16384 || uint64_t(wh[1]) * samplesPerAxis > 16384)
+      return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: --size " + std::to_string(wh[0]) + "x" +
+                                                            std::to_string(wh[1]) + " with --spp " +
+                                                            std::to_string(samplesPerAxis * samplesPerAxis) +
+                                                            " needs more than 16384 samples per axis"), 2);
+  }
   if (builtin && mode == "sh")
     return fail(makeError(ErrorCode::InvalidArgument,
                           "shrefract render: " + sceneSpec + " has no refraction field; bake one first "
@@ -192,14 +227,19 @@ int renderCommand(int argc, char** argv) {
     if (maxBounces.value()) ro.maxBounces = static_cast<uint32_t>(*maxBounces.value());
     if (treeDepth.value()) ro.treeDepth = static_cast<uint32_t>(*treeDepth.value());
     if (threads.value()) ro.threads = static_cast<uint32_t>(*threads.value());
+    ro.pathRule = pathRule;
+    ro.throughput = args.has("throughput");
+    ro.samplesPerAxis = samplesPerAxis;
     auto image = bake::renderReference(*tracer.value(), *traced, envImage.value(), ro);
     if (!image) return fail(image.error());
     if (auto written = bake::writeImage(*output, image.value().color); !written) return fail(written.error());
     if (args.has("json"))
       std::printf("{\"output\": %s, \"scene\": %s, \"mode\": %s, \"width\": %u, \"height\": %u, "
-                  "\"rays\": %llu, \"cpu_seconds\": %.4f}\n",
+                  "\"spp\": %u, \"path_rule\": %s, \"throughput\": %s, \"rays\": %llu, \"cpu_seconds\": %.4f}\n",
                   jsonString(*output).c_str(), jsonString(sceneSpec).c_str(), jsonString(mode).c_str(), ro.width,
-                  ro.height, static_cast<unsigned long long>(image.value().rays), image.value().seconds);
+                  ro.height, samplesPerAxis * samplesPerAxis, jsonString(toString(pathRule)).c_str(),
+                  ro.throughput ? "true" : "false", static_cast<unsigned long long>(image.value().rays),
+                  image.value().seconds);
     else
       std::printf("rendered %s (%ux%u, %s, CPU) in %.2f s -> %s\n", sceneSpec.c_str(), ro.width, ro.height,
                   mode.c_str(), image.value().seconds, output->c_str());
@@ -247,6 +287,7 @@ int renderCommand(int argc, char** argv) {
   if (exposure.value()) frame.exposure = static_cast<float>(*exposure.value());
   frame.mode = mode == "sh" ? ShadingMode::Field : ShadingMode::SingleInterface;
   frame.frames = frameCount.value() ? static_cast<uint32_t>(*frameCount.value()) : 1u;
+  frame.samplesPerAxis = samplesPerAxis;
   std::vector<Object*> drawList;
   for (auto& o : objects) drawList.push_back(o.get());
   offscreen::FrameTimings timings;
@@ -268,9 +309,10 @@ int renderCommand(int argc, char** argv) {
   for (double w : wall) wallMean += w / double(wall.size());
   if (args.has("json")) {
     std::printf("{\"output\": %s, \"scene\": %s, \"mode\": %s, \"environment\": %s, \"width\": %u, "
-                "\"height\": %u, \"device\": %s, \"frames\": %zu, ",
+                "\"height\": %u, \"spp\": %u, \"device\": %s, \"frames\": %zu, ",
                 jsonString(*output).c_str(), jsonString(sceneSpec).c_str(), jsonString(mode).c_str(),
                 jsonString(args.has("cube-env") ? "cube" : "lat-long").c_str(), frame.width, frame.height,
+                samplesPerAxis * samplesPerAxis,
                 jsonString(s.harness->deviceName()).c_str(), timings.wallMs.size());
     if (field)
       std::printf("\"field\": {\"order\": %u, \"width\": %u, \"height\": %u, \"quantization\": %s, "

@@ -1,9 +1,12 @@
 #include "offscreen/offscreen.h"
 
+#include <shrefract/bake/reference_render.h>
+
 #include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <string>
 
 #include <glm/glm.hpp>
 
@@ -148,6 +151,18 @@ bool queueHasTimestamps(const harness::Harness& h) {
 Result<bake::Image> renderFrame(Session& session, const Environment& environment, const std::vector<Object*>& objects,
                                 const FrameSettings& settings, FrameTimings* timings) {
   harness::Harness& h = *session.harness;
+  const uint32_t samples = settings.samplesPerAxis;
+  if (samples < 1 || samples > bake::kMaxSamplesPerAxis)
+    return makeError(ErrorCode::InvalidArgument, "renderFrame: samples per axis " + std::to_string(samples) +
+                                                     " is outside 1.." + std::to_string(bake::kMaxSamplesPerAxis));
+  const uint64_t maxSide = h.properties().limits.maxImageDimension2D;
+  if (uint64_t(settings.width) * samples > maxSide || uint64_t(settings.height) * samples > maxSide)
+    return makeError(ErrorCode::InvalidArgument,
+                     "renderFrame: " + std::to_string(settings.width) + "x" + std::to_string(settings.height) + " at " +
+                         std::to_string(samples) + "x" + std::to_string(samples) +
+                         " samples per pixel needs an image beyond the device's largest (" + std::to_string(maxSide) +
+                         " per side)");
+  const uint32_t width = settings.width * samples, height = settings.height * samples;
   const VkFormat colorFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
   const VkFormat depthFormat = VK_FORMAT_D32_SFLOAT;
   RendererCreateInfo rci;
@@ -181,14 +196,14 @@ Result<bake::Image> renderFrame(Session& session, const Environment& environment
       return makeError(ErrorCode::Vulkan, "vkCreateQueryPool failed", r);
   }
 
-  auto color = h.createImage(settings.width, settings.height, colorFormat,
+  auto color = h.createImage(width, height, colorFormat,
                              VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
                              VK_IMAGE_ASPECT_COLOR_BIT);
   if (!color) {
     if (queries) vkDestroyQueryPool(h.device(), queries, nullptr);
     return color.error();
   }
-  auto depth = h.createImage(settings.width, settings.height, depthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+  auto depth = h.createImage(width, height, depthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
                              VK_IMAGE_ASPECT_DEPTH_BIT);
   if (!depth) {
     h.destroyImage(color.value());
@@ -197,7 +212,7 @@ Result<bake::Image> renderFrame(Session& session, const Environment& environment
   }
   harness::Harness::Image colorImage = color.value();
   harness::Harness::Image depthImage = depth.value();
-  const VkExtent2D extent{settings.width, settings.height};
+  const VkExtent2D extent{width, height};
 
   Result<void> submitted{};
   Result<void> recorded{};
@@ -279,16 +294,19 @@ Result<bake::Image> renderFrame(Session& session, const Environment& environment
     });
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     if (timings) timings->wallMs.push_back(ms);
-  }
-  if (submitted.ok() && recorded.ok() && queries) {
-    std::array<uint64_t, kTimestampCount> ticks{};
-    const VkResult r = vkGetQueryPoolResults(h.device(), queries, 0, kTimestampCount, sizeof(ticks), ticks.data(),
-                                             sizeof(uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
-    if (r == VK_SUCCESS) {
-      const double period = double(h.properties().limits.timestampPeriod) * 1e-6;  // ns -> ms
-      timings->gpuTimestamps = true;
-      timings->decompressionMs = decompressor ? double(ticks[1] - ticks[0]) * period : 0.0;
-      timings->rasterMs = double(ticks[3] - ticks[2]) * period;
+    // The frame has completed (submitAndWait waited on its fence): its timestamps are ready.
+    if (submitted.ok() && recorded.ok() && queries) {
+      std::array<uint64_t, kTimestampCount> ticks{};
+      const VkResult r = vkGetQueryPoolResults(h.device(), queries, 0, kTimestampCount, sizeof(ticks), ticks.data(),
+                                               sizeof(uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
+      if (r == VK_SUCCESS) {
+        const double period = double(h.properties().limits.timestampPeriod) * 1e-6;  // ns -> ms
+        timings->gpuTimestamps = true;
+        timings->decompressionMs = decompressor ? double(ticks[1] - ticks[0]) * period : 0.0;
+        timings->rasterMs = double(ticks[3] - ticks[2]) * period;
+        timings->gpuDecompressionMs.push_back(timings->decompressionMs);
+        timings->gpuRasterMs.push_back(timings->rasterMs);
+      }
     }
   }
   if (queries) vkDestroyQueryPool(h.device(), queries, nullptr);
@@ -299,10 +317,11 @@ Result<bake::Image> renderFrame(Session& session, const Environment& environment
   h.destroyImage(depthImage);
   if (!pixels) return pixels.error();
   bake::Image out;
-  out.width = settings.width;
-  out.height = settings.height;
+  out.width = width;
+  out.height = height;
   out.rgba = std::move(pixels).value();
-  return out;
+  if (samples == 1) return out;
+  return bake::boxFilter(out, samples);
 }
 
 }  // namespace shrefract::offscreen

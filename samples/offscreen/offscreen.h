@@ -57,6 +57,10 @@ struct FrameSettings {
   ShadingMode mode = ShadingMode::SingleInterface;
   float exposure = 1.0f;
   uint32_t frames = 1;  // frames rendered (the image is the last one's); for timings
+  // S: the frame is rendered at S x the size and every S x S block averaged (bake::boxFilter), the
+  // stratified supersampling of bake/reference_render.h (sub-sample (i, j) of pixel (x, y) is the
+  // centre of pixel (S x + i, S y + j)). Timings are those of the big frame. 1..8.
+  uint32_t samplesPerAxis = 1;
   // false: every field object is decompressed every frame and every object is drawn (timings of
   // the whole pass). true: what a host gets by default: the Decompressor leaves out objects whose
   // eye has not changed and objects outside the view (Decompressor's camera overload).
@@ -69,12 +73,15 @@ struct FrameTimings {
   double decompressionMs = 0.0; // the Decompressor's dispatches and barriers (0 without field objects)
   double rasterMs = 0.0;        // background + objects, inside dynamic rendering
   std::vector<double> wallMs;   // per frame: record, submit, wait for the fence
+  std::vector<double> gpuDecompressionMs, gpuRasterMs;  // per frame, when gpuTimestamps
   DecompressStats decompress;   // what the last frame's decompression recorded
   DrawStats draw;               // what the last frame's raster pass drew
 };
 
 // Renders the environment and the objects into a float image and reads it back. In Field mode the
 // field objects are decompressed for the camera's eye before the raster pass, every frame.
+// FieldExitDirection images are averaged like colours (not renormalized). Errors include a
+// supersampled size beyond the device's largest image.
 Result<bake::Image> renderFrame(Session& session, const Environment& environment,
                                 const std::vector<Object*>& objects, const FrameSettings& settings,
                                 FrameTimings* timings = nullptr);

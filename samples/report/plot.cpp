@@ -119,10 +119,14 @@ bake::Image renderPlot(const Plot& plot, uint32_t width, uint32_t height) {
   img.height = height;
   img.rgba.assign(size_t(width) * height * 4, 1.0f);
   const std::array<float, 3> black{0.0f, 0.0f, 0.0f}, grey{0.85f, 0.85f, 0.85f};
-  const int left = 70, right = static_cast<int>(width) - 20, top = 52, bottom = static_cast<int>(height) - 50;
+  size_t longestName = 0;
+  for (const auto& series : plot.series) longestName = std::max(longestName, series.name.size());
+  const int legendWidth = plot.legendOutside ? 6 * static_cast<int>(longestName) + 24 : 0;
+  const int left = 70, right = static_cast<int>(width) - 20 - legendWidth, top = 52,
+            bottom = static_cast<int>(height) - 50;
 
   auto xOf = [&](double v) { return plot.logX ? std::log10(std::max(v, 1e-12)) : v; };
-  double x0 = 1e300, x1 = -1e300, y0 = 0.0, y1 = -1e300;
+  double x0 = 1e300, x1 = -1e300, y0 = plot.yFromZero ? 0.0 : 1e300, y1 = -1e300;
   for (const auto& p : plot.points) {
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || (plot.logX && p.x <= 0.0)) continue;
     x0 = std::min(x0, xOf(p.x));
@@ -138,10 +142,15 @@ bake::Image renderPlot(const Plot& plot, uint32_t width, uint32_t height) {
     x0 -= 0.5;
     x1 += 0.5;
   }
+  if (y0 > y1) {
+    y0 = 0.0;
+    y1 = 1.0;
+  }
   if (y1 <= y0) y1 = y0 + 1.0;
   const double padX = 0.06 * (x1 - x0);
   x0 -= padX;
   x1 += padX;
+  if (!plot.yFromZero) y0 -= 0.08 * (y1 - y0);
   y1 += 0.08 * (y1 - y0);
   auto px = [&](double v) { return left + static_cast<int>((xOf(v) - x0) / (x1 - x0) * (right - left)); };
   auto py = [&](double v) { return bottom - static_cast<int>((v - y0) / (y1 - y0) * (bottom - top)); };
@@ -181,9 +190,9 @@ bake::Image renderPlot(const Plot& plot, uint32_t width, uint32_t height) {
       lastY = y;
       have = true;
     }
-    // Legend, top right.
+    // Legend, top right (inside the axes, or in the margin right of them).
     const int ly = top + 4 + static_cast<int>(s) * 12;
-    const int lx = right - 6 * static_cast<int>(series.name.size()) - 16;
+    const int lx = plot.legendOutside ? right + 20 : right - 6 * static_cast<int>(series.name.size()) - 16;
     for (int dy = -2; dy <= 2; ++dy)
       for (int dx = -2; dx <= 2; ++dx) setPixel(img, lx - 8 + dx, ly + 3 + dy, series.color);
     drawText(img, lx, ly, series.name, series.color);

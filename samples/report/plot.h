@@ -28,6 +28,8 @@ struct Plot {
   std::string xLabel;
   std::string yLabel;
   bool logX = false;
+  bool yFromZero = true;        // false: the y axis spans the points only (with a margin)
+  bool legendOutside = false;   // the legend in a margin right of the axes, not over them
   std::vector<PlotSeries> series;
   std::vector<PlotPoint> points;
 };

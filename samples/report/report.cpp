@@ -19,6 +19,7 @@
 
 #include "cli/scene_source.h"
 #include "offscreen/offscreen.h"
+#include "report/fidelity.h"
 #include "report/plot.h"
 
 namespace shrefract::report {
@@ -218,7 +219,10 @@ Result<ReportResult> runReport(const ReportOptions& options) {
   const uint32_t width = options.width ? options.width : profile.width;
   const uint32_t height = options.height ? options.height : profile.height;
   const uint32_t frames = options.frames ? options.frames : profile.frames;
-  const std::vector<std::string> scenes = options.scenes.empty() ? profile.scenes : options.scenes;
+  // The settings sweeps' scenes (none when only the fidelity section runs; it has its own defaults).
+  const std::vector<std::string> scenes = options.fidelityOnly     ? std::vector<std::string>{}
+                                          : options.scenes.empty() ? profile.scenes
+                                                                   : options.scenes;
   const std::string& dir = options.outputDirectory;
   std::error_code ec;
   fs::create_directories(dir, ec);
@@ -454,7 +458,7 @@ Result<ReportResult> runReport(const ReportOptions& options) {
   }
 
   std::vector<StabilityRow> stability;
-  for (const StabilityCase& sc : stabilityCases(options.size)) {
+  for (const StabilityCase& sc : options.fidelityOnly ? std::vector<StabilityCase>{} : stabilityCases(options.size)) {
     auto scene = cli::loadScene(sc.scene, {}, nullptr);
     if (!scene) return scene.error();
     auto tracer = bake::Tracer::create(scene.value());
@@ -528,6 +532,18 @@ Result<ReportResult> runReport(const ReportOptions& options) {
     session.context->releaseDeferred();
   }
 
+  FidelityOptions fo;
+  fo.size = options.size;
+  fo.scenes = options.scenes;
+  fo.outputDirectory = dir;
+  fo.width = options.width;
+  fo.height = options.height;
+  fo.frames = options.frames;
+  fo.threads = options.threads;
+  auto fidelity = runFidelity(fo, session, result.files);
+  if (!fidelity) return fidelity.error();
+  result.fidelity = fidelity.value().scenes;
+
   if (session.harness->messageCount() != 0)
     return makeError(ErrorCode::Vulkan, "report: " + std::to_string(session.harness->messageCount()) +
                                             " Vulkan validation message(s)");
@@ -570,18 +586,21 @@ Result<ReportResult> runReport(const ReportOptions& options) {
         md += "![" + f + "](" + f + ")\n";
     md += "\n";
   }
-  md += "## Stability\n\n";
-  md += "Stiff and extreme cases, each baked small (order as given, " + directionsText(profile.base) +
-        " directions, up to 1500 samples), rendered on the GPU and compared with the exact reference. "
-        "The report fails if any value in the distortion or colour image is not finite. The test suite "
-        "checks more cases (thin shells, open meshes, slivers, extreme scales, zero-range coefficients, "
-        "vanishing direction sums, overlapping media): docs/stability.md.\n\n";
-  md += "| case | scene | order | non-finite values | trapped paths | mean deg | p95 deg | PSNR dB |\n";
-  md += "|---|---|---|---|---|---|---|---|\n";
-  for (const StabilityRow& r : stability)
-    md += fmt("| %s | %s | %u | %" PRIu64 " | %" PRIu64 " of %" PRIu64 " | %.2f | %.2f | %.2f |\n", r.name.c_str(),
-              r.scene.c_str(), r.order, r.nonFinite, r.trapped, r.paths, r.meanAngle, r.p95Angle, r.psnr);
-  md += "\n";
+  if (!options.fidelityOnly) {
+    md += "## Stability\n\n";
+    md += "Stiff and extreme cases, each baked small (order as given, " + directionsText(profile.base) +
+          " directions, up to 1500 samples), rendered on the GPU and compared with the exact reference. "
+          "The report fails if any value in the distortion or colour image is not finite. The test suite "
+          "checks more cases (thin shells, open meshes, slivers, extreme scales, zero-range coefficients, "
+          "vanishing direction sums, overlapping media): docs/stability.md.\n\n";
+    md += "| case | scene | order | non-finite values | trapped paths | mean deg | p95 deg | PSNR dB |\n";
+    md += "|---|---|---|---|---|---|---|---|\n";
+    for (const StabilityRow& r : stability)
+      md += fmt("| %s | %s | %u | %" PRIu64 " | %" PRIu64 " of %" PRIu64 " | %.2f | %.2f | %.2f |\n", r.name.c_str(),
+                r.scene.c_str(), r.order, r.nonFinite, r.trapped, r.paths, r.meanAngle, r.p95Angle, r.psnr);
+    md += "\n";
+  }
+  md += fidelity.value().markdown;
   const std::string mdPath = dir + "/report.md";
   const std::string tmp = mdPath + ".tmp";
   {

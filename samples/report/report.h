@@ -2,9 +2,12 @@
 // settings (SH order, direction density, quantization, layout, smoothing), renders each field on the
 // GPU with timings, and compares it per pixel with the exact reference (Embree, CPU); the two
 // baselines an engine would otherwise pick (single-interface refraction, exact tracing) and the
-// full Fresnel tree are measured the same way. Writes DIR/report.md, plots and side-by-side images.
+// full Fresnel tree are measured the same way; then the fidelity section (report/fidelity.h) measures
+// everything against the physical reference and decomposes the field's error. Writes DIR/report.md,
+// plots and side-by-side images.
 #pragma once
 
+#include <shrefract/field.h>
 #include <shrefract/result.h>
 
 #include <cstdint>
@@ -28,6 +31,7 @@ struct ReportOptions {
   uint32_t threads = 0;             // bake and CPU reference threads; 0: all
   int deviceIndex = -1;
   bool validation = true;
+  bool fidelityOnly = false;        // only the fidelity section (report/fidelity.h)
 };
 
 // One measured setting (or baseline) of one scene.
@@ -47,8 +51,49 @@ struct ReportRow {
   bool gpu = true;
 };
 
+// One row of the fidelity section (report/fidelity.h).
+struct FidelityRow {
+  std::string scene;
+  std::string kind;    // "physical", "exact", "single interface", "field"
+  std::string label;   // e.g. "sh L8 32x64 (default)"
+  std::string series;  // plot series: "sh u8", "table f16", ...
+  std::string encoding, parameters, directions, quantization;  // "-" where they do not apply
+  PathRule pathRule = PathRule::HighestEnergy;
+  bool throughput = false;
+  uint32_t bytesPerSample = 0;   // fields only
+  uint64_t samples = 0;          // fields: distinct surface points traced (BakeStatistics::uniqueSamples)
+  double psnrPhysical = 0.0;     // dB against the physical reference
+  double psnrSameRule = 0.0;     // dB against the exact render of the same path rule (see fidelity.cpp)
+  double bakeSeconds = 0.0;      // fields: the bake (a u8 row re-quantized from its f16 twin: that bake's)
+  double decompressionMs = 0.0;  // GPU timestamps, 1 spp, last timed frame
+  double rasterMs = 0.0;
+  double cpuMs = 0.0;            // CPU renderers: milliseconds per 1-spp frame (the 4x4 render / 16)
+  bool gpu = false;
+  std::string error;             // non-empty: the row could not be measured (bake or upload failed)
+};
+
+struct FidelityStep {
+  std::string step;      // "path rule", "spatial sampling", ...
+  std::string compares;  // "exact highest-energy vs physical"
+  double psnr = 0.0;     // between the two stages
+  double cumulative = 0.0;  // the coarser stage against the physical reference
+  std::string error;
+};
+
+struct FidelityScene {
+  std::string scene;
+  std::string skipped;  // non-empty: why the scene was left out (e.g. a missing asset)
+  uint64_t pixels = 0;  // object pixels compared
+  uint32_t samplesPerAxis = 0;
+  std::vector<FidelityRow> rows;
+  std::vector<FidelityStep> decomposition;
+  uint64_t unmatchedTexels = 0, sampleTexels = 0;  // exact-at-texels: surface points not found
+  double seconds = 0.0;
+};
+
 struct ReportResult {
   std::vector<ReportRow> rows;
+  std::vector<FidelityScene> fidelity;
   std::vector<std::string> files;  // written, relative to the output directory
   double seconds = 0;
 };

@@ -1,10 +1,17 @@
-// The exact reference renderer against the closed-form path through a sphere, and the metrics.
+// The exact reference renderer against the closed-form path through a sphere, its supersampling,
+// path rules and throughput, the exact-at-the-texels distortion image and its CPU raster, and the
+// metrics.
 #include <gtest/gtest.h>
+#include <shrefract/bake/bake.h>
 #include <shrefract/bake/image_metrics.h>
+#include <shrefract/bake/layout.h>
 #include <shrefract/bake/reference_render.h>
+#include <shrefract/bake/sample_frame.h>
+#include <shrefract/cpu_reference.h>
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 #include <glm/glm.hpp>
 
@@ -117,6 +124,335 @@ TEST(ReferenceRender, ModesProduceFiniteImagesAndMasks) {
     EXPECT_GT(hits, 100u);
     for (float v : img.value().color.rgba) ASSERT_TRUE(std::isfinite(v));
   }
+}
+
+// --- supersampling --------------------------------------------------------------------------
+
+struct SphereSetup {
+  Scene scene;
+  std::unique_ptr<Tracer> tracer;
+  Image env = proceduralEnvironment(128);
+};
+
+SphereSetup sphere(int tessellation) {
+  SphereSetup s;
+  auto scene = makeBuiltinScene("sphere", {tessellation, std::nullopt, std::nullopt});
+  EXPECT_TRUE(scene.ok());
+  s.scene = std::move(scene).value();
+  auto tracer = Tracer::create(s.scene);
+  EXPECT_TRUE(tracer.ok());
+  s.tracer = std::move(tracer).value();
+  return s;
+}
+
+ReferenceOptions sphereView(uint32_t width, uint32_t height) {
+  ReferenceOptions o;
+  o.width = width;
+  o.height = height;
+  o.camera.eye = {0.0f, 0.3f, 3.5f};
+  o.camera.verticalFovDegrees = 40.0f;
+  o.threads = 2;
+  return o;
+}
+
+// S x S samples per pixel are the S x S single-sample renders at the sub-pixel cell centres,
+// averaged: rendered here as one 1-sample image at S times the size (pixel (S x + i, S y + j) is
+// sub-sample (i, j) of pixel (x, y)) and reduced in this test's own loop. The same operations run
+// in both (one sub-sample is one eye ray), so the tolerance only absorbs a different summation
+// order: 1e-6 on colours of order 1.
+TEST(ReferenceRender, SupersampledExactIsTheMeanOfItsSubPixelSamples) {
+  const SphereSetup s = sphere(3);
+  constexpr uint32_t kS = 3, kW = 24, kH = 20;
+  for (ReferenceMode mode : {ReferenceMode::Exact, ReferenceMode::FullTree}) {
+    ReferenceOptions o = sphereView(kW, kH);
+    o.mode = mode;
+    o.treeDepth = 4;
+    o.samplesPerAxis = kS;
+    auto super = renderReference(*s.tracer, s.scene, s.env, o);
+    ASSERT_TRUE(super.ok());
+    ReferenceOptions big = o;
+    big.width = kW * kS;
+    big.height = kH * kS;
+    big.samplesPerAxis = 1;
+    auto single = renderReference(*s.tracer, s.scene, s.env, big);
+    ASSERT_TRUE(single.ok());
+    uint32_t partial = 0, covered = 0;
+    for (uint32_t y = 0; y < kH; ++y)
+      for (uint32_t x = 0; x < kW; ++x) {
+        const size_t p = size_t(y) * kW + x;
+        float mean[3] = {0, 0, 0};
+        uint32_t hits = 0;
+        glm::vec3 dir(0.0f);
+        for (uint32_t j = 0; j < kS; ++j)
+          for (uint32_t i = 0; i < kS; ++i) {
+            const size_t q = size_t(y * kS + j) * big.width + x * kS + i;
+            for (int c = 0; c < 3; ++c) mean[c] += single.value().color.rgba[q * 4 + size_t(c)] / float(kS * kS);
+            hits += single.value().mask[q];
+            if (single.value().mask[q]) dir += single.value().directions[q];
+          }
+        for (int c = 0; c < 3; ++c)
+          ASSERT_NEAR(super.value().color.rgba[p * 4 + size_t(c)], mean[c], 1e-6f) << "pixel " << x << "," << y;
+        ASSERT_EQ(super.value().coverage[p], float(hits) / float(kS * kS));
+        ASSERT_EQ(super.value().mask[p], 2 * hits > kS * kS ? 1 : 0) << "pixel " << x << "," << y;
+        if (hits) {
+          const glm::vec3 expected = glm::normalize(dir);
+          ASSERT_NEAR(glm::dot(super.value().directions[p], expected), 1.0f, 1e-5f);
+        }
+        partial += hits > 0 && hits < kS * kS ? 1 : 0;
+        covered += hits == kS * kS ? 1 : 0;
+      }
+    EXPECT_GT(partial, 10u) << "the view must cut the silhouette through pixels";
+    EXPECT_GT(covered, 50u);
+    // boxFilter (the GPU path's reduction) gives the same image.
+    const Image reduced = boxFilter(single.value().color, kS);
+    ASSERT_EQ(reduced.rgba.size(), super.value().color.rgba.size());
+    for (size_t k = 0; k < reduced.rgba.size(); ++k) ASSERT_NEAR(reduced.rgba[k], super.value().color.rgba[k], 1e-6f);
+  }
+}
+
+// Closed form: the summed coverage of the unit sphere, times a pixel's area on the image plane at
+// distance 1, is the area of the silhouette's disc there, pi tan^2(asin(1 / D)) for an eye at
+// distance D on the view axis. Tessellation 6 is inscribed within 1.2e-4 of the radius (area
+// 2.4e-4 short); 4x4 stratified samples leave the edge pixels' errors small and of both signs.
+// Tolerance 0.4% of the area (measured: 0.03%).
+TEST(ReferenceRender, SupersampledCoverageIsTheSilhouetteArea) {
+  const SphereSetup s = sphere(6);
+  constexpr uint32_t kW = 48, kH = 48;
+  ReferenceOptions o = sphereView(kW, kH);
+  o.camera.eye = {0.0f, 0.0f, 3.5f};
+  o.samplesPerAxis = 4;
+  auto image = renderReference(*s.tracer, s.scene, s.env, o);
+  ASSERT_TRUE(image.ok());
+  double covered = 0.0;
+  for (float c : image.value().coverage) covered += double(c);
+  const double halfSide = std::tan(20.0 * std::numbers::pi / 180.0);
+  const double pixelArea = (2.0 * halfSide) * (2.0 * halfSide) / double(kW * kH);
+  const double expected = std::numbers::pi * std::pow(std::tan(std::asin(1.0 / 3.5)), 2.0);
+  std::printf("silhouette: %.5f (coverage) vs %.5f (closed form)\n", covered * pixelArea, expected);
+  EXPECT_NEAR(covered * pixelArea, expected, 0.004 * expected);
+}
+
+// --- path rules and throughput ----------------------------------------------------------------
+
+// Cosine of incidence at the front of the analytic unit sphere for the eye ray d (0 on a miss).
+double frontCosine(glm::dvec3 eye, glm::dvec3 d) {
+  const double b = glm::dot(eye, d), disc = b * b - (glm::dot(eye, eye) - 1.0);
+  if (disc <= 0.0) return 0.0;
+  const glm::dvec3 p = eye + d * (-b - std::sqrt(disc));
+  return -glm::dot(d, glm::normalize(p));
+}
+
+// Inside a sphere every interface meets the path at its refraction angle at entry, so the
+// reflectance there equals the front one (reciprocity): below ~85 degrees of incidence (IOR 1.5)
+// it is under 1/2, both rules refract at the first interior hit, and the images agree bit for bit
+// (cosine > 0.3, 72.5 degrees, leaves room for the tessellation). Beyond it, in a band about 0.4
+// pixels wide at the silhouette of this 256x256 view, the highest-energy rule reflects and
+// first-refraction does not: some pixels there must differ.
+TEST(ReferenceRender, FirstRefractionAgreesWithHighestEnergyBelowHalfReflectance) {
+  const SphereSetup s = sphere(5);
+  ReferenceOptions o = sphereView(256, 256);
+  auto highest = renderReference(*s.tracer, s.scene, s.env, o);
+  o.pathRule = PathRule::FirstRefraction;
+  auto first = renderReference(*s.tracer, s.scene, s.env, o);
+  ASSERT_TRUE(highest.ok() && first.ok());
+  const glm::dvec3 eye(0.0, 0.3, 3.5);
+  uint32_t agreeing = 0, differingNearEdge = 0;
+  for (uint32_t y = 0; y < o.height; ++y)
+    for (uint32_t x = 0; x < o.width; ++x) {
+      const size_t p = size_t(y) * o.width + x;
+      const double cosI = frontCosine(eye, glm::dvec3(pixelDirection(o.camera, o.width, o.height, x, y)));
+      bool same = true;
+      for (int c = 0; c < 3; ++c) same = same && highest.value().color.rgba[p * 4 + size_t(c)] == first.value().color.rgba[p * 4 + size_t(c)];
+      if (cosI > 0.3) {
+        ASSERT_TRUE(same) << "pixel " << x << "," << y << " (cos " << cosI << ")";
+        ++agreeing;
+      } else if (cosI > 0.0 && cosI < 0.1 && !same) {
+        ++differingNearEdge;
+      }
+    }
+  EXPECT_GT(agreeing, 10000u);
+  std::printf("%u pixels agree, %u grazing pixels differ\n", agreeing, differingNearEdge);
+  EXPECT_GT(differingNearEdge, 20u) << "first-refraction must change the grazing paths";
+}
+
+// Without the front reflection, a throughput render is the plain render times the path's energy
+// (PathResult::energy of the same eye ray), pixel by pixel: float products of the same values, so
+// 1e-6 relative. Some energies must be well below 1 for the check to mean anything.
+TEST(ReferenceRender, ThroughputMultipliesByThePathEnergy) {
+  const SphereSetup s = sphere(3);
+  for (PathRule rule : {PathRule::HighestEnergy, PathRule::FirstRefraction}) {
+    ReferenceOptions o = sphereView(48, 40);
+    o.reflection = false;
+    o.pathRule = rule;
+    auto plain = renderReference(*s.tracer, s.scene, s.env, o);
+    o.throughput = true;
+    auto weighted = renderReference(*s.tracer, s.scene, s.env, o);
+    ASSERT_TRUE(plain.ok() && weighted.ok());
+    TraceSettings ts;
+    ts.pathRule = rule;
+    const glm::vec3 eye(0.0f, 0.3f, 3.5f);
+    uint32_t dimmed = 0;
+    for (uint32_t y = 0; y < o.height; ++y)
+      for (uint32_t x = 0; x < o.width; ++x) {
+        const size_t p = size_t(y) * o.width + x;
+        const EyeRayResult hit = s.tracer->traceEyeRay(eye, pixelDirection(o.camera, o.width, o.height, x, y), ts);
+        const float energy = hit.hit ? hit.transmitted.energy : 1.0f;
+        dimmed += energy < 0.8f ? 1 : 0;
+        for (int c = 0; c < 3; ++c) {
+          const float expected = plain.value().color.rgba[p * 4 + size_t(c)] * energy;
+          ASSERT_NEAR(weighted.value().color.rgba[p * 4 + size_t(c)], expected, 1e-6f * std::max(1.0f, expected))
+              << "pixel " << x << "," << y;
+        }
+      }
+    EXPECT_GT(dimmed, 10u);
+  }
+}
+
+// --- exact paths at the sample texels ---------------------------------------------------------
+
+// A small sphere field (split layout) and the layout it was baked from: buildSplitLayout with the
+// bake's budget is deterministic, so its samples are the field's, with their surfaces and
+// triangles.
+struct SmallField {
+  SphereSetup s = sphere(3);
+  Field field;
+  SampleAtlas atlas;
+};
+
+SmallField smallField() {
+  SmallField f;
+  BakeOptions bo;
+  bo.settings.order = 1;
+  bo.settings.directionsTheta = 4;
+  bo.settings.directionsPhi = 8;
+  bo.settings.sampleBudget = 1000;
+  bo.settings.quantization = Quantization::F16;
+  bo.settings.threads = 2;
+  bo.heldOutDirections = 0;
+  auto field = bakeField(f.s.scene, bo);
+  EXPECT_TRUE(field.ok()) << (field.ok() ? "" : field.error().message);
+  f.field = std::move(field).value();
+  LayoutOptions lo;
+  lo.sampleBudget = 1000;
+  auto atlas = buildSplitLayout(f.s.scene, lo);
+  EXPECT_TRUE(atlas.ok());
+  f.atlas = std::move(atlas).value();
+  return f;
+}
+
+// Every sample texel the eye sees holds the path traced from the layout's own sample point toward
+// the eye, rounded to binary16: 1e-3 absorbs the binary16 rounding (2^-11) and the frame's float
+// recovery of the point; the optical depth (the built-in glass absorbs) is in w, to binary16's
+// relative precision. Left out: paths stopped by the bounce cap (their direction of travel at the
+// cut depends on rounding), and samples facing away from the eye, traced along their horizon,
+// where the triangle the tracer finds at a vertex and the layout's may lie on either side of the
+// tangent ray (about a third differ there; counted, not checked). Gutter texels follow their rule
+// on the rounded values.
+TEST(ExactDistortion, SampleTexelsHoldTheExactPathAndGuttersTheirRule) {
+  const SmallField f = smallField();
+  ASSERT_EQ(f.atlas.width, f.field.width);
+  ASSERT_EQ(f.atlas.texelKinds, f.field.texelKinds);
+  const glm::vec3 eye(0.4f, 0.9f, 3.0f);
+  ExactDistortionOptions eo;
+  eo.threads = 2;
+  auto exact = exactDistortion(*f.s.tracer, f.field, eye, eo);
+  ASSERT_TRUE(exact.ok()) << exact.error().message;
+  EXPECT_EQ(exact.value().unmatched, 0u);
+  const auto& rgba = exact.value().image.rgba;
+  TraceSettings ts;
+  uint32_t samples = 0, checked = 0, absorbing = 0;
+  for (uint64_t t = 0; t < f.field.texelCount(); ++t) {
+    if (f.field.texelKinds[t] != kTexelSample) continue;
+    ++samples;
+    const SurfacePoint& point = f.atlas.samples[f.atlas.texelSample[t]];
+    const LocalFrame frame = frameFromNormal(point.shadingNormal);
+    const glm::vec3 w = worldToLocal(frame, eye - point.position);
+    if (w.z <= 0.0f) continue;
+    const PathResult path = f.s.tracer->traceFromSurface(point, -localToWorld(frame, glm::normalize(w)), ts);
+    if (path.trapped) continue;
+    for (int k = 0; k < 3; ++k) ASSERT_NEAR(rgba[t * 4 + size_t(k)], path.exitDirection[k], 1e-3f) << "texel " << t;
+    const float tau = f.field.hasOpticalDepth() ? path.opticalDepth : 0.0f;
+    ASSERT_NEAR(rgba[t * 4 + 3], tau, 1e-3f * std::max(1.0f, tau)) << "texel " << t;
+    absorbing += tau > 0.0f ? 1 : 0;
+    ++checked;
+  }
+  EXPECT_EQ(samples, exact.value().samples);
+  EXPECT_GT(checked, samples / 4);
+  EXPECT_GT(absorbing, checked / 2) << "the built-in glass absorbs: the optical depth must be stored";
+  ASSERT_FALSE(f.field.gutters.empty());
+  for (const GutterTexel& g : f.field.gutters)
+    for (size_t c = 0; c < 4; ++c)
+      ASSERT_EQ(rgba[size_t(g.target) * 4 + c],
+                reference::roundToBinary16(rgba[size_t(g.a) * 4 + c] + rgba[size_t(g.b) * 4 + c] -
+                                           rgba[size_t(g.c) * 4 + c]));
+}
+
+// A flat-shaded cube puts samples on its edges and corners, where the probe along the normal runs
+// in the plane of the next face: every sample's surface point must still be found.
+TEST(ExactDistortion, FindsTheSurfaceOfSamplesOnEdgesAndCorners) {
+  auto scene = makeBuiltinScene("cube", {1, std::nullopt, std::nullopt});
+  ASSERT_TRUE(scene.ok());
+  auto tracer = Tracer::create(scene.value());
+  ASSERT_TRUE(tracer.ok());
+  BakeOptions bo;
+  bo.settings.order = 1;
+  bo.settings.directionsTheta = 4;
+  bo.settings.directionsPhi = 8;
+  bo.settings.sampleBudget = 600;
+  bo.settings.threads = 2;
+  bo.heldOutDirections = 0;
+  auto field = bakeField(scene.value(), bo);
+  ASSERT_TRUE(field.ok()) << field.error().message;
+  ExactDistortionOptions eo;
+  eo.threads = 2;
+  auto exact = exactDistortion(*tracer.value(), field.value(), glm::vec3(1.0f, 2.0f, 5.0f), eo);
+  ASSERT_TRUE(exact.ok());
+  EXPECT_GT(exact.value().samples, 300u);
+  EXPECT_EQ(exact.value().unmatched, 0u);
+}
+
+// renderDistortion tests only the triangles binned under a sample, in reference::render's order
+// and operations: the images must agree exactly (tolerance 0: the same float and double
+// operations on the same values), including which pixels show the object. With S = 2 it is the
+// S = 1 render at twice the size, box-filtered (1e-6 for the summation order).
+TEST(ExactDistortion, CpuRasterMatchesTheEnginesReferenceRender) {
+  const SmallField f = smallField();
+  Camera camera;
+  camera.eye = {0.4f, 0.9f, 3.0f};
+  camera.verticalFovDegrees = 40.0f;
+  ExactDistortionOptions eo;
+  eo.threads = 2;
+  auto exact = exactDistortion(*f.s.tracer, f.field, glm::vec3(0.4f, 0.9f, 3.0f), eo);
+  ASSERT_TRUE(exact.ok());
+  constexpr uint32_t kW = 40, kH = 30;
+  const reference::LatLongImage latLong{f.s.env.width, f.s.env.height, f.s.env.rgba.data()};
+  reference::RenderObject object;
+  object.mesh = &f.field.mesh;
+  object.distortion = &exact.value().image;
+  const reference::RenderedImage engine = reference::render({object}, latLong, camera, kW, kH);
+  DistortionRenderOptions ro;
+  ro.width = kW;
+  ro.height = kH;
+  ro.camera = camera;
+  ro.threads = 2;
+  auto ours = renderDistortion(f.field.mesh, exact.value().image, f.s.env, ro);
+  ASSERT_TRUE(ours.ok()) << ours.error().message;
+  uint32_t objectPixels = 0;
+  for (size_t p = 0; p < size_t(kW) * kH; ++p) {
+    ASSERT_EQ(ours.value().mask[p], engine.object[p] >= 0 ? 1 : 0) << "pixel " << p;
+    objectPixels += ours.value().mask[p];
+    for (size_t c = 0; c < 3; ++c) ASSERT_EQ(ours.value().color.rgba[p * 4 + c], engine.rgba[p * 4 + c]) << "pixel " << p;
+  }
+  EXPECT_GT(objectPixels, 100u);
+  ro.samplesPerAxis = 2;
+  auto super = renderDistortion(f.field.mesh, exact.value().image, f.s.env, ro);
+  ro.samplesPerAxis = 1;
+  ro.width = 2 * kW;
+  ro.height = 2 * kH;
+  auto big = renderDistortion(f.field.mesh, exact.value().image, f.s.env, ro);
+  ASSERT_TRUE(super.ok() && big.ok());
+  const Image reduced = boxFilter(big.value().color, 2);
+  for (size_t k = 0; k < reduced.rgba.size(); ++k) ASSERT_NEAR(reduced.rgba[k], super.value().color.rgba[k], 1e-6f);
 }
 
 TEST(ImageMetrics, IdenticalAndDifferentImages) {

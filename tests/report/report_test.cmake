@@ -59,3 +59,38 @@ if(ncompare LESS 2)
   message(FATAL_ERROR "expected side-by-side images, got ${ncompare}")
 endif()
 message("report ok: ${count} order rows, ${ncompare} side-by-side images")
+
+# The fidelity section: physical reference, exact rows, the encodings (a row may be an error row
+# while an encoding is missing from the bake, but it must be there), the error decomposition with
+# two numbers per step, and its plots and side-by-side image.
+if(NOT text MATCHES "## Fidelity against the physical reference")
+  message(FATAL_ERROR "report.md has no fidelity section")
+endif()
+foreach(row "full tree depth [0-9]+ \\(CPU\\)" "exact highest-energy \\(CPU\\)" "exact first-refraction \\(CPU\\)"
+            "exact highest-energy \\+ throughput \\(CPU\\)" "single interface \\(GPU\\)" "default f16" "default u8"
+            "sh f16" "sh u8" "sh first-refraction u8" "sh throughput u8" "table f16" "table u8" "pca f16" "pca u8")
+  if(NOT text MATCHES "\\| ${row}[^\n]*\\|")
+    message(FATAL_ERROR "the fidelity table has no '${row}' row")
+  endif()
+endforeach()
+string(REGEX MATCHALL "\\| (sh|table|pca|default)[a-z -]* (f16|u8) [^\n]*" fieldRows "${text}")
+list(LENGTH fieldRows nfield)
+if(nfield LESS 10)
+  message(FATAL_ERROR "expected at least 10 field rows in the fidelity table, got ${nfield}")
+endif()
+foreach(step "path rule" "spatial sampling" "angular encoding" "quantization" "pixel sampling")
+  if(NOT text MATCHES "\\| ${step} \\| [^|]+ \\| -?[0-9]+\\.[0-9]+ \\| -?[0-9]+\\.[0-9]+ \\|")
+    message(FATAL_ERROR "the error decomposition has no measured '${step}' step")
+  endif()
+endforeach()
+foreach(png fidelity_builtin_sphere_psnr_vs_bytes fidelity_builtin_sphere_psnr_vs_frame_time
+            fidelity_builtin_sphere_compare)
+  if(NOT EXISTS ${WORK_DIR}/report/${png}.png OR NOT text MATCHES "${png}.png")
+    message(FATAL_ERROR "missing or unlinked ${png}.png")
+  endif()
+  file(SIZE ${WORK_DIR}/report/${png}.png size)
+  if(size LESS 2000)
+    message(FATAL_ERROR "${png}.png is suspiciously small (${size} bytes)")
+  endif()
+endforeach()
+message("fidelity ok: ${nfield} field rows")

@@ -5,6 +5,9 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <limits>
+#include <optional>
+#include <string>
 #include <thread>
 
 #include <glm/glm.hpp>
@@ -12,6 +15,16 @@
 
 namespace shrefract::bake {
 namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// The engine's thresholds (spirv/include/shrefract/gpu_layout.h, private to the engine; quoted in
+// cpu_reference.h): a decoded direction shorter than this squared length is "none", and optical
+// depth is clamped to the binary16 range.
+constexpr float kMinDirectionLength2 = 1e-20f;
+constexpr float kMaxOpticalDepth = 65504.0f;
+// Largest supersampled image side: the sub-sample grid of one render.
+constexpr uint32_t kMaxSupersampledSide = 65536;
 
 glm::vec3 toVec(const std::array<float, 3>& a) { return {a[0], a[1], a[2]}; }
 
@@ -25,6 +38,125 @@ float fresnelDielectric(float cosI, float eta) {
   return 0.5f * (rs * rs + rp * rp);
 }
 
+uint32_t threadCount(uint32_t requested) {
+  return requested ? requested : std::max(1u, std::thread::hardware_concurrency());
+}
+
+// The inverse of reference::pixelRay's projection, computed once per image: the same float
+// operations, so rays are bit-identical to pixelRay's.
+glm::mat4 directionFromClip(const Camera& camera, uint32_t width, uint32_t height) {
+  const float aspect = height ? float(width) / float(height) : 1.0f;
+  glm::mat4 proj =
+      glm::perspectiveRH_ZO(glm::radians(camera.verticalFovDegrees), aspect, camera.nearPlane, camera.farPlane);
+  proj[1][1] *= -1.0f;
+  glm::mat4 view = glm::lookAtRH(toVec(camera.eye), toVec(camera.target), toVec(camera.up));
+  view[3] = glm::vec4(0.0f, 0.0f, 0.0f, 1.0f);
+  return glm::inverse(proj * view);
+}
+
+// The (unnormalized) ray through the centre of pixel (x, y) of a width x height image, as pixelRay.
+glm::vec3 rayThrough(const glm::mat4& dirFromClip, uint32_t width, uint32_t height, uint32_t x, uint32_t y) {
+  const glm::vec2 ndc((float(x) + 0.5f) / float(width) * 2.0f - 1.0f, (float(y) + 0.5f) / float(height) * 2.0f - 1.0f);
+  return glm::vec3(dirFromClip * glm::vec4(ndc, 1.0f, 1.0f));
+}
+
+Result<void> checkSize(const char* who, uint32_t width, uint32_t height, uint32_t samplesPerAxis) {
+  if (width == 0 || height == 0 || width > 16384 || height > 16384)
+    return makeError(ErrorCode::InvalidArgument, std::string(who) + ": size must be 1..16384 per axis");
+  if (samplesPerAxis < 1 || samplesPerAxis > kMaxSamplesPerAxis)
+    return makeError(ErrorCode::InvalidArgument, std::string(who) + ": samples per axis " +
+                                                     std::to_string(samplesPerAxis) + " is outside 1.." +
+                                                     std::to_string(kMaxSamplesPerAxis));
+  if (uint64_t(width) * samplesPerAxis > kMaxSupersampledSide || uint64_t(height) * samplesPerAxis > kMaxSupersampledSide)
+    return makeError(ErrorCode::InvalidArgument, std::string(who) + ": " + std::to_string(width) + "x" +
+                                                     std::to_string(height) + " at " + std::to_string(samplesPerAxis) +
+                                                     "x" + std::to_string(samplesPerAxis) +
+                                                     " samples per pixel is beyond " +
+                                                     std::to_string(kMaxSupersampledSide) + " sub-samples per axis");
+  return {};
+}
+
+// One sub-sample of a supersampled renderer.
+struct Sample {
+  glm::vec3 color{0.0f};
+  glm::vec3 direction{0.0f};  // transmitted exit direction (zero off the object)
+  bool hit = false;
+};
+
+// Accumulates the S x S sub-samples of one pixel into the output (colour mean, coverage, mask,
+// normalized mean direction).
+struct PixelAccumulator {
+  glm::vec3 color{0.0f};
+  glm::vec3 direction{0.0f};
+  uint32_t hits = 0;
+
+  void add(const Sample& s) {
+    for (int k = 0; k < 3; ++k) color[k] += std::isfinite(s.color[k]) ? s.color[k] : 0.0f;
+    if (s.hit) {
+      ++hits;
+      direction += s.direction;
+    }
+  }
+
+  void store(ReferenceImage& out, size_t p, uint32_t samplesPerPixel) const {
+    for (int k = 0; k < 3; ++k) out.color.rgba[p * 4 + size_t(k)] = color[k] / float(samplesPerPixel);
+    out.color.rgba[p * 4 + 3] = 1.0f;
+    out.coverage[p] = float(hits) / float(samplesPerPixel);
+    out.mask[p] = 2 * hits > samplesPerPixel ? 1 : 0;
+    const float len2 = glm::dot(direction, direction);
+    out.directions[p] = len2 > 0.0f && std::isfinite(len2) ? direction / std::sqrt(len2) : glm::vec3(0.0f);
+  }
+};
+
+ReferenceImage emptyImage(uint32_t width, uint32_t height) {
+  ReferenceImage out;
+  const size_t pixels = size_t(width) * height;
+  out.color.width = width;
+  out.color.height = height;
+  out.color.rgba.assign(pixels * 4, 0.0f);
+  out.directions.assign(pixels, glm::vec3(0.0f));
+  out.mask.assign(pixels, 0);
+  out.coverage.assign(pixels, 0.0f);
+  return out;
+}
+
+// Runs `renderRow(y, rays)` for every row on `threads` threads (the calling thread among them),
+// reporting progress from the calling thread.
+template <typename RenderRow>
+uint64_t forEachRow(uint32_t height, uint32_t threads, Clock::time_point start,
+                    const std::function<void(const ReferenceProgress&)>& progress, RenderRow renderRow) {
+  std::atomic<uint32_t> nextRow{0}, rowsDone{0};
+  std::atomic<uint64_t> rays{0};
+  auto report = [&]() {
+    if (!progress) return;
+    ReferenceProgress p;
+    p.rowsDone = rowsDone.load();
+    p.rowsTotal = height;
+    p.rays = rays.load();
+    p.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    progress(p);
+  };
+  auto worker = [&](bool caller) {
+    auto lastReport = Clock::now();
+    for (uint32_t y; (y = nextRow.fetch_add(1)) < height;) {
+      uint64_t rowRays = 0;
+      renderRow(y, rowRays);
+      rays.fetch_add(rowRays);
+      rowsDone.fetch_add(1);
+      if (caller && Clock::now() - lastReport >= std::chrono::milliseconds(100)) {
+        report();
+        lastReport = Clock::now();
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (uint32_t t = 1; t < threads; ++t) pool.emplace_back(worker, false);
+  worker(true);
+  for (auto& t : pool) t.join();
+  report();
+  return rays.load();
+}
+
 }  // namespace
 
 glm::vec3 pixelDirection(const Camera& camera, uint32_t width, uint32_t height, uint32_t x, uint32_t y) {
@@ -32,102 +164,381 @@ glm::vec3 pixelDirection(const Camera& camera, uint32_t width, uint32_t height, 
   return glm::normalize(glm::vec3(r[0], r[1], r[2]));
 }
 
+Image boxFilter(const Image& image, uint32_t s) {
+  if (s <= 1) return image;
+  Image out;
+  out.width = image.width / s;
+  out.height = image.height / s;
+  out.rgba.assign(size_t(out.width) * out.height * 4, 0.0f);
+  const float n = float(s * s);
+  for (uint32_t y = 0; y < out.height; ++y)
+    for (uint32_t x = 0; x < out.width; ++x) {
+      float sum[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+      for (uint32_t j = 0; j < s; ++j)
+        for (uint32_t i = 0; i < s; ++i) {
+          const float* p = &image.rgba[((size_t(y) * s + j) * image.width + size_t(x) * s + i) * 4];
+          for (int c = 0; c < 4; ++c) sum[c] += p[c];
+        }
+      for (int c = 0; c < 4; ++c) out.rgba[(size_t(y) * out.width + x) * 4 + size_t(c)] = sum[c] / n;
+    }
+  return out;
+}
+
 Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene, const Image& env,
                                        const ReferenceOptions& o) {
-  if (o.width == 0 || o.height == 0 || o.width > 16384 || o.height > 16384)
-    return makeError(ErrorCode::InvalidArgument, "reference render: size must be 1..16384 per axis");
+  if (auto r = checkSize("reference render", o.width, o.height, o.samplesPerAxis); !r) return r.error();
   if (env.width == 0 || env.rgba.size() != size_t(env.width) * env.height * 4)
     return makeError(ErrorCode::InvalidArgument, "reference render: empty environment");
-  const auto start = std::chrono::steady_clock::now();
-  ReferenceImage out;
-  const size_t pixels = size_t(o.width) * o.height;
-  out.color.width = o.width;
-  out.color.height = o.height;
-  out.color.rgba.assign(pixels * 4, 0.0f);
-  out.directions.assign(pixels, glm::vec3(0.0f));
-  out.mask.assign(pixels, 0);
-
-  // The inverse projection of reference::pixelRay, computed once per image instead of per pixel.
-  glm::mat4 proj = glm::perspectiveRH_ZO(glm::radians(o.camera.verticalFovDegrees), float(o.width) / float(o.height),
-                                         o.camera.nearPlane, o.camera.farPlane);
-  proj[1][1] *= -1.0f;
-  glm::mat4 view = glm::lookAtRH(toVec(o.camera.eye), toVec(o.camera.target), toVec(o.camera.up));
-  view[3] = glm::vec4(0.0f, 0.0f, 0.0f, 1.0f);
-  const glm::mat4 dirFromClip = glm::inverse(proj * view);
+  const auto start = Clock::now();
+  ReferenceImage out = emptyImage(o.width, o.height);
+  const uint32_t s = o.samplesPerAxis;
+  const uint32_t bigWidth = o.width * s, bigHeight = o.height * s;
+  const glm::mat4 dirFromClip = directionFromClip(o.camera, bigWidth, bigHeight);
   const glm::vec3 eye = toVec(o.camera.eye);
   TraceSettings ts;
   ts.maxBounces = o.mode == ReferenceMode::FullTree ? o.treeDepth : o.maxBounces;
+  ts.pathRule = o.pathRule;
 
-  std::atomic<uint32_t> nextRow{0};
-  std::atomic<uint64_t> rays{0};
-  auto worker = [&]() {
+  // One sub-sample: the eye ray along d.
+  auto shade = [&](glm::vec3 d, std::vector<PathResult>& leaves, uint64_t& rays) {
+    Sample sample;
+    const EyeRayResult hit = tracer.traceEyeRay(eye, d, ts);
+    rays += hit.rays;
+    if (!hit.hit) {
+      sample.color = sampleLatLong(env, d) * o.exposure;
+      return sample;
+    }
+    sample.hit = true;
+    const Surface& surface = scene.surfaces[hit.surface];
+    const float eta = scene.media[surface.outerMedium].ior / scene.media[surface.innerMedium].ior;
+    const glm::vec3 n = hit.shadingNormal;
+    const float cosI = std::clamp(-glm::dot(d, n), 0.0f, 1.0f);
+    float f = hit.frontFresnel;
+    glm::vec3 transmitted(0.0f);
+    if (o.mode == ReferenceMode::SingleInterface) {
+      f = fresnelDielectric(cosI, eta);
+      glm::vec3 t = glm::refract(d, n, eta);
+      if (glm::dot(t, t) == 0.0f) t = hit.reflectedDirection;
+      sample.direction = glm::normalize(t);
+      transmitted = sampleLatLong(env, sample.direction);
+    } else if (o.mode == ReferenceMode::Exact) {
+      const PathResult& path = hit.transmitted;
+      sample.direction = path.exitDirection;
+      transmitted = sampleLatLong(env, path.exitDirection) * std::exp2(-path.opticalDepth * o.absorptionScale);
+      if (o.throughput) transmitted *= path.energy;
+    } else {
+      leaves.clear();
+      SurfacePoint point;
+      point.position = hit.position;
+      point.shadingNormal = hit.shadingNormal;
+      point.geometricNormal = hit.shadingNormal;
+      point.surface = hit.surface;
+      point.triangle = hit.triangle;
+      tracer.traceTree(point, d, o.treeDepth, leaves);
+      rays += leaves.size();
+      glm::vec3 sum(0.0f), dirSum(0.0f);
+      for (const PathResult& leaf : leaves) {
+        sum += leaf.energy * sampleLatLong(env, leaf.exitDirection) * std::exp2(-leaf.opticalDepth * o.absorptionScale);
+        dirSum += leaf.energy * leaf.exitDirection;
+      }
+      transmitted = sum;
+      sample.direction = glm::dot(dirSum, dirSum) > 0.0f ? glm::normalize(dirSum) : hit.transmitted.exitDirection;
+    }
+    glm::vec3 color = (1.0f - f) * transmitted;
+    if (o.reflection) color += f * sampleLatLong(env, hit.reflectedDirection);
+    sample.color = color * o.exposure;
+    return sample;
+  };
+
+  out.rays = forEachRow(o.height, threadCount(o.threads), start, o.progress, [&](uint32_t y, uint64_t& rays) {
     std::vector<PathResult> leaves;
-    uint64_t localRays = 0;
-    for (uint32_t y; (y = nextRow.fetch_add(1)) < o.height;) {
-      for (uint32_t x = 0; x < o.width; ++x) {
-        const size_t p = size_t(y) * o.width + x;
-        const glm::vec2 ndc((float(x) + 0.5f) / float(o.width) * 2.0f - 1.0f,
-                            (float(y) + 0.5f) / float(o.height) * 2.0f - 1.0f);
-        const glm::vec3 d = glm::normalize(glm::vec3(dirFromClip * glm::vec4(ndc, 1.0f, 1.0f)));
-        glm::vec3 color;
-        const EyeRayResult hit = tracer.traceEyeRay(eye, d, ts);
-        localRays += hit.rays;
-        if (!hit.hit) {
-          color = sampleLatLong(env, d);
-        } else {
-          out.mask[p] = 1;
-          const Surface& s = scene.surfaces[hit.surface];
-          const float eta = scene.media[s.outerMedium].ior / scene.media[s.innerMedium].ior;
-          const glm::vec3 n = hit.shadingNormal;
-          const float cosI = std::clamp(-glm::dot(d, n), 0.0f, 1.0f);
-          float f = hit.frontFresnel;
-          glm::vec3 transmitted(0.0f);
-          if (o.mode == ReferenceMode::SingleInterface) {
-            f = fresnelDielectric(cosI, eta);
-            glm::vec3 t = glm::refract(d, n, eta);
-            if (glm::dot(t, t) == 0.0f) t = hit.reflectedDirection;
-            out.directions[p] = glm::normalize(t);
-            transmitted = sampleLatLong(env, out.directions[p]);
-          } else if (o.mode == ReferenceMode::Exact) {
-            const PathResult& path = hit.transmitted;
-            out.directions[p] = path.exitDirection;
-            transmitted = sampleLatLong(env, path.exitDirection) * std::exp2(-path.opticalDepth * o.absorptionScale);
-          } else {
-            leaves.clear();
-            SurfacePoint point;
-            point.position = hit.position;
-            point.shadingNormal = hit.shadingNormal;
-            point.geometricNormal = hit.shadingNormal;
-            point.surface = hit.surface;
-            point.triangle = hit.triangle;
-            tracer.traceTree(point, d, o.treeDepth, leaves);
-            localRays += leaves.size();
-            glm::vec3 sum(0.0f), dirSum(0.0f);
-            for (const PathResult& leaf : leaves) {
-              sum += leaf.energy * sampleLatLong(env, leaf.exitDirection) *
-                     std::exp2(-leaf.opticalDepth * o.absorptionScale);
-              dirSum += leaf.energy * leaf.exitDirection;
-            }
-            transmitted = sum;
-            out.directions[p] = glm::dot(dirSum, dirSum) > 0.0f ? glm::normalize(dirSum) : hit.transmitted.exitDirection;
-          }
-          color = (1.0f - f) * transmitted;
-          if (o.reflection) color += f * sampleLatLong(env, hit.reflectedDirection);
+    for (uint32_t x = 0; x < o.width; ++x) {
+      PixelAccumulator pixel;
+      for (uint32_t j = 0; j < s; ++j)
+        for (uint32_t i = 0; i < s; ++i) {
+          const glm::vec3 d = glm::normalize(rayThrough(dirFromClip, bigWidth, bigHeight, x * s + i, y * s + j));
+          pixel.add(shade(d, leaves, rays));
         }
-        color *= o.exposure;
-        for (int k = 0; k < 3; ++k) out.color.rgba[p * 4 + k] = std::isfinite(color[k]) ? color[k] : 0.0f;
-        out.color.rgba[p * 4 + 3] = 1.0f;
+      pixel.store(out, size_t(y) * o.width + x, s * s);
+    }
+  });
+  out.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  return out;
+}
+
+// -------------------------------------------------------------------------------------------------
+
+Result<ExactDistortion> exactDistortion(const Tracer& tracer, const Field& field, glm::vec3 eye,
+                                        const ExactDistortionOptions& options) {
+  const uint64_t texels = field.texelCount();
+  if (field.frames.size() != texels * 12 || field.texelKinds.size() != texels)
+    return makeError(ErrorCode::InvalidArgument, "exact distortion: frames or texel kinds disagree with the atlas size");
+  for (const GutterTexel& g : field.gutters)
+    if (g.target >= texels || g.a >= texels || g.b >= texels || g.c >= texels)
+      return makeError(ErrorCode::InvalidArgument, "exact distortion: a gutter rule names a texel outside the atlas");
+  const auto start = Clock::now();
+  ExactDistortion out;
+  out.image.width = field.width;
+  out.image.height = field.height;
+  out.image.throughput = options.throughput;
+  out.image.rgba.assign(size_t(texels) * 4, 0.0f);
+  // The sample's surface is looked for from this far outside along its normal, and accepted within
+  // 10 times that of the recovered point (the frame's float rounding is ~1e-7 of the extent).
+  const float extent = std::max(tracer.sceneExtent(), 1e-30f);
+  const float lift = 1e-4f * extent, accept = 1e-3f * extent;
+  TraceSettings ts;
+  ts.maxBounces = options.maxBounces;
+  ts.pathRule = options.pathRule;
+  const bool depth = field.hasOpticalDepth();
+
+  std::atomic<uint64_t> next{0}, samples{0}, unmatched{0}, rays{0};
+  constexpr uint64_t kChunk = 256;
+  auto worker = [&]() {
+    uint64_t localSamples = 0, localUnmatched = 0, localRays = 0;
+    for (;;) {
+      const uint64_t begin = next.fetch_add(kChunk);
+      if (begin >= texels) break;
+      const uint64_t end = std::min(texels, begin + kChunk);
+      for (uint64_t t = begin; t < end; ++t) {
+        if (field.texelKinds[t] != kTexelSample) continue;
+        ++localSamples;
+        const float* m = &field.frames[t * 12];
+        const glm::vec3 axis[3] = {{m[0], m[1], m[2]}, {m[4], m[5], m[6]}, {m[8], m[9], m[10]}};
+        const glm::vec3 p = -(axis[0] * m[3] + axis[1] * m[7] + axis[2] * m[11]);
+        const glm::vec3 n = glm::normalize(axis[2]);
+        // The view direction the engine decodes for (reference::decodeTexel's operations).
+        float w[3];
+        for (int k = 0; k < 3; ++k)
+          w[k] = m[4 * k] * eye[0] + m[4 * k + 1] * eye[1] + m[4 * k + 2] * eye[2] + m[4 * k + 3];
+        w[2] = std::max(w[2], 0.0f);
+        glm::vec3 local(w[0], w[1], w[2]);
+        const float len2 = glm::dot(local, local);
+        local = len2 > 0.0f ? local / std::sqrt(len2) : glm::vec3(0.0f, 0.0f, 1.0f);
+        const glm::vec3 incident = -(axis[0] * local.x + axis[1] * local.y + axis[2] * local.z);
+
+        SurfacePoint point;
+        point.position = p;
+        point.shadingNormal = n;
+        point.geometricNormal = n;
+        point.triangle = std::numeric_limits<uint32_t>::max();  // out of range: use the normal given
+        // Straight down the normal first; a sample on an edge or corner of a flat-shaded mesh (a
+        // cube's) lies in the plane of the face across it, where a ray along the edge can miss
+        // both: then rays tilted a quarter toward the 8 tangent directions around the normal, one
+        // of which crosses the sample's own face.
+        static constexpr float kTilts[9][2] = {{0, 0},  {1, 0},  {-1, 0}, {0, 1},  {0, -1},
+                                               {1, 1},  {-1, 1}, {1, -1}, {-1, -1}};
+        std::optional<SurfacePoint> found;  // the first hit within `accept`, else the first hit
+        bool matched = false;
+        for (int probe = 0; probe < 9 && !matched; ++probe) {
+          const glm::vec3 tilt = 0.25f * (kTilts[probe][0] * axis[0] + kTilts[probe][1] * axis[1]);
+          const std::optional<SurfacePoint> hit = tracer.firstHit(p + lift * n, tilt - n);
+          if (!hit) continue;
+          matched = glm::distance(hit->position, p) <= accept;
+          if (matched || !found) found = hit;
+        }
+        if (found) point.surface = found->surface;
+        if (matched) {
+          point.triangle = found->triangle;
+          point.geometricNormal = found->geometricNormal;
+        } else {
+          ++localUnmatched;
+        }
+        const PathResult path = tracer.traceFromSurface(point, incident, ts);
+        localRays += path.rays + 1;
+        float* texel = &out.image.rgba[t * 4];
+        const glm::vec3 e = path.exitDirection;
+        const float elen2 = glm::dot(e, e);
+        if (elen2 > kMinDirectionLength2 && std::isfinite(elen2)) {
+          const float scale = options.throughput ? std::clamp(path.energy, 0.0f, 1.0f) : 1.0f;
+          for (int k = 0; k < 3; ++k) texel[k] = reference::roundToBinary16(e[k] / std::sqrt(elen2) * scale);
+        }
+        texel[3] = reference::roundToBinary16(
+            depth ? std::clamp(path.opticalDepth, -kMaxOpticalDepth, kMaxOpticalDepth) : 0.0f);
       }
     }
+    samples.fetch_add(localSamples);
+    unmatched.fetch_add(localUnmatched);
     rays.fetch_add(localRays);
   };
-  const uint32_t threads = o.threads ? o.threads : std::max(1u, std::thread::hardware_concurrency());
   std::vector<std::thread> pool;
-  for (uint32_t t = 1; t < threads; ++t) pool.emplace_back(worker);
+  for (uint32_t t = 1; t < threadCount(options.threads); ++t) pool.emplace_back(worker);
   worker();
   for (auto& t : pool) t.join();
+  // The gutter rules of reference::decompress: they read sample texels only, so order is free.
+  for (const GutterTexel& g : field.gutters)
+    for (size_t c = 0; c < 4; ++c)
+      out.image.rgba[size_t(g.target) * 4 + c] =
+          reference::roundToBinary16(out.image.rgba[size_t(g.a) * 4 + c] + out.image.rgba[size_t(g.b) * 4 + c] -
+                                     out.image.rgba[size_t(g.c) * 4 + c]);
+  out.samples = samples.load();
+  out.unmatched = unmatched.load();
   out.rays = rays.load();
-  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  out.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  return out;
+}
+
+// -------------------------------------------------------------------------------------------------
+
+namespace {
+
+// Screen tiles of the binned ray caster: each lists, in increasing order, the front-facing
+// triangles whose screen bounds (plus a pixel) cover one of its pixel centres.
+constexpr uint32_t kTile = 16;
+
+struct TriangleBins {
+  uint32_t tilesX = 0, tilesY = 0;
+  std::vector<std::vector<uint32_t>> tiles;  // first index of each triangle (into mesh.indices)
+};
+
+TriangleBins binTriangles(const FieldMesh& mesh, const Camera& camera, uint32_t width, uint32_t height) {
+  TriangleBins bins;
+  bins.tilesX = (width + kTile - 1) / kTile;
+  bins.tilesY = (height + kTile - 1) / kTile;
+  bins.tiles.resize(size_t(bins.tilesX) * bins.tilesY);
+  glm::dmat4 proj = glm::perspectiveRH_ZO(glm::radians(double(camera.verticalFovDegrees)),
+                                          double(width) / double(height), 1e-3, 1e3);
+  proj[1][1] *= -1.0;
+  const glm::dvec3 eye(camera.eye[0], camera.eye[1], camera.eye[2]);
+  const glm::dmat4 view = glm::lookAtRH(eye, glm::dvec3(toVec(camera.target)), glm::dvec3(toVec(camera.up)));
+  const glm::dmat4 clipFromWorld = proj * view;
+  for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+    glm::dvec3 p[3];
+    for (int k = 0; k < 3; ++k) {
+      const float* q = &mesh.positions[size_t(mesh.indices[t + size_t(k)]) * 3];
+      p[k] = glm::dvec3(q[0], q[1], q[2]);
+    }
+    // reference::render's culling test, so the lists hold exactly the triangles it could pick.
+    if (glm::dot(glm::cross(p[1] - p[0], p[2] - p[0]), eye - p[0]) <= 0.0) continue;
+    double lo[2] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
+    double hi[2] = {-lo[0], -lo[1]};
+    bool behind = false;
+    for (int k = 0; k < 3; ++k) {
+      const glm::dvec4 c = clipFromWorld * glm::dvec4(p[k], 1.0);
+      if (!(c.w > 1e-9)) {
+        behind = true;
+        break;
+      }
+      // Pixel coordinates with pixel centres at integers (pixel (x, y) centre: ndc = (x+0.5)/W*2-1).
+      const double px = (c.x / c.w + 1.0) * 0.5 * width - 0.5, py = (c.y / c.w + 1.0) * 0.5 * height - 0.5;
+      lo[0] = std::min(lo[0], px), hi[0] = std::max(hi[0], px);
+      lo[1] = std::min(lo[1], py), hi[1] = std::max(hi[1], py);
+    }
+    // A triangle reaching behind the eye: every tile (its projection is not its screen bounds).
+    const int64_t x0 = behind ? 0 : std::max<int64_t>(0, int64_t(std::floor(lo[0])) - 1);
+    const int64_t x1 = behind ? int64_t(width) - 1 : std::min<int64_t>(int64_t(width) - 1, int64_t(std::ceil(hi[0])) + 1);
+    const int64_t y0 = behind ? 0 : std::max<int64_t>(0, int64_t(std::floor(lo[1])) - 1);
+    const int64_t y1 = behind ? int64_t(height) - 1 : std::min<int64_t>(int64_t(height) - 1, int64_t(std::ceil(hi[1])) + 1);
+    if (x0 > x1 || y0 > y1) continue;
+    for (int64_t ty = y0 / kTile; ty <= y1 / kTile; ++ty)
+      for (int64_t tx = x0 / kTile; tx <= x1 / kTile; ++tx)
+        bins.tiles[size_t(ty) * bins.tilesX + size_t(tx)].push_back(static_cast<uint32_t>(t));
+  }
+  return bins;
+}
+
+}  // namespace
+
+Result<ReferenceImage> renderDistortion(const FieldMesh& mesh, const reference::DistortionImage& distortion,
+                                        const Image& env, const DistortionRenderOptions& o) {
+  if (auto r = checkSize("distortion render", o.width, o.height, o.samplesPerAxis); !r) return r.error();
+  if (env.width == 0 || env.rgba.size() != size_t(env.width) * env.height * 4)
+    return makeError(ErrorCode::InvalidArgument, "distortion render: empty environment");
+  if (distortion.width == 0 || distortion.height == 0 ||
+      distortion.rgba.size() != size_t(distortion.width) * distortion.height * 4)
+    return makeError(ErrorCode::InvalidArgument, "distortion render: the distortion image is empty or its size disagrees");
+  for (uint32_t index : mesh.indices)
+    if (size_t(index) * 3 + 2 >= mesh.positions.size() || size_t(index) * 3 + 2 >= mesh.normals.size() ||
+        size_t(index) * 2 + 1 >= mesh.uvs.size() || (!mesh.frontIor.empty() && index >= mesh.frontIor.size()))
+      return makeError(ErrorCode::InvalidArgument, "distortion render: a mesh index is out of range");
+  const auto start = Clock::now();
+  ReferenceImage out = emptyImage(o.width, o.height);
+  const uint32_t s = o.samplesPerAxis;
+  const uint32_t bigWidth = o.width * s, bigHeight = o.height * s;
+  const glm::mat4 dirFromClip = directionFromClip(o.camera, bigWidth, bigHeight);
+  const TriangleBins bins = binTriangles(mesh, o.camera, bigWidth, bigHeight);
+  const reference::LatLongImage latLong{env.width, env.height, env.rgba.data()};
+  const glm::dvec3 eye(o.camera.eye[0], o.camera.eye[1], o.camera.eye[2]);
+
+  // One sub-sample: reference::render's per-pixel operations for pixel (bx, by) of the big image.
+  auto shade = [&](uint32_t bx, uint32_t by) {
+    Sample sample;
+    const glm::vec3 rayF = rayThrough(dirFromClip, bigWidth, bigHeight, bx, by);
+    const glm::dvec3 ray(rayF);
+    double bestT = std::numeric_limits<double>::infinity();
+    bool found = false;
+    uint32_t bestTriangle = 0;
+    double bestU = 0.0, bestV = 0.0;
+    for (uint32_t t : bins.tiles[size_t(by / kTile) * bins.tilesX + bx / kTile]) {
+      glm::dvec3 p[3];
+      for (int k = 0; k < 3; ++k) {
+        const float* q = &mesh.positions[size_t(mesh.indices[t + uint32_t(k)]) * 3];
+        p[k] = glm::dvec3(q[0], q[1], q[2]);
+      }
+      const glm::dvec3 e1 = p[1] - p[0], e2 = p[2] - p[0];
+      // Moller-Trumbore, as reference::render (back faces were left out by the binning).
+      const glm::dvec3 pv = glm::cross(ray, e2);
+      const double det = glm::dot(e1, pv);
+      if (std::fabs(det) < 1e-300) continue;
+      const glm::dvec3 tv = eye - p[0];
+      const double u = glm::dot(tv, pv) / det;
+      if (u < 0.0 || u > 1.0) continue;
+      const glm::dvec3 qv = glm::cross(tv, e1);
+      const double v = glm::dot(ray, qv) / det;
+      if (v < 0.0 || u + v > 1.0) continue;
+      const double tHit = glm::dot(e2, qv) / det;
+      if (tHit <= 0.0 || tHit >= bestT) continue;
+      bestT = tHit;
+      found = true;
+      bestTriangle = t;
+      bestU = u;
+      bestV = v;
+    }
+    if (!found) {
+      const reference::Vec3 c = reference::sampleLatLong(latLong, {rayF.x, rayF.y, rayF.z});
+      sample.color = glm::vec3(c[0], c[1], c[2]);
+      return sample;
+    }
+    const double bary[3] = {1.0 - bestU - bestV, bestU, bestV};
+    double position[3] = {0, 0, 0}, normal[3] = {0, 0, 0}, uv[2] = {0, 0}, ior = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      const size_t vtx = mesh.indices[bestTriangle + uint32_t(k)];
+      for (int c = 0; c < 3; ++c) {
+        position[c] += bary[k] * double(mesh.positions[vtx * 3 + size_t(c)]);
+        normal[c] += bary[k] * double(mesh.normals[vtx * 3 + size_t(c)]);
+      }
+      for (int c = 0; c < 2; ++c) uv[c] += bary[k] * double(mesh.uvs[vtx * 2 + size_t(c)]);
+      ior += bary[k] * double(mesh.frontIor.empty() ? 0.0f : mesh.frontIor[vtx]);
+    }
+    reference::SurfacePoint point;
+    for (int c = 0; c < 3; ++c) {
+      point.position[size_t(c)] = static_cast<float>(position[c]);
+      point.normal[size_t(c)] = static_cast<float>(normal[c]);
+    }
+    point.uv = {static_cast<float>(uv[0]), static_cast<float>(uv[1])};
+    point.frontIor = static_cast<float>(ior);
+    const reference::Vec3 c = reference::shadeField(distortion, latLong, point, o.camera.eye, o.shading, o.exposure);
+    sample.color = glm::vec3(c[0], c[1], c[2]);
+    sample.hit = true;
+    // The exit direction shadeField used (same fallback for a vanishing decoded vector).
+    const reference::Vec4 d = reference::sampleBilinear(distortion, point.uv[0], point.uv[1]);
+    glm::vec3 dir(d[0], d[1], d[2]);
+    const float len2 = glm::dot(dir, dir);
+    sample.direction = len2 > kMinDirectionLength2
+                           ? dir / std::sqrt(len2)
+                           : glm::normalize(toVec(point.position) - toVec(o.camera.eye));
+    return sample;
+  };
+
+  out.rays = forEachRow(o.height, threadCount(o.threads), start, {}, [&](uint32_t y, uint64_t& rays) {
+    for (uint32_t x = 0; x < o.width; ++x) {
+      PixelAccumulator pixel;
+      for (uint32_t j = 0; j < s; ++j)
+        for (uint32_t i = 0; i < s; ++i) pixel.add(shade(x * s + i, y * s + j));
+      pixel.store(out, size_t(y) * o.width + x, s * s);
+    }
+    rays += uint64_t(o.width) * s * s;
+  });
+  out.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return out;
 }
 

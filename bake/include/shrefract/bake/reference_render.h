@@ -103,6 +103,9 @@ Image boxFilter(const Image& image, uint32_t samplesPerAxis);
 struct ExactDistortionOptions {
   PathRule pathRule = PathRule::HighestEnergy;
   uint32_t maxBounces = 16;
+  // As a field with a throughput channel: the direction is scaled by clamp(PathResult::energy, 0, 1)
+  // and the image is marked (reference::DistortionImage::throughput).
+  bool throughput = false;
   uint32_t threads = 0;  // 0: all hardware threads
 };
 
@@ -117,15 +120,17 @@ struct ExactDistortion {
 // The distortion image the engine would hold for `eye` if every sample texel stored its exact
 // path: for each texel of kind kTexelSample, the sample's position p and normal n are recovered
 // from its frame (rows of M_s = [R | -R p]: p = -R^T t, n = row 2 of R), its surface and triangle
-// from tracer.firstHit along -n from just outside p; the view direction is the one the engine
+// from tracer.firstHit along -n from just outside p (or, on an edge or corner where that ray runs
+// in the plane of the next face, along -n tilted toward one of 8 tangent directions); the view direction is the one the engine
 // decodes for (w = M_s (eye, 1), w.z clamped to >= 0, normalized; zero -> +z), and the path is
 // tracer.traceFromSurface(p, -R^T w) under `options` (what the bake traces at a grid direction).
-// The texel holds (exit direction normalized, or zero below the engine's length threshold;
-// optical depth when the field stores it, else 0, clamped to +-65504), rounded to binary16, then
+// The texel holds (exit direction normalized, or zero below the engine's length threshold, times
+// the clamped throughput with options.throughput; optical depth when the field stores it, else 0,
+// clamped to +-65504), rounded to binary16, then
 // the field's gutter rules run as in reference::decompress. Empty and gutter texels start at zero.
-// A texel whose surface is not found within 1e-3 of the scene's extent is traced from the nearest
-// surface found along -n, or (nothing found) from p with the frame's normal as its geometric
-// normal, and counted in `unmatched`.
+// A texel whose surface is not found within 1e-3 of the scene's extent of p is traced from p with
+// the frame's normal as its geometric normal (on the surface hit along -n, else surface 0), and
+// counted in `unmatched`.
 // Errors (InvalidArgument): frames, texel kinds or gutters that disagree with the atlas size.
 // The field's encoding and coefficients are not read.
 Result<ExactDistortion> exactDistortion(const Tracer& tracer, const Field& field, glm::vec3 eye,

@@ -1,0 +1,729 @@
+#include "report/fidelity.h"
+
+#include <shrefract/bake/bake.h>
+#include <shrefract/bake/image_metrics.h>
+#include <shrefract/bake/layout.h>
+#include <shrefract/bake/reference_render.h>
+#include <shrefract/cpu_reference.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cinttypes>
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <optional>
+
+#include "cli/scene_source.h"
+#include "report/plot.h"
+
+namespace shrefract::report {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+__attribute__((format(printf, 1, 2))) std::string fmt(const char* f, ...) {
+  char buf[1024];
+  va_list args;
+  va_start(args, f);
+  std::vsnprintf(buf, sizeof buf, f, args);
+  va_end(args);
+  return buf;
+}
+
+// The bunny of the shared assets, looked for from the working directory as the benchmarks do; the
+// section skips it (with a line in the report) when it is not there.
+constexpr const char* kBunny = "../shared/assets/bunny.glb";
+
+// One field setting. It is baked once in f16; its u8 row re-quantizes those coefficients with
+// encodeCoefficients, the bake's own last step (the f16 rounding before it moves a value by at
+// most 2^-11 of itself, far below a u8 step), so each pair costs one bake.
+struct Variant {
+  std::string series;  // plot series without the quantization: "sh", "table", "pca", ...
+  std::string label;   // point label: "L4", "N16", "K32"
+  BakeSettings settings;
+  bool isDefault = false;
+};
+
+struct Profile {
+  uint32_t width = 320, height = 240;
+  uint32_t samplesPerAxis = 4;
+  uint32_t treeDepth = 8;
+  uint32_t frames = 5;
+  uint32_t environmentWidth = 1024;  // as `shrefract render --env builtin`
+  std::vector<std::string> scenes;
+  std::vector<Variant> variants;
+};
+
+BakeSettings withEncoding(BakeSettings s, Encoding encoding, uint32_t order, uint32_t tableSize, uint32_t components) {
+  s.encoding = encoding;
+  s.order = encoding == Encoding::Sh ? order : 0;
+  s.tableSize = tableSize;
+  s.components = components;
+  return s;
+}
+
+Profile profileFor(ReportSize size) {
+  Profile p;
+  BakeSettings base;  // the default bake: order 8, 32x64 directions, split layout, default budget
+  BakeSettings sweep = base;
+  std::vector<uint32_t> orders, tables, components;
+  uint32_t pcaTable = 16;
+  switch (size) {
+    case ReportSize::Smoke:
+      p.width = 64;
+      p.height = 48;
+      p.samplesPerAxis = 2;
+      p.treeDepth = 4;
+      p.frames = 1;
+      p.environmentWidth = 128;
+      p.scenes = {"builtin:sphere?tessellation=1"};
+      base.order = 4;
+      base.directionsTheta = 8;
+      base.directionsPhi = 16;
+      base.sampleBudget = 300;
+      sweep = base;
+      orders = {2};
+      tables = {4};
+      pcaTable = 4;
+      components = {4};
+      break;
+    case ReportSize::Default:
+      // The sweep traces 16x32 directions at up to 5000 samples, a sixteenth of the default bake's
+      // paths, to keep the report within minutes on 2 cores; the default field itself is the
+      // default bake (its spatial sampling costs it little: see the decomposition).
+      p.scenes = {"builtin:sphere", "builtin:cube", "builtin:torus", "builtin:glass-of-water", kBunny};
+      sweep.directionsTheta = 16;
+      sweep.directionsPhi = 32;
+      sweep.sampleBudget = 5000;
+      orders = {2, 4, 8, 12};
+      tables = {8, 16};
+      components = {8, 32};
+      break;
+    case ReportSize::Full:
+      p.width = 640;
+      p.height = 480;
+      p.frames = 10;
+      p.scenes = {"builtin:sphere", "builtin:cube", "builtin:torus", "builtin:glass-of-water", kBunny};
+      orders = {2, 4, 8, 12, 16};
+      tables = {8, 16, 32};
+      components = {8, 32, 64};
+      break;
+  }
+  base.quantization = Quantization::F16;
+  sweep.quantization = Quantization::F16;
+  const std::string dirs = fmt(" %ux%u", base.directionsTheta, base.directionsPhi);
+  p.variants.push_back({"default", fmt("L%u", base.order) + dirs, base, true});
+  for (uint32_t order : orders) p.variants.push_back({"sh", fmt("L%u", order), withEncoding(sweep, Encoding::Sh, order, 0, 0)});
+  {
+    BakeSettings s = withEncoding(sweep, Encoding::Sh, base.order, 0, 0);
+    s.pathRule = PathRule::FirstRefraction;
+    p.variants.push_back({"sh first-refraction", fmt("L%u", base.order), s});
+    s.pathRule = PathRule::HighestEnergy;
+    s.throughput = true;
+    p.variants.push_back({"sh throughput", fmt("L%u", base.order), s});
+  }
+  for (uint32_t n : tables) p.variants.push_back({"table", fmt("N%u", n), withEncoding(sweep, Encoding::Table, 0, n, 0)});
+  for (uint32_t k : components)
+    p.variants.push_back({"pca", fmt("K%u", k), withEncoding(sweep, Encoding::Pca, 0, pcaTable, k)});
+  return p;
+}
+
+std::string sanitize(const std::string& s) {
+  std::string out;
+  for (char c : s) out += (std::isalnum(static_cast<unsigned char>(c)) || c == '-') ? c : '_';
+  return out;
+}
+
+std::string sceneTitle(const std::string& spec) {
+  std::string t = spec.substr(0, spec.find('?'));
+  const size_t slash = t.find_last_of('/');
+  return slash == std::string::npos ? t : t.substr(slash + 1);
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+std::string parametersOf(const BakeSettings& s) {
+  switch (s.encoding) {
+    case Encoding::Sh: return fmt("L%u", s.order);
+    case Encoding::Table: return fmt("N%u", s.tableSize);
+    case Encoding::Pca: return fmt("K%u N%u", s.components, s.tableSize);
+  }
+  return "?";
+}
+
+// The u8 twin of an f16 field (see Variant).
+Result<Field> requantizedToU8(const Field& f16) {
+  Field out = f16;
+  const uint64_t texels = f16.texelCount();
+  const uint32_t values = f16.valuesPerLayer();
+  std::vector<float> coefficients(size_t(f16.layerCount()) * texels * values);
+  for (uint32_t layer = 0; layer < f16.layerCount(); ++layer)
+    for (uint64_t t = 0; t < texels; ++t)
+      for (uint32_t v = 0; v < values; ++v)
+        coefficients[(size_t(layer) * texels + t) * values + v] = fieldCoefficient(f16, layer, t, v);
+  out.quantization = Quantization::U8;
+  out.settings.quantization = Quantization::U8;
+  if (auto r = encodeCoefficients(out, coefficients); !r) return r.error();
+  if (auto r = validateField(out); !r) return r.error();
+  return out;
+}
+
+// A GPU render: the image at S x S samples per pixel (untimed), then `frames` timed frames at 1 spp
+// (what a host pays per frame; medians), the last of which is kept.
+struct GpuRender {
+  bake::Image image;
+  bake::Image image1spp;
+  double decompressionMs = 0.0, rasterMs = 0.0, frameMs = 0.0;
+};
+
+Result<GpuRender> renderOnGpu(offscreen::Session& session, const Environment& environment,
+                              const std::vector<Object*>& objects, const Camera& camera, ShadingMode mode,
+                              const Profile& p, uint32_t width, uint32_t height, uint32_t frames) {
+  GpuRender out;
+  offscreen::FrameSettings fs;
+  fs.width = width;
+  fs.height = height;
+  fs.camera = camera;
+  fs.mode = mode;
+  fs.samplesPerAxis = p.samplesPerAxis;
+  auto image = offscreen::renderFrame(session, environment, objects, fs, nullptr);
+  if (!image) return image.error();
+  out.image = std::move(image).value();
+  fs.samplesPerAxis = 1;
+  // One untimed frame first: pipeline creation and first-use costs are not frame time.
+  if (auto warm = offscreen::renderFrame(session, environment, objects, fs, nullptr); !warm) return warm.error();
+  fs.frames = frames;
+  offscreen::FrameTimings timings;
+  auto timed = offscreen::renderFrame(session, environment, objects, fs, &timings);
+  if (!timed) return timed.error();
+  out.image1spp = std::move(timed).value();
+  // Medians over the timed frames: a shared CPU (lavapipe) makes single frames noisy.
+  out.decompressionMs = median(timings.gpuDecompressionMs);
+  out.rasterMs = median(timings.gpuRasterMs);
+  out.frameMs = median(timings.wallMs);
+  return out;
+}
+
+
+// What the measurements of one scene share.
+struct SceneContext {
+  const Profile& profile;
+  const FidelityOptions& options;
+  offscreen::Session& session;
+  const Environment& gpuEnvironment;
+  const bake::Image& environment;
+  std::vector<std::string>& files;
+  const std::string& spec;
+  const bake::Scene& scene;
+  const bake::Tracer& tracer;
+  std::string name;  // file name stem
+  uint32_t width = 0, height = 0, frames = 0;
+  Camera camera;
+  bake::ReferenceImage physical;
+  std::map<std::pair<PathRule, bool>, bake::ReferenceImage> exact;  // by path rule and throughput
+};
+
+// PSNR over the physical reference's object pixels.
+Result<double> psnrOf(const SceneContext& c, const bake::Image& approx, const bake::Image& reference) {
+  auto e = bake::compareImages(approx, reference, c.physical.mask, {}, {});
+  if (!e) return e.error();
+  return e.value().psnr;
+}
+
+Result<void> writeOut(SceneContext& c, const std::string& name, const bake::Image& image) {
+  if (auto r = bake::writeImage(c.options.outputDirectory + "/" + name, image); !r) return r;
+  c.files.push_back(name);
+  return {};
+}
+
+Result<bake::ReferenceImage> cpuRender(const SceneContext& c, bake::ReferenceOptions ro, const std::string& what) {
+  ro.width = c.width;
+  ro.height = c.height;
+  ro.camera = c.camera;
+  ro.samplesPerAxis = c.profile.samplesPerAxis;
+  ro.threads = c.options.threads;
+  auto image = bake::renderReference(c.tracer, c.scene, c.environment, ro);
+  if (!image) return makeError(image.error().code, c.spec + ": " + what + ": " + image.error().message);
+  std::fprintf(stderr, "report: fidelity: %s: %s (CPU, %ux%u spp): %.2f s\n", c.spec.c_str(), what.c_str(),
+               c.profile.samplesPerAxis, c.profile.samplesPerAxis, image.value().seconds);
+  return image;
+}
+
+const char* ruleName(PathRule rule) { return rule == PathRule::HighestEnergy ? "highest-energy" : "first-refraction"; }
+
+FidelityRow baseRow(const SceneContext& c, const std::string& kind, const std::string& label) {
+  FidelityRow row;
+  row.scene = c.spec;
+  row.kind = kind;
+  row.label = label;
+  row.series = kind;
+  row.encoding = row.parameters = row.directions = row.quantization = "-";
+  row.psnrPhysical = row.psnrSameRule = std::nan("");
+  return row;
+}
+
+// The default field and its renders, kept for the decomposition.
+struct DefaultField {
+  std::optional<Field> f16;
+  std::optional<GpuRender> gpuF16, gpuU8;
+  std::string error;
+};
+
+// Bakes one variant and measures its f16 and u8 rows. A failing bake, re-quantization, upload or
+// GPU render makes error rows; only a failing comparison (a bug) is an error.
+Result<void> measureVariant(SceneContext& c, const Variant& v, FidelityScene& out, DefaultField* keep) {
+  const BakeSettings& s = v.settings;
+  FidelityRow proto = baseRow(c, "field", v.label);
+  proto.encoding = toString(s.encoding);
+  proto.parameters = parametersOf(s);
+  proto.directions = fmt("%ux%u", s.directionsTheta, s.directionsPhi);
+  proto.pathRule = s.pathRule;
+  proto.throughput = s.throughput;
+  proto.gpu = true;
+  auto errorRows = [&](const std::string& message) {
+    for (Quantization q : {Quantization::F16, Quantization::U8}) {
+      FidelityRow row = proto;
+      row.quantization = toString(q);
+      row.series = v.series + " " + toString(q);
+      row.error = message;
+      out.rows.push_back(row);
+    }
+    if (keep) keep->error = message;
+    std::fprintf(stderr, "report: fidelity: %s: %s %s: %s\n", c.spec.c_str(), v.series.c_str(), v.label.c_str(),
+                 message.c_str());
+  };
+
+  bake::BakeOptions bo;
+  bo.settings = s;
+  bo.settings.source = c.spec;
+  bo.settings.threads = c.options.threads;
+  bo.heldOutDirections = 0;
+  auto baked = bake::bakeField(c.scene, bo);
+  if (!baked) {
+    errorRows("bake failed: " + baked.error().message);
+    return {};
+  }
+  const Field& f16 = baked.value();
+  if (f16.encoding != s.encoding || f16.settings.pathRule != s.pathRule || f16.throughput != s.throughput ||
+      f16.quantization != Quantization::F16) {
+    errorRows(fmt("the bake returned a %s field (%s, throughput %s, %s) for a %s request (%s, throughput %s)",
+                  toString(f16.encoding), ruleName(f16.settings.pathRule), f16.throughput ? "on" : "off",
+                  toString(f16.quantization), toString(s.encoding), ruleName(s.pathRule), s.throughput ? "on" : "off"));
+    return {};
+  }
+  auto u8 = requantizedToU8(f16);
+  const auto& sameRule = c.exact.at({s.pathRule, s.throughput});
+  for (Quantization q : {Quantization::F16, Quantization::U8}) {
+    FidelityRow row = proto;
+    row.quantization = toString(q);
+    row.series = v.series + " " + toString(q);
+    row.bakeSeconds = f16.statistics.bakeSeconds;
+    const bool isU8 = q == Quantization::U8;
+    if (isU8 && !u8) {
+      row.error = "re-quantization to u8 failed: " + u8.error().message;
+      out.rows.push_back(row);
+      continue;
+    }
+    const Field& field = isU8 ? u8.value() : f16;
+    row.bytesPerSample = field.bytesPerSample();
+    row.samples = f16.statistics.uniqueSamples;
+    auto object = offscreen::uploadField(c.session, field);
+    if (!object) {
+      row.error = "upload failed: " + object.error().message;
+      out.rows.push_back(row);
+      continue;
+    }
+    std::vector<Object*> list{object.value().get()};
+    auto gpu = renderOnGpu(c.session, c.gpuEnvironment, list, c.camera, ShadingMode::Field, c.profile, c.width,
+                           c.height, c.frames);
+    object.value().reset();
+    c.session.context->releaseDeferred();
+    if (!gpu) {
+      row.error = "GPU render failed: " + gpu.error().message;
+      out.rows.push_back(row);
+      continue;
+    }
+    auto physical = psnrOf(c, gpu.value().image, c.physical.color);
+    if (!physical) return physical.error();
+    auto same = psnrOf(c, gpu.value().image, sameRule.color);
+    if (!same) return same.error();
+    row.psnrPhysical = physical.value();
+    row.psnrSameRule = same.value();
+    row.decompressionMs = gpu.value().decompressionMs;
+    row.rasterMs = gpu.value().rasterMs;
+    std::fprintf(stderr,
+                 "report: fidelity: %s: %s %s %s: %u B/sample, bake %.1f s, PSNR %.2f dB (physical), %.2f dB (exact "
+                 "%s), GPU %.2f + %.2f ms\n",
+                 c.spec.c_str(), v.series.c_str(), v.label.c_str(), toString(q), row.bytesPerSample, row.bakeSeconds,
+                 row.psnrPhysical, row.psnrSameRule, ruleName(s.pathRule), row.decompressionMs, row.rasterMs);
+    out.rows.push_back(row);
+    if (keep) (isU8 ? keep->gpuU8 : keep->gpuF16) = std::move(gpu).value();
+  }
+  if (keep) keep->f16 = std::move(baked).value();
+  return {};
+}
+
+// The error decomposition of the default field: each step adds one approximation to the one
+// before; its PSNR is between the two stages, its cumulative PSNR the coarser stage's against
+// the physical reference.
+Result<void> decompose(SceneContext& c, const DefaultField& def, FidelityScene& out,
+                       std::optional<bake::Image>& texelsImage) {
+  auto step = [&](const std::string& name, const std::string& compares, const bake::Image& coarser,
+                  const bake::Image& finer) -> Result<void> {
+    FidelityStep st;
+    st.step = name;
+    st.compares = compares;
+    auto a = psnrOf(c, coarser, finer);
+    if (!a) return a.error();
+    auto b = psnrOf(c, coarser, c.physical.color);
+    if (!b) return b.error();
+    st.psnr = a.value();
+    st.cumulative = b.value();
+    out.decomposition.push_back(st);
+    return {};
+  };
+  const bake::ReferenceImage& exactHE = c.exact.at({PathRule::HighestEnergy, false});
+  if (auto r = step("path rule", "exact highest-energy path vs physical", exactHE.color, c.physical.color); !r)
+    return r;
+  if (!def.f16 || !def.gpuF16 || !def.gpuU8) {
+    for (const char* name : {"spatial sampling", "angular encoding", "quantization", "pixel sampling"})
+      out.decomposition.push_back({name, "-", 0.0, 0.0, "default field unavailable: " + def.error});
+    return {};
+  }
+  const Field& field = *def.f16;
+  const glm::vec3 eye(c.camera.eye[0], c.camera.eye[1], c.camera.eye[2]);
+  bake::ExactDistortionOptions eo;
+  eo.pathRule = field.settings.pathRule;
+  eo.maxBounces = field.settings.maxBounces;
+  eo.throughput = field.throughput;
+  eo.threads = c.options.threads;
+  auto texels = bake::exactDistortion(c.tracer, field, eye, eo);
+  if (!texels) return texels.error();
+  out.sampleTexels = texels.value().samples;
+  out.unmatchedTexels = texels.value().unmatched;
+  bake::DistortionRenderOptions ro;
+  ro.width = c.width;
+  ro.height = c.height;
+  ro.camera = c.camera;
+  ro.samplesPerAxis = c.profile.samplesPerAxis;
+  ro.threads = c.options.threads;
+  auto texelRender = bake::renderDistortion(field.mesh, texels.value().image, c.environment, ro);
+  if (!texelRender) return texelRender.error();
+  std::fprintf(stderr, "report: fidelity: %s: exact paths at %" PRIu64 " sample texels (%" PRIu64
+               " unmatched): %.2f s trace, %.2f s CPU raster\n",
+               c.spec.c_str(), texels.value().samples, texels.value().unmatched, texels.value().seconds,
+               texelRender.value().seconds);
+  texelsImage = texelRender.value().color;
+  if (auto r = step("spatial sampling", "exact paths at the sample texels (CPU raster) vs exact per pixel",
+                    texelRender.value().color, exactHE.color);
+      !r)
+    return r;
+  // The f16 field through the same CPU raster isolates the encoding from the GPU's arithmetic.
+  const reference::DistortionImage decoded = reference::decompress(field, {eye.x, eye.y, eye.z});
+  auto twin = bake::renderDistortion(field.mesh, decoded, c.environment, ro);
+  if (!twin) return twin.error();
+  if (auto r = step("angular encoding", "f16 field (CPU raster) vs exact paths at the sample texels",
+                    twin.value().color, texelRender.value().color);
+      !r)
+    return r;
+  if (auto r = step("GPU arithmetic", "f16 field on the GPU vs the same on the CPU raster", def.gpuF16->image,
+                    twin.value().color);
+      !r)
+    return r;
+  if (auto r = step("quantization", "u8 field vs f16 field (GPU)", def.gpuU8->image, def.gpuF16->image); !r) return r;
+  // The 1-spp image against the 4x4 one, and (cumulative) against the 4x4 physical reference.
+  const uint32_t spp = c.profile.samplesPerAxis;
+  if (auto r = step("pixel sampling", fmt("u8 field at 1 spp vs at %ux%u (GPU)", spp, spp), def.gpuU8->image1spp,
+                    def.gpuU8->image);
+      !r)
+    return r;
+  return {};
+}
+
+Result<FidelityScene> measureScene(SceneContext& c) {
+  const auto start = Clock::now();
+  FidelityScene out;
+  out.scene = c.spec;
+  out.samplesPerAxis = c.profile.samplesPerAxis;
+  {
+    bake::ReferenceOptions ro;
+    ro.mode = bake::ReferenceMode::FullTree;
+    ro.treeDepth = c.profile.treeDepth;
+    auto physical = cpuRender(c, ro, fmt("physical reference (full tree, depth %u)", c.profile.treeDepth));
+    if (!physical) return physical.error();
+    c.physical = std::move(physical).value();
+    out.pixels = static_cast<uint64_t>(std::count(c.physical.mask.begin(), c.physical.mask.end(), uint8_t(1)));
+    FidelityRow row = baseRow(c, "physical", fmt("full tree depth %u (CPU)", c.profile.treeDepth));
+    row.psnrPhysical = 100.0;
+    row.cpuMs = c.physical.seconds * 1000.0 / double(c.profile.samplesPerAxis * c.profile.samplesPerAxis);
+    out.rows.push_back(row);
+  }
+  for (PathRule rule : {PathRule::HighestEnergy, PathRule::FirstRefraction})
+    for (bool throughput : {false, true}) {
+      bake::ReferenceOptions ro;
+      ro.mode = bake::ReferenceMode::Exact;
+      ro.pathRule = rule;
+      ro.throughput = throughput;
+      const std::string label = std::string("exact ") + ruleName(rule) + (throughput ? " + throughput" : "");
+      auto exact = cpuRender(c, ro, label);
+      if (!exact) return exact.error();
+      c.exact[{rule, throughput}] = std::move(exact).value();
+    }
+  for (const auto& [key, image] : c.exact) {
+    FidelityRow row = baseRow(c, "exact", std::string("exact ") + ruleName(key.first) +
+                                              (key.second ? " + throughput" : "") + " (CPU)");
+    row.series = "exact (CPU)";
+    row.pathRule = key.first;
+    row.throughput = key.second;
+    auto physical = psnrOf(c, image.color, c.physical.color);
+    if (!physical) return physical.error();
+    auto same = psnrOf(c, image.color, c.exact.at({key.first, false}).color);
+    if (!same) return same.error();
+    row.psnrPhysical = physical.value();
+    row.psnrSameRule = same.value();
+    row.cpuMs = image.seconds * 1000.0 / double(c.profile.samplesPerAxis * c.profile.samplesPerAxis);
+    out.rows.push_back(row);
+  }
+  {
+    auto objects = offscreen::uploadScene(c.session, c.scene);
+    if (!objects) return objects.error();
+    std::vector<Object*> list;
+    for (auto& o : objects.value()) list.push_back(o.get());
+    auto gpu = renderOnGpu(c.session, c.gpuEnvironment, list, c.camera, ShadingMode::SingleInterface, c.profile,
+                           c.width, c.height, c.frames);
+    if (!gpu) return gpu.error();
+    objects.value().clear();
+    c.session.context->releaseDeferred();
+    FidelityRow row = baseRow(c, "single interface", "single interface (GPU)");
+    row.gpu = true;
+    auto physical = psnrOf(c, gpu.value().image, c.physical.color);
+    if (!physical) return physical.error();
+    auto same = psnrOf(c, gpu.value().image, c.exact.at({PathRule::HighestEnergy, false}).color);
+    if (!same) return same.error();
+    row.psnrPhysical = physical.value();
+    row.psnrSameRule = same.value();
+    row.rasterMs = gpu.value().rasterMs;
+    out.rows.push_back(row);
+  }
+  DefaultField def;
+  for (Variant v : c.profile.variants) {
+    // A split layout needs at least one sample per welded vertex: where the sweep's budget is
+    // below that, the sweep takes the smallest of 2x, 4x its budget or the default that fits.
+    if (!v.isDefault && v.settings.layout == SampleLayout::Split && v.settings.sampleBudget != 0) {
+      const uint64_t asked = v.settings.sampleBudget;
+      for (uint64_t budget : {asked, 2 * asked, 4 * asked, uint64_t(0)}) {
+        bake::LayoutOptions lo;
+        lo.sampleBudget = budget;
+        v.settings.sampleBudget = budget;
+        if (bake::buildSplitLayout(c.scene, lo).ok()) break;
+      }
+    }
+    if (auto r = measureVariant(c, v, out, v.isDefault ? &def : nullptr); !r) return r.error();
+  }
+  std::optional<bake::Image> texels;
+  if (auto r = decompose(c, def, out, texels); !r) return r.error();
+
+  // Side by side: physical | exact highest-energy | exact at the texels | u8 field | heat map.
+  {
+    const bake::Image& physical = c.physical.color;
+    const bake::Image& exact = c.exact.at({PathRule::HighestEnergy, false}).color;
+    std::vector<const bake::Image*> images{&physical, &exact};
+    if (texels) images.push_back(&*texels);
+    bake::Image heat;
+    if (def.gpuU8) {
+      images.push_back(&def.gpuU8->image);
+      heat = bake::errorHeatMap(def.gpuU8->image, physical, 0.5f);
+      images.push_back(&heat);
+    }
+    if (auto w = writeOut(c, "fidelity_" + c.name + "_compare.png", sideBySide(images)); !w) return w.error();
+  }
+
+  // Plots: PSNR against bytes per sample and against frame time, one series per encoding.
+  std::vector<std::string> series;
+  for (const FidelityRow& r : out.rows)
+    if (std::find(series.begin(), series.end(), r.series) == series.end()) series.push_back(r.series);
+  // Paired hues (f16 darker, u8 lighter, in the order the rows come), then greys.
+  static const std::array<std::array<float, 3>, 16> kColors = {{
+      {0.00f, 0.00f, 0.00f}, {0.45f, 0.45f, 0.45f}, {0.60f, 0.35f, 0.10f}, {0.05f, 0.25f, 0.75f},
+      {0.35f, 0.60f, 1.00f}, {0.05f, 0.50f, 0.15f}, {0.40f, 0.80f, 0.35f}, {0.75f, 0.05f, 0.10f},
+      {1.00f, 0.45f, 0.45f}, {0.45f, 0.10f, 0.60f}, {0.75f, 0.50f, 0.90f}, {0.85f, 0.45f, 0.00f},
+      {1.00f, 0.75f, 0.20f}, {0.00f, 0.50f, 0.50f}, {0.30f, 0.80f, 0.80f}, {0.70f, 0.00f, 0.50f}}};
+  // Colours are fixed per series across both plots; each plot lists only the series it shows.
+  auto makePlot = [&](const std::string& title, const std::string& xLabel, bool fieldsOnly, auto xOf) {
+    Plot plot;
+    plot.title = title;
+    plot.xLabel = xLabel;
+    plot.yLabel = "PSNR vs physical (dB)";
+    plot.logX = true;
+    plot.yFromZero = false;
+    plot.legendOutside = true;
+    std::vector<std::string> shown;
+    for (const FidelityRow& r : out.rows) {
+      if (!r.error.empty() || r.kind == "physical" || (fieldsOnly && r.kind != "field")) continue;
+      auto it = std::find(shown.begin(), shown.end(), r.series);
+      if (it == shown.end()) {
+        const size_t k = size_t(std::find(series.begin(), series.end(), r.series) - series.begin());
+        plot.series.push_back({r.series, kColors[k % kColors.size()], r.kind == "field"});
+        shown.push_back(r.series);
+        it = shown.end() - 1;
+      }
+      const std::string label = r.kind == "field" ? r.label.substr(0, r.label.find(' '))
+                                : r.kind == "exact" ? (r.pathRule == PathRule::HighestEnergy ? "HE" : "FR") +
+                                                          std::string(r.throughput ? "+T" : "")
+                                                    : "";
+      plot.points.push_back({xOf(r), r.psnrPhysical, label, static_cast<int>(it - shown.begin())});
+    }
+    return renderPlot(plot, 900, 480);
+  };
+  const std::string title = sceneTitle(c.spec);
+  const bake::Image bytes = makePlot(title + ": error vs bytes per sample", "bytes per sample (log)", true,
+                                     [](const FidelityRow& r) { return double(r.bytesPerSample); });
+  const bake::Image time = makePlot(title + ": error vs frame time", "GPU decompress + raster ms, CPU ms (log)", false,
+                                    [](const FidelityRow& r) { return r.gpu ? r.decompressionMs + r.rasterMs : r.cpuMs; });
+  if (auto w = writeOut(c, "fidelity_" + c.name + "_psnr_vs_bytes.png", bytes); !w) return w.error();
+  if (auto w = writeOut(c, "fidelity_" + c.name + "_psnr_vs_frame_time.png", time); !w) return w.error();
+  out.seconds = since(start);
+  return out;
+}
+
+std::string number(double v) { return std::isfinite(v) ? fmt("%.2f", v) : "-"; }
+
+std::string markdownOf(const Profile& p, const std::vector<FidelityScene>& scenes, uint32_t width, uint32_t height,
+                       double seconds) {
+  const uint32_t s = p.samplesPerAxis;
+  std::string md = "## Fidelity against the physical reference\n\n";
+  md += fmt("Physical reference: the full Fresnel tree (every branch at every interface) to depth %u, traced on the "
+            "CPU. Every image is %ux%u with %ux%u stratified samples per pixel (sub-pixel cell centres, box filter); "
+            "the GPU renders at %ux%u and averages %ux%u blocks. PSNR is over the object's pixels (more than half of "
+            "the pixel's samples hit the object in the physical reference), colours clamped to [0, 1]. Built-in "
+            "environment (%u px wide), the tool's default view. %.1f s in all.\n\n",
+            p.treeDepth, width, height, s, s, width * s, height * s, s, s, p.environmentWidth, seconds);
+  md += "Columns: *vs physical* is the PSNR against the physical reference; *vs exact* against the exact single-path "
+        "render this row approximates (same path rule and throughput; for the exact rows, the same rule without "
+        "throughput; single interface: exact highest-energy). Fields are baked in f16; each u8 row re-quantizes "
+        "its f16 twin's coefficients (the bake's own last step), so the pair shares one bake. Bytes per sample "
+        "count the coefficients only. GPU times are timestamps of one frame at 1 spp; CPU times are per 1-spp "
+        "frame (the supersampled render's time divided by the samples per pixel).\n\n";
+  for (const FidelityScene& sc : scenes) {
+    md += "### " + sc.scene + "\n\n";
+    if (!sc.skipped.empty()) {
+      md += "Skipped: " + sc.skipped + "\n\n";
+      continue;
+    }
+    md += fmt("%" PRIu64 " object pixels, %.1f s.\n\n", sc.pixels, sc.seconds);
+    md += "| row | encoding | parameters | directions | samples | quant | path rule | throughput | bytes/sample | "
+          "PSNR vs physical dB | PSNR vs exact dB | bake s | GPU decompress + raster ms | CPU ms |\n";
+    md += "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+    for (const FidelityRow& r : sc.rows) {
+      const bool field = r.kind == "field";
+      const std::string rule = r.kind == "physical" || r.kind == "single interface" ? "-" : ruleName(r.pathRule);
+      const std::string throughput = rule == "-" ? "-" : (r.throughput ? "yes" : "no");
+      if (!r.error.empty()) {
+        md += fmt("| %s %s | %s | %s | %s | - | %s | %s | %s | - | error: %s | | | | |\n", r.series.c_str(),
+                  r.label.c_str(), r.encoding.c_str(), r.parameters.c_str(), r.directions.c_str(),
+                  r.quantization.c_str(), rule.c_str(), throughput.c_str(), r.error.c_str());
+        continue;
+      }
+      const std::string gpuMs = r.gpu ? (field ? fmt("%.2f + %.2f", r.decompressionMs, r.rasterMs)
+                                               : fmt("%.2f", r.rasterMs))
+                                      : "-";
+      md += fmt("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n",
+                field ? (r.series + " " + r.label).c_str() : r.label.c_str(), r.encoding.c_str(),
+                r.parameters.c_str(), r.directions.c_str(), field ? fmt("%" PRIu64, r.samples).c_str() : "-",
+                r.quantization.c_str(), rule.c_str(), throughput.c_str(),
+                field ? fmt("%u", r.bytesPerSample).c_str() : "-", number(r.psnrPhysical).c_str(),
+                number(r.psnrSameRule).c_str(), field ? fmt("%.1f", r.bakeSeconds).c_str() : "-", gpuMs.c_str(),
+                r.gpu ? "-" : number(r.cpuMs).c_str());
+    }
+    const BakeSettings& d = p.variants.front().settings;
+    md += fmt("\nError decomposition of the default field (SH order %u, %ux%u directions, %s layout, %s, %s path "
+              "rule): each step adds one approximation to the stage above it; *step* is the PSNR between the two "
+              "stages, *cumulative* the new stage against the physical reference.\n\n",
+              d.order, d.directionsTheta, d.directionsPhi, toString(d.layout),
+              d.sampleBudget ? fmt("%" PRIu64 " samples asked", d.sampleBudget).c_str() : "the default sample budget",
+              ruleName(d.pathRule));
+    md += "| step | compares | step PSNR dB | cumulative PSNR dB |\n|---|---|---|---|\n";
+    for (const FidelityStep& st : sc.decomposition) {
+      if (!st.error.empty())
+        md += "| " + st.step + " | " + st.compares + " | error: " + st.error + " | |\n";
+      else
+        md += fmt("| %s | %s | %.2f | %.2f |\n", st.step.c_str(), st.compares.c_str(), st.psnr, st.cumulative);
+    }
+    if (sc.sampleTexels)
+      md += fmt("\nExact paths at the sample texels: %" PRIu64 " sample texels, %" PRIu64
+                " whose surface point the tracer did not find where the frame puts it.\n",
+                sc.sampleTexels, sc.unmatchedTexels);
+    const std::string name = "fidelity_" + sanitize(sceneTitle(sc.scene));
+    md += "\n![error vs bytes per sample](" + name + "_psnr_vs_bytes.png)\n";
+    md += "![error vs frame time](" + name + "_psnr_vs_frame_time.png)\n\n";
+    md += "Side by side (physical | exact highest-energy | exact paths at the sample texels | default u8 field on the "
+          "GPU | heat map of the field against the physical reference, |diff| summed over RGB, white = 0.5):\n\n";
+    md += "![" + name + "_compare.png](" + name + "_compare.png)\n\n";
+  }
+  return md;
+}
+
+}  // namespace
+
+Result<FidelityResult> runFidelity(const FidelityOptions& options, offscreen::Session& session,
+                                   std::vector<std::string>& files) {
+  const auto start = Clock::now();
+  const Profile profile = profileFor(options.size);
+  const uint32_t width = options.width ? options.width : profile.width;
+  const uint32_t height = options.height ? options.height : profile.height;
+  const std::vector<std::string> specs = options.scenes.empty() ? profile.scenes : options.scenes;
+
+  // Load every scene first: input errors before minutes of work. A default scene whose asset is
+  // missing is skipped.
+  std::vector<std::optional<bake::Scene>> scenes;
+  FidelityResult result;
+  for (const std::string& spec : specs) {
+    FidelityScene placeholder;
+    placeholder.scene = spec;
+    if (options.scenes.empty() && spec == kBunny && !std::filesystem::exists(spec)) {
+      placeholder.skipped = spec + " not found from the working directory (run from the repository root with "
+                                   "../shared/assets present)";
+      std::fprintf(stderr, "report: fidelity: %s\n", placeholder.skipped.c_str());
+      scenes.emplace_back();
+    } else {
+      auto scene = cli::loadScene(spec, {}, nullptr);
+      if (!scene) return scene.error();
+      scenes.emplace_back(std::move(scene).value());
+    }
+    result.scenes.push_back(placeholder);
+  }
+
+  const bake::Image environment = bake::proceduralEnvironment(profile.environmentWidth);
+  auto gpuEnvironment = offscreen::uploadEnvironment(session, environment);
+  if (!gpuEnvironment) return gpuEnvironment.error();
+  for (size_t i = 0; i < specs.size(); ++i) {
+    if (!scenes[i]) continue;
+    auto tracer = bake::Tracer::create(*scenes[i]);
+    if (!tracer) return makeError(tracer.error().code, specs[i] + ": " + tracer.error().message);
+    SceneContext c{profile, options, session, *gpuEnvironment.value(), environment, files, specs[i], *scenes[i],
+                   *tracer.value()};
+    c.name = sanitize(sceneTitle(specs[i]));
+    c.width = width;
+    c.height = height;
+    c.frames = options.frames ? options.frames : profile.frames;
+    c.camera = offscreen::defaultCamera(*scenes[i]);
+    auto measured = measureScene(c);
+    if (!measured) return measured.error();
+    result.scenes[i] = std::move(measured).value();
+    std::fprintf(stderr, "report: fidelity: %s done in %.1f s\n", specs[i].c_str(), result.scenes[i].seconds);
+  }
+  result.markdown = markdownOf(profile, result.scenes, width, height, since(start));
+  return result;
+}
+
+}  // namespace shrefract::report

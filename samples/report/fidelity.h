@@ -1,0 +1,47 @@
+// The report's fidelity section (issue 11): how far the field and the usual shortcuts are from the
+// physical answer, and where the error comes from.
+//
+// Physical reference: the full Fresnel tree (every branch at every interface) to depth 8, 4x4
+// stratified samples per pixel (bake/reference_render.h). Every render is 4x4 supersampled; errors
+// are PSNR over the object's pixels (coverage > 0.5 in the physical reference), colours clamped to
+// [0, 1]. Per scene: exact single paths (highest-energy, first-refraction, each with and without
+// the path's Fresnel throughput), single-interface refraction, and fields baked at several
+// encodings and budgets; then the error decomposition of the default field (order 8, 32x64
+// directions, split layout, u8):
+//   physical -> exact path (path rule) -> exact path at the sample texels (spatial sampling)
+//   -> f16 field (angular encoding) -> u8 field (quantization) -> u8 field at 1 spp (pixel sampling).
+#pragma once
+
+#include <shrefract/result.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "offscreen/offscreen.h"
+#include "report/report.h"
+
+namespace shrefract::report {
+
+struct FidelityResult {
+  std::vector<FidelityScene> scenes;
+  std::string markdown;  // the section of report.md
+};
+
+struct FidelityOptions {
+  ReportSize size = ReportSize::Default;
+  std::vector<std::string> scenes;  // empty: the defaults of the size (see fidelity.cpp)
+  std::string outputDirectory;
+  uint32_t width = 0, height = 0;   // 0: by size
+  uint32_t frames = 0;              // GPU frames timed per row; 0: by size
+  uint32_t threads = 0;
+};
+
+// Runs the section on `session` (validation messages are the caller's to check). Images and plots
+// go to the output directory and are appended to `files`. Errors: unreadable scenes (a default
+// scene whose asset is missing is skipped instead), CPU renderer failures, unwritable files. A bake
+// or upload that fails for one field row makes that row an error row, not a failure.
+Result<FidelityResult> runFidelity(const FidelityOptions& options, offscreen::Session& session,
+                                   std::vector<std::string>& files);
+
+}  // namespace shrefract::report

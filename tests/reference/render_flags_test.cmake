@@ -1,0 +1,67 @@
+# `shrefract render` supersampling and path flags: --spp (a perfect square 1..64, every mode),
+# --path-rule and --throughput (exact mode). Range and usage errors exit 2 with one line naming the
+# flag and write nothing; good values render (CPU modes always; the GPU case skips without a
+# device, printing "SKIPPED: no Vulkan device"). Inputs: SHREFRACT (the tool), WORK_DIR.
+file(REMOVE_RECURSE ${WORK_DIR})
+file(MAKE_DIRECTORY ${WORK_DIR})
+set(base render builtin:sphere --tessellation 1 -o ${WORK_DIR}/out.png)
+
+# expect_usage_error(FLAG SIZE ARGS...): `render ... --size SIZE ARGS` must fail naming FLAG.
+function(expect_usage_error flag size)
+  execute_process(COMMAND ${SHREFRACT} ${base} --size ${size} ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL 2)
+    message(FATAL_ERROR "'${ARGN}': expected exit 2, got ${rc}\nstderr: ${err}")
+  endif()
+  if(NOT err MATCHES "${flag}")
+    message(FATAL_ERROR "'${ARGN}': the message does not name ${flag}: ${err}")
+  endif()
+  string(STRIP "${err}" stripped)
+  if(stripped MATCHES "\n")
+    message(FATAL_ERROR "'${ARGN}': expected one line on stderr, got:\n${err}")
+  endif()
+  if(EXISTS ${WORK_DIR}/out.png)
+    message(FATAL_ERROR "'${ARGN}': an output was written")
+  endif()
+endfunction()
+
+expect_usage_error(--spp 16x12 --spp 3)
+expect_usage_error(--spp 16x12 --spp 0)
+expect_usage_error(--spp 16x12 --spp 81)
+expect_usage_error(--spp 16x12 --spp -4)
+expect_usage_error(--spp 16x12 --spp many)
+expect_usage_error(--spp 4000x10 --mode exact --spp 25)
+expect_usage_error(--path-rule 16x12 --mode exact --path-rule sideways)
+expect_usage_error(--path-rule 16x12 --mode single-interface --path-rule first-refraction)
+expect_usage_error(--throughput 16x12 --mode full-tree --throughput)
+
+# CPU modes: always available.
+execute_process(COMMAND ${SHREFRACT} ${base} --size 16x12 --mode exact --spp 4 --path-rule first-refraction --throughput --json
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0 OR NOT EXISTS ${WORK_DIR}/out.png)
+  message(FATAL_ERROR "exact render with --spp 4 failed (${rc}): ${err}")
+endif()
+foreach(field "\"spp\": 4" "\"path_rule\": \"first-refraction\"" "\"throughput\": true")
+  if(NOT out MATCHES "${field}")
+    message(FATAL_ERROR "the JSON summary lacks ${field}: ${out}")
+  endif()
+endforeach()
+file(REMOVE ${WORK_DIR}/out.png)
+execute_process(COMMAND ${SHREFRACT} ${base} --size 16x12 --mode full-tree --tree-depth 3 --spp 9 RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "full-tree render with --spp 9 failed (${rc}): ${err}")
+endif()
+file(REMOVE ${WORK_DIR}/out.png)
+
+# A GPU mode.
+execute_process(COMMAND ${SHREFRACT} ${base} --size 16x12 --spp 16 --json RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  if(err MATCHES "no Vulkan|does not offer Vulkan 1.3|no Vulkan 1.3 device")
+    message("SKIPPED: no Vulkan device: ${err}")
+    return()
+  endif()
+  message(FATAL_ERROR "single-interface render with --spp 16 failed (${rc}): ${err}")
+endif()
+if(NOT out MATCHES "\"spp\": 16")
+  message(FATAL_ERROR "the JSON summary lacks \"spp\": 16: ${out}")
+endif()
+message("render flags ok")
