@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Fresh Debian 12 machine -> the main job: build the tool, bake the default built-in scene into a
-# refraction field, render it over the built-in environment (SH field, exact reference and the
-# single-interface baseline), and write the error-against-run-time report.
+# refraction field, render it over the built-in environment (field, exact, physical full-tree
+# reference and the single-interface baseline), and write the report.
 # Output goes to out/ (override with OUT_DIR). A few minutes on 2 cores.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -14,11 +14,15 @@ mkdir -p "$out"
 # Lavapipe by default, so the job runs the same on any machine; set VK_DRIVER_FILES to choose.
 export VK_DRIVER_FILES="${VK_DRIVER_FILES:-/usr/share/vulkan/icd.d/lvp_icd.x86_64.json}"
 tool="$build/samples/shrefract"
-"$tool" bake builtin:sphere --order 8 --directions 32x64 --samples 8000 -o "$out/sphere.shrf"
+# The default bake: the Pca encoding at the paper's 324 bytes per sample (docs/encodings.md).
+"$tool" bake builtin:sphere --directions 32x64 --samples 8000 -o "$out/sphere.shrf"
 "$tool" info "$out/sphere.shrf"
-"$tool" render "$out/sphere.shrf" --size 960x720 -o "$out/sphere_sh.png"
-"$tool" render "$out/sphere.shrf" --mode exact --size 960x720 -o "$out/sphere_exact.png"
-"$tool" render "$out/sphere.shrf" --mode single-interface --size 960x720 -o "$out/sphere_single_interface.png"
+"$tool" render "$out/sphere.shrf" --size 960x720 --spp 4 -o "$out/sphere_field.png"
+"$tool" render "$out/sphere.shrf" --mode exact --size 960x720 --spp 4 -o "$out/sphere_exact.png"
+"$tool" render "$out/sphere.shrf" --mode full-tree --size 960x720 --spp 4 -o "$out/sphere_physical.png"
+"$tool" render "$out/sphere.shrf" --mode single-interface --size 960x720 --spp 4 -o "$out/sphere_single_interface.png"
 "$tool" report -o "$out/report"
-echo "main job done: look at $out/report/report.md (error against run time, plots, side-by-side images)"
-echo "  and $out/sphere_sh.png (SH field), $out/sphere_exact.png (exact), $out/sphere_single_interface.png (baseline)"
+echo "main job done: look at $out/report/report.md (fidelity against the physical reference, error"
+echo "  decomposition, error against bytes and run time, plots, side-by-side images) and"
+echo "  $out/sphere_field.png (field), $out/sphere_exact.png (exact), $out/sphere_physical.png (full tree),"
+echo "  $out/sphere_single_interface.png (baseline)"

@@ -19,7 +19,7 @@ namespace {
 
 const std::vector<FlagSpec> kFlags = {
     {"output", true, "output field file (.shrf); also -o"},
-    {"order", true, "SH order L, 0..24 (default 8)"},
+    {"order", true, "SH order L, 0..24 (default 8; implies --encoding sh)"},
     {"directions", true, "hemisphere grid ROWSxCOLUMNS (default 32x64; 8x16 .. 128x256)"},
     {"layout", true, "split (default; continuity-corrected) or charts (atlas with seams)"},
     {"samples", true, "total surface sample budget (default 20000)"},
@@ -29,9 +29,10 @@ const std::vector<FlagSpec> kFlags = {
     {"window", true, "frequency smoothing: none (default), hann, lanczos"},
     {"spatial", true, "spatial smoothing with 0 (default), 3 or 5 neighbours"},
     {"quant", true, "coefficient storage: u8 (default) or f16"},
-    {"encoding", true, "hemisphere encoding: sh (default), table (hemi-octahedral map) or pca (learned basis)"},
+    {"encoding", true, "hemisphere encoding: pca (default: learned basis, the measured best at 324 bytes per "
+                       "sample), table (hemi-octahedral map) or sh (the paper's; implied by --order and --max-error)"},
     {"table-size", true, "table: nodes per side N, 2..32 (default 9); pca: N of the basis tables (default 16)"},
-    {"components", true, "pca: basis functions K, 1..1024 (default 64)"},
+    {"components", true, "pca: basis functions K = bytes per sample in u8, 1..1024 (default 324)"},
     {"path-rule", true, "branch followed at every interface: highest-energy (default) or first-refraction"},
     {"throughput", false, "store the path's Fresnel throughput as a channel"},
     {"max-bytes-per-sample", true, "choose the encoding and its parameters with the lowest error within this "
@@ -151,7 +152,10 @@ int bakeCommand(int argc, char** argv) {
   else if (quant == "f16") s.quantization = Quantization::F16;
   else return fail("shrefract bake: --quant must be u8 or f16, got '" + quant + "'", 2);
 
-  const std::string encoding = args.get("encoding").value_or("sh");
+  // The default is the measured best at the paper's 324 bytes per sample (docs/encodings.md): Pca
+  // with 324 weights over 16x16 tables. --order or --max-error ask for SH.
+  const bool shImplied = order.value() || maxError.value();
+  const std::string encoding = args.get("encoding").value_or(shImplied ? "sh" : "pca");
   if (encoding == "sh") s.encoding = Encoding::Sh;
   else if (encoding == "table") s.encoding = Encoding::Table;
   else if (encoding == "pca") s.encoding = Encoding::Pca;
@@ -159,7 +163,9 @@ int bakeCommand(int argc, char** argv) {
   if ((tableSize.value() || components.value()) && s.encoding == Encoding::Sh && !maxBytes.value())
     return fail("shrefract bake: --table-size and --components need --encoding table or pca", 2);
   s.tableSize = tableSize.value() ? static_cast<uint32_t>(*tableSize.value()) : s.encoding == Encoding::Pca ? 16u : 9u;
-  s.components = components.value() ? static_cast<uint32_t>(*components.value()) : 64u;
+  s.components = components.value() ? static_cast<uint32_t>(*components.value()) : 324u;
+  if ((order.value() || maxError.value()) && s.encoding != Encoding::Sh)
+    return fail("shrefract bake: --order and --max-error apply to --encoding sh only", 2);
   const std::string rule = args.get("path-rule").value_or("highest-energy");
   if (rule == "highest-energy") s.pathRule = PathRule::HighestEnergy;
   else if (rule == "first-refraction") s.pathRule = PathRule::FirstRefraction;

@@ -98,18 +98,20 @@ Profile profileFor(ReportSize size) {
       // paths, to keep the report within minutes on 2 cores; the default field itself is the
       // default bake (its spatial sampling costs it little: see the decomposition).
       p.scenes = {"builtin:sphere", "builtin:cube", "builtin:torus", "builtin:glass-of-water", kBunny};
+      base = withEncoding(base, Encoding::Pca, 0, 16, 324);  // the tool's default bake (docs/encodings.md)
       sweep.directionsTheta = 16;
       sweep.directionsPhi = 32;
       sweep.sampleBudget = 5000;
       orders = {2, 4, 8, 12};
-      tables = {8, 16};
-      components = {8, 32};
+      tables = {4, 6, 9, 16};               // N9 in u8: the paper's 324 bytes per sample
+      components = {8, 32, 81, 324};        // K324 in u8: 324 bytes per sample
       break;
     case ReportSize::Full:
       p.width = 640;
       p.height = 480;
       p.frames = 10;
       p.scenes = {"builtin:sphere", "builtin:cube", "builtin:torus", "builtin:glass-of-water", kBunny};
+      base = withEncoding(base, Encoding::Pca, 0, 16, 324);
       orders = {2, 4, 8, 12, 16};
       tables = {8, 16, 32};
       components = {8, 32, 64};
@@ -118,7 +120,9 @@ Profile profileFor(ReportSize size) {
   base.quantization = Quantization::F16;
   sweep.quantization = Quantization::F16;
   const std::string dirs = fmt(" %ux%u", base.directionsTheta, base.directionsPhi);
-  p.variants.push_back({"default", fmt("L%u", base.order) + dirs, base, true});
+  const std::string baseLabel = base.encoding == Encoding::Sh ? fmt("sh L%u", base.order)
+                                                               : fmt("pca K%u N%u", base.components, base.tableSize);
+  p.variants.push_back({"default", baseLabel + dirs, base, true});
   for (uint32_t order : orders) p.variants.push_back({"sh", fmt("L%u", order), withEncoding(sweep, Encoding::Sh, order, 0, 0)});
   {
     BakeSettings s = withEncoding(sweep, Encoding::Sh, base.order, 0, 0);
