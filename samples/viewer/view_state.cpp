@@ -84,9 +84,12 @@ std::string title(const ViewState& s, const std::vector<std::string>& environmen
   std::string what;
   if (s.hasFields()) {
     const FieldInfo& f = s.fields[s.field];
-    std::snprintf(buffer, sizeof(buffer), "%s [%s%s] | %s L=%u/%u | k=%.3g", f.name.c_str(), f.layout.c_str(),
+    char encoding[64];
+    if (f.encoding == "sh") std::snprintf(encoding, sizeof(encoding), "L=%u/%u", s.order, f.bakedOrder);
+    else std::snprintf(encoding, sizeof(encoding), "%s", f.encoding.c_str());
+    std::snprintf(buffer, sizeof(buffer), "%s [%s%s] | %s %s | k=%.3g", f.name.c_str(), f.layout.c_str(),
                   s.fields.size() > 1 ? ", F: other" : "",
-                  s.mode == ShadingMode::Field ? "field" : "single-interface", s.order, f.bakedOrder,
+                  s.mode == ShadingMode::Field ? "field" : "single-interface", encoding,
                   static_cast<double>(s.absorption));
     what = buffer;
   } else {

@@ -35,6 +35,7 @@ struct FieldInfo {
   std::string name;      // file name as given
   uint32_t bakedOrder = 0;
   std::string layout;    // "split" or "charts"
+  std::string encoding = "sh";  // "sh" (run-time order applies), "table" or "pca" (with its parameters)
 };
 
 struct ViewState {

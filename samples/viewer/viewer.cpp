@@ -227,6 +227,13 @@ VkExtent2D framebufferExtent(GLFWwindow* window) {
   return {static_cast<uint32_t>(std::max(width, 0)), static_cast<uint32_t>(std::max(height, 0))};
 }
 
+// How the title names a field's encoding: SH shows its run-time order instead.
+std::string encodingLabel(const Field& f) {
+  if (f.encoding == Encoding::Table) return "table " + std::to_string(f.tableSize) + "x" + std::to_string(f.tableSize);
+  if (f.encoding == Encoding::Pca) return "pca K=" + std::to_string(f.components);
+  return "sh";
+}
+
 // Makes sure the shown field has an engine object at the state's order, recording the upload into
 // `cmd` (the frame's own command buffer: the engine's uploads end with the barriers that make them
 // visible to the decompression and raster passes recorded after them). The replaced object retires
@@ -435,7 +442,8 @@ int runViewer(const ViewerOptions& options) {
     initialCamera = offscreen::defaultCamera(*options.scene, options.verticalFovDegrees);
   } else {
     for (size_t i = 0; i < options.fields.size(); ++i)
-      state.fields.push_back({options.fieldNames[i], options.fields[i].order, toString(options.fields[i].settings.layout)});
+      state.fields.push_back({options.fieldNames[i], options.fields[i].order, toString(options.fields[i].settings.layout),
+                              encodingLabel(options.fields[i])});
     state.order = std::min(options.order.value_or(options.fields[0].order), options.fields[0].order);
     state.mode = options.mode;
     h.fieldObjects.resize(options.fields.size());
