@@ -394,6 +394,25 @@ std::vector<Case> cases() {
   c.push_back({"unknown enumeration value", {"bake", "builtin:sphere", "-o", "out.shrf", "--layout", "spiral"}, none,
                {"--layout", "spiral"}, "out.shrf"});
   c.push_back({"two scenes", {"bake", "builtin:sphere", "builtin:cube", "-o", "out.shrf"}, none, {"SCENE"}, "out.shrf"});
+  // Encodings and path rules (docs/encodings.md).
+  const std::vector<std::string> bake{"bake", "builtin:sphere", "-o", "out.shrf"};
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> a = bake;
+    a.insert(a.end(), extra.begin(), extra.end());
+    return a;
+  };
+  c.push_back({"unknown encoding", with({"--encoding", "wavelet"}), none, {"--encoding", "wavelet"}, "out.shrf"});
+  c.push_back({"table size out of range", with({"--encoding", "table", "--table-size", "1"}), none, {"--table-size"},
+               "out.shrf"});
+  c.push_back({"pca components out of range", with({"--encoding", "pca", "--components", "0"}), none, {"--components"},
+               "out.shrf"});
+  c.push_back({"byte budget out of range", with({"--max-bytes-per-sample", "0"}), none, {"--max-bytes-per-sample"},
+               "out.shrf"});
+  c.push_back({"byte budget and error target together", with({"--max-bytes-per-sample", "324", "--max-error", "2"}), none,
+               {"--max-bytes-per-sample", "--max-error"}, "out.shrf"});
+  c.push_back({"SH order with another encoding", with({"--encoding", "pca", "--order", "4"}), none, {"--order"},
+               "out.shrf"});
+  c.push_back({"unknown path rule", with({"--path-rule", "widest"}), none, {"--path-rule", "widest"}, "out.shrf"});
 
   // Outputs.
   c.push_back({"bake output without .shrf", quickBake("builtin:sphere", "out.txt"), none, {"out.txt"}, "out.txt"});
