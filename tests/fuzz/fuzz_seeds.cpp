@@ -126,6 +126,22 @@ int main(int argc, char** argv) {
         const std::vector<uint8_t> bytes = shrefract::serializeField(shrefract::testing::makeSyntheticField(o));
         ok = write(fieldDir + "/field" + std::to_string(n++) + ".bin", std::string(bytes.begin(), bytes.end())) && ok;
       }
+  // Version 2 encodings: a small Table and Pca field each, one with the throughput channel.
+  for (auto encoding : {shrefract::Encoding::Table, shrefract::Encoding::Pca}) {
+    shrefract::testing::SyntheticFieldOptions o;
+    o.width = 4;
+    o.height = 3;
+    o.order = 0;
+    o.encoding = encoding;
+    o.tableSize = 3;
+    o.components = 2;
+    o.throughput = encoding == shrefract::Encoding::Pca;
+    o.channels = o.throughput ? 5 : 4;
+    o.emptyAndGutters = true;
+    o.meshSegments = 2;
+    const std::vector<uint8_t> bytes = shrefract::serializeField(shrefract::testing::makeSyntheticField(o));
+    ok = write(fieldDir + "/field" + std::to_string(n++) + ".bin", std::string(bytes.begin(), bytes.end())) && ok;
+  }
   size_t binSize = 0;
   std::string bin;
   ok = write(gltfDir + "/nested.gltf", gltfJson(true, &binSize, &bin)) && ok;
