@@ -457,75 +457,33 @@ Result<ReferenceImage> renderDistortion(const FieldMesh& mesh, const reference::
   const glm::mat4 dirFromClip = directionFromClip(o.camera, bigWidth, bigHeight);
   const TriangleBins bins = binTriangles(mesh, o.camera, bigWidth, bigHeight);
   const reference::LatLongImage latLong{env.width, env.height, env.rgba.data()};
-  const glm::dvec3 eye(o.camera.eye[0], o.camera.eye[1], o.camera.eye[2]);
 
   // One sub-sample: reference::render's per-pixel operations for pixel (bx, by) of the big image.
   auto shade = [&](uint32_t bx, uint32_t by) {
     Sample sample;
     const glm::vec3 rayF = rayThrough(dirFromClip, bigWidth, bigHeight, bx, by);
-    const glm::dvec3 ray(rayF);
-    double bestT = std::numeric_limits<double>::infinity();
-    bool found = false;
+    const std::array<double, 3> eyeD{o.camera.eye[0], o.camera.eye[1], o.camera.eye[2]};
+    const std::array<double, 3> ray{rayF.x, rayF.y, rayF.z};
+    std::optional<reference::TriangleHit> best;
     uint32_t bestTriangle = 0;
-    double bestU = 0.0, bestV = 0.0;
     for (uint32_t t : bins.tiles[size_t(by / kTile) * bins.tilesX + bx / kTile]) {
-      glm::dvec3 p[3];
-      for (int k = 0; k < 3; ++k) {
-        const float* q = &mesh.positions[size_t(mesh.indices[t + uint32_t(k)]) * 3];
-        p[k] = glm::dvec3(q[0], q[1], q[2]);
-      }
-      const glm::dvec3 e1 = p[1] - p[0], e2 = p[2] - p[0];
-      // Moller-Trumbore, as reference::render (back faces were left out by the binning).
-      const glm::dvec3 pv = glm::cross(ray, e2);
-      const double det = glm::dot(e1, pv);
-      if (std::fabs(det) < 1e-300) continue;
-      const glm::dvec3 tv = eye - p[0];
-      const double u = glm::dot(tv, pv) / det;
-      if (u < 0.0 || u > 1.0) continue;
-      const glm::dvec3 qv = glm::cross(tv, e1);
-      const double v = glm::dot(ray, qv) / det;
-      if (v < 0.0 || u + v > 1.0) continue;
-      const double tHit = glm::dot(e2, qv) / det;
-      if (tHit <= 0.0 || tHit >= bestT) continue;
-      bestT = tHit;
-      found = true;
+      const std::optional<reference::TriangleHit> hit = reference::hitTriangle(mesh, t, eyeD, ray);
+      if (!hit || (best && hit->t >= best->t)) continue;
+      best = hit;
       bestTriangle = t;
-      bestU = u;
-      bestV = v;
     }
-    if (!found) {
+    if (!best) {
       const reference::Vec3 c = reference::sampleLatLong(latLong, {rayF.x, rayF.y, rayF.z});
       sample.color = glm::vec3(c[0], c[1], c[2]);
       return sample;
     }
-    const double bary[3] = {1.0 - bestU - bestV, bestU, bestV};
-    double position[3] = {0, 0, 0}, normal[3] = {0, 0, 0}, uv[2] = {0, 0}, ior = 0.0;
-    for (int k = 0; k < 3; ++k) {
-      const size_t vtx = mesh.indices[bestTriangle + uint32_t(k)];
-      for (int c = 0; c < 3; ++c) {
-        position[c] += bary[k] * double(mesh.positions[vtx * 3 + size_t(c)]);
-        normal[c] += bary[k] * double(mesh.normals[vtx * 3 + size_t(c)]);
-      }
-      for (int c = 0; c < 2; ++c) uv[c] += bary[k] * double(mesh.uvs[vtx * 2 + size_t(c)]);
-      ior += bary[k] * double(mesh.frontIor.empty() ? 0.0f : mesh.frontIor[vtx]);
-    }
-    reference::SurfacePoint point;
-    for (int c = 0; c < 3; ++c) {
-      point.position[size_t(c)] = static_cast<float>(position[c]);
-      point.normal[size_t(c)] = static_cast<float>(normal[c]);
-    }
-    point.uv = {static_cast<float>(uv[0]), static_cast<float>(uv[1])};
-    point.frontIor = static_cast<float>(ior);
+    // reference::render's per-sample operations, through its own functions.
+    const reference::SurfacePoint point = reference::surfacePointAt(mesh, bestTriangle, *best);
     const reference::Vec3 c = reference::shadeField(distortion, latLong, point, o.camera.eye, o.shading, o.exposure);
     sample.color = glm::vec3(c[0], c[1], c[2]);
     sample.hit = true;
-    // The exit direction shadeField used (same fallback for a vanishing decoded vector).
-    const reference::Vec4 d = reference::sampleBilinear(distortion, point.uv[0], point.uv[1]);
-    glm::vec3 dir(d[0], d[1], d[2]);
-    const float len2 = glm::dot(dir, dir);
-    sample.direction = len2 > kMinDirectionLength2
-                           ? dir / std::sqrt(len2)
-                           : glm::normalize(toVec(point.position) - toVec(o.camera.eye));
+    const reference::Vec3 dir = reference::shadedExitDirection(distortion, point, o.camera.eye);
+    sample.direction = glm::vec3(dir[0], dir[1], dir[2]);
     return sample;
   };
 

@@ -17,6 +17,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 namespace shrefract::reference {
@@ -108,6 +109,22 @@ struct RenderedImage {
 // World-space direction of the ray from the eye through the centre of pixel (x, y) (row 0 at the
 // top), for the engine's projection (Vulkan clip space, y down). Not normalized.
 Vec3 pixelRay(const Camera& camera, uint32_t width, uint32_t height, uint32_t x, uint32_t y);
+
+// The ray caster's steps, for tools that cast rays against a field mesh themselves (the report's
+// binned caster): one implementation, so both give the same pixels bit for bit.
+struct TriangleHit {
+  double t = 0.0, u = 0.0, v = 0.0;  // ray parameter and barycentrics of corners 1 and 2
+};
+// Triangle `first / 3` of `mesh` (first: the index of its first corner in mesh.indices) hit by the
+// ray eye + t * ray, t > 0: Moller-Trumbore in double. Back faces (clockwise seen from the eye, as
+// the GPU culls) and misses give nothing.
+std::optional<TriangleHit> hitTriangle(const FieldMesh& mesh, uint32_t first, const std::array<double, 3>& eye,
+                                       const std::array<double, 3>& ray);
+// The fragment inputs at a hit: position, normal, uv and frontIor interpolated in double.
+SurfacePoint surfacePointAt(const FieldMesh& mesh, uint32_t first, const TriangleHit& hit);
+// The exit direction shadeField looks up at `point`: the bilinear distortion sample normalized, or
+// the view direction where it vanishes.
+Vec3 shadedExitDirection(const DistortionImage& distortion, const SurfacePoint& point, const Vec3& eye);
 
 // The background pass and Field-mode objects, ray cast per pixel centre: the nearest front-facing
 // triangle (counter-clockwise seen from the eye, as the GPU culls) with its perspective-correct

@@ -149,6 +149,62 @@ Vec3 pixelRay(const Camera& camera, uint32_t width, uint32_t height, uint32_t x,
   return fromGlm(glm::vec3(glm::inverse(proj * view) * glm::vec4(ndc, 1.0f, 1.0f)));
 }
 
+std::optional<TriangleHit> hitTriangle(const FieldMesh& mesh, uint32_t first, const std::array<double, 3>& eyeIn,
+                                       const std::array<double, 3>& rayIn) {
+  const glm::dvec3 eye(eyeIn[0], eyeIn[1], eyeIn[2]), ray(rayIn[0], rayIn[1], rayIn[2]);
+  glm::dvec3 p[3];
+  for (int k = 0; k < 3; ++k) {
+    const float* q = &mesh.positions[size_t(mesh.indices[first + uint32_t(k)]) * 3];
+    p[k] = glm::dvec3(q[0], q[1], q[2]);
+  }
+  const glm::dvec3 e1 = p[1] - p[0], e2 = p[2] - p[0];
+  // Back faces (clockwise seen from the eye) are culled, as in the raster pipeline.
+  if (glm::dot(glm::cross(e1, e2), eye - p[0]) <= 0.0) return std::nullopt;
+  // Moller-Trumbore.
+  const glm::dvec3 pv = glm::cross(ray, e2);
+  const double det = glm::dot(e1, pv);
+  if (std::fabs(det) < 1e-300) return std::nullopt;
+  const glm::dvec3 tv = eye - p[0];
+  const double u = glm::dot(tv, pv) / det;
+  if (u < 0.0 || u > 1.0) return std::nullopt;
+  const glm::dvec3 qv = glm::cross(tv, e1);
+  const double v = glm::dot(ray, qv) / det;
+  if (v < 0.0 || u + v > 1.0) return std::nullopt;
+  const double t = glm::dot(e2, qv) / det;
+  if (t <= 0.0) return std::nullopt;
+  return TriangleHit{t, u, v};
+}
+
+SurfacePoint surfacePointAt(const FieldMesh& mesh, uint32_t first, const TriangleHit& hit) {
+  const double bary[3] = {1.0 - hit.u - hit.v, hit.u, hit.v};
+  double position[3] = {0, 0, 0}, normal[3] = {0, 0, 0}, uv[2] = {0, 0}, ior = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    const size_t vtx = mesh.indices[first + uint32_t(k)];
+    for (int c = 0; c < 3; ++c) {
+      position[c] += bary[k] * double(mesh.positions[vtx * 3 + size_t(c)]);
+      normal[c] += bary[k] * double(mesh.normals[vtx * 3 + size_t(c)]);
+    }
+    for (int c = 0; c < 2; ++c) uv[c] += bary[k] * double(mesh.uvs[vtx * 2 + size_t(c)]);
+    ior += bary[k] * double(mesh.frontIor.empty() ? 0.0f : mesh.frontIor[vtx]);
+  }
+  SurfacePoint point;
+  for (int c = 0; c < 3; ++c) {
+    point.position[size_t(c)] = static_cast<float>(position[c]);
+    point.normal[size_t(c)] = static_cast<float>(normal[c]);
+  }
+  point.uv = {static_cast<float>(uv[0]), static_cast<float>(uv[1])};
+  point.frontIor = static_cast<float>(ior);
+  return point;
+}
+
+Vec3 shadedExitDirection(const DistortionImage& distortion, const SurfacePoint& point, const Vec3& eye) {
+  const Vec4 d = sampleBilinear(distortion, point.uv[0], point.uv[1]);
+  glm::vec3 dir(d[0], d[1], d[2]);
+  const float len2 = glm::dot(dir, dir);
+  dir = len2 > gpu::kMinDirectionLength2 ? dir / std::sqrt(len2) : glm::normalize(toGlm(point.position) - toGlm(eye));
+  return fromGlm(dir);
+}
+
 RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImage& environment, const Camera& camera,
                      uint32_t width, uint32_t height, float exposure) {
   RenderedImage image;
@@ -159,43 +215,22 @@ RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImag
   image.directions.assign(size_t(width) * height * 3, 0.0f);
   // Double precision for the ray-triangle test: the GPU's coverage is exact for pixel centres
   // away from edges, and so should the reference be.
-  const glm::dvec3 eye(camera.eye[0], camera.eye[1], camera.eye[2]);
+  const std::array<double, 3> eye{camera.eye[0], camera.eye[1], camera.eye[2]};
   for (uint32_t py = 0; py < height; ++py)
     for (uint32_t px = 0; px < width; ++px) {
       const Vec3 rayF = pixelRay(camera, width, height, px, py);
-      const glm::dvec3 ray(rayF[0], rayF[1], rayF[2]);
-      double bestT = std::numeric_limits<double>::infinity();
+      const std::array<double, 3> ray{rayF[0], rayF[1], rayF[2]};
+      std::optional<TriangleHit> best;
       int bestObject = -1;
       uint32_t bestTriangle = 0;
-      double bestU = 0.0, bestV = 0.0;
       for (size_t o = 0; o < objects.size(); ++o) {
         const FieldMesh& mesh = *objects[o].mesh;
-        for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
-          glm::dvec3 p[3];
-          for (int k = 0; k < 3; ++k) {
-            const float* q = &mesh.positions[size_t(mesh.indices[t + size_t(k)]) * 3];
-            p[k] = glm::dvec3(q[0], q[1], q[2]);
-          }
-          const glm::dvec3 e1 = p[1] - p[0], e2 = p[2] - p[0];
-          // Back faces (clockwise seen from the eye) are culled, as in the raster pipeline.
-          if (glm::dot(glm::cross(e1, e2), eye - p[0]) <= 0.0) continue;
-          // Moller-Trumbore.
-          const glm::dvec3 pv = glm::cross(ray, e2);
-          const double det = glm::dot(e1, pv);
-          if (std::fabs(det) < 1e-300) continue;
-          const glm::dvec3 tv = eye - p[0];
-          const double u = glm::dot(tv, pv) / det;
-          if (u < 0.0 || u > 1.0) continue;
-          const glm::dvec3 qv = glm::cross(tv, e1);
-          const double v = glm::dot(ray, qv) / det;
-          if (v < 0.0 || u + v > 1.0) continue;
-          const double tHit = glm::dot(e2, qv) / det;
-          if (tHit <= 0.0 || tHit >= bestT) continue;
-          bestT = tHit;
+        for (uint32_t t = 0; size_t(t) + 2 < mesh.indices.size(); t += 3) {
+          const std::optional<TriangleHit> hit = hitTriangle(mesh, t, eye, ray);
+          if (!hit || (best && hit->t >= best->t)) continue;
+          best = hit;
           bestObject = static_cast<int>(o);
-          bestTriangle = static_cast<uint32_t>(t);
-          bestU = u;
-          bestV = v;
+          bestTriangle = t;
         }
       }
       float* out = &image.rgba[(size_t(py) * width + px) * 4];
@@ -206,35 +241,12 @@ RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImag
         continue;
       }
       const RenderObject& object = objects[size_t(bestObject)];
-      const FieldMesh& mesh = *object.mesh;
-      const double bary[3] = {1.0 - bestU - bestV, bestU, bestV};
-      double position[3] = {0, 0, 0}, normal[3] = {0, 0, 0}, uv[2] = {0, 0}, ior = 0.0;
-      for (int k = 0; k < 3; ++k) {
-        const size_t vtx = mesh.indices[bestTriangle + uint32_t(k)];
-        for (int c = 0; c < 3; ++c) {
-          position[c] += bary[k] * double(mesh.positions[vtx * 3 + size_t(c)]);
-          normal[c] += bary[k] * double(mesh.normals[vtx * 3 + size_t(c)]);
-        }
-        for (int c = 0; c < 2; ++c) uv[c] += bary[k] * double(mesh.uvs[vtx * 2 + size_t(c)]);
-        ior += bary[k] * double(mesh.frontIor.empty() ? 0.0f : mesh.frontIor[vtx]);
-      }
-      SurfacePoint point;
-      for (int c = 0; c < 3; ++c) {
-        point.position[size_t(c)] = static_cast<float>(position[c]);
-        point.normal[size_t(c)] = static_cast<float>(normal[c]);
-      }
-      point.uv = {static_cast<float>(uv[0]), static_cast<float>(uv[1])};
-      point.frontIor = static_cast<float>(ior);
+      const SurfacePoint point = surfacePointAt(*object.mesh, bestTriangle, *best);
       const Vec3 c = shadeField(*object.distortion, environment, point, camera.eye, object.shading, exposure);
       for (int k = 0; k < 3; ++k) out[k] = c[size_t(k)];
       image.object[size_t(py) * width + px] = bestObject;
-      // The exit direction shadeField used (same fallback for a vanishing decoded vector).
-      const Vec4 d = sampleBilinear(*object.distortion, point.uv[0], point.uv[1]);
-      glm::vec3 dir(d[0], d[1], d[2]);
-      const float len2 = glm::dot(dir, dir);
-      dir = len2 > gpu::kMinDirectionLength2 ? dir / std::sqrt(len2)
-                                             : glm::normalize(toGlm(point.position) - toGlm(camera.eye));
-      for (int k = 0; k < 3; ++k) image.directions[(size_t(py) * width + px) * 3 + size_t(k)] = dir[k];
+      const Vec3 dir = shadedExitDirection(*object.distortion, point, camera.eye);
+      for (int k = 0; k < 3; ++k) image.directions[(size_t(py) * width + px) * 3 + size_t(k)] = dir[size_t(k)];
     }
   return image;
 }
