@@ -20,21 +20,11 @@
 
 #include "cli/scene_source.h"
 #include "report/plot.h"
+#include "report/report_text.h"
 
 namespace shrefract::report {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
-__attribute__((format(printf, 1, 2))) std::string fmt(const char* f, ...) {
-  char buf[1024];
-  va_list args;
-  va_start(args, f);
-  std::vsnprintf(buf, sizeof buf, f, args);
-  va_end(args);
-  return buf;
-}
 
 // The bunny of the shared assets, looked for from the working directory as the benchmarks do; the
 // section skips it (with a line in the report) when it is not there.

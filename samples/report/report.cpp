@@ -21,21 +21,11 @@
 #include "offscreen/offscreen.h"
 #include "report/fidelity.h"
 #include "report/plot.h"
+#include "report/report_text.h"
 
 namespace shrefract::report {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
-__attribute__((format(printf, 1, 2))) std::string fmt(const char* f, ...) {
-  char buf[1024];
-  va_list args;
-  va_start(args, f);
-  std::vsnprintf(buf, sizeof buf, f, args);
-  va_end(args);
-  return buf;
-}
 
 struct SweepEntry {
   std::string group;
