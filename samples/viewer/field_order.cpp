@@ -6,6 +6,9 @@
 namespace shrefract::viewer {
 
 Result<Field> truncateOrder(const Field& field, uint32_t order) {
+  if (field.encoding != Encoding::Sh)
+    return makeError(ErrorCode::InvalidArgument, std::string("a ") + toString(field.encoding) +
+                                                     " field has no SH order to truncate");
   if (order > field.order)
     return makeError(ErrorCode::InvalidArgument, "cannot raise a field's SH order from " + std::to_string(field.order) +
                                                      " to " + std::to_string(order) + " (it holds only the baked bands)");
@@ -15,6 +18,7 @@ Result<Field> truncateOrder(const Field& field, uint32_t order) {
   out.height = field.height;
   out.order = order;
   out.channels = field.channels;
+  out.throughput = field.throughput;
   out.quantization = field.quantization;
   out.frames = field.frames;
   out.texelKinds = field.texelKinds;

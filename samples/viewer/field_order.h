@@ -18,7 +18,7 @@ namespace shrefract::viewer {
 // A copy of `field` with order `order`: the first (order+1)^2 coefficient layers (and, for U8, their
 // scale and bias tables); settings.order follows. Everything else (atlas, frames, mesh, media,
 // statistics) is copied as is. The result passes validateField when `field` does.
-// Errors: InvalidArgument when order > field.order.
+// Errors: InvalidArgument when order > field.order or the field is not SH.
 Result<Field> truncateOrder(const Field& field, uint32_t order);
 
 }  // namespace shrefract::viewer

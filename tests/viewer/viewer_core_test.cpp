@@ -213,5 +213,28 @@ TEST_P(TruncateOrder, KeepsTheLowBandsExactly) {
 
 INSTANTIATE_TEST_SUITE_P(BothQuantizations, TruncateOrder, ::testing::Values(Quantization::U8, Quantization::F16));
 
+// A field with the throughput channel keeps it (5 channels), and other encodings have no order.
+TEST(TruncateOrderEncodings, KeepsThroughputAndRefusesOtherEncodings) {
+  testing::SyntheticFieldOptions o;
+  o.order = 3;
+  o.throughput = true;
+  o.channels = 5;
+  const Field field = testing::makeSyntheticField(o);
+  ASSERT_TRUE(validateField(field).ok()) << validateField(field).error().message;
+  auto truncated = truncateOrder(field, 1);
+  ASSERT_TRUE(truncated.ok()) << truncated.error().message;
+  EXPECT_TRUE(truncated.value().throughput);
+  EXPECT_TRUE(validateField(truncated.value()).ok()) << validateField(truncated.value()).error().message;
+
+  testing::SyntheticFieldOptions t;
+  t.order = 0;
+  t.encoding = Encoding::Table;
+  const Field table = testing::makeSyntheticField(t);
+  ASSERT_TRUE(validateField(table).ok()) << validateField(table).error().message;
+  auto refused = truncateOrder(table, 0);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::InvalidArgument);
+}
+
 }  // namespace
 }  // namespace shrefract::viewer
