@@ -79,6 +79,44 @@ TEST(Stability, IorFour) {
   EXPECT_GT(r.errors.psnr, 15.0);
 }
 
+// The Table and Pca encodings (with the throughput channel, and the first-refraction rule) on the
+// stiffest optics: nearly the identity (n = 1.0001, near-zero ranges), total internal reflection
+// almost everywhere (n = 4) and three absorbing media. Everything finite; the bounds are the SH
+// cases' own, except the mean angle of a 6x6 table at n = 1.0001: measured 1.19 deg, the
+// hemi-octahedral creases (docs/encodings.md), bounded at 1.5. A third bake per setup stores the
+// throughput with the first-refraction rule: its shading differs from the exact reference's, so
+// only finiteness is checked.
+TEST(Stability, TableAndPcaEncodings) {
+  struct Setup {
+    const char* name;
+    const char* scene;
+    float ior;
+    double maxAngle, minPsnr;
+  };
+  for (const Setup& setup : {Setup{"ior 1.0001", "sphere", 1.0001f, 1.0, 40.0}, Setup{"ior 4.0", "sphere", 4.0f, 30.0, 15.0},
+                             Setup{"glass of water", "glass-of-water", 0.0f, 45.0, 12.0}})
+    for (int variant = 0; variant < 3; ++variant) {
+      const Encoding encoding = variant == 0 ? Encoding::Table : Encoding::Pca;
+      const bool throughput = variant == 2, water = std::string(setup.scene) == "glass-of-water";
+      StabilityCase c{std::string(setup.name) + ", " + toString(encoding) + (throughput ? " + throughput" : ""),
+                      water ? builtin(setup.scene, 1) : builtin(setup.scene, 2, setup.ior, 0.0f)};
+      c.settings = smallSettings(water ? 900 : 400);
+      c.settings.encoding = encoding;
+      c.settings.tableSize = encoding == Encoding::Table ? 6 : 8;
+      c.settings.components = encoding == Encoding::Pca ? 48 : 0;
+      c.settings.throughput = throughput;
+      c.settings.pathRule = throughput ? PathRule::FirstRefraction : PathRule::HighestEnergy;
+      c.camera = water ? cameraAt({0.6, 1.2, 4.2}, {0.0, 0.0, 0.0}, 2.0) : sphereCamera();
+      const StabilityResult r = run(c);
+      expectFiniteAndSeen(c.name, r);
+      EXPECT_EQ(r.field.encoding, encoding) << c.name;
+      if (throughput) continue;
+      const bool crease = encoding == Encoding::Table && setup.ior == 1.0001f;
+      EXPECT_LT(r.errors.meanAngleDegrees, crease ? 1.5 : setup.maxAngle) << c.name;
+      EXPECT_GT(r.errors.psnr, setup.minPsnr) << c.name;
+    }
+}
+
 TEST(Stability, GrazingViews) {
   // The eye 1e-4 above the plane of the cube's top face, and exactly in it: the top face's samples
   // see the eye on their horizon (w.z -> 0, clamped at 0 by the decompression).
