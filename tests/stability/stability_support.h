@@ -66,13 +66,13 @@ inline size_t countNonFinite(const std::vector<float>& values) {
 }
 
 // Every dequantized coefficient of every texel (sample texels hold data; the others must decode
-// finite too, since the GPU reads them).
+// finite too, since the GPU reads them), and every value of a Pca basis.
 inline size_t countNonFiniteCoefficients(const Field& field) {
-  size_t bad = 0;
-  for (uint32_t layer = 0; layer < field.basisCount(); ++layer)
+  size_t bad = countNonFinite(field.basis);
+  for (uint32_t layer = 0; layer < field.layerCount(); ++layer)
     for (uint64_t t = 0; t < field.texelCount(); ++t)
-      for (uint32_t c = 0; c < field.channels; ++c)
-        if (!std::isfinite(fieldCoefficient(field, layer, t, c))) ++bad;
+      for (uint32_t v = 0; v < field.valuesPerLayer(); ++v)
+        if (!std::isfinite(fieldCoefficient(field, layer, t, v))) ++bad;
   return bad;
 }
 
