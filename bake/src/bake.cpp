@@ -52,6 +52,37 @@ uint64_t splitmix(uint64_t& state) {
 }
 float unitFloat(uint64_t& state) { return static_cast<float>(splitmix(state) >> 40) * (1.0f / 16777216.0f); }
 
+// A view direction distributed as often as it covers the screen (cosine-weighted over the
+// hemisphere), kept away from the exact horizon: the error measure of the choices below.
+glm::vec3 cosineWeightedDirection(uint64_t& rng) {
+  const float u = unitFloat(rng), phi = 6.28318530718f * unitFloat(rng);
+  const float z = std::max(0.02f, std::sqrt(u)), r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+  return {r * std::cos(phi), r * std::sin(phi), z};
+}
+
+// How every path of the bake is traced, the --max-error and --max-bytes-per-sample probes included.
+TraceSettings traceSettingsOf(const BakeSettings& s) {
+  TraceSettings ts;
+  ts.maxBounces = s.maxBounces;
+  ts.pathRule = s.pathRule;
+  return ts;
+}
+
+// A traced path as the field's channels: x, y, z of the exit direction, then the optical depth
+// when a medium absorbs, then the Fresnel throughput when it is stored.
+struct ChannelLayout {
+  uint32_t channels = 3;
+  bool depth = false, throughput = false;
+  static ChannelLayout of(uint32_t channels, bool throughput) {
+    return {channels, channels == (throughput ? 5u : 4u), throughput};
+  }
+  void store(const PathResult& path, float* v) const {
+    for (int c = 0; c < 3; ++c) v[c] = path.exitDirection[c];
+    if (depth) v[3] = path.opticalDepth;
+    if (throughput) v[channels - 1] = path.energy;
+  }
+};
+
 Result<void> checkSettings(const BakeSettings& s) {
   auto bad = [](const std::string& m) { return makeError(ErrorCode::InvalidArgument, m); };
   if (s.order > static_cast<uint32_t>(kMaxFitOrder))
@@ -106,8 +137,7 @@ Result<Selection> selectOrderAndDirections(const SampleAtlas& atlas, const Trace
   std::vector<size_t> subset;
   const size_t step = std::max<size_t>(1, n / kSubset);
   for (size_t i = 0; i < n && subset.size() < kSubset; i += step) subset.push_back(i);
-  TraceSettings ts;
-  ts.maxBounces = s.maxBounces;
+  const TraceSettings ts = traceSettingsOf(s);
 
   // Held-out directions, cosine-weighted over the hemisphere, and their traced exits.
   std::vector<glm::vec3> heldDirs(subset.size() * kHeldOut), heldExits(subset.size() * kHeldOut);
@@ -116,9 +146,7 @@ Result<Selection> selectOrderAndDirections(const SampleAtlas& atlas, const Trace
     const LocalFrame frame = frameFromNormal(p.shadingNormal);
     uint64_t rng = 0x4d41584552524f52ull ^ (uint64_t(subset[k]) * 0x9e3779b97f4a7c15ull);
     for (uint32_t h = 0; h < kHeldOut; ++h) {
-      const float u = unitFloat(rng), phi = 6.28318530718f * unitFloat(rng);
-      const float z = std::max(0.02f, std::sqrt(u)), r = std::sqrt(std::max(0.0f, 1.0f - z * z));
-      const glm::vec3 w(r * std::cos(phi), r * std::sin(phi), z);
+      const glm::vec3 w = cosineWeightedDirection(rng);
       heldDirs[k * kHeldOut + h] = w;
       heldExits[k * kHeldOut + h] = tracer.traceFromSurface(p, -localToWorld(frame, w), ts).exitDirection;
     }
@@ -261,11 +289,8 @@ void traceAndFit(const SampleAtlas& atlas, const Tracer& tracer, const Direction
   checks.heldExits.assign(sampleCount * held, glm::vec3(0.0f));
   checks.gridExits.assign((sampleCount + kGridCheckStride - 1) / kGridCheckStride * nd, glm::vec3(0.0f));
   errors.assign(sampleCount, SampleError{});
-  TraceSettings traceSettings;
-  traceSettings.maxBounces = settings.maxBounces;
-  traceSettings.pathRule = settings.pathRule;
-  const uint32_t depthChannel = 3, throughputChannel = channels - 1;
-  const bool depth = channels == (settings.throughput ? 5u : 4u);
+  const TraceSettings traceSettings = traceSettingsOf(settings);
+  const ChannelLayout layout = ChannelLayout::of(channels, settings.throughput);
 
   std::atomic<size_t> next{0};
   std::atomic<uint64_t> done{0}, raysSoFar{0};
@@ -289,10 +314,7 @@ void traceAndFit(const SampleAtlas& atlas, const Tracer& tracer, const Direction
           err.rays += path.rays;
           err.paths += 1;
           err.trapped += path.trapped ? 1u : 0u;
-          float* v = &values[size_t(d) * channels];
-          for (int c = 0; c < 3; ++c) v[c] = path.exitDirection[c];
-          if (depth) v[depthChannel] = path.opticalDepth;
-          if (settings.throughput) v[throughputChannel] = path.energy;
+          layout.store(path, &values[size_t(d) * channels]);
           if (s % kGridCheckStride == 0) checks.gridExits[s / kGridCheckStride * nd + d] = path.exitDirection;
         }
         const auto fitStart = Clock::now();
@@ -438,27 +460,20 @@ BudgetProbe traceProbe(const SampleAtlas& atlas, const Tracer& tracer, const Dir
   p.values.assign(all.size() * nd * channels, 0.0f);
   p.heldDirs.assign(testCount * BudgetProbe::kHeld, glm::vec3(0.0f));
   p.heldExits = p.heldDirs;
-  TraceSettings ts;
-  ts.maxBounces = s.maxBounces;
-  ts.pathRule = s.pathRule;
-  const bool depth = channels == (s.throughput ? 5u : 4u);
+  const TraceSettings ts = traceSettingsOf(s);
+  const ChannelLayout layout = ChannelLayout::of(channels, s.throughput);
   parallelFor(all.size(), threads, [&](size_t k) {
     const SurfacePoint& point = atlas.samples[all[k]];
     const LocalFrame frame = frameFromNormal(point.shadingNormal);
     for (size_t d = 0; d < nd; ++d) {
       const PathResult path = tracer.traceFromSurface(point, -localToWorld(frame, glm::vec3(grid.directions[d])), ts);
-      float* v = &p.values[(k * nd + d) * channels];
-      for (int c = 0; c < 3; ++c) v[c] = path.exitDirection[c];
-      if (depth) v[3] = path.opticalDepth;
-      if (s.throughput) v[channels - 1] = path.energy;
+      layout.store(path, &p.values[(k * nd + d) * channels]);
     }
     if (k < p.train.size()) return;
     const size_t t = k - p.train.size();
     uint64_t rng = 0x4255444745540000ull ^ (uint64_t(all[k]) * 0x9e3779b97f4a7c15ull);
     for (uint32_t h = 0; h < BudgetProbe::kHeld; ++h) {
-      const float u = unitFloat(rng), phi = 6.28318530718f * unitFloat(rng);
-      const float z = std::max(0.02f, std::sqrt(u)), r = std::sqrt(std::max(0.0f, 1.0f - z * z));
-      const glm::vec3 w(r * std::cos(phi), r * std::sin(phi), z);
+      const glm::vec3 w = cosineWeightedDirection(rng);
       p.heldDirs[t * BudgetProbe::kHeld + h] = w;
       p.heldExits[t * BudgetProbe::kHeld + h] = tracer.traceFromSurface(point, -localToWorld(frame, w), ts).exitDirection;
     }
