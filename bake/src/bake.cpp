@@ -20,7 +20,6 @@
 
 #include <glm/geometric.hpp>
 
-#include "fit/encoding_model.h"
 
 namespace shrefract::bake {
 namespace {
@@ -33,6 +32,18 @@ uint64_t peakResidentBytes() {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   return static_cast<uint64_t>(usage.ru_maxrss) * 1024u;  // Linux reports kilobytes
+}
+
+EncodingShape shapeOf(const BakeSettings& s, uint32_t channels) {
+  return {s.encoding, s.order, s.tableSize, s.components, channels};
+}
+size_t strideOf(const EncodingShape& shape) { return size_t(shape.layerCount()) * shape.valuesPerLayer(); }
+
+// The float (unquantized) encoding at local direction w: the engine's own sums (field.h), so the
+// bake measures exactly what the decoder will compute before quantization.
+void decodeFloat(const EncodingShape& shape, const std::vector<float>& basis, const float* coeffs, glm::vec3 w,
+                 float* out) {
+  evaluateCoefficients(shape, coeffs, basis.empty() ? nullptr : basis.data(), {w.x, w.y, w.z}, out);
 }
 
 // Angle in degrees between two directions; a zero-length reconstruction counts as 180 degrees.
@@ -355,22 +366,22 @@ void traceAndFit(const SampleAtlas& atlas, const Tracer& tracer, const Direction
 }
 
 // Fit and held-out errors of the float encoding (grid: every kGridCheckStride-th sample).
-void measureFit(const EncodingModel& model, const std::vector<float>& coeffs, const DirectionGrid& grid,
-                const TracedChecks& checks, uint32_t held, std::vector<SampleError>& errors) {
+void measureFit(const EncodingShape& shape, const std::vector<float>& basis, const std::vector<float>& coeffs,
+                const DirectionGrid& grid, const TracedChecks& checks, uint32_t held, std::vector<SampleError>& errors) {
   const uint32_t nd = static_cast<uint32_t>(grid.directions.size());
-  std::vector<float> out(model.channels);
+  std::vector<float> out(shape.channels);
   for (size_t s = 0; s < errors.size(); ++s) {
     SampleError& err = errors[s];
-    const float* c = &coeffs[s * model.stride()];
+    const float* c = &coeffs[s * strideOf(shape)];
     for (uint32_t d = 0; d < (s % kGridCheckStride == 0 ? nd : 0u); ++d) {
-      decodeFloat(model, c, glm::vec3(grid.directions[d]), out.data());
+      decodeFloat(shape, basis, c, glm::vec3(grid.directions[d]), out.data());
       const double a = angleDegrees(glm::vec3(out[0], out[1], out[2]), checks.gridExits[s / kGridCheckStride * nd + d]);
       err.gridSquares += a * a;
       err.gridMax = std::max(err.gridMax, a);
       ++err.gridCount;
     }
     for (uint32_t h = 0; h < held; ++h) {
-      decodeFloat(model, c, checks.heldDirections[s * held + h], out.data());
+      decodeFloat(shape, basis, c, checks.heldDirections[s * held + h], out.data());
       const double a = angleDegrees(glm::vec3(out[0], out[1], out[2]), checks.heldExits[s * held + h]);
       err.heldSquares += a * a;
       err.heldMax = std::max(err.heldMax, a);
@@ -380,14 +391,13 @@ void measureFit(const EncodingModel& model, const std::vector<float>& coeffs, co
 }
 
 // Pca: replaces each sample's table by its weights over a basis learned from all of them.
-Result<void> learnBasis(EncodingModel& model, std::vector<float>& coeffs, std::vector<float>& basis,
+Result<void> learnBasis(const EncodingShape& shape, std::vector<float>& coeffs, std::vector<float>& basis,
                         size_t sampleCount) {
   std::vector<float> weights;
-  auto pca = fitPcaBasis(coeffs, sampleCount, model.tableSize, model.channels, model.components, weights);
+  auto pca = fitPcaBasis(coeffs, sampleCount, shape.tableSize, shape.channels, shape.components, weights);
   if (!pca) return pca.error();
   basis = std::move(pca.value().basis);
   coeffs = std::move(weights);
-  model.basis = &basis;
   return {};
 }
 
@@ -491,26 +501,24 @@ Result<double> candidateError(const BudgetCandidate& c, const BudgetProbe& p, co
   const size_t all = p.train.size() + p.test.size();
   std::vector<float> fitted(all * fitStride);
   for (size_t k = 0; k < all; ++k) encoder->fit(&p.values[k * nd * channels], &fitted[k * fitStride]);
-  EncodingModel model{c.settings.encoding, static_cast<int>(c.settings.order), c.settings.tableSize,
-                      c.settings.components, channels, nullptr};
+  const EncodingShape shape = shapeOf(c.settings, channels);
   std::vector<float> test(fitted.begin() + std::ptrdiff_t(p.train.size() * fitStride), fitted.end());
   std::vector<float> basis;
   if (c.settings.encoding == Encoding::Pca) {
     // The basis is learned from the training samples only; the test samples are projected on it.
     std::vector<float> train(fitted.begin(), fitted.begin() + std::ptrdiff_t(p.train.size() * fitStride)), weights;
-    auto pca = fitPcaBasis(train, p.train.size(), model.tableSize, channels, model.components, weights);
+    auto pca = fitPcaBasis(train, p.train.size(), shape.tableSize, channels, shape.components, weights);
     if (!pca) return pca.error();
     test = projectOnBasis(test, p.test.size(), pca.value());
     basis = std::move(pca.value().basis);
-    model.basis = &basis;
   }
-  if (c.settings.quantization == Quantization::U8) simulateU8(test, p.test.size(), model.stride());
+  if (c.settings.quantization == Quantization::U8) simulateU8(test, p.test.size(), strideOf(shape));
   double sum = 0.0, weight = 0.0;
   std::vector<float> out(channels);
   for (size_t t = 0; t < p.test.size(); ++t)
     for (uint32_t h = 0; h < BudgetProbe::kHeld; ++h) {
       const glm::vec3 w = p.heldDirs[t * BudgetProbe::kHeld + h];
-      decodeFloat(model, &test[t * model.stride()], w, out.data());
+      decodeFloat(shape, basis, &test[t * strideOf(shape)], w, out.data());
       sum += double(w.z) * angleDegrees(glm::vec3(out[0], out[1], out[2]), p.heldExits[t * BudgetProbe::kHeld + h]);
       weight += double(w.z);
     }
@@ -615,23 +623,22 @@ Result<Field> bakeField(const Scene& scene, const BakeOptions& options) {
   const double traceSeconds = secondsSince(traceStart);
 
   const auto fitStart = Clock::now();
-  EncodingModel model{settings.encoding, static_cast<int>(settings.order), settings.tableSize, settings.components,
-                      channels, nullptr};
+  const EncodingShape shape = shapeOf(settings, channels);
   std::vector<float> basis;
   if (settings.encoding == Encoding::Pca)
-    if (auto r = learnBasis(model, coeffs, basis, sampleCount); !r) return r.error();
-  const size_t stride = model.stride();
+    if (auto r = learnBasis(shape, coeffs, basis, sampleCount); !r) return r.error();
+  const size_t stride = strideOf(shape);
   if (settings.spatialNeighbours != 0) {
     std::vector<glm::vec3> positions(sampleCount);
     for (size_t s = 0; s < sampleCount; ++s) positions[s] = atlas.samples[s].position;
     smoothSpatially(coeffs, stride, positions, atlas.neighbours, settings.spatialNeighbours);
   }
   if (settings.window != SmoothingWindow::None && settings.encoding == Encoding::Sh) {
-    const std::vector<double> weights = bandWindow(settings.window, model.order);
+    const std::vector<double> weights = bandWindow(settings.window, static_cast<int>(settings.order));
     for (size_t s = 0; s < sampleCount; ++s)
-      sh::applyWindow(model.order, weights.data(), &coeffs[s * stride], static_cast<int>(channels));
+      sh::applyWindow(static_cast<int>(settings.order), weights.data(), &coeffs[s * stride], static_cast<int>(channels));
   }
-  measureFit(model, coeffs, grid, checks, options.heldOutDirections, errors);
+  measureFit(shape, basis, coeffs, grid, checks, options.heldOutDirections, errors);
 
   Field field;
   field.width = atlas.width;
@@ -648,7 +655,7 @@ Result<Field> bakeField(const Scene& scene, const BakeOptions& options) {
   field.gutters = atlas.gutters;
   field.mesh = atlas.mesh;
   const size_t texels = size_t(atlas.width) * atlas.height;
-  const uint32_t layers = model.layers(), values = model.values();
+  const uint32_t layers = shape.layerCount(), values = shape.valuesPerLayer();
   field.frames.assign(texels * 12, 0.0f);
   std::vector<float> texelCoeffs(size_t(layers) * texels * values, 0.0f);
   for (size_t t = 0; t < texels; ++t) {
@@ -677,7 +684,7 @@ Result<Field> bakeField(const Scene& scene, const BakeOptions& options) {
       if (texelOf[s] == UINT64_MAX) continue;
       for (uint32_t d = 0; d < nd; d += 3) {
         const glm::vec3 w(grid.directions[d]);
-        decodeFloat(model, &coeffs[s * stride], w, a.data());
+        decodeFloat(shape, basis, &coeffs[s * stride], w, a.data());
         evaluateSample(field, texelOf[s], {w.x, w.y, w.z}, b.data());
         const double angle = angleDegrees(glm::vec3(a[0], a[1], a[2]), glm::vec3(b[0], b[1], b[2]));
         quantSquares += angle * angle;

@@ -159,17 +159,10 @@ void HemisphereFit::reconstructAtGrid(const float* coeffs, uint32_t channels, ui
 }
 
 void evaluateExpansion(int order, const float* coeffs, uint32_t channels, glm::vec3 w, float* out) {
-  // Same rule as the engine: directions below the horizon are pushed onto it.
-  w.z = std::max(w.z, 0.0f);
-  const float len2 = w.x * w.x + w.y * w.y + w.z * w.z;
-  if (!(len2 > 0.0f)) w = glm::vec3(0.0f, 0.0f, 1.0f);
-  std::vector<float> y(static_cast<size_t>(sh::basisCount(order)));
-  sh::evaluate(order, w.x, w.y, w.z, y.data());
-  for (uint32_t c = 0; c < channels; ++c) {
-    double s = 0.0;
-    for (size_t i = 0; i < y.size(); ++i) s += static_cast<double>(coeffs[i * channels + c]) * static_cast<double>(y[i]);
-    out[c] = static_cast<float>(s);
-  }
+  // The engine's sum (field.h); a zero direction is read as the normal rather than as NaN.
+  if (!(w.x * w.x + w.y * w.y + std::max(w.z, 0.0f) * std::max(w.z, 0.0f) > 0.0f)) w = glm::vec3(0.0f, 0.0f, 1.0f);
+  const EncodingShape shape{Encoding::Sh, static_cast<uint32_t>(order), 0, 0, channels};
+  evaluateCoefficients(shape, coeffs, nullptr, {w.x, w.y, w.z}, out);
 }
 
 std::vector<double> bandWindow(SmoothingWindow window, int order) {

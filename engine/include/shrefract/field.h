@@ -163,6 +163,22 @@ inline constexpr uint8_t kTexelEmpty = 0;   // no sample; frame is zero; decompr
 inline constexpr uint8_t kTexelSample = 1;  // holds a sample
 inline constexpr uint8_t kTexelGutter = 2;  // split layout: filled by a GutterTexel rule
 
+// A field's encoding without its data: what decoding a sample needs besides its coefficients
+// (and, for Pca, the basis).
+struct EncodingShape {
+  Encoding encoding = Encoding::Sh;
+  uint32_t order = 0;       // Sh
+  uint32_t tableSize = 0;   // Table, Pca
+  uint32_t components = 0;  // Pca
+  uint32_t channels = 3;
+  // Layers (coefficients per sample and stored value): Sh (L+1)^2, Table N^2, Pca K.
+  uint32_t layerCount() const {
+    return encoding == Encoding::Sh ? (order + 1) * (order + 1)
+                                    : encoding == Encoding::Table ? tableSize * tableSize : components;
+  }
+  uint32_t valuesPerLayer() const { return encoding == Encoding::Pca ? 1u : channels; }
+};
+
 struct Field {
   uint32_t width = 0;            // atlas size in texels
   uint32_t height = 0;
@@ -196,13 +212,10 @@ struct Field {
   BakeSettings settings;
   BakeStatistics statistics;
 
-  // Layers (coefficients per sample and stored value): Sh (L+1)^2, Table N^2, Pca K.
-  uint32_t layerCount() const {
-    return encoding == Encoding::Sh ? (order + 1) * (order + 1)
-                                    : encoding == Encoding::Table ? tableSize * tableSize : components;
-  }
+  EncodingShape shape() const { return {encoding, order, tableSize, components, channels}; }
+  uint32_t layerCount() const { return shape().layerCount(); }
   uint32_t basisCount() const { return layerCount(); }  // the name of SH-era callers
-  uint32_t valuesPerLayer() const { return encoding == Encoding::Pca ? 1u : channels; }
+  uint32_t valuesPerLayer() const { return shape().valuesPerLayer(); }
   bool hasOpticalDepth() const { return channels == (throughput ? 5u : 4u); }
   uint32_t throughputChannel() const { return channels - 1; }  // meaningful when throughput is set
   uint64_t texelCount() const { return uint64_t(width) * height; }
@@ -212,9 +225,16 @@ struct Field {
   }
 };
 
-// Decoded channels at a local direction of one sample (texel of kind kTexelSample): the linear
-// sum of the encoding before normalization, in out[0..channels). z is clamped to >= 0 (the engine
-// does the same). Preconditions: validateField(field) succeeded, texel in range and a sample.
+// The linear sum of an encoding at a local direction, in out[0..channels), before normalization,
+// from one sample's coefficients a[layer * valuesPerLayer + value] (floats: dequantized, or a
+// bake's fit before quantization) and, for Pca, the basis (field.h layout; nullptr otherwise).
+// z is clamped to >= 0 (the engine does the same). The one implementation of the three sums.
+void evaluateCoefficients(const EncodingShape& shape, const float* coefficients, const float* basis,
+                          const std::array<float, 3>& localDirection, float* out);
+
+// Decoded channels at a local direction of one sample (texel of kind kTexelSample): its dequantized
+// coefficients through evaluateCoefficients. Preconditions: validateField(field) succeeded, texel
+// in range and a sample.
 void evaluateSample(const Field& field, uint64_t texel, const std::array<float, 3>& localDirection, float* out);
 
 // Dequantized coefficient a_layer(texel), value v < valuesPerLayer(). Preconditions:

@@ -41,34 +41,43 @@ HemiOctBilinear hemiOctBilinear(float x, float y, float z, uint32_t n) {
   return b;
 }
 
-void evaluateSample(const Field& field, uint64_t texel, const std::array<float, 3>& w, float* out) {
-  const uint32_t channels = field.channels;
+void evaluateCoefficients(const EncodingShape& shape, const float* a, const float* basis,
+                          const std::array<float, 3>& w, float* out) {
+  const uint32_t channels = shape.channels;
   std::fill(out, out + channels, 0.0f);
   const float z = std::max(w[2], 0.0f);
-  if (field.encoding == Encoding::Sh) {
-    const int order = static_cast<int>(field.order);
-    std::vector<float> y(static_cast<size_t>(sh::basisCount(order)));
+  if (shape.encoding == Encoding::Sh) {
+    const int order = static_cast<int>(shape.order);
+    thread_local std::vector<float> y;
+    y.resize(static_cast<size_t>(sh::basisCount(order)));
     sh::evaluate(order, w[0], w[1], z, y.data());
-    for (uint32_t i = 0; i < field.layerCount(); ++i)
-      for (uint32_t c = 0; c < channels; ++c) out[c] += fieldCoefficient(field, i, texel, c) * y[i];
+    for (uint32_t i = 0; i < shape.layerCount(); ++i)
+      for (uint32_t c = 0; c < channels; ++c) out[c] += a[size_t(i) * channels + c] * y[i];
     return;
   }
-  const uint32_t n = field.tableSize;
+  const uint32_t n = shape.tableSize;
   const HemiOctBilinear b = hemiOctBilinear(w[0], w[1], z, n);
-  if (field.encoding == Encoding::Table) {
+  if (shape.encoding == Encoding::Table) {
     for (int j = 0; j < 4; ++j)
-      for (uint32_t c = 0; c < channels; ++c) out[c] += b.weight[j] * fieldCoefficient(field, b.node[j], texel, c);
+      for (uint32_t c = 0; c < channels; ++c) out[c] += b.weight[j] * a[size_t(b.node[j]) * channels + c];
     return;
   }
   // Pca: the weights times the basis functions, each a table blended at the same four nodes.
   const size_t nodes = size_t(n) * n;
-  for (uint32_t k = 0; k < field.components; ++k) {
-    const float a = fieldCoefficient(field, k, texel, 0);
+  for (uint32_t k = 0; k < shape.components; ++k)
     for (int j = 0; j < 4; ++j) {
-      const float* f = &field.basis[(k * nodes + b.node[j]) * channels];
-      for (uint32_t c = 0; c < channels; ++c) out[c] += a * b.weight[j] * f[c];
+      const float* f = &basis[(k * nodes + b.node[j]) * channels];
+      for (uint32_t c = 0; c < channels; ++c) out[c] += a[k] * b.weight[j] * f[c];
     }
-  }
+}
+
+void evaluateSample(const Field& field, uint64_t texel, const std::array<float, 3>& w, float* out) {
+  const uint32_t layers = field.layerCount(), values = field.valuesPerLayer();
+  thread_local std::vector<float> a;
+  a.resize(size_t(layers) * values);
+  for (uint32_t i = 0; i < layers; ++i)
+    for (uint32_t v = 0; v < values; ++v) a[size_t(i) * values + v] = fieldCoefficient(field, i, texel, v);
+  evaluateCoefficients(field.shape(), a.data(), field.basis.data(), w, out);
 }
 
 }  // namespace shrefract
