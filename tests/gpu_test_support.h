@@ -30,11 +30,29 @@ inline std::unique_ptr<harness::Harness> harnessOrSkip() {
   return std::move(h).value();
 }
 
-// Teardown check: every GPU test ends with zero validation/performance messages.
-#define SHREFRACT_EXPECT_NO_VALIDATION_MESSAGES(h)                                      \
-  do {                                                                                  \
-    EXPECT_EQ((h).messageCount(), 0u) << "validation messages were reported";           \
-    for (const auto& m : (h).messages()) ADD_FAILURE() << "validation: " << m;          \
-  } while (0)
+// Expects no message in `log`: call it after the harness is destroyed, so that what the layer
+// reports while the device and instance go (leaked objects) counts too.
+inline void expectNoMessages(const harness::MessageLog& log) {
+  EXPECT_EQ(log.count(), 0u) << "validation messages were reported (teardown included)";
+  for (const auto& m : log.messages()) ADD_FAILURE() << "validation: " << m;
+}
+
+// Destroys the harness (device, then instance) and expects no message from its whole life.
+inline void expectNoMessagesThroughDestruction(std::unique_ptr<harness::Harness>& h) {
+  if (!h) return;
+  const auto log = h->messageLog();
+  h.reset();
+  expectNoMessages(*log);
+}
+
+// The same for an owner of a harness (offscreen::Session: it destroys its engine objects first).
+template <class Owner>
+  requires requires(Owner& o) { o.harness->messageLog(); }
+void expectNoMessagesThroughDestruction(std::unique_ptr<Owner>& owner) {
+  if (!owner || !owner->harness) return;
+  const auto log = owner->harness->messageLog();
+  owner.reset();
+  expectNoMessages(*log);
+}
 
 }  // namespace shrefract::testing

@@ -80,7 +80,7 @@ class DecompressionEncodings : public ::testing::Test {
     decompressor.reset();
     if (context) context->releaseDeferred();
     context.reset();
-    if (h) SHREFRACT_EXPECT_NO_VALIDATION_MESSAGES(*h);
+    testing::expectNoMessagesThroughDestruction(h);
   }
 
   // Decompresses a field built from `o` for every eye and compares with the CPU reference;

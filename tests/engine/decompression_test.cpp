@@ -79,7 +79,7 @@ TEST(Decompression, GpuMatchesCpuReference) {
   decompressor.value().reset();
   ctx.releaseDeferred();
   context.value().reset();
-  SHREFRACT_EXPECT_NO_VALIDATION_MESSAGES(*h);
+  testing::expectNoMessagesThroughDestruction(h);
 }
 
 }  // namespace

@@ -109,7 +109,7 @@ class FieldRender : public ::testing::Test {
     std::printf("device: %s\n", session->harness->deviceName().c_str());
   }
   void TearDown() override {
-    if (session) SHREFRACT_EXPECT_NO_VALIDATION_MESSAGES(*session->harness);
+    testing::expectNoMessagesThroughDestruction(session);
   }
   std::unique_ptr<offscreen::Session> session;
 };

@@ -87,7 +87,7 @@ class Seams : public ::testing::Test {
     session = std::move(s).value();
   }
   void TearDown() override {
-    if (session) SHREFRACT_EXPECT_NO_VALIDATION_MESSAGES(*session->harness);
+    testing::expectNoMessagesThroughDestruction(session);
   }
   std::unique_ptr<offscreen::Session> session;
 };

@@ -99,7 +99,7 @@ TEST(DecompressPaths, StorageBufferPathsMatchCpuReference) {
   decompressor.value().reset();
   ctx.releaseDeferred();
   context.value().reset();
-  SHREFRACT_EXPECT_NO_VALIDATION_MESSAGES(*h);
+  testing::expectNoMessagesThroughDestruction(h);
 }
 
 }  // namespace

@@ -45,7 +45,7 @@ class SkipWork : public ::testing::Test {
     session = std::move(s).value();
   }
   void TearDown() override {
-    if (session) SHREFRACT_EXPECT_NO_VALIDATION_MESSAGES(*session->harness);
+    testing::expectNoMessagesThroughDestruction(session);
   }
 
   std::unique_ptr<Object> upload(const Field& field) {

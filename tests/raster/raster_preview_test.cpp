@@ -53,7 +53,7 @@ class RasterPreview : public ::testing::Test {
     session = std::move(s).value();
   }
   void TearDown() override {
-    if (session) SHREFRACT_EXPECT_NO_VALIDATION_MESSAGES(*session->harness);
+    testing::expectNoMessagesThroughDestruction(session);
   }
   std::unique_ptr<offscreen::Session> session;
 };

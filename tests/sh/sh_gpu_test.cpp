@@ -208,7 +208,7 @@ TEST(ShGpuTest, GlslMatchesCpuUpToOrder20) {
   vkDestroyShaderModule(device, module, nullptr);
   h->destroyBuffer(*valueBuffer);
   h->destroyBuffer(*dirBuffer);
-  SHREFRACT_EXPECT_NO_VALIDATION_MESSAGES(*h);
+  shrefract::testing::expectNoMessagesThroughDestruction(h);
 }
 
 }  // namespace

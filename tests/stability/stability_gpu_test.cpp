@@ -62,7 +62,7 @@ class StabilityGpu : public ::testing::Test {
     session = std::move(s).value();
   }
   void TearDown() override {
-    if (session) SHREFRACT_EXPECT_NO_VALIDATION_MESSAGES(*session->harness);
+    testing::expectNoMessagesThroughDestruction(session);
   }
 
   // Uploads `field`, renders one Field-mode frame for `camera` and reads the distortion image back.

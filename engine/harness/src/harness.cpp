@@ -8,8 +8,6 @@
 namespace shrefract::harness {
 namespace {
 
-std::mutex gMessageMutex;  // the debug callback may be called from any thread
-
 Error vkError(const char* what, VkResult r) {
   return makeError(ErrorCode::Vulkan, std::string(what) + " failed (VkResult " + std::to_string(r) + ")", r);
 }
@@ -30,20 +28,26 @@ VKAPI_ATTR VkBool32 VKAPI_CALL Harness::debugCallback(VkDebugUtilsMessageSeverit
                                                       VkDebugUtilsMessageTypeFlagsEXT type,
                                                       const VkDebugUtilsMessengerCallbackDataEXT* data,
                                                       void* user) {
-  auto* self = static_cast<Harness*>(user);
+  auto* log = static_cast<MessageLog*>(user);
   // General messages are loader chatter; info and verbose severities are not problems.
   const bool relevantType = (type & (VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
                                      VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT)) != 0;
   const bool relevantSeverity = severity >= VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT;
   if (!relevantType || !relevantSeverity) return VK_FALSE;
-  std::string text = data && data->pMessage ? data->pMessage : "(no message)";
-  {
-    std::lock_guard<std::mutex> lock(gMessageMutex);
-    self->messages_.push_back(text);
-  }
-  self->messageCount_.fetch_add(1);
-  if (self->echo_) std::fprintf(stderr, "[vulkan validation] %s\n", text.c_str());
+  log->add(data && data->pMessage ? data->pMessage : "(no message)");
   return VK_FALSE;
+}
+
+std::vector<std::string> MessageLog::messages() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return messages_;
+}
+
+void MessageLog::add(std::string text) {
+  if (echo) std::fprintf(stderr, "[vulkan validation] %s\n", text.c_str());
+  std::lock_guard<std::mutex> lock(mutex_);
+  messages_.push_back(std::move(text));
+  count_.fetch_add(1);
 }
 
 Result<std::unique_ptr<Harness>> Harness::create(const HarnessOptions& options, HarnessFailure* failure) {
@@ -53,7 +57,7 @@ Result<std::unique_ptr<Harness>> Harness::create(const HarnessOptions& options, 
   };
   if (failure) *failure = HarnessFailure::None;
   std::unique_ptr<Harness> h(new Harness());
-  h->echo_ = options.echoMessages;
+  h->log_->echo = options.echoMessages;
 
   uint32_t apiVersion = 0;
   if (vkEnumerateInstanceVersion(&apiVersion) != VK_SUCCESS || apiVersion < VK_API_VERSION_1_3)
@@ -82,7 +86,7 @@ Result<std::unique_ptr<Harness>> Harness::create(const HarnessOptions& options, 
                               VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
                               VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
   messengerInfo.pfnUserCallback = &Harness::debugCallback;
-  messengerInfo.pUserData = h.get();
+  messengerInfo.pUserData = h->log_.get();  // the instance's last messages arrive during ~Harness
 
   VkInstanceCreateInfo ici{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
   ici.pApplicationInfo = &app;
@@ -91,7 +95,14 @@ Result<std::unique_ptr<Harness>> Harness::create(const HarnessOptions& options, 
   ici.enabledExtensionCount = static_cast<uint32_t>(extensions.size());
   ici.ppEnabledExtensionNames = extensions.data();
   // Chained so that messages from vkCreateInstance/vkDestroyInstance are counted too.
-  if (options.enableValidation) ici.pNext = &messengerInfo;
+  VkValidationFeatureEnableEXT syncValidation = VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT;
+  VkValidationFeaturesEXT validationFeatures{VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT};
+  validationFeatures.enabledValidationFeatureCount = options.synchronizationValidation ? 1u : 0u;
+  validationFeatures.pEnabledValidationFeatures = &syncValidation;
+  if (options.enableValidation) {
+    validationFeatures.pNext = &messengerInfo;
+    ici.pNext = &validationFeatures;
+  }
   VkResult r = vkCreateInstance(&ici, nullptr, &h->instance_);
   if (r == VK_ERROR_INCOMPATIBLE_DRIVER)
     return fail(HarnessFailure::NoDevice, vkError("vkCreateInstance (no Vulkan driver)", r));

@@ -116,6 +116,9 @@ Result<void> Context::uploadNow(const std::function<Result<void>(VkCommandBuffer
   VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
   bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
   vk.vkBeginCommandBuffer(cmd, &bi);
+  // What `record` retires (its staging buffers) is read by this submission only; what was
+  // retired before may still be read by the host's frames in flight and waits for beginFrame().
+  const size_t retiredBefore = c.retired.size();
   Result<void> recorded = record(cmd);
   r = vk.vkEndCommandBuffer(cmd);
   if (recorded.ok() && r == VK_SUCCESS) {
@@ -129,13 +132,10 @@ Result<void> Context::uploadNow(const std::function<Result<void>(VkCommandBuffer
   vk.vkFreeCommandBuffers(c.device(), c.uploadPool, 1, &cmd);
   if (!recorded.ok()) return recorded;
   if (r != VK_SUCCESS) return vulkanError("Context::uploadNow", r);
-  // The upload has completed: its staging buffers (retired this frame) can go now.
-  std::vector<ContextImpl::Retired> keep;
-  for (auto& item : c.retired) {
-    if (item.frame == c.frame) item.release();
-    else keep.push_back(std::move(item));
-  }
-  c.retired = std::move(keep);
+  // The upload has completed: what it retired can go now (on failure above it waits for
+  // beginFrame() like everything else, since the GPU may not be done with it).
+  for (size_t i = retiredBefore; i < c.retired.size(); ++i) c.retired[i].release();
+  c.retired.erase(c.retired.begin() + std::ptrdiff_t(retiredBefore), c.retired.end());
   return {};
 }
 

@@ -203,7 +203,10 @@ void recordUploadsVisible(ContextImpl& c, VkCommandBuffer cmd, VkImage image) {
   buffersToRead.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
   buffersToRead.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
   buffersToRead.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-  buffersToRead.dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
+  // Every way the decompression pass reads the uploaded buffers: coefficients as a uniform texel
+  // buffer (sampled read), scale/bias as a uniform buffer, frames and basis as storage buffers.
+  buffersToRead.dstAccessMask =
+      VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_UNIFORM_READ_BIT;
   VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
   dep.imageMemoryBarrierCount = 1;
   dep.pImageMemoryBarriers = &toRead;

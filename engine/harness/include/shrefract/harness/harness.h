@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -20,10 +21,29 @@ namespace shrefract::harness {
 
 struct HarnessOptions {
   bool enableValidation = true;    // VK_LAYER_KHRONOS_validation; an error if it is missing
+  // With validation: also the layer's synchronization validation (hazards between commands and
+  // submissions), so that a missing or too-narrow barrier is a counted message.
+  bool synchronizationValidation = true;
   int deviceIndex = -1;            // -1: first device; else an index into vkEnumeratePhysicalDevices
   bool echoMessages = true;        // print every counted message to stderr as it arrives
   std::vector<const char*> instanceExtensions;  // extra (e.g. surface extensions for a viewer)
   std::vector<const char*> deviceExtensions;    // extra (e.g. VK_KHR_swapchain)
+};
+
+// Counted validation messages. Shared with the debug messenger so that it outlives the harness:
+// messages the layer emits while the device and instance are destroyed (leaked objects) land here
+// after the harness is gone, and a test checks them then.
+class MessageLog {
+ public:
+  uint32_t count() const { return count_.load(); }
+  std::vector<std::string> messages() const;
+  void add(std::string text);
+  bool echo = true;  // print every counted message to stderr as it arrives
+
+ private:
+  mutable std::mutex mutex_;  // the debug callback may be called from any thread
+  std::atomic<uint32_t> count_{0};
+  std::vector<std::string> messages_;
 };
 
 // Why a harness could not be created: the tests skip on NoDevice and fail on anything else.
@@ -49,8 +69,10 @@ class Harness {
 
   // Number of validation or performance warnings and errors seen so far (general loader chatter
   // and info/verbose messages are not counted).
-  uint32_t messageCount() const { return messageCount_.load(); }
-  const std::vector<std::string>& messages() const { return messages_; }
+  uint32_t messageCount() const { return log_->count(); }
+  std::vector<std::string> messages() const { return log_->messages(); }
+  // The log itself, to read after the harness is destroyed (see MessageLog).
+  std::shared_ptr<const MessageLog> messageLog() const { return log_; }
 
   // Records with `record` into a fresh primary command buffer, submits it and waits for it.
   Result<void> submitAndWait(const std::function<void(VkCommandBuffer)>& record);
@@ -100,9 +122,7 @@ class Harness {
   VkQueue queue_ = VK_NULL_HANDLE;
   VkCommandPool pool_ = VK_NULL_HANDLE;
   VkFence fence_ = VK_NULL_HANDLE;
-  bool echo_ = true;
-  std::atomic<uint32_t> messageCount_{0};
-  std::vector<std::string> messages_;
+  std::shared_ptr<MessageLog> log_ = std::make_shared<MessageLog>();
 };
 
 }  // namespace shrefract::harness
