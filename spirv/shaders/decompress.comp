@@ -71,7 +71,7 @@ void main() {
   uint planeWords = QUANTIZATION == kQuantizationU8 ? quads : 2u * quads;
 
   // The eye in each sample's frame (the padding samples of the last group repeat the last sample).
-  vec4 eye = vec4(pc.eyeWorld.xyz, 1.0);
+  vec4 eye = vec4(pc.eyeObject.xyz, 1.0);
   vec4 wx, wy, wz;
   for (int j = 0; j < 4; ++j) {
     vec3 w = eyeInFrame(min(4u * quad + uint(j), sampleCount - 1u), eye);

@@ -41,7 +41,7 @@ float coefficient(uint s, uint layer, uint v) {
 void main() {
   uint s = invocationIndex();
   if (s >= pc.size.w) return;
-  HemiOctBilinear b = hemiOctBilinear(eyeInFrame(s, vec4(pc.eyeWorld.xyz, 1.0)), TABLE_SIZE);
+  HemiOctBilinear b = hemiOctBilinear(eyeInFrame(s, vec4(pc.eyeObject.xyz, 1.0)), TABLE_SIZE);
   float sum[5] = float[5](0.0, 0.0, 0.0, 0.0, 0.0);
   if (ENCODING == kEncodingTable) {
     for (int j = 0; j < 4; ++j)

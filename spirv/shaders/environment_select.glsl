@@ -14,4 +14,7 @@ layout(set = 0, binding = kBindingEnvironment) uniform sampler2D environmentMap;
 vec3 lookupEnvironment(vec3 dir) { return sampleEnvironment(environmentMap, dir); }
 #endif
 
+// v rotated by the unit quaternion q (x, y, z, w): object-space directions to world space.
+vec3 rotateByQuaternion(vec4 q, vec3 v) { return v + 2.0 * cross(q.xyz, cross(q.xyz, v) + q.w * v); }
+
 #endif

@@ -3,8 +3,8 @@
 #include "shrefract/gpu_layout.h"
 
 layout(push_constant) uniform Push { ObjectPushConstants pc; };
-layout(location = 0) in vec3 inPosition;  // world space
-layout(location = 1) in vec3 inNormal;    // world space, unit
+layout(location = 0) in vec3 inPosition;  // object space
+layout(location = 1) in vec3 inNormal;    // object space, unit
 layout(location = 2) in vec2 inFieldUv;   // normalized atlas coordinates of the field's sample layout
 layout(location = 3) in float inFrontIor; // n_inside / n_outside of this surface; 0: use pc.medium.x
 
@@ -18,5 +18,5 @@ void main() {
   outNormal = inNormal;
   outFieldUv = inFieldUv;
   outFrontIor = inFrontIor;
-  gl_Position = pc.clipFromWorld * vec4(inPosition, 1.0);
+  gl_Position = pc.clipFromObject * vec4(inPosition, 1.0);
 }

@@ -15,7 +15,7 @@ layout(location = 0) out vec4 outColor;
 
 void main() {
   vec3 n = normalize(inNormal);
-  vec3 v = normalize(inPosition - pc.eyeWorld.xyz);
+  vec3 v = normalize(inPosition - pc.eyeObject.xyz);
   // Interpolated normals can face away near silhouettes; bend them back toward the viewer.
   float cosI = -dot(v, n);
   if (cosI < 1e-4) {
@@ -29,16 +29,19 @@ void main() {
   vec4 d = textureLod(distortionMap, inFieldUv, 0.0);
   float len2 = dot(d.xyz, d.xyz);
   vec3 exitDirection = len2 > kMinDirectionLength2 ? d.xyz * inversesqrt(len2) : v;
-  if (uint(pc.params.z) == kModeFieldExitDirection) {  // the measured quantity itself
-    outColor = vec4(exitDirection, d.w);
+  // Looked up, and measured, in world space.
+  vec3 exitWorld = rotateByQuaternion(pc.worldFromObjectRotation, exitDirection);
+  if (uint(pc.medium.w) == kModeFieldExitDirection) {  // the measured quantity itself
+    outColor = vec4(exitWorld, d.w);
     return;
   }
   float transmittance = exp2(-max(d.w, 0.0) * pc.medium.y);
   // A field with throughput stores direction * clamp(throughput, 0, 1) (gpu_layout.h): the
   // filtered length is the throughput, blended as the direction is. Others store unit lengths,
   // which bilinear filtering shortens between diverging texels: they must not be scaled.
-  if (pc.params.y > 0.5) transmittance *= min(sqrt(len2), 1.0);
-  vec3 color = (1.0 - fresnel) * transmittance * pc.tint.rgb * lookupEnvironment(exitDirection);
-  if (pc.medium.z > 0.5) color += fresnel * lookupEnvironment(reflect(v, n));
-  outColor = vec4(color * pc.params.x, 1.0);
+  if (pc.tint.a > 0.5) transmittance *= min(sqrt(len2), 1.0);
+  vec3 color = (1.0 - fresnel) * transmittance * pc.tint.rgb * lookupEnvironment(exitWorld);
+  if (pc.medium.z > 0.5)
+    color += fresnel * lookupEnvironment(rotateByQuaternion(pc.worldFromObjectRotation, reflect(v, n)));
+  outColor = vec4(color * pc.eyeObject.w, 1.0);
 }

@@ -13,7 +13,7 @@ layout(location = 0) out vec4 outColor;
 
 void main() {
   vec3 n = normalize(inNormal);
-  vec3 v = normalize(inPosition - pc.eyeWorld.xyz);
+  vec3 v = normalize(inPosition - pc.eyeObject.xyz);
   // Interpolated normals can face away near silhouettes; bend them back toward the viewer.
   float cosI = -dot(v, n);
   if (cosI < 1e-4) {
@@ -26,7 +26,9 @@ void main() {
   float fresnel = fresnelDielectric(cosI, eta);
   vec3 refracted = refract(v, n, eta);
   if (dot(refracted, refracted) == 0.0) refracted = reflected;
-  vec3 color = (1.0 - fresnel) * lookupEnvironment(refracted) * pc.tint.rgb;
-  if (pc.medium.z > 0.5) color += fresnel * lookupEnvironment(reflected);
-  outColor = vec4(color * pc.params.x, 1.0);
+  // Bent in object space, looked up in world space.
+  vec4 q = pc.worldFromObjectRotation;
+  vec3 color = (1.0 - fresnel) * lookupEnvironment(rotateByQuaternion(q, refracted)) * pc.tint.rgb;
+  if (pc.medium.z > 0.5) color += fresnel * lookupEnvironment(rotateByQuaternion(q, reflected));
+  outColor = vec4(color * pc.eyeObject.w, 1.0);
 }

@@ -17,7 +17,7 @@
 
 #include "engine/distortion_check.h"
 #include "engine/synthetic_field.h"
-#include "raster/object_impl.h"
+#include "object/object_impl.h"
 
 namespace shrefract {
 namespace {
@@ -92,7 +92,7 @@ class DecompressionEncodings : public ::testing::Test {
     ASSERT_TRUE(validateField(field).ok()) << validateField(field).error().message;
     auto object = testing::uploadFieldNow(*context, field);
     ASSERT_TRUE(object.ok()) << object.error().message;
-    object.value()->impl().field->coefficientsStorage |= forceCoefficientsStorage;
+    ObjectAccess::impl(*object.value()).field->coefficientsStorage |= forceCoefficientsStorage;
     testing::DistortionStats stats;
     std::vector<std::vector<float>> perEye;
     for (const auto& eye : kEyes) {

@@ -14,7 +14,7 @@
 
 #include "engine/engine_test_support.h"
 #include "engine/synthetic_field.h"
-#include "raster/object_impl.h"
+#include "object/object_impl.h"
 
 namespace shrefract {
 namespace {
@@ -63,7 +63,7 @@ TEST(DecompressPaths, StorageBufferPathsMatchCpuReference) {
       return {};
     });
     ASSERT_TRUE(uploaded.ok()) << uploaded.error().message;
-    FieldResources& f = *object->impl().field;
+    FieldResources& f = *ObjectAccess::impl(*object).field;
     EXPECT_EQ(f.scaleBiasStorage, k.order > 21) << "the table exceeds 16 KiB from order 22 on";
     EXPECT_FALSE(f.coefficientsStorage) << "lavapipe's texel buffers hold this field";
     f.coefficientsStorage = k.forceCoefficientsStorage;

@@ -86,7 +86,7 @@ struct SurfacePoint {
 // ShadingMode::Field for one fragment (see renderer.h), before the colour attachment's format
 // conversion. `distortion` must be decompressed for the same eye. When distortion.throughput is
 // set, the transmitted term is multiplied by min(|d.xyz|, 1) of the bilinear sample d, as the GPU
-// does for an object whose field has a throughput channel (ObjectPushConstants.params.y).
+// does for an object whose field has a throughput channel (ObjectPushConstants.tint.a).
 Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environment, const SurfacePoint& point,
                 const Vec3& eye, const ObjectShading& shading, float exposure = 1.0f);
 

@@ -1,10 +1,10 @@
 // The raster pass: the environment as background and refractive objects over it, drawn with
 // dynamic rendering into attachments the host provides.
 //
-// Objects are static world-space meshes. An object created from a refraction field
-// (Object::createFromField) also owns the field's GPU data and its distortion image; the
-// Decompressor (shrefract/decompressor.h) fills that image for the current eye, and
-// ShadingMode::Field samples it.
+// Objects (shrefract/object.h) are static meshes placed in the world by their worldFromObject
+// transform; an object created from a refraction field also has the field's GPU data and a
+// distortion image, which the Decompressor (shrefract/decompressor.h) fills for the current eye
+// and ShadingMode::Field samples. Instances share one upload (Object::createInstance).
 //
 // A host frame with field objects, all on one command buffer of the context's queue family:
 //   context.beginFrame();                                   // releases what was retired
@@ -33,6 +33,7 @@
 #include <shrefract/context.h>
 #include <shrefract/environment.h>
 #include <shrefract/field.h>
+#include <shrefract/object.h>
 
 #include <array>
 #include <cstdint>
@@ -49,100 +50,6 @@ struct Camera {
   float verticalFovDegrees = 45.0f;
   float nearPlane = 0.01f;
   float farPlane = 1000.0f;
-};
-
-// A triangle mesh in world space with per-vertex unit normals and (optional) field texture
-// coordinates. Static: fields are baked in world space. Front faces wind counter-clockwise seen
-// from outside; back faces are culled.
-struct MeshDesc {
-  const float* positions = nullptr;  // vertexCount * 3
-  const float* normals = nullptr;    // vertexCount * 3
-  const float* fieldUvs = nullptr;   // vertexCount * 2 normalized atlas coordinates, or nullptr
-  // vertexCount values n_inside / n_outside of the surface the eye sees (> 0), or nullptr: then
-  // ObjectShading::ior applies to the whole mesh.
-  const float* frontIor = nullptr;
-  uint32_t vertexCount = 0;
-  const uint32_t* indices = nullptr;  // triangle list, indexCount / 3 triangles
-  uint32_t indexCount = 0;
-};
-
-// Run-time shading parameters of an object; cheap to change every frame.
-struct ObjectShading {
-  float ior = 1.5f;                         // front-surface IOR where the mesh has no frontIor
-  float absorptionScale = 1.0f;             // k in exp2(-tau * k) (Field mode)
-  std::array<float, 3> tint{1.0f, 1.0f, 1.0f};  // attenuation colour, multiplies the transmitted light
-  bool reflection = true;                   // add the front-surface Fresnel reflection
-};
-
-struct ObjectImpl;
-
-class Object {
- public:
-  // Creates the vertex and index buffers and records their upload into `cmd` (see Environment).
-  static Result<std::unique_ptr<Object>> create(Context& context, const MeshDesc& mesh, VkCommandBuffer cmd);
-
-  // Creates an object from a refraction field: the render mesh (field.mesh, with its atlas
-  // coordinates and per-vertex frontIor) and the field's GPU data, uploaded through `cmd` (a host
-  // command buffer in the recording state, on the context's queue family; staging buffers are
-  // retired through the context's deferred destruction):
-  //  - coefficients of the sample texels only, in one buffer (read as a texel buffer, or as a
-  //    storage buffer beyond the device's texel-buffer limit): Sh, one plane per basis function and
-  //    stored channel (x, y, z of the exit direction, then tau and the throughput where the field
-  //    has them); Table and Pca, each sample's values contiguous; bytes (U8, with the
-  //    per-(layer, value) scale/bias in a second buffer) or binary16 (F16); layout in gpu_layout.h;
-  //  - the samples' frames M_s (3 vec4 rows per sample), their texel indices, the gutter rules and
-  //    (Pca) the basis functions as storage buffers;
-  //  - the distortion image: width x height R16G16B16A16_SFLOAT, cleared to zero (empty texels stay
-  //    zero for the object's lifetime).
-  // After `cmd` executes, the distortion image is in SHADER_READ_ONLY_OPTIMAL and every upload is
-  // visible to compute and fragment shaders.
-  // Errors: CorruptData when validateField rejects the field; Unsupported when the atlas exceeds
-  // the device's 2D image limit, the coefficients both its texel and storage buffer limits (or, for
-  // Table and Pca, 2^32 values), or the samples' frames or the basis its storage buffer range;
-  // Vulkan on allocation failures.
-  static Result<std::unique_ptr<Object>> createFromField(Context& context, const Field& field, VkCommandBuffer cmd);
-  // readField(path), then createFromField. Errors name the file.
-  static Result<std::unique_ptr<Object>> createFromFieldFile(Context& context, const std::string& path,
-                                                             VkCommandBuffer cmd);
-
-  // Retires every resource through the context's deferred destruction: safe while command buffers
-  // that use the object are in flight, as long as the host keeps calling Context::beginFrame().
-  ~Object();
-  Object(const Object&) = delete;
-  Object& operator=(const Object&) = delete;
-
-  bool hasField() const;
-  // The field's SH order (0 for Table and Pca fields) and atlas size (0 without a field).
-  uint32_t fieldOrder() const;
-  VkExtent2D fieldExtent() const;
-  // The distortion image (R16G16B16A16_SFLOAT, extent fieldExtent(), one level, one layer;
-  // VK_NULL_HANDLE without a field): texel (x, y) holds the decoded exit direction (xyz, unit, or
-  // zero for empty texels; for a field with throughput, of length the clamped throughput) and
-  // optical depth (w) for the eye of the last decompression. Between
-  // engine passes it is in SHADER_READ_ONLY_OPTIMAL. Created with TRANSFER_SRC usage so that tools
-  // and tests can copy it out; a host that does must return it to SHADER_READ_ONLY_OPTIMAL with its
-  // contents kept (from the layout it used, not UNDEFINED): empty texels are never rewritten.
-  VkImage distortionImage() const;
-  // Forgets which eye the distortion image was decompressed for, so that the next
-  // Decompressor::record() rewrites it. Needed only by a host that records a decompression into a
-  // command buffer it then never submits, or that writes the image itself (see decompressor.h).
-  void invalidateDistortion();
-
-  // World-space axis-aligned bounds of the mesh (what view-frustum culling tests).
-  std::array<float, 3> boundsMin() const;
-  std::array<float, 3> boundsMax() const;
-  // Device memory the object holds: the sum of the memory requirements of its buffers and images
-  // (mesh; for a field also coefficients, scale/bias, frames, sample texel indices, gutter rules,
-  // the Pca basis and the distortion image). Staging memory of the upload is not counted (released after it).
-  uint64_t gpuMemoryBytes() const;
-
-  ObjectShading shading;
-  ObjectImpl& impl() { return *impl_; }
-  const ObjectImpl& impl() const { return *impl_; }
-
- private:
-  explicit Object(std::unique_ptr<ObjectImpl> impl);
-  std::unique_ptr<ObjectImpl> impl_;
 };
 
 enum class ShadingMode : uint32_t {

@@ -12,7 +12,7 @@
 #include "core/context_impl.h"
 #include "decompress/field_layouts.h"
 #include "engine_spirv.h"
-#include "raster/object_impl.h"
+#include "object/object_impl.h"
 #include "raster/view_frustum.h"
 #include "shrefract/gpu_layout.h"
 
@@ -190,7 +190,7 @@ Result<void> Decompressor::prepare(uint32_t order) {
 }
 
 Result<void> Decompressor::prepare(const Object& object) {
-  const FieldResources* f = object.impl().field.get();
+  const FieldResources* f = ObjectAccess::impl(object).field.get();
   if (!f) return {};
   if (auto p = impl_->variant(*f); !p) return p.error();
   return {};
@@ -215,21 +215,28 @@ Result<void> recordFields(DecompressorImpl& d, VkCommandBuffer cmd, const std::a
   d.lastStats = DecompressStats{};
   DecompressStats stats;
   std::vector<FieldResources*> fields;
+  std::vector<std::array<float, 3>> eyes;  // per field: the eye in its object space
   std::vector<const ObjectImpl*> seen;
   for (Object* o : objects) {
-    if (!o || !o->impl().field || std::find(seen.begin(), seen.end(), &o->impl()) != seen.end()) continue;
-    const ObjectImpl& object = o->impl();
+    if (!o) continue;
+    const ObjectImpl& object = ObjectAccess::impl(*o);
+    if (!object.field || std::find(seen.begin(), seen.end(), &object) != seen.end()) continue;
     seen.push_back(&object);
     FieldResources* f = object.field.get();
-    if (frustum && outsideFrustum(*frustum, object.boundsMin, object.boundsMax)) {
+    std::array<float, 3> lo{}, hi{};
+    worldBounds(*o, lo, hi);
+    if (frustum && outsideFrustum(*frustum, lo, hi)) {
       ++stats.culled;
       continue;
     }
-    if (d.skipUnchanged && f->decoded && f->decodedEye == eye && f->decodedOrder == f->order) {
+    // The field is decoded for the eye as the object sees it: a moved object is decoded again.
+    const std::array<float, 3> objectEye = inverseTransformPoint(o->worldFromObject, eye);
+    if (d.skipUnchanged && f->decoded && f->decodedEye == objectEye && f->decodedOrder == f->order) {
       ++stats.unchanged;
       continue;
     }
     fields.push_back(f);
+    eyes.push_back(objectEye);
   }
   std::vector<VkPipeline> pipelines;
   for (FieldResources* f : fields) {
@@ -274,11 +281,11 @@ Result<void> recordFields(DecompressorImpl& d, VkCommandBuffer cmd, const std::a
 
   // 2. One dispatch per object.
   gpu::DecompressPushConstants push{};
-  push.eyeWorld = {eye[0], eye[1], eye[2], 1.0f};
   VkPipeline bound = VK_NULL_HANDLE;
   for (size_t k = 0; k < fields.size(); ++k) {
     const FieldResources* f = fields[k];
     if (!f->sampleCount) continue;
+    push.eyeObject = {eyes[k][0], eyes[k][1], eyes[k][2], 1.0f};
     if (pipelines[k] != bound) {
       c.vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelines[k]);
       bound = pipelines[k];
@@ -334,10 +341,10 @@ Result<void> recordFields(DecompressorImpl& d, VkCommandBuffer cmd, const std::a
     barriers.push_back(b);
   }
   submitBarriers(barriers);
-  for (FieldResources* f : fields) {
-    f->decoded = true;
-    f->decodedEye = eye;
-    f->decodedOrder = f->order;
+  for (size_t k = 0; k < fields.size(); ++k) {
+    fields[k]->decoded = true;
+    fields[k]->decodedEye = eyes[k];
+    fields[k]->decodedOrder = fields[k]->order;
   }
   d.lastStats = stats;
   return {};

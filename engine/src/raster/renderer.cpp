@@ -15,116 +15,11 @@
 #include "decompress/field_layouts.h"
 #include "engine_spirv.h"
 #include "environment/environment_impl.h"
-#include "raster/object_impl.h"
+#include "object/object_impl.h"
 #include "raster/view_frustum.h"
 #include "shrefract/gpu_layout.h"
 
 namespace shrefract {
-
-// ---------------------------------------------------------------------------------------------
-// Object: vertex and index buffers of a static world-space mesh (field data: decompress/).
-
-Object::Object(std::unique_ptr<ObjectImpl> impl) : impl_(std::move(impl)) {}
-
-Object::~Object() {
-  ObjectImpl* o = impl_.release();
-  o->context->retire([o]() {
-    o->context->destroyBuffer(o->vertices);
-    o->context->destroyBuffer(o->indices);
-    if (o->field) destroyFieldResources(*o->context, *o->field);
-    delete o;
-  });
-}
-
-void countMemory(ContextImpl& c, ObjectImpl& object, const BufferAllocation& buffer) {
-  if (!buffer.buffer) return;
-  VkMemoryRequirements requirements{};
-  c.vk.vkGetBufferMemoryRequirements(c.device(), buffer.buffer, &requirements);
-  object.gpuMemoryBytes += requirements.size;
-}
-
-void countMemory(ContextImpl& c, ObjectImpl& object, const ImageAllocation& image) {
-  if (!image.image) return;
-  VkMemoryRequirements requirements{};
-  c.vk.vkGetImageMemoryRequirements(c.device(), image.image, &requirements);
-  object.gpuMemoryBytes += requirements.size;
-}
-
-std::array<float, 3> Object::boundsMin() const { return impl_->boundsMin; }
-std::array<float, 3> Object::boundsMax() const { return impl_->boundsMax; }
-uint64_t Object::gpuMemoryBytes() const { return impl_->gpuMemoryBytes; }
-void Object::invalidateDistortion() {
-  if (impl_->field) impl_->field->decoded = false;
-}
-
-Result<void> createMeshBuffers(ContextImpl& c, const MeshDesc& mesh, VkCommandBuffer cmd, ObjectImpl& o) {
-  if (!mesh.positions || !mesh.normals || !mesh.indices || mesh.vertexCount == 0 || mesh.indexCount == 0 ||
-      mesh.indexCount % 3 != 0)
-    return makeError(ErrorCode::InvalidArgument, "Object::create: a mesh needs positions, normals and a triangle list");
-  for (uint32_t i = 0; i < mesh.indexCount; ++i)
-    if (mesh.indices[i] >= mesh.vertexCount)
-      return makeError(ErrorCode::InvalidArgument, "Object::create: index " + std::to_string(i) + " is out of range");
-  std::vector<float> interleaved(size_t(mesh.vertexCount) * kVertexFloats);
-  for (uint32_t v = 0; v < mesh.vertexCount; ++v) {
-    float* out = &interleaved[size_t(v) * kVertexFloats];
-    for (int k = 0; k < 3; ++k) out[k] = mesh.positions[3 * v + k];
-    for (int k = 0; k < 3; ++k) out[3 + k] = mesh.normals[3 * v + k];
-    out[6] = mesh.fieldUvs ? mesh.fieldUvs[2 * v] : 0.0f;
-    out[7] = mesh.fieldUvs ? mesh.fieldUvs[2 * v + 1] : 0.0f;
-    out[8] = mesh.frontIor ? mesh.frontIor[v] : 0.0f;
-    for (uint32_t k = 0; k < kVertexFloats; ++k)
-      if (!std::isfinite(out[k]))
-        return makeError(ErrorCode::InvalidArgument, "Object::create: vertex " + std::to_string(v) + " is not finite");
-    if (mesh.frontIor && !(out[8] > 0.0f))
-      return makeError(ErrorCode::InvalidArgument,
-                       "Object::create: frontIor of vertex " + std::to_string(v) + " is not positive");
-  }
-  o.indexCount = mesh.indexCount;
-  for (uint32_t v = 0; v < mesh.vertexCount; ++v)
-    for (int k = 0; k < 3; ++k) {
-      const float p = mesh.positions[3 * v + k];
-      o.boundsMin[k] = v == 0 ? p : std::min(o.boundsMin[k], p);
-      o.boundsMax[k] = v == 0 ? p : std::max(o.boundsMax[k], p);
-    }
-  const VkDeviceSize vbytes = interleaved.size() * sizeof(float);
-  const VkDeviceSize ibytes = VkDeviceSize(mesh.indexCount) * sizeof(uint32_t);
-  auto vb = c.createBuffer(vbytes, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, false);
-  if (!vb) return vb.error();
-  o.vertices = vb.value();
-  auto ib = c.createBuffer(ibytes, VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, false);
-  if (!ib) return ib.error();
-  o.indices = ib.value();
-  countMemory(c, o, o.vertices);
-  countMemory(c, o, o.indices);
-  if (auto r = c.recordBufferUpload(cmd, o.vertices.buffer, interleaved.data(), vbytes); !r) return r.error();
-  if (auto r = c.recordBufferUpload(cmd, o.indices.buffer, mesh.indices, ibytes); !r) return r.error();
-  VkMemoryBarrier2 barrier{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
-  barrier.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-  barrier.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  barrier.dstStageMask = VK_PIPELINE_STAGE_2_VERTEX_INPUT_BIT | VK_PIPELINE_STAGE_2_INDEX_INPUT_BIT;
-  barrier.dstAccessMask = VK_ACCESS_2_VERTEX_ATTRIBUTE_READ_BIT | VK_ACCESS_2_INDEX_READ_BIT;
-  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-  dep.memoryBarrierCount = 1;
-  dep.pMemoryBarriers = &barrier;
-  c.vk.vkCmdPipelineBarrier2(cmd, &dep);
-  return {};
-}
-
-Result<std::unique_ptr<Object>> Object::create(Context& context, const MeshDesc& mesh, VkCommandBuffer cmd) {
-  ContextImpl& c = context.impl();
-  auto impl = std::make_unique<ObjectImpl>();
-  impl->context = &c;
-  if (auto r = createMeshBuffers(c, mesh, cmd, *impl); !r) {
-    // `cmd` may already reference them: retire rather than destroy.
-    BufferAllocation v = impl->vertices, i = impl->indices;
-    c.retire([&c, v, i]() mutable {
-      c.destroyBuffer(v);
-      c.destroyBuffer(i);
-    });
-    return r.error();
-  }
-  return std::unique_ptr<Object>(new Object(std::move(impl)));
-}
 
 // ---------------------------------------------------------------------------------------------
 // Renderer: pipelines of the background and object passes.
@@ -328,6 +223,33 @@ Renderer::~Renderer() {
   });
 }
 
+namespace {
+
+// The object pass's constants for one object (gpu_layout.h): shading in object space.
+gpu::ObjectPushConstants objectPushConstants(const Object& object, const glm::mat4& clipFromWorld,
+                                             const std::array<float, 3>& eyeWorld, float exposure, uint32_t mode,
+                                             bool throughput) {
+  const Transform& t = object.worldFromObject;
+  const std::array<float, 3> x = rotateDirection(t, {1.0f, 0.0f, 0.0f}), y = rotateDirection(t, {0.0f, 1.0f, 0.0f}),
+                             z = rotateDirection(t, {0.0f, 0.0f, 1.0f});
+  const glm::mat4 worldFromObject(glm::vec4(x[0], x[1], x[2], 0.0f) * t.scale,
+                                  glm::vec4(y[0], y[1], y[2], 0.0f) * t.scale,
+                                  glm::vec4(z[0], z[1], z[2], 0.0f) * t.scale,
+                                  glm::vec4(t.translation[0], t.translation[1], t.translation[2], 1.0f));
+  const std::array<float, 3> eye = inverseTransformPoint(t, eyeWorld);
+  const std::array<float, 4> q = unitRotation(t);
+  const ObjectShading& s = object.shading;
+  gpu::ObjectPushConstants push{};
+  push.clipFromObject = toGpu(clipFromWorld * worldFromObject);
+  push.eyeObject = {eye[0], eye[1], eye[2], exposure};
+  push.medium = {s.ior, s.absorptionScale * t.scale, s.reflection ? 1.0f : 0.0f, static_cast<float>(mode)};
+  push.tint = {s.tint[0], s.tint[1], s.tint[2], throughput ? 1.0f : 0.0f};
+  push.worldFromObjectRotation = {q[0], q[1], q[2], q[3]};
+  return push;
+}
+
+}  // namespace
+
 Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, const RendererCreateInfo& info) {
   ContextImpl& c = context.impl();
   auto impl = std::make_unique<RendererImpl>();
@@ -423,8 +345,10 @@ void Renderer::recordObjects(VkCommandBuffer cmd, const Environment& environment
   r.lastDraw = DrawStats{};
   for (Object* object : objects) {
     if (!object) continue;
-    ObjectImpl& o = object->impl();
-    if (r.info.frustumCulling && outsideFrustum(frustum, o.boundsMin, o.boundsMax)) {
+    const ObjectImpl& o = ObjectAccess::impl(*object);
+    std::array<float, 3> lo{}, hi{};
+    worldBounds(*object, lo, hi);
+    if (r.info.frustumCulling && outsideFrustum(frustum, lo, hi)) {
       ++r.lastDraw.culled;
       continue;
     }
@@ -442,17 +366,12 @@ void Renderer::recordObjects(VkCommandBuffer cmd, const Environment& environment
     if (field)
       c.vk.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r.fieldLayout, 1, 1, &o.field->distortionSet,
                                    0, nullptr);
-    const ObjectShading& s = object->shading;
-    gpu::ObjectPushConstants push{};
-    push.clipFromWorld = toGpu(clipFromWorld);
-    push.eyeWorld = {camera.eye[0], camera.eye[1], camera.eye[2], 0.0f};
-    push.medium = {s.ior, s.absorptionScale, s.reflection ? 1.0f : 0.0f, 0.0f};
-    push.tint = {s.tint[0], s.tint[1], s.tint[2], 0.0f};
     const uint32_t gpuMode = !field                                      ? gpu::kModeSingleInterface
                              : mode == ShadingMode::FieldExitDirection ? gpu::kModeFieldExitDirection
                                                                        : gpu::kModeField;
     const bool throughput = field && o.field->throughput;  // the distortion image carries it (gpu_layout.h)
-    push.params = {r.info.exposure, throughput ? 1.0f : 0.0f, static_cast<float>(gpuMode), 0.0f};
+    const gpu::ObjectPushConstants push =
+        objectPushConstants(*object, clipFromWorld, camera.eye, r.info.exposure, gpuMode, throughput);
     c.vk.vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push),
                             &push);
     VkDeviceSize offset = 0;

@@ -30,7 +30,7 @@ SHR_CONST(kBindingDistortion, 0u)
 SHR_CONST(kEnvironmentLatLong, 0u)
 SHR_CONST(kEnvironmentCube, 1u)
 
-// Shading modes of the object pass (ObjectPushConstants.params.z).
+// Shading modes of the object pass (ObjectPushConstants.medium.w).
 SHR_CONST(kModeSingleInterface, 0u)
 SHR_CONST(kModeField, 1u)
 SHR_CONST(kModeFieldExitDirection, 2u)  // writes (exit direction, tau) instead of a colour
@@ -125,7 +125,7 @@ SHR_CONST(kMaxDispatchGroupsX, 32768u)
 // Distortion image texels (both decompression shaders): xyz = the normalized direction (zero as
 // above), times clamp(throughput, 0, 1) when the field has a throughput channel, so that the
 // sampler's bilinear filter blends throughput and direction together and the raster pass reads
-// the throughput back as min(|d.xyz|, 1) (ObjectPushConstants.params.y); w = tau clamped to
+// the throughput back as min(|d.xyz|, 1) (ObjectPushConstants.tint.a); w = tau clamped to
 // +-kMaxOpticalDepth (0 without an optical depth channel).
 SHR_CONSTF(kMinDirectionLength2, 1e-20f)
 // Optical depth is clamped to the finite range of the RGBA16F distortion image.
@@ -141,20 +141,22 @@ struct BackgroundPushConstants {
   mat4 worldDirFromClip;  // maps clip-space (x, y, 1, 1) to an unnormalized world direction
 };
 
-// Object pass. Vertex positions are in world space (fields are baked in world space).
+// Object pass. Vertex positions, normals and the field are in object space (fields are baked
+// there); the pass shades in object space, with the eye brought into it, and turns the directions
+// it looks up (exit, reflection) to world space with the instance's rotation. A uniform scale s
+// changes no direction, only lengths: the absorption per object-space unit is k * s.
 struct ObjectPushConstants {
-  mat4 clipFromWorld;
-  vec4 eyeWorld;  // xyz: eye position; w unused
-  vec4 medium;    // x: IOR of the object where the mesh has no per-vertex frontIor (0),
-                  // y: absorption scale k, z: reflection on (1) or off (0)
-  vec4 tint;      // rgb: attenuation colour; a unused
-  vec4 params;    // x: exposure, y: 1 when the distortion image carries the throughput (below), 0 otherwise,
-                  // z: shading mode, w unused
+  mat4 clipFromObject;
+  vec4 eyeObject;  // xyz: eye position in object space; w: exposure
+  vec4 medium;     // x: IOR of the object where the mesh has no per-vertex frontIor (0),
+                   // y: absorption scale per object-space unit (k * s), z: reflection on (1) or off (0),
+                   // w: shading mode (kMode*)
+  vec4 tint;       // rgb: attenuation colour; a: 1 when the distortion image carries the throughput
+  vec4 worldFromObjectRotation;  // unit quaternion (x, y, z, w)
 };
-
 // Decompression and gutter passes.
 struct DecompressPushConstants {
-  vec4 eyeWorld;  // xyz: eye position in world space; w unused
+  vec4 eyeObject;  // xyz: eye position in the field's (object) space; w unused
   uvec4 size;     // x: atlas width, y: atlas height, z: number of gutter rules, w: sample count
 };
 

@@ -12,7 +12,7 @@
 
 #include "core/context_impl.h"
 #include "decompress/field_layouts.h"
-#include "raster/object_impl.h"
+#include "object/object_impl.h"
 #include "shrefract/gpu_layout.h"
 
 namespace shrefract {
@@ -190,7 +190,8 @@ void recordClear(ContextImpl& c, VkCommandBuffer cmd, VkImage image) {
 }
 
 // The cleared image to SHADER_READ_ONLY_OPTIMAL and the buffer copies, visible to the compute and
-// fragment shaders (Object::createFromField's contract).
+// fragment shaders (Object::createFromField's contract; for an instance there are no copies, and
+// the buffer part of the barrier costs nothing).
 void recordUploadsVisible(ContextImpl& c, VkCommandBuffer cmd, VkImage image) {
   VkImageMemoryBarrier2 toRead = wholeImageBarrier(image);
   toRead.srcStageMask = VK_PIPELINE_STAGE_2_CLEAR_BIT;
@@ -217,7 +218,7 @@ void recordUploadsVisible(ContextImpl& c, VkCommandBuffer cmd, VkImage image) {
 
 // Allocates and writes the decompression set (every binding of createDecompressSetLayout) and the
 // raster pass's distortion set of `f`, whose buffers, views, image and sampler exist.
-Result<void> createDescriptorSets(ContextImpl& c, FieldResources& f, VkDeviceSize coefficientBytes) {
+Result<void> createDescriptorSets(ContextImpl& c, FieldResources& f) {
   const std::array<VkDescriptorPoolSize, 5> sizes{{
       {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1},
       {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 6},
@@ -250,7 +251,7 @@ Result<void> createDescriptorSets(ContextImpl& c, FieldResources& f, VkDeviceSiz
   const VkDescriptorBufferInfo scaleBiasUniform{f.scaleBias.buffer, 0,
                                                 std::min<VkDeviceSize>(f.scaleBias.size, gpu::kMaxUniformScaleBiasBytes)};
   const std::array<VkDescriptorBufferInfo, 6> bufferInfos{{
-      {f.coefficients.buffer, 0, std::min<VkDeviceSize>(coefficientBytes, c.properties.limits.maxStorageBufferRange)},
+      {f.coefficients.buffer, 0, std::min<VkDeviceSize>(f.coefficientBytes, c.properties.limits.maxStorageBufferRange)},
       {f.scaleBias.buffer, 0, VK_WHOLE_SIZE},
       {f.frames.buffer, 0, VK_WHOLE_SIZE},
       {f.sampleTexels.buffer, 0, VK_WHOLE_SIZE},
@@ -285,17 +286,33 @@ Result<void> createDescriptorSets(ContextImpl& c, FieldResources& f, VkDeviceSiz
 
 }  // namespace
 
-void destroyFieldResources(ContextImpl& c, FieldResources& f) {
+void destroyFieldInstance(ContextImpl& c, FieldResources& f) {
+  if (f.pool) c.vk.vkDestroyDescriptorPool(c.device(), f.pool, c.alloc());
+  c.destroyImage(f.distortion);
+  f.pool = VK_NULL_HANDLE;
+  f.decompressSet = f.distortionSet = VK_NULL_HANDLE;
+}
+
+void destroyFieldShared(ContextImpl& c, FieldResources& f) {
   const VkDevice d = c.device();
-  if (f.pool) c.vk.vkDestroyDescriptorPool(d, f.pool, c.alloc());
   if (f.decompressSetLayout) c.vk.vkDestroyDescriptorSetLayout(d, f.decompressSetLayout, c.alloc());
   if (f.distortionSetLayout) c.vk.vkDestroyDescriptorSetLayout(d, f.distortionSetLayout, c.alloc());
   if (f.sampler) c.vk.vkDestroySampler(d, f.sampler, c.alloc());
   if (f.coefficientWords) c.vk.vkDestroyBufferView(d, f.coefficientWords, c.alloc());
-  c.destroyImage(f.distortion);
   for (BufferAllocation* b : {&f.coefficients, &f.scaleBias, &f.frames, &f.sampleTexels, &f.gutters, &f.basis})
     c.destroyBuffer(*b);
   f = FieldResources{};
+}
+
+Result<void> createFieldInstance(ContextImpl& c, ObjectImpl& object, VkCommandBuffer cmd) {
+  FieldResources& f = *object.field;
+  auto distortion = createDistortionImage(c, f.width, f.height);
+  if (!distortion) return distortion.error();
+  f.distortion = distortion.value();
+  countMemory(c, object, f.distortion);
+  recordClear(c, cmd, f.distortion.image);
+  recordUploadsVisible(c, cmd, f.distortion.image);
+  return createDescriptorSets(c, f);
 }
 
 bool Object::hasField() const { return impl_->field != nullptr; }
@@ -330,20 +347,13 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   mesh.indices = m.indices.data();
   mesh.indexCount = static_cast<uint32_t>(m.indices.size());
 
-  auto impl = std::make_unique<ObjectImpl>();
+  auto impl = std::make_shared<ObjectImpl>();
   impl->context = &c;
-  if (auto r = createMeshBuffers(c, mesh, cmd, *impl); !r) {
-    BufferAllocation v = impl->vertices, i = impl->indices;  // `cmd` may reference them: retire
-    c.retire([&c, v, i]() mutable {
-      c.destroyBuffer(v);
-      c.destroyBuffer(i);
-    });
-    return r.error();
-  }
+  // From here on the object's destructor retires whatever has been created (`cmd` may reference it).
+  auto object = ObjectAccess::wrap(impl);
+  if (auto r = createMeshBuffers(c, mesh, cmd, *impl); !r) return r.error();
   impl->field = std::make_unique<FieldResources>();
-  // From here on the object's destructor retires whatever has been created.
-  std::unique_ptr<Object> object(new Object(std::move(impl)));
-  FieldResources& f = *object->impl().field;
+  FieldResources& f = *impl->field;
   f.width = field.width;
   f.height = field.height;
   f.encoding = field.encoding;
@@ -359,10 +369,6 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   f.scaleBiasStorage = field.encoding == Encoding::Sh && shScaleBiasStorage(field.order, field.channels);
   f.coefficientsStorage = sizes.coefficientsStorage;
   f.gutterCount = static_cast<uint32_t>(field.gutters.size());
-
-  auto distortion = createDistortionImage(c, field.width, field.height);
-  if (!distortion) return distortion.error();
-  f.distortion = distortion.value();
 
   // Buffers.
   std::vector<float> scaleBias = scaleBiasTable(field);
@@ -404,6 +410,7 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
                                          VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
   if (!coefficients) return coefficients.error();
   f.coefficients = coefficients.value();
+  f.coefficientBytes = sizes.coefficients;
   {
     // Read through a texel buffer when the device's limit allows (gpu_layout.h,
     // kSpecCoefficientsStorage); otherwise the view covers a prefix and is not read.
@@ -415,10 +422,8 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
     const VkResult vr = c.vk.vkCreateBufferView(c.device(), &bvci, c.alloc(), &f.coefficientWords);
     if (vr != VK_SUCCESS) return vulkanError("vkCreateBufferView", vr);
   }
-  ObjectImpl& o = object->impl();
   for (const BufferAllocation* b : {&f.coefficients, &f.scaleBias, &f.frames, &f.sampleTexels, &f.gutters, &f.basis})
-    countMemory(c, o, *b);
-  countMemory(c, o, f.distortion);
+    countMemory(c, *impl, *b);
 
   // Coefficient staging, written in place (the largest upload: no intermediate copy).
   auto staging = c.createBuffer(sizes.coefficients, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
@@ -431,16 +436,13 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   else
     packCoefficients(field, field.coefficientsF16, samplesOnly, st.mapped);
 
-  // Record: the distortion image cleared (empty texels stay zero from here on), the buffers
-  // copied, then everything made visible to the passes.
-  recordClear(c, cmd, f.distortion.image);
+  // Record the buffer copies; then the sampler and set layouts every instance shares, and the
+  // distortion image (cleared: empty texels stay zero from here on), made visible to the passes
+  // with the copies, and the descriptor sets.
   const VkBufferCopy whole{0, 0, sizes.coefficients};
   c.vk.vkCmdCopyBuffer(cmd, st.buffer, f.coefficients.buffer, 1, &whole);
   for (const Upload& u : uploads)
     if (auto r = c.recordBufferUpload(cmd, u.target->buffer, u.data, u.bytes); !r) return r.error();
-  recordUploadsVisible(c, cmd, f.distortion.image);
-
-  // Sampler and descriptor sets.
   VkSamplerCreateInfo sci{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
   sci.magFilter = VK_FILTER_LINEAR;
   sci.minFilter = VK_FILTER_LINEAR;
@@ -454,7 +456,7 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   auto distortionLayout = createDistortionSetLayout(c);
   if (!distortionLayout) return distortionLayout.error();
   f.distortionSetLayout = distortionLayout.value();
-  if (auto sets = createDescriptorSets(c, f, sizes.coefficients); !sets) return sets.error();
+  if (auto created = createFieldInstance(c, *impl, cmd); !created) return created.error();
   return object;
 }
 

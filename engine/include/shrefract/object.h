@@ -1,0 +1,137 @@
+// shrefract::Object: a static refractive mesh placed in the world, optionally with a refraction
+// field (its GPU data and a distortion image). One upload can be drawn as many instances.
+#pragma once
+
+#include <shrefract/context.h>
+#include <shrefract/field.h>
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+namespace shrefract {
+
+// A triangle mesh in object space with per-vertex unit normals and (optional) field texture
+// coordinates. Static: a field is baked in the space of its mesh, which is the object space of
+// every instance drawn from it. Front faces wind counter-clockwise seen from outside; back faces
+// are culled.
+struct MeshDesc {
+  const float* positions = nullptr;  // vertexCount * 3
+  const float* normals = nullptr;    // vertexCount * 3
+  const float* fieldUvs = nullptr;   // vertexCount * 2 normalized atlas coordinates, or nullptr
+  // vertexCount values n_inside / n_outside of the surface the eye sees (> 0), or nullptr: then
+  // ObjectShading::ior applies to the whole mesh.
+  const float* frontIor = nullptr;
+  uint32_t vertexCount = 0;
+  const uint32_t* indices = nullptr;  // triangle list, indexCount / 3 triangles
+  uint32_t indexCount = 0;
+};
+
+// Run-time shading parameters of an object; cheap to change every frame.
+struct ObjectShading {
+  float ior = 1.5f;                         // front-surface IOR where the mesh has no frontIor
+  float absorptionScale = 1.0f;             // k in exp2(-tau * k * scale) (Field mode; tau in object units)
+  std::array<float, 3> tint{1.0f, 1.0f, 1.0f};  // attenuation colour, multiplies the transmitted light
+  bool reflection = true;                   // add the front-surface Fresnel reflection
+};
+
+// Where an object is drawn: world = translation + scale * rotate(rotation, object). Rotation and
+// uniform scale keep the field valid (directions turn with the object; lengths, and so optical
+// depths, scale by `scale`); a shear or non-uniform scale would not, so there is none.
+struct Transform {
+  std::array<float, 4> rotation{0.0f, 0.0f, 0.0f, 1.0f};  // unit quaternion (x, y, z, w)
+  std::array<float, 3> translation{0.0f, 0.0f, 0.0f};
+  float scale = 1.0f;  // > 0
+};
+
+// The point and direction maps of a transform (normalizes the quaternion; shared by the passes,
+// the CPU reference and hosts that place cameras relative to objects).
+std::array<float, 3> transformPoint(const Transform& worldFromObject, const std::array<float, 3>& objectPoint);
+std::array<float, 3> inverseTransformPoint(const Transform& worldFromObject, const std::array<float, 3>& worldPoint);
+std::array<float, 3> rotateDirection(const Transform& worldFromObject, const std::array<float, 3>& objectDirection);
+std::array<float, 3> inverseRotateDirection(const Transform& worldFromObject, const std::array<float, 3>& worldDirection);
+
+struct ObjectImpl;
+
+class Object {
+ public:
+  // Creates the vertex and index buffers and records their upload into `cmd` (see Environment).
+  static Result<std::unique_ptr<Object>> create(Context& context, const MeshDesc& mesh, VkCommandBuffer cmd);
+
+  // Creates an object from a refraction field: the render mesh (field.mesh, with its atlas
+  // coordinates and per-vertex frontIor) and the field's GPU data, uploaded through `cmd` (a host
+  // command buffer in the recording state, on the context's queue family; staging buffers are
+  // retired through the context's deferred destruction):
+  //  - coefficients of the sample texels only, in one buffer (read as a texel buffer, or as a
+  //    storage buffer beyond the device's texel-buffer limit): Sh, one plane per basis function and
+  //    stored channel (x, y, z of the exit direction, then tau and the throughput where the field
+  //    has them); Table and Pca, each sample's values contiguous; bytes (U8, with the
+  //    per-(layer, value) scale/bias in a second buffer) or binary16 (F16); layout in gpu_layout.h;
+  //  - the samples' frames M_s (3 vec4 rows per sample), their texel indices, the gutter rules and
+  //    (Pca) the basis functions as storage buffers;
+  //  - the distortion image: width x height R16G16B16A16_SFLOAT, cleared to zero (empty texels stay
+  //    zero for the object's lifetime).
+  // After `cmd` executes, the distortion image is in SHADER_READ_ONLY_OPTIMAL and every upload is
+  // visible to compute and fragment shaders.
+  // Errors: CorruptData when validateField rejects the field; Unsupported when the atlas exceeds
+  // the device's 2D image limit, the coefficients both its texel and storage buffer limits (or, for
+  // Table and Pca, 2^32 values), or the samples' frames or the basis its storage buffer range;
+  // Vulkan on allocation failures.
+  static Result<std::unique_ptr<Object>> createFromField(Context& context, const Field& field, VkCommandBuffer cmd);
+  // readField(path), then createFromField. Errors name the file.
+  static Result<std::unique_ptr<Object>> createFromFieldFile(Context& context, const std::string& path,
+                                                             VkCommandBuffer cmd);
+
+  // Another instance of `source`'s mesh and field, sharing their GPU data (nothing is uploaded
+  // again; the shared data lives until the last instance is released): it has its own
+  // worldFromObject, shading and distortion image (cleared through `cmd`, as createFromField does;
+  // decompressed for the eye as this instance sees it). Starts with source's transform and shading.
+  // Device memory per instance: its distortion image (gpuMemoryBytes()).
+  static Result<std::unique_ptr<Object>> createInstance(Context& context, const Object& source, VkCommandBuffer cmd);
+
+  // Retires every resource through the context's deferred destruction: safe while command buffers
+  // that use the object are in flight, as long as the host keeps calling Context::beginFrame().
+  ~Object();
+  Object(const Object&) = delete;
+  Object& operator=(const Object&) = delete;
+
+  bool hasField() const;
+  // The field's SH order (0 for Table and Pca fields) and atlas size (0 without a field).
+  uint32_t fieldOrder() const;
+  VkExtent2D fieldExtent() const;
+  // The distortion image (R16G16B16A16_SFLOAT, extent fieldExtent(), one level, one layer;
+  // VK_NULL_HANDLE without a field): texel (x, y) holds the decoded exit direction (xyz, unit, or
+  // zero for empty texels; for a field with throughput, of length the clamped throughput) and
+  // optical depth (w) for the eye of the last decompression. Between
+  // engine passes it is in SHADER_READ_ONLY_OPTIMAL. Created with TRANSFER_SRC usage so that tools
+  // and tests can copy it out; a host that does must return it to SHADER_READ_ONLY_OPTIMAL with its
+  // contents kept (from the layout it used, not UNDEFINED): empty texels are never rewritten.
+  VkImage distortionImage() const;
+  // Forgets which eye the distortion image was decompressed for, so that the next
+  // Decompressor::record() rewrites it. Needed only by a host that records a decompression into a
+  // command buffer it then never submits, or that writes the image itself (see decompressor.h).
+  void invalidateDistortion();
+
+  // World-space axis-aligned bounds of the mesh placed by worldFromObject (what view-frustum
+  // culling tests), and its object-space bounds.
+  std::array<float, 3> boundsMin() const;
+  std::array<float, 3> boundsMax() const;
+  std::array<float, 3> objectBoundsMin() const;
+  std::array<float, 3> objectBoundsMax() const;
+  // Device memory the object allocated: the sum of the memory requirements of its buffers and
+  // images (mesh; for a field also coefficients, scale/bias, frames, sample texel indices, gutter
+  // rules, the Pca basis and the distortion image; for an instance its distortion image only).
+  // Staging memory of the upload is not counted (released after it).
+  uint64_t gpuMemoryBytes() const;
+
+  Transform worldFromObject;  // cheap to change every frame (a moved object is decoded again)
+  ObjectShading shading;
+
+ private:
+  friend struct ObjectAccess;  // the engine's passes (engine/src)
+  explicit Object(std::shared_ptr<ObjectImpl> impl);
+  std::shared_ptr<ObjectImpl> impl_;  // shared with the engine's deferred destruction
+};
+
+}  // namespace shrefract

@@ -1,0 +1,228 @@
+// Object: a static mesh placed by its worldFromObject, its lifetime and instances (the field's
+// upload: field_object.cpp).
+#include <shrefract/object.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "core/context_impl.h"
+#include "object/object_impl.h"
+
+namespace shrefract {
+
+// ---------------------------------------------------------------------------------------------
+// Transforms: world = t + s * q v q*.
+
+namespace {
+
+using Vec3 = std::array<float, 3>;
+
+std::array<float, 4> unitQuaternion(const std::array<float, 4>& q) {
+  const float n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  if (!(n > 0.0f) || !std::isfinite(n)) return {0.0f, 0.0f, 0.0f, 1.0f};
+  return {q[0] / n, q[1] / n, q[2] / n, q[3] / n};
+}
+
+Vec3 cross(const Vec3& a, const Vec3& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+
+// v + 2 u x (u x v + w v), as rotateByQuaternion in the shaders.
+Vec3 rotate(const std::array<float, 4>& q, const Vec3& v) {
+  const Vec3 u{q[0], q[1], q[2]};
+  const Vec3 c = cross(u, v);
+  const Vec3 inner{c[0] + q[3] * v[0], c[1] + q[3] * v[1], c[2] + q[3] * v[2]};
+  const Vec3 t = cross(u, inner);
+  return {v[0] + 2.0f * t[0], v[1] + 2.0f * t[1], v[2] + 2.0f * t[2]};
+}
+
+std::array<float, 4> conjugate(const std::array<float, 4>& q) { return {-q[0], -q[1], -q[2], q[3]}; }
+
+}  // namespace
+
+std::array<float, 4> unitRotation(const Transform& t) { return unitQuaternion(t.rotation); }
+
+Vec3 rotateDirection(const Transform& t, const Vec3& d) { return rotate(unitQuaternion(t.rotation), d); }
+
+Vec3 inverseRotateDirection(const Transform& t, const Vec3& d) {
+  return rotate(conjugate(unitQuaternion(t.rotation)), d);
+}
+
+Vec3 transformPoint(const Transform& t, const Vec3& p) {
+  const Vec3 r = rotateDirection(t, p);
+  return {t.translation[0] + t.scale * r[0], t.translation[1] + t.scale * r[1], t.translation[2] + t.scale * r[2]};
+}
+
+Vec3 inverseTransformPoint(const Transform& t, const Vec3& p) {
+  const Vec3 d{p[0] - t.translation[0], p[1] - t.translation[1], p[2] - t.translation[2]};
+  const Vec3 r = inverseRotateDirection(t, d);
+  return {r[0] / t.scale, r[1] / t.scale, r[2] / t.scale};
+}
+
+void worldBounds(const Object& object, Vec3& min, Vec3& max) {
+  const ObjectImpl& o = ObjectAccess::impl(object);
+  for (int corner = 0; corner < 8; ++corner) {
+    const Vec3 p{(corner & 1) ? o.boundsMax[0] : o.boundsMin[0], (corner & 2) ? o.boundsMax[1] : o.boundsMin[1],
+                 (corner & 4) ? o.boundsMax[2] : o.boundsMin[2]};
+    const Vec3 w = transformPoint(object.worldFromObject, p);
+    for (int k = 0; k < 3; ++k) {
+      min[k] = corner == 0 ? w[k] : std::min(min[k], w[k]);
+      max[k] = corner == 0 ? w[k] : std::max(max[k], w[k]);
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Lifetime.
+
+Object::Object(std::shared_ptr<ObjectImpl> impl) : impl_(std::move(impl)) {}
+
+Object::~Object() {
+  // What this object allocated goes once the frames that may use it are done; the mesh and field
+  // data an original shares with instances go with the last ObjectImpl (~ObjectImpl).
+  std::shared_ptr<ObjectImpl> o = std::move(impl_);
+  ContextImpl* c = o->context;
+  c->retire([o]() mutable {
+    if (o->field) destroyFieldInstance(*o->context, *o->field);
+    o.reset();
+  });
+}
+
+ObjectImpl::~ObjectImpl() {
+  if (source || !context) return;  // an instance's mesh and field data are its source's
+  context->destroyBuffer(vertices);
+  context->destroyBuffer(indices);
+  if (field) destroyFieldShared(*context, *field);
+}
+
+void countMemory(ContextImpl& c, ObjectImpl& object, const BufferAllocation& buffer) {
+  if (!buffer.buffer) return;
+  VkMemoryRequirements requirements{};
+  c.vk.vkGetBufferMemoryRequirements(c.device(), buffer.buffer, &requirements);
+  object.gpuMemoryBytes += requirements.size;
+}
+
+void countMemory(ContextImpl& c, ObjectImpl& object, const ImageAllocation& image) {
+  if (!image.image) return;
+  VkMemoryRequirements requirements{};
+  c.vk.vkGetImageMemoryRequirements(c.device(), image.image, &requirements);
+  object.gpuMemoryBytes += requirements.size;
+}
+
+std::array<float, 3> Object::boundsMin() const {
+  Vec3 min{}, max{};
+  worldBounds(*this, min, max);
+  return min;
+}
+std::array<float, 3> Object::boundsMax() const {
+  Vec3 min{}, max{};
+  worldBounds(*this, min, max);
+  return max;
+}
+std::array<float, 3> Object::objectBoundsMin() const { return impl_->boundsMin; }
+std::array<float, 3> Object::objectBoundsMax() const { return impl_->boundsMax; }
+uint64_t Object::gpuMemoryBytes() const { return impl_->gpuMemoryBytes; }
+void Object::invalidateDistortion() {
+  if (impl_->field) impl_->field->decoded = false;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Creation.
+
+Result<void> createMeshBuffers(ContextImpl& c, const MeshDesc& mesh, VkCommandBuffer cmd, ObjectImpl& o) {
+  if (!mesh.positions || !mesh.normals || !mesh.indices || mesh.vertexCount == 0 || mesh.indexCount == 0 ||
+      mesh.indexCount % 3 != 0)
+    return makeError(ErrorCode::InvalidArgument, "Object::create: a mesh needs positions, normals and a triangle list");
+  for (uint32_t i = 0; i < mesh.indexCount; ++i)
+    if (mesh.indices[i] >= mesh.vertexCount)
+      return makeError(ErrorCode::InvalidArgument, "Object::create: index " + std::to_string(i) + " is out of range");
+  std::vector<float> interleaved(size_t(mesh.vertexCount) * kVertexFloats);
+  for (uint32_t v = 0; v < mesh.vertexCount; ++v) {
+    float* out = &interleaved[size_t(v) * kVertexFloats];
+    for (int k = 0; k < 3; ++k) out[k] = mesh.positions[3 * v + k];
+    for (int k = 0; k < 3; ++k) out[3 + k] = mesh.normals[3 * v + k];
+    out[6] = mesh.fieldUvs ? mesh.fieldUvs[2 * v] : 0.0f;
+    out[7] = mesh.fieldUvs ? mesh.fieldUvs[2 * v + 1] : 0.0f;
+    out[8] = mesh.frontIor ? mesh.frontIor[v] : 0.0f;
+    for (uint32_t k = 0; k < kVertexFloats; ++k)
+      if (!std::isfinite(out[k]))
+        return makeError(ErrorCode::InvalidArgument, "Object::create: vertex " + std::to_string(v) + " is not finite");
+    if (mesh.frontIor && !(out[8] > 0.0f))
+      return makeError(ErrorCode::InvalidArgument,
+                       "Object::create: frontIor of vertex " + std::to_string(v) + " is not positive");
+  }
+  o.indexCount = mesh.indexCount;
+  for (uint32_t v = 0; v < mesh.vertexCount; ++v)
+    for (int k = 0; k < 3; ++k) {
+      const float p = mesh.positions[3 * v + k];
+      o.boundsMin[k] = v == 0 ? p : std::min(o.boundsMin[k], p);
+      o.boundsMax[k] = v == 0 ? p : std::max(o.boundsMax[k], p);
+    }
+  const VkDeviceSize vbytes = interleaved.size() * sizeof(float);
+  const VkDeviceSize ibytes = VkDeviceSize(mesh.indexCount) * sizeof(uint32_t);
+  auto vb = c.createBuffer(vbytes, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, false);
+  if (!vb) return vb.error();
+  o.vertices = vb.value();
+  auto ib = c.createBuffer(ibytes, VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, false);
+  if (!ib) return ib.error();
+  o.indices = ib.value();
+  countMemory(c, o, o.vertices);
+  countMemory(c, o, o.indices);
+  if (auto r = c.recordBufferUpload(cmd, o.vertices.buffer, interleaved.data(), vbytes); !r) return r.error();
+  if (auto r = c.recordBufferUpload(cmd, o.indices.buffer, mesh.indices, ibytes); !r) return r.error();
+  VkMemoryBarrier2 barrier{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
+  barrier.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+  barrier.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  barrier.dstStageMask = VK_PIPELINE_STAGE_2_VERTEX_INPUT_BIT | VK_PIPELINE_STAGE_2_INDEX_INPUT_BIT;
+  barrier.dstAccessMask = VK_ACCESS_2_VERTEX_ATTRIBUTE_READ_BIT | VK_ACCESS_2_INDEX_READ_BIT;
+  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+  dep.memoryBarrierCount = 1;
+  dep.pMemoryBarriers = &barrier;
+  c.vk.vkCmdPipelineBarrier2(cmd, &dep);
+  return {};
+}
+
+Result<std::unique_ptr<Object>> Object::create(Context& context, const MeshDesc& mesh, VkCommandBuffer cmd) {
+  ContextImpl& c = context.impl();
+  auto impl = std::make_shared<ObjectImpl>();
+  impl->context = &c;
+  // From here on the object's destructor retires whatever has been created (`cmd` may reference it).
+  auto object = ObjectAccess::wrap(impl);
+  if (auto r = createMeshBuffers(c, mesh, cmd, *impl); !r) return r.error();
+  return object;
+}
+
+Result<std::unique_ptr<Object>> Object::createInstance(Context& context, const Object& of, VkCommandBuffer cmd) {
+  ContextImpl& c = context.impl();
+  const std::shared_ptr<ObjectImpl>& from = of.impl_;
+  if (from->context != &c)
+    return makeError(ErrorCode::InvalidArgument, "Object::createInstance: the source belongs to another context");
+  std::shared_ptr<const ObjectImpl> source = from->source ? from->source : from;
+  auto impl = std::make_shared<ObjectImpl>();
+  impl->context = &c;
+  impl->source = source;
+  impl->vertices = source->vertices;
+  impl->indices = source->indices;
+  impl->indexCount = source->indexCount;
+  impl->boundsMin = source->boundsMin;
+  impl->boundsMax = source->boundsMax;
+  auto object = ObjectAccess::wrap(impl);
+  object->worldFromObject = of.worldFromObject;
+  object->shading = of.shading;
+  if (source->field) {
+    // The shared handles, without the source's own image, pool and sets.
+    impl->field = std::make_unique<FieldResources>(*source->field);
+    FieldResources& f = *impl->field;
+    f.distortion = {};
+    f.pool = VK_NULL_HANDLE;
+    f.decompressSet = f.distortionSet = VK_NULL_HANDLE;
+    f.decoded = false;
+    if (auto r = createFieldInstance(c, *impl, cmd); !r) return r.error();
+  }
+  return object;
+}
+
+}  // namespace shrefract
