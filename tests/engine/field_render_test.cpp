@@ -195,6 +195,89 @@ TEST_F(FieldRender, TwoObjectsMatchCpuReference) {
   }
 }
 
+// One field drawn as two instances: rotated, moved and scaled differently, each decoded for the eye
+// in its own space. Matches the CPU reference of the same placed scene (same tolerance as above),
+// and the second instance adds its distortion image to device memory, nothing else.
+TEST_F(FieldRender, TwoInstancesMatchCpuReference) {
+  const bake::Image env = smoothEnvironment(256);
+  auto gpuEnv = offscreen::uploadEnvironment(*session, env);
+  ASSERT_TRUE(gpuEnv.ok()) << gpuEnv.error().message;
+  testing::SyntheticFieldOptions o;
+  o.order = 4;
+  o.channels = 4;
+  o.radius = 0.7f;
+  o.width = 48;
+  o.height = 24;
+  o.seed = 5;
+  const Field field = testing::makeSyntheticField(o);
+  auto first = offscreen::uploadField(*session, field);
+  ASSERT_TRUE(first.ok()) << first.error().message;
+  Object& a = *first.value();
+  std::unique_ptr<Object> second;
+  ASSERT_TRUE(session->harness
+                  ->submitAndWait([&](VkCommandBuffer cmd) {
+                    auto created = Object::createInstance(*session->context, a, cmd);
+                    ASSERT_TRUE(created.ok()) << created.error().message;
+                    second = std::move(created).value();
+                  })
+                  .ok());
+  ASSERT_TRUE(second);
+  Object& b = *second;
+  const float s40 = std::sin(0.35f), c40 = std::cos(0.35f), s70 = std::sin(0.61f), c70 = std::cos(0.61f);
+  a.worldFromObject = {{0.0f, s40, 0.0f, c40}, {-0.9f, 0.0f, 0.0f}, 0.9f};   // 40 deg about y
+  b.worldFromObject = {{s70, 0.0f, 0.0f, c70}, {0.85f, 0.2f, -0.3f}, 1.2f};  // 70 deg about x
+  a.shading.absorptionScale = b.shading.absorptionScale = 1.5f;  // the scale changes the optical depth
+  b.shading.tint = {1.0f, 0.85f, 0.7f};
+
+  offscreen::FrameSettings frame;
+  frame.width = 160;
+  frame.height = 120;
+  frame.camera.eye = {0.2f, 0.6f, 4.0f};
+  frame.mode = ShadingMode::Field;
+  auto gpu = offscreen::renderFrame(*session, *gpuEnv.value(), {&a, &b}, frame);
+  ASSERT_TRUE(gpu.ok()) << gpu.error().message;
+
+  std::vector<reference::DistortionImage> distortions;
+  for (const Object* instance : {&a, &b})
+    distortions.push_back(reference::decompress(field, inverseTransformPoint(instance->worldFromObject, frame.camera.eye)));
+  std::vector<reference::RenderObject> cpuObjects{{&field.mesh, &distortions[0], a.shading, a.worldFromObject},
+                                                  {&field.mesh, &distortions[1], b.shading, b.worldFromObject}};
+  const reference::LatLongImage cpuEnv{env.width, env.height, env.rgba.data()};
+  const reference::RenderedImage cpu =
+      reference::render(cpuObjects, cpuEnv, frame.camera, frame.width, frame.height, frame.exposure);
+  uint32_t coverage[2] = {0, 0};
+  for (int32_t k : cpu.object)
+    if (k >= 0) ++coverage[k];
+  EXPECT_GT(coverage[0], 1000u);
+  EXPECT_GT(coverage[1], 1000u);
+  bake::Image diff;
+  const Comparison all = compare(gpu.value(), cpu.rgba, kFieldTolerance, nullptr, &diff);
+  std::printf("two instances: %u of %u pixels outside tolerance, max |diff| %.4f\n", all.failed, all.pixels,
+              double(all.maxDiff));
+  const bool pass = float(all.failed) <= kFieldTolerance.failFraction * float(all.pixels);
+  EXPECT_TRUE(pass) << all.failed << " of " << all.pixels << " pixels outside tolerance";
+  if (!pass || std::getenv("SHREFRACT_WRITE_TEST_IMAGES")) {
+    writeForInspection("instances_gpu.png", gpu.value());
+    writeForInspection("instances_cpu.png", bake::Image{cpu.width, cpu.height, cpu.rgba});
+    writeForInspection("instances_diff_x10.png", diff);
+  }
+  // The placement matters: the same instances left at the origin render differently.
+  const reference::DistortionImage unplaced = reference::decompress(field, frame.camera.eye);
+  const reference::RenderedImage atOrigin = reference::render(
+      {{&field.mesh, &unplaced, a.shading, Transform{}}}, cpuEnv, frame.camera, frame.width, frame.height);
+  EXPECT_GT(compare(gpu.value(), atOrigin.rgba, kFieldTolerance).failed, all.pixels / 10);
+
+  // Memory: the instance holds its distortion image (RGBA16F, 8 bytes a texel, plus the device's
+  // alignment), the original everything else too.
+  const uint64_t image = uint64_t(field.width) * field.height * 8;
+  std::printf("device memory: original %llu bytes, instance %llu bytes (image %llu)\n",
+              static_cast<unsigned long long>(a.gpuMemoryBytes()), static_cast<unsigned long long>(b.gpuMemoryBytes()),
+              static_cast<unsigned long long>(image));
+  EXPECT_GE(b.gpuMemoryBytes(), image);
+  EXPECT_LT(b.gpuMemoryBytes(), image + 65536);
+  EXPECT_GT(a.gpuMemoryBytes(), b.gpuMemoryBytes() + image);
+}
+
 // A field with a throughput channel darkens the transmitted light by the stored throughput: two
 // Table fields with the same directions and optical depths, one with a throughput channel that is
 // 0.6 everywhere, drawn without reflection. The GPU image with throughput must match the CPU

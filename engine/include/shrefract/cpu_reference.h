@@ -87,15 +87,20 @@ struct SurfacePoint {
 // conversion. `distortion` must be decompressed for the same eye. When distortion.throughput is
 // set, the transmitted term is multiplied by min(|d.xyz|, 1) of the bilinear sample d, as the GPU
 // does for an object whose field has a throughput channel (ObjectPushConstants.tint.a).
+// `point` and `eye` are in the object's space; the exit and reflection directions are turned to
+// world space with worldFromObject's rotation before the lookups, and the optical depth scaled by
+// its scale, as the object pass does.
 Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environment, const SurfacePoint& point,
-                const Vec3& eye, const ObjectShading& shading, float exposure = 1.0f);
+                const Vec3& eye, const ObjectShading& shading, float exposure = 1.0f,
+                const Transform& worldFromObject = Transform{});
 
 // One object for render(): its mesh (positions, normals, uvs, frontIor, indices as in FieldMesh)
 // and its decompressed image. Pointers must stay valid during render().
 struct RenderObject {
   const FieldMesh* mesh = nullptr;
-  const DistortionImage* distortion = nullptr;
+  const DistortionImage* distortion = nullptr;  // decompressed for the eye in object space
   ObjectShading shading;
+  Transform worldFromObject;  // where the mesh is placed
 };
 
 struct RenderedImage {
@@ -103,7 +108,7 @@ struct RenderedImage {
   uint32_t height = 0;
   std::vector<float> rgba;     // row 0 at the top, alpha 1
   std::vector<int32_t> object; // per pixel: index of the visible object, -1 for the background
-  std::vector<float> directions; // per pixel: xyz of the unit exit direction shaded there; 0 for the background
+  std::vector<float> directions; // per pixel: xyz of the unit world-space exit direction shaded there; 0 for the background
 };
 
 // World-space direction of the ray from the eye through the centre of pixel (x, y) (row 0 at the
@@ -126,7 +131,8 @@ SurfacePoint surfacePointAt(const FieldMesh& mesh, uint32_t first, const Triangl
 // the view direction where it vanishes.
 Vec3 shadedExitDirection(const DistortionImage& distortion, const SurfacePoint& point, const Vec3& eye);
 
-// The background pass and Field-mode objects, ray cast per pixel centre: the nearest front-facing
+// The background pass and Field-mode objects, ray cast per pixel centre (each object in its own
+// space: the ray brought into it by the inverse of worldFromObject): the nearest front-facing
 // triangle (counter-clockwise seen from the eye, as the GPU culls) with its perspective-correct
 // barycentric attributes, shaded with shadeField; the environment in the ray's direction where no
 // triangle is hit. Near and far planes are ignored (scenes in tests sit well inside them).

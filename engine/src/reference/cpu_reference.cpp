@@ -116,7 +116,7 @@ Vec3 cubeTexelDirection(uint32_t face, uint32_t i, uint32_t j, uint32_t faceSize
 }
 
 Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environment, const SurfacePoint& point,
-                const Vec3& eyeArray, const ObjectShading& shading, float exposure) {
+                const Vec3& eyeArray, const ObjectShading& shading, float exposure, const Transform& worldFromObject) {
   glm::vec3 n = glm::normalize(toGlm(point.normal));
   const glm::vec3 v = glm::normalize(toGlm(point.position) - toGlm(eyeArray));
   float cosI = -glm::dot(v, n);
@@ -130,11 +130,13 @@ Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environme
   const glm::vec3 dir(d[0], d[1], d[2]);
   const float len2 = glm::dot(dir, dir);
   const glm::vec3 exitDirection = len2 > gpu::kMinDirectionLength2 ? dir / std::sqrt(len2) : v;
-  float transmittance = std::exp2(-std::max(d[3], 0.0f) * shading.absorptionScale);
+  float transmittance = std::exp2(-std::max(d[3], 0.0f) * (shading.absorptionScale * worldFromObject.scale));
   if (distortion.throughput) transmittance *= std::min(std::sqrt(len2), 1.0f);
-  glm::vec3 color = (1.0f - fresnel) * transmittance * toGlm(shading.tint) *
-                    toGlm(sampleLatLong(environment, fromGlm(exitDirection)));
-  if (shading.reflection) color += fresnel * toGlm(sampleLatLong(environment, fromGlm(glm::reflect(v, n))));
+  const Vec3 exitWorld = rotateDirection(worldFromObject, fromGlm(exitDirection));
+  glm::vec3 color = (1.0f - fresnel) * transmittance * toGlm(shading.tint) * toGlm(sampleLatLong(environment, exitWorld));
+  if (shading.reflection)
+    color += fresnel *
+             toGlm(sampleLatLong(environment, rotateDirection(worldFromObject, fromGlm(glm::reflect(v, n)))));
   return fromGlm(color * exposure);
 }
 
@@ -215,16 +217,23 @@ RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImag
   image.directions.assign(size_t(width) * height * 3, 0.0f);
   // Double precision for the ray-triangle test: the GPU's coverage is exact for pixel centres
   // away from edges, and so should the reference be.
-  const std::array<double, 3> eye{camera.eye[0], camera.eye[1], camera.eye[2]};
+  // Each object's eye, and each ray, in its object space: t is the same along both (the eye and the
+  // ray are divided by the same scale), so hits of different objects compare as they are.
+  std::vector<Vec3> objectEyes;
+  for (const RenderObject& object : objects) objectEyes.push_back(inverseTransformPoint(object.worldFromObject, camera.eye));
+  auto toDouble = [](const Vec3& v) { return std::array<double, 3>{v[0], v[1], v[2]}; };
   for (uint32_t py = 0; py < height; ++py)
     for (uint32_t px = 0; px < width; ++px) {
       const Vec3 rayF = pixelRay(camera, width, height, px, py);
-      const std::array<double, 3> ray{rayF[0], rayF[1], rayF[2]};
       std::optional<TriangleHit> best;
       int bestObject = -1;
       uint32_t bestTriangle = 0;
       for (size_t o = 0; o < objects.size(); ++o) {
         const FieldMesh& mesh = *objects[o].mesh;
+        const Transform& placed = objects[o].worldFromObject;
+        Vec3 rayObject = inverseRotateDirection(placed, rayF);
+        for (float& c : rayObject) c /= placed.scale;
+        const std::array<double, 3> eye = toDouble(objectEyes[o]), ray = toDouble(rayObject);
         for (uint32_t t = 0; size_t(t) + 2 < mesh.indices.size(); t += 3) {
           const std::optional<TriangleHit> hit = hitTriangle(mesh, t, eye, ray);
           if (!hit || (best && hit->t >= best->t)) continue;
@@ -242,10 +251,12 @@ RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImag
       }
       const RenderObject& object = objects[size_t(bestObject)];
       const SurfacePoint point = surfacePointAt(*object.mesh, bestTriangle, *best);
-      const Vec3 c = shadeField(*object.distortion, environment, point, camera.eye, object.shading, exposure);
+      const Vec3& eye = objectEyes[size_t(bestObject)];
+      const Vec3 c = shadeField(*object.distortion, environment, point, eye, object.shading, exposure,
+                                object.worldFromObject);
       for (int k = 0; k < 3; ++k) out[k] = c[size_t(k)];
       image.object[size_t(py) * width + px] = bestObject;
-      const Vec3 dir = shadedExitDirection(*object.distortion, point, camera.eye);
+      const Vec3 dir = rotateDirection(object.worldFromObject, shadedExitDirection(*object.distortion, point, eye));
       for (int k = 0; k < 3; ++k) image.directions[(size_t(py) * width + px) * 3 + size_t(k)] = dir[size_t(k)];
     }
   return image;
