@@ -563,6 +563,16 @@ void imageBarrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect,
   vkCmdPipelineBarrier2(cmd, &dep);
 }
 
+// The transform that centres `object` at the origin with its largest extent `size` (unrotated).
+shrefract::Transform fitInto(const shrefract::Object& object, float size) {
+  const std::array<float, 3> lo = object.objectBoundsMin(), hi = object.objectBoundsMax();
+  const float extent = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+  shrefract::Transform t;
+  t.scale = extent > 0.0f ? size / extent : 1.0f;
+  for (int k = 0; k < 3; ++k) t.translation[size_t(k)] = -0.5f * (lo[size_t(k)] + hi[size_t(k)]) * t.scale;
+  return t;
+}
+
 struct Options {
   std::string output;
   std::string fieldPath;  // empty: the hand-built lens
@@ -651,6 +661,10 @@ void run(const Options& options) {
     glass = take(shrefract::Object::createFromField(*context, field, cmd), "Object::createFromField");
   });
   glass->shading.tint = {0.85f, 0.95f, 1.0f};  // a faint cyan glass
+  // A field from a file was baked at whatever scale it was modelled in (the bunny: a few
+  // centimetres, off the origin): place it where the host's camera looks, 1.6 units across. Only
+  // worldFromObject changes; the field is decoded for the eye in its own space.
+  if (!options.fieldPath.empty()) glass->worldFromObject = fitInto(*glass, 1.6f);
 
   shrefract::RendererCreateInfo rci;
   rci.colorFormat = kColorFormat;  // the engine's pipelines are built for the host's formats

@@ -15,6 +15,7 @@ std::optional<Action> actionForCharacter(char c) {
     case 'e': return Action::NextEnvironment;
     case 'm': return Action::ToggleMode;
     case 'f': return Action::ToggleField;
+    case 'i': return Action::ToggleInstances;
     case 'r': return Action::ResetCamera;
     case 'h': return Action::Help;
     case 'q': return Action::Quit;
@@ -29,6 +30,7 @@ const char* keyHelp() {
          "       E    next environment (each --env, then builtin)\n"
          "       M    mode: field <-> single-interface (fields only)\n"
          "       F    show the other field (split <-> charts; with two fields)\n"
+         "       I    one instance of the field <-> three, placed side by side (fields only)\n"
          "       R    reset the camera    H  this help    Esc Q  quit\n";
 }
 
@@ -64,6 +66,10 @@ bool apply(ViewState& s, Action action) {
       // Keep the order the user chose where the other field has it.
       s.order = std::min(s.order, s.fields[s.field].bakedOrder);
       return true;
+    case Action::ToggleInstances:
+      if (!s.hasFields()) return false;
+      s.instances = s.instances == 1 ? ViewState::kInstances : 1;
+      return true;
     case Action::ResetCamera:
       s.resetCamera = true;
       return true;
@@ -87,10 +93,10 @@ std::string title(const ViewState& s, const std::vector<std::string>& environmen
     char encoding[64];
     if (f.encoding == "sh") std::snprintf(encoding, sizeof(encoding), "L=%u/%u", s.order, f.bakedOrder);
     else std::snprintf(encoding, sizeof(encoding), "%s", f.encoding.c_str());
-    std::snprintf(buffer, sizeof(buffer), "%s [%s%s] | %s %s | k=%.3g", f.name.c_str(), f.layout.c_str(),
+    std::snprintf(buffer, sizeof(buffer), "%s [%s%s] | %s %s | k=%.3g%s", f.name.c_str(), f.layout.c_str(),
                   s.fields.size() > 1 ? ", F: other" : "",
                   s.mode == ShadingMode::Field ? "field" : "single-interface", encoding,
-                  static_cast<double>(s.absorption));
+                  static_cast<double>(s.absorption), s.instances > 1 ? " | 3 instances" : "");
     what = buffer;
   } else {
     what = "scene | single-interface";

@@ -21,6 +21,7 @@ enum class Action {
   NextEnvironment,  // E      cycle through the environments (each --env, then builtin)
   ToggleMode,       // M      field <-> single-interface (fields only)
   ToggleField,      // F      show the other field (split <-> charts) when two are loaded
+  ToggleInstances,  // I      one instance of the shown field <-> kInstances, placed side by side
   ResetCamera,      // R
   Help,             // H      print the key list on stdout
   Quit,             // Esc Q
@@ -48,7 +49,9 @@ struct ViewState {
   ShadingMode mode = ShadingMode::SingleInterface;
   bool quit = false;
   bool resetCamera = false;       // consumed by the frame loop
+  uint32_t instances = 1;         // instances of the shown field drawn (Object::createInstance)
 
+  static constexpr uint32_t kInstances = 3;
   static constexpr float kMinAbsorption = 1.0f / 64.0f;  // smallest non-zero step
   static constexpr float kMaxAbsorption = 1024.0f;       // bounds the doubling
 

@@ -8,6 +8,7 @@
 #include <shrefract/environment.h>
 
 #include <algorithm>
+#include <cmath>
 #include <array>
 #include <cctype>
 #include <chrono>
@@ -127,6 +128,10 @@ struct Host {
   std::vector<std::unique_ptr<Object>> sceneObjects;
   std::vector<std::unique_ptr<Object>> fieldObjects;  // one per field, built at fieldObjectOrders[i]
   std::vector<uint32_t> fieldObjectOrders;
+  // Extra instances of the shown field object (ViewState::instances - 1), rebuilt with it.
+  std::vector<std::unique_ptr<Object>> instances;
+  // Which field object they are instances of: (field, order) names it (an address could be reused).
+  std::pair<size_t, uint32_t> instancesOf{SIZE_MAX, 0};
 
   VkDevice device() const { return session->harness->device(); }
 
@@ -135,6 +140,7 @@ struct Host {
   void releaseGpuObjects() {
     if (!session) return;
     vkDeviceWaitIdle(device());
+    instances.clear();
     fieldObjects.clear();
     sceneObjects.clear();
     environments.clear();
@@ -253,6 +259,33 @@ Result<void> ensureFieldObject(Host& h, const ViewerOptions& options, const View
   if (!created) return makeError(created.error().code, options.fieldNames[i] + ": " + created.error().message);
   h.fieldObjects[i] = std::move(created).value();
   h.fieldObjectOrders[i] = state.order;
+  return {};
+}
+
+// Makes the shown field object's extra instances match the state: state.instances - 1 of them,
+// side by side along x (a bounds width and a half apart), each turned about y, so that they are
+// seen from other sides. Uploads nothing: the instances share the object's data.
+Result<void> ensureInstances(Host& h, const ViewState& state, Object& shown, VkCommandBuffer cmd) {
+  const size_t wanted = state.instances - 1;
+  const std::pair<size_t, uint32_t> of{state.field, state.order};
+  if (h.instancesOf == of && h.instances.size() == wanted) return {};
+  h.instances.clear();  // retired through the context, as replaced field objects are
+  h.instancesOf = of;
+  const std::array<float, 3> lo = shown.objectBoundsMin(), hi = shown.objectBoundsMax();
+  const float step = 1.5f * std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+  for (size_t k = 0; k < wanted; ++k) {
+    auto created = Object::createInstance(*h.session->context, shown, cmd);
+    if (!created) return created.error();
+    Object& o = *created.value();
+    const float side = k % 2 == 0 ? 1.0f : -1.0f, angle = side * 0.6f * float(k / 2 + 1);
+    o.worldFromObject.rotation = std::array<float, 4>{0.0f, std::sin(0.5f * angle), 0.0f, std::cos(0.5f * angle)};
+    // Turned about the object's own centre, then moved aside.
+    const std::array<float, 3> centre{0.5f * (lo[0] + hi[0]), 0.5f * (lo[1] + hi[1]), 0.5f * (lo[2] + hi[2])};
+    const std::array<float, 3> turned = rotateDirection(o.worldFromObject, centre);
+    for (int a = 0; a < 3; ++a) o.worldFromObject.translation[size_t(a)] = centre[size_t(a)] - turned[size_t(a)];
+    o.worldFromObject.translation[0] += side * step * float(k / 2 + 1);
+    h.instances.push_back(std::move(created).value());
+  }
   return {};
 }
 
@@ -561,6 +594,11 @@ int runViewer(const ViewerOptions& options) {
       Object* shown = h.fieldObjects[state.field].get();
       shown->shading.absorptionScale = state.absorption;
       in.objects.push_back(shown);
+      if (auto r = ensureInstances(h, state, *shown, slot.cmd); !r) return fail(r.error().message);
+      for (auto& instance : h.instances) {
+        instance->shading = shown->shading;
+        in.objects.push_back(instance.get());
+      }
     } else {
       for (auto& o : h.sceneObjects) in.objects.push_back(o.get());
     }

@@ -132,6 +132,19 @@ TEST(ViewState, ToggleFieldKeepsTheOrderWhereTheOtherFieldHasIt) {
   EXPECT_FALSE(apply(one, Action::ToggleField));
 }
 
+TEST(ViewState, InstancesToggleForFieldsOnly) {
+  ViewState s = twoFields();
+  EXPECT_EQ(s.instances, 1u);
+  EXPECT_TRUE(apply(s, Action::ToggleInstances));
+  EXPECT_EQ(s.instances, ViewState::kInstances);
+  EXPECT_NE(title(s, {"builtin"}, -1.0, -1.0, -1.0).find("3 instances"), std::string::npos);
+  EXPECT_TRUE(apply(s, Action::ToggleInstances));
+  EXPECT_EQ(s.instances, 1u);
+  ViewState scene;
+  EXPECT_FALSE(apply(scene, Action::ToggleInstances));
+  EXPECT_EQ(actionForCharacter('i'), Action::ToggleInstances);
+}
+
 TEST(ViewState, AbsorptionHalvesToZeroAndDoublesBack) {
   ViewState s = twoFields();
   EXPECT_TRUE(apply(s, Action::AbsorptionDown));

@@ -249,6 +249,23 @@ TEST_F(ViewerTest, LowerOrdersAreUploadedAtRunTime) {
   EXPECT_GT(fractionDifferent(full.value(), zero.value(), kObjectDifference), 0.02);
 }
 
+TEST_F(ViewerTest, InstancesAreDrawnBesideTheField) {
+  // I: two more instances of the field beside it; [ then rebuilds the field object at order 1 and
+  // its instances with it, while earlier frames may still use the old ones.
+  const CommandResult one = view(shellQuote(at("tiny.shrf")) + " --frames 2 --screenshot " +
+                                 shellQuote(at("one.png")) + " --size 96x48 --fov 70");
+  expectCleanRun(one);
+  const CommandResult three = view(shellQuote(at("tiny.shrf")) + " --keys 'i[' --frames 4 --screenshot " +
+                                   shellQuote(at("three.png")) + " --size 96x48 --fov 70");
+  expectCleanRun(three);
+  EXPECT_NE(three.output.find("3 instances"), std::string::npos) << three.output;
+  auto a = bake::loadImage(at("one.png"));
+  auto b = bake::loadImage(at("three.png"));
+  ASSERT_TRUE(a.ok() && b.ok());
+  // The instances stand where the single field showed only the environment.
+  EXPECT_GT(fractionDifferent(a.value(), b.value(), kObjectDifference), 0.05);
+}
+
 TEST_F(ViewerTest, SceneIsShownSingleInterface) {
   const CommandResult r = view("builtin:sphere --tessellation 1 --keys m --frames 3 --screenshot " +
                                shellQuote(at("scene.png")) + " --size 96x64");
