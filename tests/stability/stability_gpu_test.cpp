@@ -1,4 +1,4 @@
-// Stiff and extreme cases through the GPU path (samples/offscreen: the engine's decompression
+// Stiff and extreme cases through the GPU path (offscreen/: the engine's decompression
 // compute pass and Field-mode raster pass, on lavapipe in ctest): baked fields at SH order 20, IOR
 // 4, grazing views and scale 1e4 far from the origin, and the hand-made fields of
 // stability_fields.h (zero-range channels, zero and near-zero direction sums). The distortion image
