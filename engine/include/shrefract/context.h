@@ -67,15 +67,20 @@ class Context {
   // Releases every retired resource now. Precondition: the device is idle for the engine's work.
   void releaseDeferred();
 
+  // Device memory the engine holds through this context: every buffer and image allocation it
+  // made and has not freed yet (retired ones included until beginFrame/releaseDeferred frees them).
+  uint64_t deviceMemoryBytes() const;
+  // Resources retired and not yet released (what the next beginFrame() calls will free).
+  size_t deferredCount() const;
+
   // Records `record` into a command buffer from the engine's own pool, submits it to the
   // borrowed queue and waits on the engine's own fence. For tools and loading screens; a host
   // that wants to record uploads into its own command buffers passes them to the create calls.
   // Precondition: no other thread uses the queue during the call.
   Result<void> uploadNow(const std::function<Result<void>(VkCommandBuffer)>& record);
 
-  ContextImpl& impl() { return *impl_; }
-
  private:
+  friend struct ContextAccess;  // the engine's objects (engine/src)
   explicit Context(std::unique_ptr<ContextImpl> impl);
   std::unique_ptr<ContextImpl> impl_;
 };

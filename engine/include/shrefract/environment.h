@@ -63,10 +63,8 @@ class Environment {
   Environment(const Environment&) = delete;
   Environment& operator=(const Environment&) = delete;
 
-  EnvironmentImpl& impl() { return *impl_; }
-  const EnvironmentImpl& impl() const { return *impl_; }
-
  private:
+  friend struct EnvironmentAccess;  // the engine's passes (engine/src)
   explicit Environment(std::unique_ptr<EnvironmentImpl> impl);
   std::unique_ptr<EnvironmentImpl> impl_;
 };

@@ -98,6 +98,9 @@ void Context::beginFrame() {
   c.retired = std::move(keep);
 }
 
+uint64_t Context::deviceMemoryBytes() const { return impl_->memoryBytes; }
+size_t Context::deferredCount() const { return impl_->retired.size(); }
+
 void Context::releaseDeferred() {
   for (auto& r : impl_->retired) r.release();
   impl_->retired.clear();
@@ -177,6 +180,8 @@ Result<BufferAllocation> ContextImpl::createBuffer(VkDeviceSize size, VkBufferUs
     destroyBuffer(b);
     return vulkanError("vkAllocateMemory", r);
   }
+  b.memoryBytes = mai.allocationSize;
+  memoryBytes += b.memoryBytes;
   vk.vkBindBufferMemory(device(), b.buffer, b.memory, 0);
   if (hostVisible) {
     r = vk.vkMapMemory(device(), b.memory, 0, VK_WHOLE_SIZE, 0, &b.mapped);
@@ -191,6 +196,7 @@ Result<BufferAllocation> ContextImpl::createBuffer(VkDeviceSize size, VkBufferUs
 void ContextImpl::destroyBuffer(BufferAllocation& b) {
   if (b.buffer) vk.vkDestroyBuffer(device(), b.buffer, alloc());
   if (b.memory) vk.vkFreeMemory(device(), b.memory, alloc());  // unmaps implicitly
+  memoryBytes -= b.memoryBytes;
   b = BufferAllocation{};
 }
 
@@ -213,6 +219,8 @@ Result<ImageAllocation> ContextImpl::createImage(const VkImageCreateInfo& ici, V
     destroyImage(img);
     return vulkanError("vkAllocateMemory", r);
   }
+  img.memoryBytes = mai.allocationSize;
+  memoryBytes += img.memoryBytes;
   vk.vkBindImageMemory(device(), img.image, img.memory, 0);
   VkImageViewCreateInfo vci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
   vci.image = img.image;
@@ -231,6 +239,7 @@ void ContextImpl::destroyImage(ImageAllocation& img) {
   if (img.view) vk.vkDestroyImageView(device(), img.view, alloc());
   if (img.image) vk.vkDestroyImage(device(), img.image, alloc());
   if (img.memory) vk.vkFreeMemory(device(), img.memory, alloc());
+  memoryBytes -= img.memoryBytes;
   img = ImageAllocation{};
 }
 

@@ -18,6 +18,7 @@ struct BufferAllocation {
   VkBuffer buffer = VK_NULL_HANDLE;
   VkDeviceMemory memory = VK_NULL_HANDLE;
   VkDeviceSize size = 0;
+  VkDeviceSize memoryBytes = 0;  // the allocation's size (memory requirements)
   void* mapped = nullptr;  // host-visible allocations only
 };
 
@@ -25,6 +26,7 @@ struct ImageAllocation {
   VkImage image = VK_NULL_HANDLE;
   VkDeviceMemory memory = VK_NULL_HANDLE;
   VkImageView view = VK_NULL_HANDLE;
+  VkDeviceSize memoryBytes = 0;  // the allocation's size (memory requirements)
 };
 
 struct ContextImpl {
@@ -42,6 +44,9 @@ struct ContextImpl {
   VkFence uploadFence = VK_NULL_HANDLE;
 
   uint64_t frame = 0;
+  // Device memory allocated by createBuffer/createImage and not yet freed (retired allocations
+  // count until they are released): Context::deviceMemoryBytes().
+  uint64_t memoryBytes = 0;
   struct Retired {
     uint64_t frame;
     std::function<void()> release;
@@ -67,6 +72,11 @@ struct ContextImpl {
   // Uploads `bytes` into `dst` through a staging buffer; records the copy into `cmd` and retires
   // the staging buffer.
   Result<void> recordBufferUpload(VkCommandBuffer cmd, VkBuffer dst, const void* data, VkDeviceSize bytes);
+};
+
+// The engine's way into Context's private state.
+struct ContextAccess {
+  static ContextImpl& impl(Context& context) { return *context.impl_; }
 };
 
 }  // namespace shrefract

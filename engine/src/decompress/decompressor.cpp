@@ -100,7 +100,7 @@ Decompressor::~Decompressor() {
 }
 
 Result<std::unique_ptr<Decompressor>> Decompressor::create(Context& context) {
-  ContextImpl& c = context.impl();
+  ContextImpl& c = ContextAccess::impl(context);
   auto impl = std::make_unique<DecompressorImpl>();
   impl->context = &c;
   struct Guard {

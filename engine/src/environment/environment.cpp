@@ -56,7 +56,7 @@ Result<std::unique_ptr<Environment>> createEnvironment(ContextImpl& c, Environme
   if (!image) return image.error();
   impl->image = image.value();
   std::unique_ptr<Environment> env = wrap(std::move(impl));
-  EnvironmentImpl& e = env->impl();
+  EnvironmentImpl& e = EnvironmentAccess::impl(*env);
 
   VkSampler sampler = c.environmentSampler;
   if (cube) {
@@ -164,7 +164,7 @@ Result<std::unique_ptr<Environment>> Environment::createLatLong(Context& context
   const size_t texels = size_t(desc.width) * desc.height;
   std::vector<uint16_t> half(texels * 4);
   if (auto ok = toHalf(desc.rgba, texels, desc.width, "environment", half.data()); !ok) return ok.error();
-  return createEnvironment(context.impl(), EnvironmentEncoding::LatLong, desc.width, desc.height, half, cmd,
+  return createEnvironment(ContextAccess::impl(context), EnvironmentEncoding::LatLong, desc.width, desc.height, half, cmd,
                            [](std::unique_ptr<EnvironmentImpl> impl) {
                              return std::unique_ptr<Environment>(new Environment(std::move(impl)));
                            });
@@ -185,7 +185,7 @@ Result<std::unique_ptr<Environment>> Environment::createCube(Context& context, c
         !ok)
       return ok.error();
   }
-  return createEnvironment(context.impl(), EnvironmentEncoding::Cube, desc.faceSize, desc.faceSize, half, cmd,
+  return createEnvironment(ContextAccess::impl(context), EnvironmentEncoding::Cube, desc.faceSize, desc.faceSize, half, cmd,
                            [](std::unique_ptr<EnvironmentImpl> impl) {
                              return std::unique_ptr<Environment>(new Environment(std::move(impl)));
                            });

@@ -16,4 +16,10 @@ struct EnvironmentImpl {
   uint32_t width = 0, height = 0;        // per face for cube maps
 };
 
+// The engine's way into Environment's private state.
+struct EnvironmentAccess {
+  static EnvironmentImpl& impl(Environment& environment) { return *environment.impl_; }
+  static const EnvironmentImpl& impl(const Environment& environment) { return *environment.impl_; }
+};
+
 }  // namespace shrefract

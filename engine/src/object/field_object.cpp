@@ -324,7 +324,7 @@ VkImage Object::distortionImage() const { return impl_->field ? impl_->field->di
 
 Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const Field& field, VkCommandBuffer cmd) {
   if (auto valid = validateField(field); !valid) return valid.error();
-  ContextImpl& c = context.impl();
+  ContextImpl& c = ContextAccess::impl(context);
   const VkPhysicalDeviceLimits& limits = c.properties.limits;
   if (field.width > limits.maxImageDimension2D || field.height > limits.maxImageDimension2D)
     return makeError(ErrorCode::Unsupported, "field atlas " + std::to_string(field.width) + "x" +

@@ -139,7 +139,7 @@ Result<void> createMeshBuffers(ContextImpl& c, const MeshDesc& mesh, VkCommandBu
 }
 
 Result<std::unique_ptr<Object>> Object::create(Context& context, const MeshDesc& mesh, VkCommandBuffer cmd) {
-  ContextImpl& c = context.impl();
+  ContextImpl& c = ContextAccess::impl(context);
   auto impl = std::make_shared<ObjectImpl>();
   impl->context = &c;
   // From here on the object's destructor retires whatever has been created (`cmd` may reference it).
@@ -149,7 +149,7 @@ Result<std::unique_ptr<Object>> Object::create(Context& context, const MeshDesc&
 }
 
 Result<std::unique_ptr<Object>> Object::createInstance(Context& context, const Object& of, VkCommandBuffer cmd) {
-  ContextImpl& c = context.impl();
+  ContextImpl& c = ContextAccess::impl(context);
   const std::shared_ptr<ObjectImpl>& from = of.impl_;
   if (from->context != &c)
     return makeError(ErrorCode::InvalidArgument, "Object::createInstance: the source belongs to another context");

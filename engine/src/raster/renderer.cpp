@@ -251,7 +251,7 @@ gpu::ObjectPushConstants objectPushConstants(const Object& object, const glm::ma
 }  // namespace
 
 Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, const RendererCreateInfo& info) {
-  ContextImpl& c = context.impl();
+  ContextImpl& c = ContextAccess::impl(context);
   auto impl = std::make_unique<RendererImpl>();
   impl->context = &c;
   impl->info = info;
@@ -328,7 +328,7 @@ void Renderer::recordBackground(VkCommandBuffer cmd, const Environment& environm
   const size_t encoding = static_cast<size_t>(environment.encoding());
   c.vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r.background[encoding]);
   c.vk.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r.backgroundLayout, 0, 1,
-                               &environment.impl().set, 0, nullptr);
+                               &EnvironmentAccess::impl(environment).set, 0, nullptr);
   c.vk.vkCmdPushConstants(cmd, r.backgroundLayout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
                           sizeof(push), &push);
   c.vk.vkCmdDraw(cmd, 3, 1, 0, 0);
@@ -359,7 +359,7 @@ void Renderer::recordObjects(VkCommandBuffer cmd, const Environment& environment
     if (pipeline != bound) {
       // Set 0 (environment) stays bound across the switch: both layouts share it.
       c.vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
-      c.vk.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &environment.impl().set, 0,
+      c.vk.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &EnvironmentAccess::impl(environment).set, 0,
                                    nullptr);
       bound = pipeline;
     }
