@@ -411,6 +411,7 @@ Result<void> decompose(SceneContext& c, const DefaultField& def, FidelityScene& 
   ro.camera = c.camera;
   ro.samplesPerAxis = c.profile.samplesPerAxis;
   ro.threads = c.options.threads;
+  ro.shading.tint = frontMediumColor(field);  // as Object::createFromField sets it
   auto texelRender = bake::renderDistortion(field.mesh, texels.value().image, c.environment, ro);
   if (!texelRender) return texelRender.error();
   std::fprintf(stderr, "report: fidelity: %s: exact paths at %" PRIu64 " sample texels (%" PRIu64

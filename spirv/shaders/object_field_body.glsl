@@ -35,7 +35,7 @@ void main() {
     outColor = vec4(exitWorld, d.w);
     return;
   }
-  float transmittance = exp2(-max(d.w, 0.0) * pc.medium.y);
+  float transmittance = exp(-max(d.w, 0.0) * pc.medium.y);  // Beer-Lambert, natural units
   // A field with throughput stores direction * clamp(throughput, 0, 1) (gpu_layout.h): the
   // filtered length is the throughput, blended as the direction is. Others store unit lengths,
   // which bilinear filtering shortens between diverging texels: they must not be scaled.

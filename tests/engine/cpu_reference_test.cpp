@@ -6,6 +6,7 @@
 #include <shrefract/cpu_reference.h>
 
 #include <cmath>
+#include <numbers>
 #include <vector>
 
 #include "engine/synthetic_field.h"
@@ -219,7 +220,7 @@ TEST(CpuReference, ShadeFieldOnAConstantEnvironment) {
   p.uv = {0.5f, 0.5f};
   p.frontIor = 1.5f;
   ObjectShading shading;
-  shading.absorptionScale = 0.5f;  // T = exp2(-1) = 0.5
+  shading.absorptionScale = 0.5f * std::numbers::ln2_v<float>;  // T = exp(-2 * 0.5 ln 2) = 0.5
   shading.tint = {1.0f, 0.5f, 1.0f};
   const reference::Vec3 c = reference::shadeField(distortion, env, p, {0, 0, 4}, shading, 2.0f);
   const float f = 0.04f;

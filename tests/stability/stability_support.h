@@ -180,7 +180,8 @@ inline StabilityResult runCase(const StabilityCase& c) {
   r.distortion = reference::decompress(r.field, c.camera.eye);
   r.nonFiniteDistortion = countNonFinite(r.distortion.rgba);
   const reference::LatLongImage cpuEnv{env.width, env.height, env.rgba.data()};
-  ObjectShading shading;  // the engine's defaults: k = 1, no tint, reflection on
+  ObjectShading shading;  // as Object::createFromField sets it: k = 1, the front medium's tint, reflection on
+  shading.tint = frontMediumColor(r.field);
   r.image = reference::render({{&r.field.mesh, &r.distortion, shading}}, cpuEnv, c.camera, c.width, c.height);
   r.nonFiniteImage = countNonFinite(r.image.rgba);
 

@@ -224,7 +224,7 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
     } else if (o.mode == ReferenceMode::Exact) {
       const PathResult& path = hit.transmitted;
       sample.direction = path.exitDirection;
-      transmitted = sampleLatLong(env, path.exitDirection) * std::exp2(-path.opticalDepth * o.absorptionScale);
+      transmitted = sampleLatLong(env, path.exitDirection) * std::exp(-path.opticalDepth * o.absorptionScale);
       if (o.throughput) transmitted *= path.energy;
     } else {
       leaves.clear();
@@ -238,13 +238,15 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
       rays += leaves.size();
       glm::vec3 sum(0.0f), dirSum(0.0f);
       for (const PathResult& leaf : leaves) {
-        sum += leaf.energy * sampleLatLong(env, leaf.exitDirection) * std::exp2(-leaf.opticalDepth * o.absorptionScale);
+        sum += leaf.energy * sampleLatLong(env, leaf.exitDirection) * std::exp(-leaf.opticalDepth * o.absorptionScale);
         dirSum += leaf.energy * leaf.exitDirection;
       }
       transmitted = sum;
       sample.direction = glm::dot(dirSum, dirSum) > 0.0f ? glm::normalize(dirSum) : hit.transmitted.exitDirection;
     }
-    glm::vec3 color = (1.0f - f) * transmitted;
+    // One colour model in every mode (docs/scenes.md): the colour of the medium behind the front
+    // surface tints all the light transmitted through it.
+    glm::vec3 color = (1.0f - f) * transmitted * scene.media[surface.innerMedium].color;
     if (o.reflection) color += f * sampleLatLong(env, hit.reflectedDirection);
     sample.color = color * o.exposure;
     return sample;

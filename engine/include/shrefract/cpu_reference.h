@@ -5,7 +5,7 @@
 // caster that plays the rasterizer. Slow and simple on purpose; not for production rendering.
 //
 // What differs from the GPU, and why tests need a tolerance: the order of the float sums, the GPU's
-// sqrt/inversesqrt/exp2 precision, its bilinear weights (fixed point on many devices, 8 bits on
+// sqrt/inversesqrt/exp precision, its bilinear weights (fixed point on many devices, 8 bits on
 // lavapipe), its RGBA16F environment (the reference samples the float image it is given; pass
 // it through roundToBinary16 to match), and rasterization at triangle edges.
 //

@@ -225,6 +225,12 @@ struct Field {
   }
 };
 
+// The colour of the medium behind the field's front surfaces (the render mesh's): of the media
+// other than media[0], the one whose ior, relative to media[0], is nearest the mesh's per-vertex
+// frontIor at most vertices (media[1] without per-vertex values); white without media. What
+// Object::createFromField sets as ObjectShading::tint (docs/scenes.md, "Colour model").
+std::array<float, 3> frontMediumColor(const Field& field);
+
 // The linear sum of an encoding at a local direction, in out[0..channels), before normalization,
 // from one sample's coefficients a[layer * valuesPerLayer + value] (floats: dequantized, or a
 // bake's fit before quantization) and, for Pca, the basis (field.h layout; nullptr otherwise).

@@ -31,8 +31,12 @@ struct MeshDesc {
 // Run-time shading parameters of an object; cheap to change every frame.
 struct ObjectShading {
   float ior = 1.5f;                         // front-surface IOR where the mesh has no frontIor
-  float absorptionScale = 1.0f;             // k in exp2(-tau * k * scale) (Field mode; tau in object units)
-  std::array<float, 3> tint{1.0f, 1.0f, 1.0f};  // attenuation colour, multiplies the transmitted light
+  // k in exp(-tau * k * scale) (Field mode; tau in object units): Beer-Lambert in natural units,
+  // so 1 renders a medium's absorption (e.g. glTF's attenuationDistance) as it was defined.
+  float absorptionScale = 1.0f;
+  // Colour of the transmitted light (multiplies it in every mode): createFromField sets the colour
+  // of the field's front medium (frontMediumColor, field.h); white for Object::create.
+  std::array<float, 3> tint{1.0f, 1.0f, 1.0f};
   bool reflection = true;                   // add the front-surface Fresnel reflection
 };
 

@@ -56,7 +56,7 @@ enum class ShadingMode : uint32_t {
   SingleInterface = 0,  // one Snell bend at the front surface (what engines usually ship)
   // The refraction field: the distortion image, bilinearly sampled at the fragment's atlas
   // coordinate, gives the exit direction d and optical depth tau; the colour is
-  //   (1 - F) * exp2(-max(tau, 0) * k) * tint * env(d) + F * env(reflect(v, n))
+  //   (1 - F) * exp(-max(tau, 0) * k * s) * tint * env(d) + F * env(reflect(v, n))
   // with F the dielectric Fresnel reflectance for frontIor (ObjectShading::ior where the mesh has
   // none). For a field with a throughput channel the first term is also multiplied by
   // min(|d_stored|, 1), the bilinearly filtered throughput (the image stores d times it). A zero

@@ -352,6 +352,7 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   // From here on the object's destructor retires whatever has been created (`cmd` may reference it).
   auto object = ObjectAccess::wrap(impl);
   if (auto r = createMeshBuffers(c, mesh, cmd, *impl); !r) return r.error();
+  object->shading.tint = frontMediumColor(field);  // one colour model in every mode
   impl->field = std::make_unique<FieldResources>();
   FieldResources& f = *impl->field;
   f.width = field.width;

@@ -130,7 +130,7 @@ Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environme
   const glm::vec3 dir(d[0], d[1], d[2]);
   const float len2 = glm::dot(dir, dir);
   const glm::vec3 exitDirection = len2 > gpu::kMinDirectionLength2 ? dir / std::sqrt(len2) : v;
-  float transmittance = std::exp2(-std::max(d[3], 0.0f) * (shading.absorptionScale * worldFromObject.scale));
+  float transmittance = std::exp(-std::max(d[3], 0.0f) * (shading.absorptionScale * worldFromObject.scale));
   if (distortion.throughput) transmittance *= std::min(std::sqrt(len2), 1.0f);
   const Vec3 exitWorld = rotateDirection(worldFromObject, fromGlm(exitDirection));
   glm::vec3 color = (1.0f - fresnel) * transmittance * toGlm(shading.tint) * toGlm(sampleLatLong(environment, exitWorld));

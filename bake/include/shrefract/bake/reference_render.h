@@ -7,7 +7,8 @@
 //    physical reference (depth 8 at 4x4 samples per pixel in the report).
 //  - SingleInterface: one Snell bend at the front surface, then the environment: what engines
 //    usually ship as a glass shader.
-// Shading matches the engine: F * env(reflected) + (1 - F) * env(exit) * exp2(-tau * k).
+// Shading matches the engine: F * env(reflected) + (1 - F) * env(exit) * exp(-tau * k) * c, with c
+// the colour of the medium behind the front surface (in every mode, as the engine's tint).
 //
 // For the error decomposition of a field (report, docs/fitting.md), two more pieces:
 //  - exactDistortion: the field's distortion image with the exact path at every sample texel,

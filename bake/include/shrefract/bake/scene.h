@@ -22,7 +22,8 @@ struct Medium {
   float ior = 1.0f;
   // Weight per unit length for the optical depth tau accumulated inside this medium (0 = clear).
   float absorption = 0.0f;
-  // Run-time attenuation tint (linear RGB), applied together with exp2(-tau * k).
+  // Colour of the light transmitted into this medium through a front surface (linear RGB), applied
+  // with exp(-tau * k) in every render mode (docs/scenes.md, "Colour model").
   glm::vec3 color{1.0f};
 };
 
