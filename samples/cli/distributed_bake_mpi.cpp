@@ -160,7 +160,7 @@ int distributedBake(const bake::Scene& scene, bake::BakeOptions options, const s
     parts.push_back(std::move(received.value()));
   }
   auto field = bake::mergeParts(scene, std::move(parts));
-  if (!field) abortJob(rank, ranks, options.settings.source + ": " + field.error().message);
+  if (!field) abortJob(rank, ranks, field.error().message);  // names the rank at fault
   // The field is written to a temporary file and renamed: an abort leaves no partial output.
   if (const int code = writeFieldAndSummary(field.value(), output, json); code != 0) {
     MPI_Abort(MPI_COMM_WORLD, code);

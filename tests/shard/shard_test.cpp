@@ -176,6 +176,28 @@ TEST(Shard, MpiBakeIsTheSingleProcessBake) {
   }
 }
 
+// A rank whose part does not fit (here: rank 1 bakes with another bounce cap, through mpirun's MPMD form)
+// ends the job: a line naming it, a non-zero exit, no output file and no temporary file.
+TEST(Shard, MpiRankThatFailsEndsTheJob) {
+  const std::string mpiexec = env("SHREFRACT_MPIEXEC");
+  if (mpiexec.empty()) GTEST_SKIP() << "built without MPI";
+  setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
+  setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
+  const fs::path dir = workDir("mpi-fail");
+  std::vector<std::string> args{mpiexec, "--oversubscribe", "-np", "1", env("SHREFRACT_TOOL")};
+  const std::vector<std::string> first = with(kBakes[1], {"-o", "mpi.shrf"});
+  args.insert(args.end(), first.begin(), first.end());
+  args.insert(args.end(), {":", "-np", "1", env("SHREFRACT_TOOL")});
+  const std::vector<std::string> second = with(kBakes[1], {"--max-bounces", "3", "-o", "mpi.shrf"});
+  args.insert(args.end(), second.begin(), second.end());
+  const Outcome o = run(dir, args);
+  EXPECT_NE(o.exitCode, 0);
+  EXPECT_NE(o.err.find("rank 0 of 2: rank 1: not a part of the same bake as rank 0 (setting 'max bounces' differs)"),
+            std::string::npos) << o.err;
+  for (const auto& entry : fs::directory_iterator(dir))
+    EXPECT_EQ(entry.path().filename().string().find("mpi.shrf"), std::string::npos) << entry.path();
+}
+
 // One stderr line naming `names`, exit 1, and the existing output untouched.
 void expectRefused(const fs::path& dir, std::vector<std::string> parts, const std::string& names) {
   const std::string before = "not a field: must survive a failed merge";
