@@ -172,9 +172,8 @@ Error corrupt(const std::string& name, const std::string& what) {
 
 std::string shardText(Shard s) { return std::to_string(s.index) + "/" + std::to_string(s.count); }
 
-// Sizes of the data arrays against the header's counts, and every float finite.
-Result<void> checkPartData(const BakePart& p) {
-  const std::string& name = p.name;
+// Sizes of the data arrays against the header's counts, and every float finite. Errors name `name`.
+Result<void> checkPartData(const BakePart& p, const std::string& name) {
   if (p.shard.count < 1 || p.shard.count > kMaxShards || p.shard.index >= p.shard.count)
     return corrupt(name, "shard " + shardText(p.shard) + " out of range");
   if (p.channels < 3 || p.channels > 5 || p.directions < 1 || p.stride < 1 || p.stride > (1u << 24) ||
@@ -270,7 +269,7 @@ Result<BakePart> parsePart(const uint8_t* data, size_t size, const std::string& 
   p.heldOut = r.floats();
   p.gridExits = r.floats();
   if (r.failed || !r.atEnd()) return corrupt(name, "sections disagree with the payload size");
-  if (auto ok = checkPartData(p); !ok) return ok.error();
+  if (auto ok = checkPartData(p, name); !ok) return ok.error();
   return p;
 }
 
@@ -287,6 +286,9 @@ Result<BakePart> readPart(const std::string& path) {
 }
 
 Result<void> writePart(const std::string& path, const BakePart& part) {
+  // What parsePart would refuse (a NaN from a degenerate fit, say) never reaches a file.
+  if (auto ok = checkPartData(part, path); !ok)
+    return makeError(ErrorCode::InvalidArgument, "refusing to write " + ok.error().message);
   const std::vector<uint8_t> bytes = serializePart(part);
   const std::string temporary = path + ".tmp-" + std::to_string(static_cast<long>(getpid()));
   std::FILE* file = std::fopen(temporary.c_str(), "wb");

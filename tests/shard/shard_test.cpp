@@ -4,6 +4,7 @@
 // the timing statistics aside (fieldsEqualButTimings). Bad parts must give one line naming the
 // file, exit 1 and leave the output alone.
 #include <gtest/gtest.h>
+#include <shrefract/bake/shard.h>
 #include <shrefract/field.h>
 
 #include <algorithm>
@@ -11,6 +12,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -258,6 +260,34 @@ TEST(Shard, BadPartsAreRefused) {
     SCOPED_TRACE("missing file");
     expectRefused(dir, {p[0], "nowhere.shrfpart", p[2]}, "nowhere.shrfpart: cannot open");
   }
+}
+
+// A part round-trips through its bytes; one with a NaN is never written (nor would it be read).
+TEST(Shard, PartBytesRoundTripAndNonFiniteValuesAreRefused) {
+  bake::BakePart p;
+  p.settings.source = "builtin:sphere";
+  p.heldOutDirections = 1;
+  p.shard = {1, 2};
+  p.sampleCount = 3;  // shard 1/2 holds sample 1 only (not on the grid-check lattice)
+  p.channels = 3;
+  p.directions = 2;
+  p.stride = 4;
+  p.coefficients = {0.5f, -1.0f, 2.0f, 0.0f};
+  p.heldOut = {0.0f, 0.0f, 1.0f, 0.0f, 1.0f, 0.0f};
+  const std::vector<uint8_t> bytes = bake::serializePart(p);
+  auto back = bake::parsePart(bytes.data(), bytes.size(), "memory");
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  EXPECT_EQ(bake::serializePart(back.value()), bytes);
+
+  const fs::path dir = workDir("nan");
+  p.coefficients[2] = std::numeric_limits<float>::quiet_NaN();
+  auto written = bake::writePart((dir / "nan.shrfpart").string(), p);
+  ASSERT_FALSE(written.ok());
+  EXPECT_NE(written.error().message.find("nan.shrfpart: not a valid bake part: a value is not finite"), std::string::npos)
+      << written.error().message;
+  EXPECT_TRUE(fs::is_empty(dir));
+  const std::vector<uint8_t> nanBytes = bake::serializePart(p);
+  EXPECT_FALSE(bake::parsePart(nanBytes.data(), nanBytes.size(), "memory").ok());
 }
 
 TEST(Shard, UsageErrors) {
