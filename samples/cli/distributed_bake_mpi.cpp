@@ -38,7 +38,6 @@ class RankProgress {
 
   void update(const bake::BakeProgress& p) {
     own_ = {p.samplesDone, p.samplesTotal, p.rays, 0};
-    seconds_ = p.seconds;
     if (rank_ == 0) {
       drain(false);
       draw();
@@ -100,14 +99,16 @@ class RankProgress {
       total += m[1] ? m[1] : own_[1];  // not heard from yet: about rank 0's share
       rays += m[2];
     }
-    bar_.update(done, total, seconds_, seconds_ > 0.0 ? double(rays) / seconds_ : 0.0, "rays/s");
+    // Its own clock: rank 0 keeps drawing while it waits for the others after its own share.
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    bar_.update(done, total, seconds, seconds > 0.0 ? double(rays) / seconds : 0.0, "rays/s");
   }
 
   int rank_, ranks_;
   std::vector<Message> state_;
   std::vector<bool> final_;
   Message own_{}, sending_{};
-  double seconds_ = 0.0;
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
   MPI_Request request_ = MPI_REQUEST_NULL;
   bool pending_ = false;
   std::chrono::steady_clock::time_point lastSend_{};
