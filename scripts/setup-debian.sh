@@ -15,6 +15,9 @@ packages=(
   # clang, libclang-rt-14-dev: libFuzzer for the fuzz targets (tests/fuzz, built and run by fuzz_* tests).
   libeigen3-dev
   # libeigen3-dev: the Table fit and the Pca basis of the bake (third_party_notes/README.md).
+  openmpi-bin libopenmpi-dev
+  # openmpi-bin, libopenmpi-dev: `mpirun -np N shrefract bake` (optional at build time; shard_test runs a
+  # 2-rank bake with it). As root mpirun needs OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1.
 )
 
 missing=()

@@ -2,6 +2,7 @@
 #include <shrefract/bake/fit.h>
 #include <shrefract/bake/layout.h>
 #include <shrefract/bake/sample_frame.h>
+#include <shrefract/bake/shard.h>
 #include <shrefract/bake/table_fit.h>
 #include <shrefract/bake/tracer.h>
 #include <shrefract/sh.h>
@@ -12,6 +13,8 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -115,8 +118,6 @@ struct SampleError {
   double gridSquares = 0.0, gridMax = 0.0;
   double heldSquares = 0.0, heldMax = 0.0;
   uint32_t gridCount = 0, heldCount = 0;
-  uint64_t rays = 0, paths = 0, trapped = 0;
-  double traceSeconds = 0.0, fitSeconds = 0.0;  // thread time spent on this sample
 };
 
 
@@ -269,7 +270,6 @@ class SampleEncoder {
 
 // What the statistics need after the field is encoded: the traced exits at held-out directions of
 // every sample, and at the grid directions of every kGridCheckStride-th sample.
-constexpr size_t kGridCheckStride = 16;
 struct TracedChecks {
   std::vector<glm::vec3> heldDirections, heldExits;  // samples x heldOut
   std::vector<glm::vec3> gridExits;                  // (samples / stride, rounded up) x directions
@@ -286,52 +286,73 @@ Result<void> checkEncoding(const BakeSettings& s) {
   return {};
 }
 
-// Traces every grid direction of every sample (threads), fits each sample with `encoder`, and
-// records the checks. coeffs: samples x encoder.stride().
-void traceAndFit(const SampleAtlas& atlas, const Tracer& tracer, const DirectionGrid& grid, const SampleEncoder& encoder,
-                 const BakeSettings& settings, uint32_t channels, const BakeOptions& options, uint32_t threads,
-                 Clock::time_point start, std::vector<float>& coeffs, TracedChecks& checks,
-                 std::vector<SampleError>& errors) {
-  const size_t sampleCount = atlas.samples.size();
+// Everything a bake decides before tracing; every shard of a bake and its merge decide alike.
+struct BakePlan {
+  BakeSettings settings;  // normalized, after the --max-error / --max-bytes-per-sample choices
+  uint32_t channels = 3;
+  SampleAtlas atlas;
+  std::unique_ptr<Tracer> tracer;
+  DirectionGrid grid;
+  std::vector<FieldMedium> media;
+  uint64_t sceneHash = 0;
+};
+
+// Traces every grid direction of the shard's samples (threads), fits each sample with `encoder`,
+// and records what the checks need: part.coefficients, heldOut, gridExits, the counters and the
+// thread times. Local sample k is sample shard.index + k * shard.count.
+void traceAndFit(const BakePlan& plan, const SampleEncoder& encoder, const BakeOptions& options, Shard shard,
+                 Clock::time_point start, BakePart& part) {
+  const SampleAtlas& atlas = plan.atlas;
+  const DirectionGrid& grid = plan.grid;
+  const size_t count = shardSampleCount(atlas.samples.size(), shard);
   const uint32_t nd = static_cast<uint32_t>(grid.directions.size());
-  const uint32_t held = options.heldOutDirections;
-  coeffs.assign(sampleCount * encoder.stride(), 0.0f);
-  checks.heldDirections.assign(sampleCount * held, glm::vec3(0.0f));
-  checks.heldExits.assign(sampleCount * held, glm::vec3(0.0f));
-  checks.gridExits.assign((sampleCount + kGridCheckStride - 1) / kGridCheckStride * nd, glm::vec3(0.0f));
-  errors.assign(sampleCount, SampleError{});
-  const TraceSettings traceSettings = traceSettingsOf(settings);
-  const ChannelLayout layout = ChannelLayout::of(channels, settings.throughput);
+  const uint32_t held = options.heldOutDirections, channels = plan.channels;
+  const size_t stride = encoder.stride();
+  // The shard's samples on the grid-check lattice get consecutive slots of part.gridExits.
+  std::vector<size_t> gridSlot(count, SIZE_MAX);
+  size_t slots = 0;
+  for (size_t k = 0; k < count; ++k)
+    if ((shard.index + k * shard.count) % kGridCheckStride == 0) gridSlot[k] = slots++;
+  part.coefficients.assign(count * stride, 0.0f);
+  part.heldOut.assign(count * held * 6, 0.0f);
+  part.gridExits.assign(slots * nd * 3, 0.0f);
+  const TraceSettings traceSettings = traceSettingsOf(plan.settings);
+  const ChannelLayout layout = ChannelLayout::of(channels, plan.settings.throughput);
+  const Tracer& tracer = *plan.tracer;
 
   std::atomic<size_t> next{0};
   std::atomic<uint64_t> done{0}, raysSoFar{0};
+  std::mutex totalsMutex;
   constexpr size_t kChunk = 8;
   auto worker = [&]() {
     std::vector<float> values(size_t(nd) * channels);
+    uint64_t rays = 0, paths = 0, trapped = 0;
+    double traceSeconds = 0.0, fitSeconds = 0.0;
     for (;;) {
       const size_t begin = next.fetch_add(kChunk);
-      if (begin >= sampleCount) break;
-      const size_t end = std::min(sampleCount, begin + kChunk);
-      uint64_t chunkRays = 0;
-      for (size_t s = begin; s < end; ++s) {
+      if (begin >= count) break;
+      const size_t end = std::min(count, begin + kChunk);
+      const uint64_t raysBefore = rays;
+      for (size_t k = begin; k < end; ++k) {
+        const uint64_t s = shard.index + uint64_t(k) * shard.count;
         const auto sampleStart = Clock::now();
         const SurfacePoint& point = atlas.samples[s];
         const LocalFrame frame = frameFromNormal(point.shadingNormal);
-        SampleError& err = errors[s];
         for (uint32_t d = 0; d < nd; ++d) {
           // The eye looks along -w: the incident ray travels toward the surface.
           const glm::vec3 incident = -localToWorld(frame, glm::vec3(grid.directions[d]));
           const PathResult path = tracer.traceFromSurface(point, incident, traceSettings);
-          err.rays += path.rays;
-          err.paths += 1;
-          err.trapped += path.trapped ? 1u : 0u;
+          rays += path.rays;
+          paths += 1;
+          trapped += path.trapped ? 1u : 0u;
           layout.store(path, &values[size_t(d) * channels]);
-          if (s % kGridCheckStride == 0) checks.gridExits[s / kGridCheckStride * nd + d] = path.exitDirection;
+          if (gridSlot[k] != SIZE_MAX)
+            for (int c = 0; c < 3; ++c) part.gridExits[(gridSlot[k] * nd + d) * 3 + size_t(c)] = path.exitDirection[c];
         }
         const auto fitStart = Clock::now();
-        encoder.fit(values.data(), &coeffs[s * encoder.stride()]);
+        encoder.fit(values.data(), &part.coefficients[k * stride]);
         const auto heldOutStart = Clock::now();
-        uint64_t rng = 0x5348524546ull ^ (uint64_t(s) * 0x9e3779b97f4a7c15ull);
+        uint64_t rng = 0x5348524546ull ^ (s * 0x9e3779b97f4a7c15ull);
         for (uint32_t h = 0; h < held; ++h) {
           // Uniform over the hemisphere, away from the exact horizon.
           const float z = 0.02f + 0.98f * unitFloat(rng);
@@ -339,30 +360,35 @@ void traceAndFit(const SampleAtlas& atlas, const Tracer& tracer, const Direction
           const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
           const glm::vec3 w(r * std::cos(phi), r * std::sin(phi), z);
           const PathResult path = tracer.traceFromSurface(point, -localToWorld(frame, w), traceSettings);
-          err.rays += path.rays;
-          err.paths += 1;
-          checks.heldDirections[s * held + h] = w;
-          checks.heldExits[s * held + h] = path.exitDirection;
+          rays += path.rays;
+          paths += 1;
+          float* slot = &part.heldOut[(k * held + h) * 6];
+          for (int c = 0; c < 3; ++c) slot[c] = w[c], slot[3 + c] = path.exitDirection[c];
         }
-        chunkRays += err.rays;
         const auto sampleEnd = Clock::now();
-        err.fitSeconds = std::chrono::duration<double>(heldOutStart - fitStart).count();
-        err.traceSeconds = std::chrono::duration<double>((fitStart - sampleStart) + (sampleEnd - heldOutStart)).count();
+        fitSeconds += std::chrono::duration<double>(heldOutStart - fitStart).count();
+        traceSeconds += std::chrono::duration<double>((fitStart - sampleStart) + (sampleEnd - heldOutStart)).count();
       }
-      raysSoFar.fetch_add(chunkRays);
+      raysSoFar.fetch_add(rays - raysBefore);
       done.fetch_add(end - begin);
     }
+    const std::lock_guard<std::mutex> lock(totalsMutex);
+    part.rays += rays;
+    part.paths += paths;
+    part.trappedPaths += trapped;
+    part.timings.threadTraceSeconds += traceSeconds;
+    part.timings.threadFitSeconds += fitSeconds;
   };
   std::vector<std::thread> pool;
-  for (uint32_t t = 1; t < threads; ++t) pool.emplace_back(worker);
+  for (uint32_t t = 1; t < plan.settings.threads; ++t) pool.emplace_back(worker);
   std::thread mainWorker(worker);
-  while (done.load() < sampleCount) {
-    if (options.progress) options.progress({done.load(), sampleCount, raysSoFar.load(), secondsSince(start)});
+  while (done.load() < count) {
+    if (options.progress) options.progress({done.load(), count, raysSoFar.load(), secondsSince(start)});
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   mainWorker.join();
   for (auto& t : pool) t.join();
-  if (options.progress) options.progress({sampleCount, sampleCount, raysSoFar.load(), secondsSince(start)});
+  if (options.progress) options.progress({count, count, raysSoFar.load(), secondsSince(start)});
 }
 
 // Fit and held-out errors of the float encoding (grid: every kGridCheckStride-th sample).
@@ -557,11 +583,64 @@ Result<BakeSettings> selectForBudget(const SampleAtlas& atlas, const Tracer& tra
   return best->settings;
 }
 
-}  // namespace
+// FNV-1a over what a merge must share with the parts: the layout's samples, texels, gutters,
+// neighbours and mesh, and the media. A changed scene file or override changes it.
+class Fingerprint {
+ public:
+  template <class T>
+  void add(const T* data, size_t count) {
+    const auto* bytes = reinterpret_cast<const unsigned char*>(data);
+    for (size_t i = 0; i < count * sizeof(T); ++i) hash_ = (hash_ ^ bytes[i]) * 0x100000001b3ull;
+  }
+  template <class T>
+  void add(const std::vector<T>& v) {
+    const uint64_t n = v.size();
+    add(&n, 1);
+    add(v.data(), v.size());
+  }
+  uint64_t value() const { return hash_; }
 
-Result<Field> bakeField(const Scene& scene, const BakeOptions& options) {
-  const auto start = Clock::now();
-  BakeSettings settings = options.settings;
+ private:
+  uint64_t hash_ = 0xcbf29ce484222325ull;
+};
+
+uint64_t sceneFingerprint(const Scene& scene, const SampleAtlas& atlas) {
+  Fingerprint f;
+  const uint32_t size[2] = {atlas.width, atlas.height};
+  f.add(size, 2);
+  f.add(atlas.texelKinds);
+  f.add(atlas.texelSample);
+  for (const SurfacePoint& p : atlas.samples) {  // field by field: the struct may have padding
+    const float v[9] = {p.position.x, p.position.y, p.position.z, p.shadingNormal.x, p.shadingNormal.y,
+                        p.shadingNormal.z, p.geometricNormal.x, p.geometricNormal.y, p.geometricNormal.z};
+    f.add(v, 9);
+    const uint32_t ids[2] = {p.surface, p.triangle};
+    f.add(ids, 2);
+  }
+  for (const GutterTexel& g : atlas.gutters) {
+    const uint32_t t[4] = {g.target, g.a, g.b, g.c};
+    f.add(t, 4);
+  }
+  f.add(atlas.neighbours);
+  f.add(atlas.mesh.positions);
+  f.add(atlas.mesh.normals);
+  f.add(atlas.mesh.uvs);
+  f.add(atlas.mesh.frontIor);
+  f.add(atlas.mesh.indices);
+  for (const Medium& m : scene.media) {
+    const float v[5] = {m.ior, m.absorption, m.color.x, m.color.y, m.color.z};
+    f.add(v, 5);
+    f.add(m.name.data(), m.name.size());
+  }
+  return f.value();
+}
+
+// Checks and normalizes the settings, lays out the samples, builds the tracer and, with `choose`,
+// makes the --max-error and --max-bytes-per-sample choices (a merge takes them from its parts).
+Result<BakePlan> planBake(const Scene& scene, const BakeOptions& options, bool choose) {
+  BakePlan plan;
+  BakeSettings& settings = plan.settings;
+  settings = options.settings;
   if (auto ok = checkSettings(settings); !ok) return ok.error();
   if (auto ok = checkEncoding(settings); !ok) return ok.error();
   if (auto ok = validateScene(scene); !ok) return ok.error();
@@ -569,24 +648,21 @@ Result<Field> bakeField(const Scene& scene, const BakeOptions& options) {
   if (settings.encoding != Encoding::Sh) settings.order = 0;
   if (settings.encoding != Encoding::Pca) settings.components = 0;
   if (settings.encoding == Encoding::Sh) settings.tableSize = 0;
-  const uint32_t threads =
-      settings.threads ? settings.threads : std::max(1u, std::thread::hardware_concurrency());
-  settings.threads = threads;
+  if (settings.threads == 0) settings.threads = std::max(1u, std::thread::hardware_concurrency());
 
   LayoutOptions layoutOptions;
   layoutOptions.sampleBudget = settings.sampleBudget;
   layoutOptions.samplesPerUnitArea = settings.samplesPerUnitArea;
-  auto atlasResult = settings.layout == SampleLayout::Split ? buildSplitLayout(scene, layoutOptions)
-                                                             : buildChartsLayout(scene, layoutOptions);
-  if (!atlasResult) return atlasResult.error();
-  const SampleAtlas& atlas = atlasResult.value();
+  auto atlas = settings.layout == SampleLayout::Split ? buildSplitLayout(scene, layoutOptions)
+                                                       : buildChartsLayout(scene, layoutOptions);
+  if (!atlas) return atlas.error();
+  plan.atlas = std::move(atlas.value());
+  auto tracer = Tracer::create(scene);
+  if (!tracer) return tracer.error();
+  plan.tracer = std::move(tracer.value());
 
-  auto tracerResult = Tracer::create(scene);
-  if (!tracerResult) return tracerResult.error();
-  const Tracer& tracer = *tracerResult.value();
-
-  if (settings.maxErrorDegrees > 0.0f && settings.encoding == Encoding::Sh) {
-    auto chosen = selectOrderAndDirections(atlas, tracer, settings, threads, options.note);
+  if (choose && settings.maxErrorDegrees > 0.0f && settings.encoding == Encoding::Sh) {
+    auto chosen = selectOrderAndDirections(plan.atlas, *plan.tracer, settings, settings.threads, options.note);
     if (!chosen) return chosen.error();
     const Selection& sel = chosen.value();
     if (options.note)
@@ -602,28 +678,173 @@ Result<Field> bakeField(const Scene& scene, const BakeOptions& options) {
   bool absorbs = false;
   for (size_t m = 1; m < scene.media.size(); ++m) absorbs = absorbs || scene.media[m].absorption > 0.0f;
   // Leave out what the scene does not need: without absorption the optical depth is always zero.
-  const uint32_t channels = 3u + (absorbs ? 1u : 0u) + (settings.throughput ? 1u : 0u);
-  if (settings.maxBytesPerSample > 0.0f) {
-    auto chosen = selectForBudget(atlas, tracer, settings, channels, threads, options.note);
+  plan.channels = 3u + (absorbs ? 1u : 0u) + (settings.throughput ? 1u : 0u);
+  if (choose && settings.maxBytesPerSample > 0.0f) {
+    auto chosen = selectForBudget(plan.atlas, *plan.tracer, settings, plan.channels, settings.threads, options.note);
     if (!chosen) return chosen.error();
     settings = chosen.value();
   }
-  const DirectionGrid grid = makeHemisphereGrid(settings.directionsTheta, settings.directionsPhi);
-  auto encoderResult = SampleEncoder::create(grid, settings, channels);
-  if (!encoderResult) return encoderResult.error();
-  const size_t sampleCount = atlas.samples.size();
-  const uint32_t nd = static_cast<uint32_t>(grid.directions.size());
+  plan.grid = makeHemisphereGrid(settings.directionsTheta, settings.directionsPhi);
+  for (const Medium& m : scene.media) plan.media.push_back({m.name, m.ior, m.absorption, {m.color.x, m.color.y, m.color.z}});
+  plan.sceneHash = sceneFingerprint(scene, plan.atlas);
+  return plan;
+}
 
-  std::vector<float> coeffs;
-  TracedChecks checks;
-  std::vector<SampleError> errors;
+// Traces and fits the shard's samples of a planned bake.
+Result<BakePart> tracePart(const BakePlan& plan, const BakeOptions& options, Shard shard, Clock::time_point start) {
+  auto encoder = SampleEncoder::create(plan.grid, plan.settings, plan.channels);
+  if (!encoder) return encoder.error();
+  BakePart part;
+  part.settings = plan.settings;
+  part.heldOutDirections = options.heldOutDirections;
+  part.shard = shard;
+  part.sampleCount = plan.atlas.samples.size();
+  part.sceneHash = plan.sceneHash;
+  part.channels = plan.channels;
+  part.directions = static_cast<uint32_t>(plan.grid.directions.size());
+  part.stride = encoder->stride();
   const auto traceStart = Clock::now();
-  traceAndFit(atlas, tracer, grid, encoderResult.value(), settings, channels, options, threads, start, coeffs, checks,
-              errors);
-  const double traceSeconds = secondsSince(traceStart);
+  traceAndFit(plan, encoder.value(), options, shard, start, part);
+  part.timings.traceWallSeconds = secondsSince(traceStart);
+  part.timings.bakeSeconds = secondsSince(start);
+  part.timings.peakMemoryBytes = peakResidentBytes();
+  return part;
+}
 
-  const auto fitStart = Clock::now();
-  const EncodingShape shape = shapeOf(settings, channels);
+// The parts' per-sample results in sample order, as one process would have them; each part's
+// arrays are freed once copied.
+struct Gathered {
+  std::vector<float> coeffs;  // samples x stride
+  TracedChecks checks;
+};
+Gathered gatherParts(std::vector<BakePart>& parts, size_t stride, uint32_t nd, uint32_t held) {
+  const size_t n = parts.front().sampleCount;
+  Gathered g;
+  if (parts.size() == 1) g.coeffs = std::move(parts.front().coefficients);  // already in sample order
+  else g.coeffs.assign(n * stride, 0.0f);
+  g.checks.heldDirections.assign(n * held, glm::vec3(0.0f));
+  g.checks.heldExits.assign(n * held, glm::vec3(0.0f));
+  g.checks.gridExits.assign((n + kGridCheckStride - 1) / kGridCheckStride * nd, glm::vec3(0.0f));
+  for (BakePart& part : parts) {
+    size_t slot = 0;
+    for (size_t k = 0, s = part.shard.index; s < n; ++k, s += part.shard.count) {
+      if (parts.size() > 1)
+        std::copy_n(&part.coefficients[k * stride], stride, &g.coeffs[s * stride]);
+      for (uint32_t h = 0; h < held; ++h) {
+        const float* v = &part.heldOut[(k * held + h) * 6];
+        g.checks.heldDirections[s * held + h] = glm::vec3(v[0], v[1], v[2]);
+        g.checks.heldExits[s * held + h] = glm::vec3(v[3], v[4], v[5]);
+      }
+      if (s % kGridCheckStride != 0) continue;
+      for (uint32_t d = 0; d < nd; ++d) {
+        const float* v = &part.gridExits[(slot * nd + d) * 3];
+        g.checks.gridExits[s / kGridCheckStride * nd + d] = glm::vec3(v[0], v[1], v[2]);
+      }
+      ++slot;
+    }
+    part.coefficients = {};
+    part.heldOut = {};
+    part.gridExits = {};
+  }
+  return g;
+}
+
+// Coefficients per texel, layer-major (Field's indexing), from coefficients per sample.
+std::vector<float> texelCoefficients(const SampleAtlas& atlas, const EncodingShape& shape,
+                                     const std::vector<float>& coeffs) {
+  const size_t texels = size_t(atlas.width) * atlas.height, stride = strideOf(shape);
+  const uint32_t layers = shape.layerCount(), values = shape.valuesPerLayer();
+  std::vector<float> out(size_t(layers) * texels * values, 0.0f);
+  for (size_t t = 0; t < texels; ++t) {
+    if (atlas.texelKinds[t] != kTexelSample) continue;
+    const uint32_t s = atlas.texelSample[t];
+    for (uint32_t i = 0; i < layers; ++i)
+      for (uint32_t v = 0; v < values; ++v)
+        out[(size_t(i) * texels + t) * values + v] = coeffs[size_t(s) * stride + size_t(i) * values + v];
+  }
+  return out;
+}
+
+// Quantization error: the decoded direction from quantized coefficients against the float
+// encoding, at every third grid direction of every 7th sample (deterministic subset).
+void measureQuantization(const Field& field, const SampleAtlas& atlas, const std::vector<float>& basis,
+                         const std::vector<float>& coeffs, const DirectionGrid& grid, BakeStatistics& st) {
+  const EncodingShape shape = field.shape();
+  const size_t sampleCount = atlas.samples.size(), texels = size_t(atlas.width) * atlas.height;
+  double squares = 0.0, maxAngle = 0.0;
+  uint64_t count = 0;
+  std::vector<float> a(shape.channels), b(shape.channels);
+  std::vector<uint64_t> texelOf(sampleCount, UINT64_MAX);
+  for (size_t t = 0; t < texels; ++t)
+    if (atlas.texelKinds[t] == kTexelSample && texelOf[atlas.texelSample[t]] == UINT64_MAX)
+      texelOf[atlas.texelSample[t]] = t;
+  for (size_t s = 0; s < sampleCount; s += 7) {
+    if (texelOf[s] == UINT64_MAX) continue;
+    for (size_t d = 0; d < grid.directions.size(); d += 3) {
+      const glm::vec3 w(grid.directions[d]);
+      decodeFloat(shape, basis, &coeffs[s * strideOf(shape)], w, a.data());
+      evaluateSample(field, texelOf[s], {w.x, w.y, w.z}, b.data());
+      const double angle = angleDegrees(glm::vec3(a[0], a[1], a[2]), glm::vec3(b[0], b[1], b[2]));
+      squares += angle * angle;
+      maxAngle = std::max(maxAngle, angle);
+      ++count;
+    }
+  }
+  st.quantizationRmsDegrees = count ? static_cast<float>(std::sqrt(squares / double(count))) : 0.0f;
+  st.quantizationMaxDegrees = static_cast<float>(maxAngle);
+}
+
+// Counts, fit errors and timings. Parts may have run at the same time on different machines: the
+// longest one is the bake's wall time, the thread times of all apportion it between trace and fit.
+void fillStatistics(const SampleAtlas& atlas, const std::vector<BakePart>& parts, const std::vector<SampleError>& errors,
+                    uint32_t nd, double finishSeconds, BakeStatistics& st) {
+  st.uniqueSamples = atlas.samples.size();
+  for (uint8_t kind : atlas.texelKinds) st.samples += kind == kTexelSample ? 1u : 0u;
+  st.directions = nd;
+  double gridSquares = 0, heldSquares = 0, traceWall = 0, partSeconds = 0, threadTrace = 0, threadFit = 0;
+  uint64_t gridCount = 0, heldCount = 0, peak = peakResidentBytes();
+  for (const BakePart& p : parts) {
+    st.rays += p.rays;
+    st.paths += p.paths;
+    st.trappedPaths += p.trappedPaths;
+    traceWall = std::max(traceWall, p.timings.traceWallSeconds);
+    partSeconds = std::max(partSeconds, p.timings.bakeSeconds);
+    threadTrace += p.timings.threadTraceSeconds;
+    threadFit += p.timings.threadFitSeconds;
+    peak = std::max(peak, p.timings.peakMemoryBytes);
+  }
+  for (const SampleError& e : errors) {  // in sample order: deterministic sums
+    gridSquares += e.gridSquares;
+    heldSquares += e.heldSquares;
+    gridCount += e.gridCount;
+    heldCount += e.heldCount;
+    st.fitMaxDegrees = std::max(st.fitMaxDegrees, static_cast<float>(e.gridMax));
+    st.heldOutMaxDegrees = std::max(st.heldOutMaxDegrees, static_cast<float>(e.heldMax));
+  }
+  st.fitRmsDegrees = gridCount ? static_cast<float>(std::sqrt(gridSquares / double(gridCount))) : 0.0f;
+  st.heldOutRmsDegrees = heldCount ? static_cast<float>(std::sqrt(heldSquares / double(heldCount))) : 0.0f;
+  const double traceShare = threadTrace + threadFit > 0.0 ? threadTrace / (threadTrace + threadFit) : 1.0;
+  st.traceSeconds = traceWall * traceShare;
+  st.fitSeconds = traceWall * (1.0 - traceShare) + finishSeconds;
+  st.bakeSeconds = partSeconds + finishSeconds;
+  st.raysPerSecond = traceWall > 0.0 ? double(st.rays) / traceWall : 0.0;
+  st.peakMemoryBytes = peak;
+}
+
+// The steps that need every sample, the same for a single-process bake, a merge of part files and
+// rank 0 of an MPI bake: the Pca basis, smoothing, the window, the error statistics, quantization.
+// `parts` passed checkParts and match the plan.
+Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
+  const auto finishStart = Clock::now();
+  const BakeSettings& settings = plan.settings;
+  const SampleAtlas& atlas = plan.atlas;
+  const DirectionGrid& grid = plan.grid;
+  const size_t sampleCount = atlas.samples.size();
+  const uint32_t nd = static_cast<uint32_t>(grid.directions.size()), held = parts.front().heldOutDirections;
+  const EncodingShape shape = shapeOf(settings, plan.channels);
+  Gathered g = gatherParts(parts, parts.front().stride, nd, held);
+  std::vector<float>& coeffs = g.coeffs;
+
   std::vector<float> basis;
   if (settings.encoding == Encoding::Pca)
     if (auto r = learnBasis(shape, coeffs, basis, sampleCount); !r) return r.error();
@@ -636,9 +857,11 @@ Result<Field> bakeField(const Scene& scene, const BakeOptions& options) {
   if (settings.window != SmoothingWindow::None && settings.encoding == Encoding::Sh) {
     const std::vector<double> weights = bandWindow(settings.window, static_cast<int>(settings.order));
     for (size_t s = 0; s < sampleCount; ++s)
-      sh::applyWindow(static_cast<int>(settings.order), weights.data(), &coeffs[s * stride], static_cast<int>(channels));
+      sh::applyWindow(static_cast<int>(settings.order), weights.data(), &coeffs[s * stride],
+                      static_cast<int>(plan.channels));
   }
-  measureFit(shape, basis, coeffs, grid, checks, options.heldOutDirections, errors);
+  std::vector<SampleError> errors(sampleCount);
+  measureFit(shape, basis, coeffs, grid, g.checks, held, errors);
 
   Field field;
   field.width = atlas.width;
@@ -647,7 +870,7 @@ Result<Field> bakeField(const Scene& scene, const BakeOptions& options) {
   field.order = settings.order;
   field.tableSize = settings.tableSize;
   field.components = settings.components;
-  field.channels = channels;
+  field.channels = plan.channels;
   field.throughput = settings.throughput;
   field.basis = basis;
   field.quantization = settings.quantization;
@@ -655,89 +878,69 @@ Result<Field> bakeField(const Scene& scene, const BakeOptions& options) {
   field.gutters = atlas.gutters;
   field.mesh = atlas.mesh;
   const size_t texels = size_t(atlas.width) * atlas.height;
-  const uint32_t layers = shape.layerCount(), values = shape.valuesPerLayer();
   field.frames.assign(texels * 12, 0.0f);
-  std::vector<float> texelCoeffs(size_t(layers) * texels * values, 0.0f);
   for (size_t t = 0; t < texels; ++t) {
     if (atlas.texelKinds[t] != kTexelSample) continue;
-    const uint32_t s = atlas.texelSample[t];
-    const SurfacePoint& p = atlas.samples[s];
+    const SurfacePoint& p = atlas.samples[atlas.texelSample[t]];
     const auto rows = localFromWorldRows(p.position, frameFromNormal(p.shadingNormal));
     std::copy(rows.begin(), rows.end(), &field.frames[t * 12]);
-    for (uint32_t i = 0; i < layers; ++i)
-      for (uint32_t v = 0; v < values; ++v)
-        texelCoeffs[(size_t(i) * texels + t) * values + v] = coeffs[size_t(s) * stride + size_t(i) * values + v];
   }
-  if (auto encoded = encodeCoefficients(field, texelCoeffs); !encoded) return encoded.error();
-
-  // Quantization error: the decoded direction from quantized coefficients against the float
-  // encoding, at every third grid direction of every 7th sample (deterministic subset).
-  double quantSquares = 0.0, quantMax = 0.0;
-  uint64_t quantCount = 0;
-  {
-    std::vector<float> a(channels), b(channels);
-    std::vector<uint64_t> texelOf(sampleCount, UINT64_MAX);
-    for (size_t t = 0; t < texels; ++t)
-      if (atlas.texelKinds[t] == kTexelSample && texelOf[atlas.texelSample[t]] == UINT64_MAX)
-        texelOf[atlas.texelSample[t]] = t;
-    for (size_t s = 0; s < sampleCount; s += 7) {
-      if (texelOf[s] == UINT64_MAX) continue;
-      for (uint32_t d = 0; d < nd; d += 3) {
-        const glm::vec3 w(grid.directions[d]);
-        decodeFloat(shape, basis, &coeffs[s * stride], w, a.data());
-        evaluateSample(field, texelOf[s], {w.x, w.y, w.z}, b.data());
-        const double angle = angleDegrees(glm::vec3(a[0], a[1], a[2]), glm::vec3(b[0], b[1], b[2]));
-        quantSquares += angle * angle;
-        quantMax = std::max(quantMax, angle);
-        ++quantCount;
-      }
-    }
-  }
-
-  for (size_t m = 0; m < scene.media.size(); ++m) {
-    const Medium& medium = scene.media[m];
-    field.media.push_back({medium.name, medium.ior, medium.absorption, {medium.color.x, medium.color.y, medium.color.z}});
-  }
-
-  BakeStatistics& st = field.statistics;
-  st.uniqueSamples = sampleCount;
-  for (size_t t = 0; t < texels; ++t) st.samples += atlas.texelKinds[t] == kTexelSample ? 1u : 0u;
-  st.directions = nd;
-  double gridSquares = 0, heldSquares = 0;
-  uint64_t gridCount = 0, heldCount = 0;
-  for (const SampleError& e : errors) {  // in sample order: deterministic sums
-    st.rays += e.rays;
-    st.paths += e.paths;
-    st.trappedPaths += e.trapped;
-    gridSquares += e.gridSquares;
-    heldSquares += e.heldSquares;
-    gridCount += e.gridCount;
-    heldCount += e.heldCount;
-    st.fitMaxDegrees = std::max(st.fitMaxDegrees, static_cast<float>(e.gridMax));
-    st.heldOutMaxDegrees = std::max(st.heldOutMaxDegrees, static_cast<float>(e.heldMax));
-  }
-  st.fitRmsDegrees = gridCount ? static_cast<float>(std::sqrt(gridSquares / double(gridCount))) : 0.0f;
-  st.heldOutRmsDegrees = heldCount ? static_cast<float>(std::sqrt(heldSquares / double(heldCount))) : 0.0f;
-  st.quantizationRmsDegrees = quantCount ? static_cast<float>(std::sqrt(quantSquares / double(quantCount))) : 0.0f;
-  st.quantizationMaxDegrees = static_cast<float>(quantMax);
-  // The parallel phase's wall time, apportioned between tracing and fitting by the time the
-  // threads measured in each.
-  double threadTrace = 0.0, threadFit = 0.0;
-  for (const SampleError& e : errors) {
-    threadTrace += e.traceSeconds;
-    threadFit += e.fitSeconds;
-  }
-  const double traceShare = threadTrace + threadFit > 0.0 ? threadTrace / (threadTrace + threadFit) : 1.0;
-  st.traceSeconds = traceSeconds * traceShare;
-  st.fitSeconds = traceSeconds * (1.0 - traceShare) + secondsSince(fitStart);
-  st.bakeSeconds = secondsSince(start);
-  st.raysPerSecond = traceSeconds > 0.0 ? double(st.rays) / traceSeconds : 0.0;
-  st.peakMemoryBytes = peakResidentBytes();
+  if (auto encoded = encodeCoefficients(field, texelCoefficients(atlas, shape, coeffs)); !encoded)
+    return encoded.error();
+  measureQuantization(field, atlas, basis, coeffs, grid, field.statistics);
+  field.media = plan.media;
   field.settings = settings;
+  for (const BakePart& p : parts) field.settings.threads = std::max(field.settings.threads, p.settings.threads);
+  fillStatistics(atlas, parts, errors, nd, secondsSince(finishStart), field.statistics);
 
   if (auto valid = validateField(field); !valid)
     return makeError(ErrorCode::CorruptData, "bake produced an invalid field: " + valid.error().message);
   return field;
+}
+
+}  // namespace
+
+Result<Field> bakeField(const Scene& scene, const BakeOptions& options) {
+  const auto start = Clock::now();
+  auto plan = planBake(scene, options, true);
+  if (!plan) return plan.error();
+  auto part = tracePart(plan.value(), options, Shard{}, start);
+  if (!part) return part.error();
+  std::vector<BakePart> parts;
+  parts.push_back(std::move(part.value()));
+  return finishBake(plan.value(), std::move(parts));
+}
+
+uint64_t shardSampleCount(uint64_t sampleCount, Shard shard) {
+  return shard.index < sampleCount ? (sampleCount - shard.index + shard.count - 1) / shard.count : 0;
+}
+
+Result<BakePart> bakePart(const Scene& scene, const BakeOptions& options, Shard shard) {
+  const auto start = Clock::now();
+  if (shard.count < 1 || shard.count > kMaxShards || shard.index >= shard.count)
+    return makeError(ErrorCode::InvalidArgument, "shard " + std::to_string(shard.index) + "/" +
+                                                     std::to_string(shard.count) + " is out of range");
+  auto plan = planBake(scene, options, true);
+  if (!plan) return plan.error();
+  return tracePart(plan.value(), options, shard, start);
+}
+
+Result<Field> mergeParts(const Scene& scene, std::vector<BakePart> parts) {
+  if (auto ok = checkParts(parts); !ok) return ok.error();
+  BakeOptions options;
+  options.settings = parts.front().settings;
+  options.heldOutDirections = parts.front().heldOutDirections;
+  auto plan = planBake(scene, options, false);
+  if (!plan) return plan.error();
+  auto encoder = SampleEncoder::create(plan->grid, plan->settings, plan->channels);
+  if (!encoder) return encoder.error();
+  const BakePart& first = parts.front();
+  if (plan->sceneHash != first.sceneHash || plan->atlas.samples.size() != first.sampleCount ||
+      plan->channels != first.channels || plan->grid.directions.size() != first.directions ||
+      encoder->stride() != first.stride)
+    return makeError(ErrorCode::InvalidArgument, first.name + ": baked from another scene than " +
+                                                     first.settings.source + " is now (its layout or media differ)");
+  return finishBake(plan.value(), std::move(parts));
 }
 
 }  // namespace shrefract::bake

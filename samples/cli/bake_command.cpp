@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <string>
 #include <unistd.h>
 
@@ -13,6 +14,7 @@
 #include "cli/field_summary.h"
 #include "cli/progress.h"
 #include "cli/scene_source.h"
+#include "cli/shard_commands.h"
 
 namespace shrefract::cli {
 namespace {
@@ -45,6 +47,8 @@ const std::vector<FlagSpec> kFlags = {
     {"absorption", true, "override the absorption of every medium but the surrounding one"},
     {"tessellation", true, "tessellation level of a built-in scene (0..7)"},
     {"allow-open", false, "accept open or inconsistently wound glTF meshes (with a warning)"},
+    {"shard", true, "I/N: bake only shard I of N of the samples into a part (-o FILE.shrfpart) for "
+                    "`shrefract merge`; under `mpirun -np N` the ranks shard the samples by themselves"},
     {"json", false, "print the summary as JSON on stdout"},
     {"help", false, "this text"},
 };
@@ -68,7 +72,15 @@ int bakeCommand(int argc, char** argv) {
   if (args.positional().size() != 1) return fail("shrefract bake: expected exactly one SCENE argument", 2);
   const auto output = args.get("output");
   if (!output) return fail("shrefract bake: missing -o FILE.shrf", 2);
-  if (!hasExtension(*output, ".shrf")) return fail(*output + ": the output must end in .shrf", 2);
+  std::optional<bake::Shard> shard;
+  if (const auto text = args.get("shard")) {
+    auto parsedShard = bake::parseShard(*text);
+    if (!parsedShard) return fail("shrefract bake: " + parsedShard.error().message, 2);
+    if (launchedRanks() > 1) return fail("shrefract bake: --shard and mpirun both shard the samples: give one", 2);
+    shard = parsedShard.value();
+  }
+  const char* extension = shard ? ".shrfpart" : ".shrf";
+  if (!hasExtension(*output, extension)) return fail(*output + ": the output must end in " + extension, 2);
 
   BakeSettings s;
   s.source = args.positional()[0];
@@ -197,19 +209,14 @@ int bakeCommand(int argc, char** argv) {
     progress.update(p.samplesDone, p.samplesTotal, p.seconds, p.seconds > 0 ? double(p.rays) / p.seconds : 0.0,
                     "rays/s");
   };
+  if (launchedRanks() > 1) return distributedBake(scene.value(), options, *output, args.has("json"));
+  if (shard) {
+    return bakeShardToFile(scene.value(), options, *shard, *output, args.has("json"), progress);
+  }
   auto field = bake::bakeField(scene.value(), options);
   progress.finish();
   if (!field) return fail(s.source + ": " + field.error().message);
-  if (auto written = writeField(*output, field.value()); !written) return fail(written.error().message);
-  std::error_code ec;
-  const uint64_t bytes = std::filesystem::file_size(*output, ec);
-  if (args.has("json")) {
-    std::printf("%s\n", fieldSummaryJson(field.value(), bytes).c_str());
-  } else {
-    std::printf("%s", fieldSummaryText(field.value(), bytes).c_str());
-    std::printf("wrote %s\n", output->c_str());
-  }
-  return 0;
+  return writeFieldAndSummary(field.value(), *output, args.has("json"));
 }
 
 int infoCommand(int argc, char** argv) {

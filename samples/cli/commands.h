@@ -8,5 +8,6 @@ int bakeCommand(int argc, char** argv);
 int infoCommand(int argc, char** argv);
 int viewCommand(int argc, char** argv);  // samples/viewer/view_command.cpp
 int reportCommand(int argc, char** argv);
+int mergeCommand(int argc, char** argv);  // shard_commands.cpp
 
 }  // namespace shrefract::cli

@@ -17,6 +17,7 @@ void printUsage(FILE* out) {
                "                                render a baked field (SH) or a scene (single interface)\n"
                "  view FIELD.shrf|SCENE         interactive window: orbit, SH order, absorption, environments\n"
                "  report [SCENES...] -o DIR     error against run time for every setting (report.md, plots)\n"
+               "  merge PARTS... -o FILE.shrf   join the parts of `bake --shard I/N` into one field\n"
                "  help                          this text; `shrefract COMMAND --help` for a command\n"
                "  version                       print the version\n");
 }
@@ -34,6 +35,7 @@ int main(int argc, char** argv) {
   if (command == "info") return shrefract::cli::infoCommand(argc, argv);
   if (command == "view") return shrefract::cli::viewCommand(argc, argv);
   if (command == "report") return shrefract::cli::reportCommand(argc, argv);
+  if (command == "merge") return shrefract::cli::mergeCommand(argc, argv);
   if (command == "help" || command == "--help" || command == "-h") {
     printUsage(stdout);
     return 0;
