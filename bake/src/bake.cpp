@@ -98,11 +98,14 @@ Result<void> checkSettings(const BakeSettings& s) {
   auto bad = [](const std::string& m) { return makeError(ErrorCode::InvalidArgument, m); };
   if (s.order > static_cast<uint32_t>(kMaxFitOrder))
     return bad("--order must be 0.." + std::to_string(kMaxFitOrder) + ", got " + std::to_string(s.order));
-  if (s.directionsTheta < 1 || s.directionsTheta > 512 || s.directionsPhi < 1 || s.directionsPhi > 1024)
-    return bad("--directions must be ROWSxCOLUMNS with rows 1..512 and columns 1..1024");
+  if (s.directionsTheta < kMinDirectionRows || s.directionsTheta > kMaxDirectionRows ||
+      s.directionsPhi < kMinDirectionColumns || s.directionsPhi > kMaxDirectionColumns)
+    return bad("--directions must be " + std::to_string(kMinDirectionRows) + ".." + std::to_string(kMaxDirectionRows) +
+               " x " + std::to_string(kMinDirectionColumns) + ".." + std::to_string(kMaxDirectionColumns));
   if (s.spatialNeighbours != 0 && s.spatialNeighbours != 3 && s.spatialNeighbours != 5)
     return bad("--spatial must be 0, 3 or 5, got " + std::to_string(s.spatialNeighbours));
-  if (s.maxBounces < 1 || s.maxBounces > 1024) return bad("--max-bounces must be 1..1024");
+  if (s.maxBounces < 1 || s.maxBounces > kMaxBakeBounces)
+    return bad("--max-bounces must be 1.." + std::to_string(kMaxBakeBounces));
   if (!(s.regularization >= 0.0f) || !std::isfinite(s.regularization)) return bad("regularization must be >= 0");
   if (!(s.maxErrorDegrees >= 0.0f) || !std::isfinite(s.maxErrorDegrees) || s.maxErrorDegrees > 180.0f)
     return bad("--max-error must be in (0, 180] degrees");
