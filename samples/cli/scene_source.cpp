@@ -2,6 +2,7 @@
 
 #include <shrefract/bake/gltf_import.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -175,7 +176,10 @@ Result<std::string> bakedSceneSpec(const std::string& fieldPath, const std::stri
     candidates.push_back(recordedPath);  // fields recorded before: relative to the bake's directory
   }
   std::string looked;
+  std::vector<fs::path> seen;
   for (const fs::path& candidate : candidates) {
+    if (std::find(seen.begin(), seen.end(), candidate.lexically_normal()) != seen.end()) continue;
+    seen.push_back(candidate.lexically_normal());
     std::error_code ec;
     if (fs::is_regular_file(candidate, ec)) return formatSpec(candidate.string(), parsed->overrides, std::nullopt);
     looked += (looked.empty() ? "" : ", ") + candidate.string();

@@ -429,8 +429,8 @@ std::vector<Case> cases() {
                  writeBytes(dir / "cut.glb", glb.substr(0, glb.size() / 2));
                },
                {"cut.glb", "glTF"}, "out.png", false, 1});
-  c.push_back({"glTF without its extension, rendered", {"render", "scene.bin", "-o", "out.png"},
-               text("scene.bin", tetrahedronGltf().dump()), {"scene.bin", "glTF"}, "out.png", false, 1});
+  c.push_back({"damaged glTF under another extension, rendered", {"render", "scene.bin", "-o", "out.png"},
+               text("scene.bin", "{\"asset\": {\"version\": "), {"scene.bin", "glTF"}, "out.png", false, 1});
   c.push_back({"field-only mode on a glTF scene", {"render", "tetra.gltf", "--mode", "sh", "-o", "out.png"},
                gltf("tetra.gltf", [](json&) {}), {"tetra.gltf", "--mode sh"}, "out.png", false, 2});
   c.push_back({"eye equal to target", camera({"--eye", "0,0,3", "--target", "0,0,3"}), none,

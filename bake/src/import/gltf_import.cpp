@@ -36,6 +36,7 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <map>
 #include <set>
@@ -411,18 +412,40 @@ class Importer {
   std::vector<Volume> volumes_;
 };
 
-Result<void> Importer::load() {
-  const std::string extension = lowercase(std::filesystem::path(path_).extension().string());
-  if (extension != ".gltf" && extension != ".glb") {
-    return fail(ErrorCode::InvalidArgument,
-                "not a glTF file (expected the extension .gltf or .glb)");
+// The container of a glTF file: by its extension, else by its first bytes (the binary magic
+// "glTF", or a JSON object), so that a file exported under another name still imports.
+std::optional<bool> isBinaryGltf(const std::string& path) {
+  const std::string extension = lowercase(std::filesystem::path(path).extension().string());
+  if (extension == ".gltf" || extension == ".glb") {
+    return extension == ".glb";
   }
+  std::ifstream in(path, std::ios::binary);
+  char head[64] = {};
+  in.read(head, sizeof head);
+  const auto n = static_cast<size_t>(in.gcount());
+  if (n >= 4 && std::memcmp(head, "glTF", 4) == 0) {
+    return true;
+  }
+  for (size_t i = 0; i < n; ++i) {
+    if (!std::isspace(static_cast<unsigned char>(head[i]))) {
+      return head[i] == '{' ? std::optional<bool>(false) : std::nullopt;
+    }
+  }
+  return std::nullopt;
+}
+
+Result<void> Importer::load() {
   std::error_code ec;
   if (!std::filesystem::exists(path_, ec)) {
     return fail(ErrorCode::Io, "no such file");
   }
   if (!std::filesystem::is_regular_file(path_, ec)) {
     return fail(ErrorCode::Io, "not a regular file");
+  }
+  const std::optional<bool> binary = isBinaryGltf(path_);
+  if (!binary) {
+    return fail(ErrorCode::InvalidArgument,
+                "not a glTF file (neither the extension .gltf or .glb nor glTF content)");
   }
 
   tinygltf::TinyGLTF loader;
@@ -433,7 +456,7 @@ Result<void> Importer::load() {
       nullptr);
   std::string err;
   std::string warnings;
-  const bool ok = extension == ".glb" ? loader.LoadBinaryFromFile(&model_, &err, &warnings, path_)
+  const bool ok = *binary ? loader.LoadBinaryFromFile(&model_, &err, &warnings, path_)
                                       : loader.LoadASCIIFromFile(&model_, &err, &warnings, path_);
   for (const std::string& line : lines(warnings)) {
     warn(line);
