@@ -15,6 +15,8 @@ packages=(
   # clang, libclang-rt-14-dev: libFuzzer for the fuzz targets (tests/fuzz, built and run by fuzz_* tests).
   libeigen3-dev
   # libeigen3-dev: the Table fit and the Pca basis of the bake (third_party_notes/README.md).
+  libtbb-dev
+  # libtbb-dev: oneTBB, the bake's parallel loops (third_party_notes/README.md).
 )
 
 missing=()

@@ -19,6 +19,8 @@
 #include <vector>
 
 #include <glm/geometric.hpp>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 
 namespace shrefract::bake {
@@ -123,17 +125,13 @@ struct SampleError {
 };
 
 
-// Runs body(i) for i in [0, count) on `threads` threads (the calling one included).
+// Runs body(i) for i in [0, count) on at most `threads` threads (oneTBB, in an arena of that
+// size). Every body here writes only its own index's slots and seeds its random numbers from the
+// index, so the result does not depend on the schedule (bake_test, SearchesAreDeterministicAcrossThreadCounts).
 template <class Body>
 void parallelFor(size_t count, uint32_t threads, Body body) {
-  std::atomic<size_t> next{0};
-  auto worker = [&]() {
-    for (size_t i; (i = next.fetch_add(1)) < count;) body(i);
-  };
-  std::vector<std::thread> pool;
-  for (uint32_t t = 1; t < threads; ++t) pool.emplace_back(worker);
-  worker();
-  for (auto& t : pool) t.join();
+  tbb::task_arena arena(static_cast<int>(std::max(1u, threads)));
+  arena.execute([&] { tbb::parallel_for(size_t(0), count, [&](size_t i) { body(i); }); });
 }
 
 struct Selection {
