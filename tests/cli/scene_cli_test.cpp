@@ -204,6 +204,25 @@ TEST_F(SceneCli, CameraErrorsExit2WithOneLineAndKeepAnExistingOutput) {
   }
 }
 
+// A report that fails after it has written images leaves no partial directory, and an earlier
+// report in DIR stays as it was.
+TEST_F(SceneCli, AFailedReportLeavesNoPartialDirectory) {
+  fs::create_directories(dir_ / "rep");
+  std::ofstream(dir_ / "rep/report.md") << "an earlier report";
+  const ToolRun r = run(".", {"report", "builtin:sphere", "--tessellation", "1", "--smoke", "--threads", "2",
+                              "--samples", "10", "-o", "rep"});
+  if (r.exit != 0 && noDevice(r)) GTEST_SKIP() << "no Vulkan device: " << r.err;
+  EXPECT_EQ(r.exit, 1) << r.err;
+  EXPECT_NE(r.err.find("raise --samples"), std::string::npos) << r.err;
+  std::vector<std::string> entries;
+  for (const auto& e : fs::directory_iterator(dir_)) entries.push_back(e.path().filename().string());
+  EXPECT_EQ(entries, std::vector<std::string>{"rep"});
+  std::vector<std::string> inside;
+  for (const auto& e : fs::directory_iterator(dir_ / "rep")) inside.push_back(e.path().filename().string());
+  EXPECT_EQ(inside, std::vector<std::string>{"report.md"});
+  EXPECT_EQ(slurp(dir_ / "rep/report.md"), "an earlier report");
+}
+
 // One probe of a range: a value and whether the parser must accept it.
 struct Probe {
   std::string value;
