@@ -184,9 +184,9 @@ TEST_F(SceneCli, CameraErrorsExit2WithOneLineAndKeepAnExistingOutput) {
     int exit;
   };
   const std::vector<Bad> cases = {
-      {{"--eye", "0,0,3", "--target", "0,0,3"}, {"--eye 0,0,3", "--target 0,0,3"}, 2},
-      {{"--eye", "0,3,0"}, {"--eye 0,3,0", "up"}, 2},
-      {{"--eye", "0,0,3", "--up", "0,0,-2"}, {"--up 0,0,-2"}, 2},
+      {{"--eye", "0,0,3", "--target", "0,0,3"}, {"--eye 0,0,3", "same point", "--target 0,0,3"}, 2},
+      {{"--eye", "0,3,0"}, {"--eye 0,3,0", "up 0,1,0 is parallel"}, 2},
+      {{"--eye", "0,0,3", "--up", "0,0,-2"}, {"--up 0,0,-2 is parallel"}, 2},
       {{"--up", "0,0,0"}, {"--up 0,0,0"}, 2},
       {{"--eye", "1e39,0,0"}, {"--eye"}, 2},
       {{"--exposure", "-1"}, {"--exposure"}, 2},
