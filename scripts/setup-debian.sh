@@ -18,6 +18,8 @@ packages=(
   openmpi-bin libopenmpi-dev
   # openmpi-bin, libopenmpi-dev: `mpirun -np N shrefract bake` (optional at build time; shard_test runs a
   # 2-rank bake with it). As root mpirun needs OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1.
+  libtbb-dev
+  # libtbb-dev: oneTBB, the bake's parallel loops (third_party_notes/README.md).
 )
 
 missing=()

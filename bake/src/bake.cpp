@@ -22,6 +22,8 @@
 #include <vector>
 
 #include <glm/geometric.hpp>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 
 namespace shrefract::bake {
@@ -101,11 +103,14 @@ Result<void> checkSettings(const BakeSettings& s) {
   auto bad = [](const std::string& m) { return makeError(ErrorCode::InvalidArgument, m); };
   if (s.order > static_cast<uint32_t>(kMaxFitOrder))
     return bad("--order must be 0.." + std::to_string(kMaxFitOrder) + ", got " + std::to_string(s.order));
-  if (s.directionsTheta < 1 || s.directionsTheta > 512 || s.directionsPhi < 1 || s.directionsPhi > 1024)
-    return bad("--directions must be ROWSxCOLUMNS with rows 1..512 and columns 1..1024");
+  if (s.directionsTheta < kMinDirectionRows || s.directionsTheta > kMaxDirectionRows ||
+      s.directionsPhi < kMinDirectionColumns || s.directionsPhi > kMaxDirectionColumns)
+    return bad("--directions must be " + std::to_string(kMinDirectionRows) + ".." + std::to_string(kMaxDirectionRows) +
+               " x " + std::to_string(kMinDirectionColumns) + ".." + std::to_string(kMaxDirectionColumns));
   if (s.spatialNeighbours != 0 && s.spatialNeighbours != 3 && s.spatialNeighbours != 5)
     return bad("--spatial must be 0, 3 or 5, got " + std::to_string(s.spatialNeighbours));
-  if (s.maxBounces < 1 || s.maxBounces > 1024) return bad("--max-bounces must be 1..1024");
+  if (s.maxBounces < 1 || s.maxBounces > kMaxBakeBounces)
+    return bad("--max-bounces must be 1.." + std::to_string(kMaxBakeBounces));
   if (!(s.regularization >= 0.0f) || !std::isfinite(s.regularization)) return bad("regularization must be >= 0");
   if (!(s.maxErrorDegrees >= 0.0f) || !std::isfinite(s.maxErrorDegrees) || s.maxErrorDegrees > 180.0f)
     return bad("--max-error must be in (0, 180] degrees");
@@ -121,17 +126,13 @@ struct SampleError {
 };
 
 
-// Runs body(i) for i in [0, count) on `threads` threads (the calling one included).
+// Runs body(i) for i in [0, count) on at most `threads` threads (oneTBB, in an arena of that
+// size). Every body here writes only its own index's slots and seeds its random numbers from the
+// index, so the result does not depend on the schedule (bake_test, SearchesAreDeterministicAcrossThreadCounts).
 template <class Body>
 void parallelFor(size_t count, uint32_t threads, Body body) {
-  std::atomic<size_t> next{0};
-  auto worker = [&]() {
-    for (size_t i; (i = next.fetch_add(1)) < count;) body(i);
-  };
-  std::vector<std::thread> pool;
-  for (uint32_t t = 1; t < threads; ++t) pool.emplace_back(worker);
-  worker();
-  for (auto& t : pool) t.join();
+  tbb::task_arena arena(static_cast<int>(std::max(1u, threads)));
+  arena.execute([&] { tbb::parallel_for(size_t(0), count, [&](size_t i) { body(i); }); });
 }
 
 struct Selection {

@@ -303,7 +303,9 @@ int run(const Options& options) {
   std::printf("SH path, static eye: %.1f fps\n", 1000.0 / runs[1].result.wallMs);
 
   if (!options.reference) return 0;
-  auto scene = cli::loadScene(field.settings.source, {}, nullptr);
+  // The recorded scene, found relative to the field file as `render --mode exact` finds it.
+  auto spec = cli::bakedSceneSpec(options.field, field.settings.source, std::nullopt);
+  auto scene = spec ? cli::loadScene(spec.value(), {}, nullptr) : Result<bake::Scene>(spec.error());
   if (!scene) {
     std::printf("reference: SKIPPED: cannot rebuild the baked scene '%s': %s\n", field.settings.source.c_str(),
                 scene.error().message.c_str());

@@ -3,6 +3,7 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 
@@ -14,6 +15,7 @@ Result<Args> Args::parse(const std::string& command, int argc, char** argv, int 
                          const std::vector<FlagSpec>& flags) {
   Args args;
   args.command_ = command;
+  args.flags_ = flags;
   for (int i = first; i < argc; ++i) {
     std::string a = argv[i];
     if (a.size() > 2 && a.rfind("--", 0) == 0) {
@@ -31,6 +33,7 @@ Result<Args> Args::parse(const std::string& command, int argc, char** argv, int 
         return makeError(ErrorCode::InvalidArgument, "shrefract " + command + ": flag --" + name + " given twice");
       if (spec->takesValue) {
         if (inlineValue) {
+          if (auto ok = args.check(*spec, *inlineValue); !ok) return ok.error();
           args.values_[name] = *inlineValue;
         } else {
           // The next argument is the value unless it is another flag ("--x" or "-o"): "--order -o F"
@@ -38,6 +41,7 @@ Result<Args> Args::parse(const std::string& command, int argc, char** argv, int 
           const std::string next = i + 1 < argc ? argv[i + 1] : "";
           if (i + 1 >= argc || (next.size() > 2 && next.rfind("--", 0) == 0) || next == "-o")
             return makeError(ErrorCode::InvalidArgument, "shrefract " + command + ": flag --" + name + " needs a value");
+          if (auto ok = args.check(*spec, next); !ok) return ok.error();
           args.values_[name] = argv[++i];
         }
       } else {
@@ -65,28 +69,113 @@ std::optional<std::string> Args::get(const std::string& name) const {
   return it->second;
 }
 
+const FlagSpec* Args::spec(const std::string& name) const {
+  for (const auto& f : flags_)
+    if (f.name == name) return &f;
+  return nullptr;
+}
+
+namespace {
+
+std::string numberText(double v) {
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
+}
+
+// Whole text as a finite double / integer; nullopt when malformed.
+std::optional<double> parseReal(const std::string& text) {
+  errno = 0;
+  char* end = nullptr;
+  const double d = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end != '\0' || errno == ERANGE || !std::isfinite(d)) return std::nullopt;
+  return d;
+}
+
+std::optional<int64_t> parseInteger(const std::string& text) {
+  errno = 0;
+  char* end = nullptr;
+  const long long n = std::strtoll(text.c_str(), &end, 10);
+  if (text.empty() || *end != '\0' || errno == ERANGE) return std::nullopt;
+  return static_cast<int64_t>(n);
+}
+
+// "WxH" as two integers; nullopt when malformed.
+std::optional<std::array<int64_t, 2>> parsePair(const std::string& text) {
+  const auto x = text.find('x');
+  if (x == std::string::npos) return std::nullopt;
+  const auto a = parseInteger(text.substr(0, x)), b = parseInteger(text.substr(x + 1));
+  if (!a || !b) return std::nullopt;
+  return std::array<int64_t, 2>{*a, *b};
+}
+
+}  // namespace
+
+std::string Bounds::text() const {
+  const bool lower = std::isfinite(lo), upper = std::isfinite(hi);
+  if (lower && upper && !loOpen && !hiOpen) return numberText(lo) + ".." + numberText(hi);
+  if (lower && !upper) return std::string(loOpen ? "> " : ">= ") + numberText(lo);
+  if (!lower && upper) return std::string(hiOpen ? "< " : "<= ") + numberText(hi);
+  if (!lower && !upper) return "";
+  return std::string(loOpen ? "(" : "[") + numberText(lo) + ", " + numberText(hi) + (hiOpen ? ")" : "]");
+}
+
+std::string FlagSpec::rangeText() const {
+  switch (kind) {
+    case ValueKind::Integer:
+    case ValueKind::Real: return range.text();
+    case ValueKind::Size: return range.text() + " x " + range2.text();
+    case ValueKind::Text: break;
+  }
+  return "";
+}
+
+Result<void> Args::check(const FlagSpec& f, const std::string& value) const {
+  const std::string flag = "shrefract " + command_ + ": --" + f.name;
+  auto outside = [&]() {
+    return makeError(ErrorCode::InvalidArgument, flag + " must be " + f.rangeText() + ", got '" + value + "'");
+  };
+  switch (f.kind) {
+    case ValueKind::Text: return {};
+    case ValueKind::Integer: {
+      const auto n = parseInteger(value);
+      if (!n) return makeError(ErrorCode::InvalidArgument, flag + " expects an integer, got '" + value + "'");
+      return f.range.contains(static_cast<double>(*n)) ? Result<void>{} : outside();
+    }
+    case ValueKind::Real: {
+      const auto d = parseReal(value);
+      if (!d) return makeError(ErrorCode::InvalidArgument, flag + " expects a finite number, got '" + value + "'");
+      return f.range.contains(*d) ? Result<void>{} : outside();
+    }
+    case ValueKind::Size: {
+      const auto p = parsePair(value);
+      if (!p) return makeError(ErrorCode::InvalidArgument, flag + " expects WxH (" + f.rangeText() + "), got '" + value + "'");
+      const bool ok = f.range.contains(static_cast<double>((*p)[0])) && f.range2.contains(static_cast<double>((*p)[1]));
+      return ok ? Result<void>{} : outside();
+    }
+  }
+  return {};
+}
+
 Result<std::optional<double>> Args::number(const std::string& name) const {
   auto v = get(name);
   if (!v) return std::optional<double>{};
-  errno = 0;
-  char* end = nullptr;
-  const double d = std::strtod(v->c_str(), &end);
-  if (v->empty() || *end != '\0' || errno == ERANGE || !std::isfinite(d))
+  const auto d = parseReal(*v);
+  if (!d)
     return makeError(ErrorCode::InvalidArgument,
                      "shrefract " + command_ + ": --" + name + " expects a finite number, got '" + *v + "'");
-  return std::optional<double>{d};
+  return std::optional<double>{*d};
 }
 
 Result<std::optional<int64_t>> Args::integer(const std::string& name) const {
   auto v = get(name);
   if (!v) return std::optional<int64_t>{};
-  errno = 0;
-  char* end = nullptr;
-  const long long n = std::strtoll(v->c_str(), &end, 10);
-  if (v->empty() || *end != '\0' || errno == ERANGE)
+  const auto n = parseInteger(*v);
+  if (!n)
     return makeError(ErrorCode::InvalidArgument,
                      "shrefract " + command_ + ": --" + name + " expects an integer, got '" + *v + "'");
-  return std::optional<int64_t>{static_cast<int64_t>(n)};
+  return std::optional<int64_t>{*n};
 }
 
 Result<std::optional<std::array<float, 3>>> Args::vec3(const std::string& name) const {
@@ -99,32 +188,27 @@ Result<std::optional<std::array<float, 3>>> Args::vec3(const std::string& name) 
     errno = 0;
     const double d = std::strtod(p, &end);
     const bool sepOk = (k < 2) ? (*end == ',') : (*end == '\0');
-    if (end == p || !sepOk || errno == ERANGE || !std::isfinite(d))
+    // Finite as a float too: 1e300 would become inf once stored.
+    if (end == p || !sepOk || errno == ERANGE || !std::isfinite(static_cast<float>(d)))
       return makeError(ErrorCode::InvalidArgument,
-                       "shrefract " + command_ + ": --" + name + " expects x,y,z, got '" + *v + "'");
+                       "shrefract " + command_ + ": --" + name + " expects x,y,z (finite), got '" + *v + "'");
     out[static_cast<size_t>(k)] = static_cast<float>(d);
     p = end + 1;
   }
   return std::optional<std::array<float, 3>>{out};
 }
 
+// Ranges were checked by parse() against the flag's declaration.
 Result<std::optional<std::array<uint32_t, 2>>> Args::size(const std::string& name) const {
   auto v = get(name);
   if (!v) return std::optional<std::array<uint32_t, 2>>{};
-  const auto x = v->find('x');
-  auto bad = [&]() {
-    return makeError(ErrorCode::InvalidArgument,
-                     "shrefract " + command_ + ": --" + name + " expects WxH (1..16384 each), got '" + *v + "'");
-  };
-  if (x == std::string::npos) return bad();
-  char* end = nullptr;
-  const std::string ws = v->substr(0, x), hs = v->substr(x + 1);
-  const long w = std::strtol(ws.c_str(), &end, 10);
-  if (ws.empty() || *end != '\0') return bad();
-  const long h = std::strtol(hs.c_str(), &end, 10);
-  if (hs.empty() || *end != '\0') return bad();
-  if (w < 1 || h < 1 || w > 16384 || h > 16384) return bad();
-  return std::optional<std::array<uint32_t, 2>>{std::array<uint32_t, 2>{static_cast<uint32_t>(w), static_cast<uint32_t>(h)}};
+  const auto p = parsePair(*v);
+  const FlagSpec* f = spec(name);
+  if (!p || (*p)[0] < 0 || (*p)[1] < 0 || (*p)[0] > UINT32_MAX || (*p)[1] > UINT32_MAX || !f ||
+      f->kind != ValueKind::Size)
+    return makeError(ErrorCode::InvalidArgument, "shrefract " + command_ + ": --" + name + " expects WxH, got '" + *v + "'");
+  return std::optional<std::array<uint32_t, 2>>{
+      std::array<uint32_t, 2>{static_cast<uint32_t>((*p)[0]), static_cast<uint32_t>((*p)[1])}};
 }
 
 std::string usageLines(const std::vector<FlagSpec>& flags) {
@@ -132,7 +216,8 @@ std::string usageLines(const std::vector<FlagSpec>& flags) {
   for (const auto& f : flags) {
     std::string left = "  --" + f.name + (f.takesValue ? " VALUE" : "");
     if (left.size() < 26) left.resize(26, ' ');
-    out += left + " " + f.help + "\n";
+    const std::string range = f.rangeText();
+    out += left + " " + f.help + (range.empty() ? "" : " [range: " + range + "]") + "\n";
   }
   return out;
 }

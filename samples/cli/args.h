@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <optional>
 #include <string>
@@ -12,10 +13,34 @@
 
 namespace shrefract::cli {
 
+// What a flag's value must be. Checked by Args::parse, before any other check of a command, and
+// printed by usageLines from the same declaration: help and parser cannot disagree.
+enum class ValueKind { Text, Integer, Real, Size };
+
+inline constexpr double kUnbounded = std::numeric_limits<double>::infinity();
+
+// An interval; an open end excludes its bound. Unbounded ends are +-kUnbounded.
+struct Bounds {
+  double lo = -kUnbounded;
+  double hi = kUnbounded;
+  bool loOpen = false;
+  bool hiOpen = false;
+  bool contains(double v) const {
+    return (loOpen ? v > lo : v >= lo) && (hiOpen ? v < hi : v <= hi);
+  }
+  std::string text() const;  // "0..24", "> 0", "(0, 180)", ">= 0"
+};
+
 struct FlagSpec {
   std::string name;   // without the leading "--"
   bool takesValue;    // "--name VALUE" or "--name=VALUE"; otherwise a switch
   std::string help;
+  ValueKind kind = ValueKind::Text;
+  Bounds range{};     // Integer, Real; Size: the first number (width, rows)
+  Bounds range2{};    // Size: the second number (height, columns)
+
+  // The range as help prints it ("0..24", "WxH: 1..16384 x 1..16384"); empty for Text.
+  std::string rangeText() const;
 };
 
 class Args {
@@ -35,11 +60,17 @@ class Args {
   Result<std::optional<std::array<uint32_t, 2>>> size(const std::string& name) const;  // "WxH"
 
  private:
+  // A value against its declaration (kind and range); errors name the flag and the range.
+  Result<void> check(const FlagSpec& spec, const std::string& value) const;
+  const FlagSpec* spec(const std::string& name) const;
+
   std::string command_;
+  std::vector<FlagSpec> flags_;
   std::vector<std::string> positional_;
   std::map<std::string, std::string> values_;
 };
 
+// One line per flag: "--name VALUE  help [range: R]". Tests read the ranges back from here.
 std::string usageLines(const std::vector<FlagSpec>& flags);
 
 // True when `path` ends in `extension` (e.g. ".png"), ignoring case.

@@ -1,5 +1,6 @@
 // `shrefract bake SCENE -o FILE.shrf`: the offline bake, with progress and a summary.
 #include <shrefract/bake/bake.h>
+#include <shrefract/bake/fit.h>
 
 #include <cctype>
 #include <cstdio>
@@ -19,39 +20,49 @@
 namespace shrefract::cli {
 namespace {
 
-const std::vector<FlagSpec> kFlags = {
-    {"output", true, "output field file (.shrf); also -o"},
-    {"order", true, "SH order L, 0..24 (default 8; implies --encoding sh)"},
-    {"directions", true, "hemisphere grid ROWSxCOLUMNS (default 32x64; 8x16 .. 128x256)"},
-    {"layout", true, "split (default; continuity-corrected) or charts (atlas with seams)"},
-    {"samples", true, "total surface sample budget (default 20000)"},
-    {"density", true, "samples per unit area instead of a budget"},
-    {"threads", true, "worker threads (default: all cores); never changes the result"},
-    {"max-bounces", true, "cap on interactions inside the object (default 16)"},
-    {"window", true, "frequency smoothing: none (default), hann, lanczos"},
-    {"spatial", true, "spatial smoothing with 0 (default), 3 or 5 neighbours"},
-    {"quant", true, "coefficient storage: u8 (default) or f16"},
-    {"encoding", true, "hemisphere encoding: pca (default: learned basis, the measured best at 324 bytes per "
-                       "sample), table (hemi-octahedral map) or sh (the paper's; implied by --order and --max-error)"},
-    {"table-size", true, "table: nodes per side N, 2..32 (default 9); pca: N of the basis tables (default 16)"},
-    {"components", true, "pca: basis functions K = bytes per sample in u8, 1..1024 (default 324)"},
-    {"path-rule", true, "branch followed at every interface: highest-energy (default) or first-refraction"},
-    {"throughput", false, "store the path's Fresnel throughput as a channel"},
-    {"max-bytes-per-sample", true, "choose the encoding and its parameters with the lowest error within this "
-                                   "many encoded bytes per sample (1..65536)"},
-    {"regularization", true, "Tikhonov weight of the hemisphere fit (default 1e-5)"},
-    {"max-error", true, "choose the smallest order (<= --order) and direction grid (<= --directions) "
-                        "meeting this mean angular error in degrees"},
-    {"held-out", true, "random held-out directions per sample for the error estimate (default 4)"},
-    {"ior", true, "override the IOR of every medium but the surrounding one"},
-    {"absorption", true, "override the absorption of every medium but the surrounding one"},
-    {"tessellation", true, "tessellation level of a built-in scene (0..7)"},
-    {"allow-open", false, "accept open or inconsistently wound glTF meshes (with a warning)"},
-    {"shard", true, "I/N: bake only shard I of N of the samples into a part (-o FILE.shrfpart) for "
-                    "`shrefract merge`; under `mpirun -np N` the ranks shard the samples by themselves"},
-    {"json", false, "print the summary as JSON on stdout"},
-    {"help", false, "this text"},
-};
+using K = ValueKind;
+
+// Every flag once: its kind and range are what the parser checks and what --help prints; the
+// ranges come from the bake library's own limits where it has them.
+std::vector<FlagSpec> bakeFlags() {
+  std::vector<FlagSpec> flags = {
+      {"output", true, "output field file (.shrf); also -o"},
+      {"order", true, "SH order L (default 8; implies --encoding sh)", K::Integer, {0, double(bake::kMaxFitOrder)}},
+      {"directions", true, "hemisphere grid ROWSxCOLUMNS (default 32x64)", K::Size,
+       {double(bake::kMinDirectionRows), double(bake::kMaxDirectionRows)},
+       {double(bake::kMinDirectionColumns), double(bake::kMaxDirectionColumns)}},
+      {"layout", true, "split (default; continuity-corrected) or charts (atlas with seams)"},
+      {"samples", true, "total surface sample budget (default 20000)", K::Integer, {1, 1e8}},
+      {"density", true, "samples per unit area instead of a budget", K::Real, {0, kUnbounded, true}},
+      {"threads", true, "worker threads (default: all cores); never changes the result", K::Integer, {1, 1024}},
+      {"max-bounces", true, "cap on interactions inside the object (default 16)", K::Integer,
+       {1, double(bake::kMaxBakeBounces)}},
+      {"window", true, "frequency smoothing: none (default), hann, lanczos"},
+      {"spatial", true, "spatial smoothing with 0 (default), 3 or 5 neighbours"},
+      {"quant", true, "coefficient storage: u8 (default) or f16"},
+      {"encoding", true, "hemisphere encoding: pca (default: learned basis, the measured best at 324 bytes per "
+                         "sample), table (hemi-octahedral map) or sh (the paper's; implied by --order and --max-error)"},
+      {"table-size", true, "table: nodes per side N (default 9); pca: N of the basis tables (default 16)", K::Integer,
+       {2, double(bake::kMaxBakeTableSize)}},
+      {"components", true, "pca: basis functions K = bytes per sample in u8 (default 324)", K::Integer,
+       {1, double(kMaxComponents)}},
+      {"path-rule", true, "branch followed at every interface: highest-energy (default) or first-refraction"},
+      {"throughput", false, "store the path's Fresnel throughput as a channel"},
+      {"max-bytes-per-sample", true, "choose the encoding and its parameters with the lowest error within this "
+                                     "many encoded bytes per sample", K::Real, {1, 65536}},
+      {"regularization", true, "Tikhonov weight of the hemisphere fit (default 1e-5)", K::Real, {0, kUnbounded}},
+      {"max-error", true, "choose the smallest order (<= --order) and direction grid (<= --directions) "
+                          "meeting this mean angular error in degrees", K::Real, {0, 180, true}},
+      {"held-out", true, "random held-out directions per sample for the error estimate (default 4)", K::Integer,
+       {0, 1024}},
+      {"shard", true, "I/N: bake only shard I of N of the samples into a part (-o FILE.shrfpart) for "
+                      "`shrefract merge`; under `mpirun -np N` the ranks shard the samples by themselves"},
+  };
+  for (auto& f : sceneFlags(true)) flags.push_back(f);
+  flags.push_back({"json", false, "print the summary as JSON on stdout"});
+  flags.push_back({"help", false, "this text"});
+  return flags;
+}
 
 int fail(const std::string& message, int code = 1) {
   std::fprintf(stderr, "%s\n", message.c_str());
@@ -61,6 +72,7 @@ int fail(const std::string& message, int code = 1) {
 }  // namespace
 
 int bakeCommand(int argc, char** argv) {
+  const std::vector<FlagSpec> kFlags = bakeFlags();
   auto parsed = Args::parse("bake", argc, argv, 2, kFlags);
   if (!parsed) return fail(parsed.error().message, 2);
   const Args& args = parsed.value();
@@ -93,9 +105,6 @@ int bakeCommand(int argc, char** argv) {
   auto spatial = args.integer("spatial");
   auto reg = args.number("regularization");
   auto heldOut = args.integer("held-out");
-  auto ior = args.number("ior");
-  auto absorption = args.number("absorption");
-  auto tess = args.integer("tessellation");
   auto dirs = args.size("directions");
   auto maxError = args.number("max-error");
   auto tableSize = args.integer("table-size");
@@ -105,31 +114,14 @@ int bakeCommand(int argc, char** argv) {
        {order.ok() ? nullptr : &order.error(), samples.ok() ? nullptr : &samples.error(),
         density.ok() ? nullptr : &density.error(), threads.ok() ? nullptr : &threads.error(),
         bounces.ok() ? nullptr : &bounces.error(), spatial.ok() ? nullptr : &spatial.error(),
-        reg.ok() ? nullptr : &reg.error(), heldOut.ok() ? nullptr : &heldOut.error(), ior.ok() ? nullptr : &ior.error(),
-        absorption.ok() ? nullptr : &absorption.error(), tess.ok() ? nullptr : &tess.error(),
+        reg.ok() ? nullptr : &reg.error(), heldOut.ok() ? nullptr : &heldOut.error(),
         dirs.ok() ? nullptr : &dirs.error(), maxError.ok() ? nullptr : &maxError.error(),
         tableSize.ok() ? nullptr : &tableSize.error(), components.ok() ? nullptr : &components.error(),
         maxBytes.ok() ? nullptr : &maxBytes.error()})
     if (e) return fail(e->message, 2);
-  auto inRange = [](const std::optional<int64_t>& v, int64_t lo, int64_t hi) { return !v || (*v >= lo && *v <= hi); };
-  if (!inRange(order.value(), 0, 24)) return fail("shrefract bake: --order must be 0..24", 2);
-  if (!inRange(samples.value(), 1, 100000000)) return fail("shrefract bake: --samples must be 1..1e8", 2);
-  if (!inRange(threads.value(), 1, 1024)) return fail("shrefract bake: --threads must be 1..1024", 2);
-  if (!inRange(bounces.value(), 1, 1024)) return fail("shrefract bake: --max-bounces must be 1..1024", 2);
   if (spatial.value() && *spatial.value() != 0 && *spatial.value() != 3 && *spatial.value() != 5)
     return fail("shrefract bake: --spatial must be 0, 3 or 5", 2);
-  if (!inRange(heldOut.value(), 0, 1024)) return fail("shrefract bake: --held-out must be 0..1024", 2);
-  if (density.value() && !(*density.value() > 0.0)) return fail("shrefract bake: --density must be > 0", 2);
-  if (reg.value() && !(*reg.value() >= 0.0)) return fail("shrefract bake: --regularization must be >= 0", 2);
   if (density.value() && samples.value()) return fail("shrefract bake: give --samples or --density, not both", 2);
-  if (maxError.value() && !(*maxError.value() > 0.0 && *maxError.value() <= 180.0))
-    return fail("shrefract bake: --max-error must be in (0, 180] degrees", 2);
-  if (!inRange(tableSize.value(), 2, bake::kMaxBakeTableSize))
-    return fail("shrefract bake: --table-size must be 2.." + std::to_string(bake::kMaxBakeTableSize), 2);
-  if (!inRange(components.value(), 1, kMaxComponents))
-    return fail("shrefract bake: --components must be 1.." + std::to_string(kMaxComponents), 2);
-  if (maxBytes.value() && !(*maxBytes.value() >= 1.0 && *maxBytes.value() <= 65536.0))
-    return fail("shrefract bake: --max-bytes-per-sample must be 1..65536", 2);
   if (maxBytes.value() && maxError.value())
     return fail("shrefract bake: give --max-bytes-per-sample or --max-error, not both", 2);
   if (maxError.value()) {
@@ -187,15 +179,12 @@ int bakeCommand(int argc, char** argv) {
 
   if (auto writable = checkOutputPath(*output); !writable) return fail(writable.error().message);
 
-  SceneOverrides overrides;
-  if (ior.value()) overrides.ior = static_cast<float>(*ior.value());
-  if (absorption.value()) overrides.absorption = static_cast<float>(*absorption.value());
-  if (tess.value()) overrides.tessellation = static_cast<int>(*tess.value());
-  overrides.allowOpenMeshes = args.has("allow-open");
+  const SceneOverrides overrides = sceneOverridesFrom(args, true);
   std::vector<std::string> warnings;
   auto scene = loadScene(s.source, overrides, &warnings);
-  // Recorded with its overrides, so that `render --mode exact` and `report` rebuild this scene.
-  if (s.source.find('?') == std::string::npos) s.source = canonicalSceneSpec(s.source, overrides);
+  // Recorded with its overrides and where the file lies from the field, so that `render --mode
+  // exact` and `report` rebuild this scene from any working directory.
+  s.source = recordedSceneSpec(s.source, overrides, *output);
   // On failure the error alone: one line naming the file (the warnings led up to it).
   if (!scene) return fail(scene.error().message);
   for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());

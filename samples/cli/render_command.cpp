@@ -1,5 +1,6 @@
 // `shrefract render`: draws a refraction field (FIELD.shrf, decompressed on the GPU every frame)
-// or a built-in scene (single-interface glass) over its environment through the engine's passes.
+// or a scene (built-in or glTF; single-interface glass) over its environment through the engine's
+// passes, or traces either on the CPU (exact, full tree).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -10,44 +11,58 @@
 #include <string>
 #include <vector>
 
+#include <shrefract/bake/bake.h>
+#include <shrefract/bake/reference_render.h>
+
+#include <glm/geometric.hpp>
+#include <glm/vec3.hpp>
+
 #include "cli/args.h"
 #include "cli/commands.h"
+#include "cli/progress.h"
 #include "cli/scene_source.h"
-#include <shrefract/bake/reference_render.h>
 #include "offscreen/offscreen.h"
 
 namespace shrefract::cli {
 namespace {
 
-const std::vector<FlagSpec> kFlags = {
-    {"output", true, "output image (.png or .exr); also -o"},
-    {"env", true, "environment: 'builtin' (default) or a lat-long image file"},
-    {"cube-env", false, "look the environment up through a cube map converted from the lat-long"},
-    {"eye", true, "camera position x,y,z (default: frames the scene)"},
-    {"target", true, "point looked at x,y,z (default: the scene's centre)"},
-    {"up", true, "up vector x,y,z (default 0,1,0)"},
-    {"fov", true, "vertical field of view in degrees (default 40)"},
-    {"size", true, "image size WxH (default 640x480)"},
-    {"mode", true, "sh (default for .shrf; also 'field'), single-interface (default for builtin:), "
-                   "exact or full-tree (CPU references traced with Embree)"},
-    {"max-bounces", true, "exact mode: cap on interactions (default 16)"},
-    {"path-rule", true, "exact mode: branch a path follows at every interface: highest-energy (default) or "
-                        "first-refraction (refract unless totally reflected)"},
-    {"throughput", false, "exact mode: weight the transmitted light by the path's Fresnel throughput"},
-    {"tree-depth", true, "full-tree mode: depth of the Fresnel tree (default 8)"},
-    {"spp", true, "samples per pixel N, a perfect square 1..64: sqrt(N) x sqrt(N) stratified samples, averaged "
-                  "(default 1; every mode)"},
-    {"threads", true, "CPU modes: worker threads (default: all cores)"},
-    {"absorption", true, "absorption scale k in exp2(-tau * k) (default 1)"},
-    {"exposure", true, "linear scale applied before writing (default 1)"},
-    {"ior", true, "override the glass IOR of a built-in scene"},
-    {"tessellation", true, "tessellation level of a built-in scene (0..7, default 3)"},
-    {"frames", true, "frames rendered, for timings (default 1; the image is the last frame)"},
-    {"device", true, "Vulkan device index (default: first; ctest uses lavapipe)"},
-    {"no-validation", false, "do not enable the Vulkan validation layer"},
-    {"json", false, "print a JSON summary with GPU and wall timings on stdout"},
-    {"help", false, "this text"},
-};
+using K = ValueKind;
+
+// Every flag once: its kind and range are what the parser checks and what --help prints.
+std::vector<FlagSpec> renderFlags() {
+  std::vector<FlagSpec> flags = {
+      {"output", true, "output image (.png or .exr); also -o"},
+      {"env", true, "environment: 'builtin' (default) or a lat-long image file"},
+      {"cube-env", false, "look the environment up through a cube map converted from the lat-long"},
+      {"eye", true, "camera position x,y,z (default: frames the scene); not the target"},
+      {"target", true, "point looked at x,y,z (default: the scene's centre)"},
+      {"up", true, "up vector x,y,z (default 0,1,0); not parallel to the view"},
+      {"fov", true, "vertical field of view in degrees (default 40)", K::Real, {0, 180, true, true}},
+      {"size", true, "image size WxH (default 640x480)", K::Size, {1, 16384}, {1, 16384}},
+      {"mode", true, "sh (default for .shrf; also 'field'), single-interface (default for scenes), "
+                     "exact or full-tree (CPU references traced with Embree; fields and scenes)"},
+      {"scene", true, "exact and full-tree modes of a field: the baked scene file, where it was moved to"},
+      {"max-bounces", true, "exact mode: cap on interactions (default 16)", K::Integer,
+       {1, double(bake::kMaxBakeBounces)}},
+      {"path-rule", true, "exact mode: branch a path follows at every interface: highest-energy (default) or "
+                          "first-refraction (refract unless totally reflected)"},
+      {"throughput", false, "exact mode: weight the transmitted light by the path's Fresnel throughput"},
+      {"tree-depth", true, "full-tree mode: depth of the Fresnel tree (default 8)", K::Integer, {1, 16}},
+      {"spp", true, "samples per pixel N, a perfect square: sqrt(N) x sqrt(N) stratified samples, averaged "
+                    "(default 1; every mode)", K::Integer, {1, 64}},
+      {"threads", true, "CPU modes: worker threads (default: all cores)", K::Integer, {1, 1024}},
+      {"absorption", true, "absorption scale k in exp2(-tau * k) (default 1)", K::Real, {0, kUnbounded}},
+      {"exposure", true, "linear scale applied before writing (default 1)", K::Real, {0, kUnbounded, true}},
+      {"frames", true, "frames rendered, for timings (default 1; the image is the last frame)", K::Integer,
+       {1, 100000}},
+      {"device", true, "Vulkan device index (default: first; ctest uses lavapipe)", K::Integer, {0, 1024}},
+      {"no-validation", false, "do not enable the Vulkan validation layer"},
+  };
+  for (auto& f : sceneFlags(false)) flags.push_back(f);
+  flags.push_back({"json", false, "print a JSON summary with GPU and wall timings on stdout"});
+  flags.push_back({"help", false, "this text"});
+  return flags;
+}
 
 int fail(const Error& e, int code = 1) {
   std::fprintf(stderr, "%s\n", e.message.c_str());
@@ -71,223 +86,312 @@ std::string jsonString(const std::string& text) {
   return out + "\"";
 }
 
-}  // namespace
 
-int renderCommand(int argc, char** argv) {
-  auto parsed = Args::parse("render", argc, argv, 2, kFlags);
-  if (!parsed) return fail(parsed.error(), 2);
-  const Args& args = parsed.value();
-  if (args.has("help")) {
-    std::printf("usage: shrefract render FIELD.shrf|SCENE -o OUT.png|exr [flags]\n"
-                "  FIELD.shrf: a baked refraction field (shrefract bake)\n"
-                "  SCENE: builtin:NAME (sphere, cube, torus, glass-of-water), single-interface shading\n%s",
-                usageLines(kFlags).c_str());
-    return 0;
-  }
-  if (args.positional().size() != 1)
-    return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: expected exactly one FIELD.shrf or SCENE argument"), 2);
-  const auto output = args.get("output");
-  if (!output) return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: missing -o OUT.png|exr"), 2);
-  if (!hasExtension(*output, ".png") && !hasExtension(*output, ".exr"))
-    return fail(makeError(ErrorCode::InvalidArgument, *output + ": output must end in .png or .exr"), 2);
-
-  if (auto writable = checkOutputPath(*output); !writable) return fail(writable.error());
-
-  auto eye = args.vec3("eye");
-  auto target = args.vec3("target");
-  auto up = args.vec3("up");
-  auto fov = args.number("fov");
-  auto size = args.size("size");
-  auto exposure = args.number("exposure");
-  auto absorption = args.number("absorption");
-  auto ior = args.number("ior");
-  auto tess = args.integer("tessellation");
-  auto frameCount = args.integer("frames");
-  auto device = args.integer("device");
-  for (const Error* e : {eye.ok() ? nullptr : &eye.error(), target.ok() ? nullptr : &target.error(),
-                         up.ok() ? nullptr : &up.error(), fov.ok() ? nullptr : &fov.error(),
-                         size.ok() ? nullptr : &size.error(), exposure.ok() ? nullptr : &exposure.error(),
-                         absorption.ok() ? nullptr : &absorption.error(), ior.ok() ? nullptr : &ior.error(),
-                         tess.ok() ? nullptr : &tess.error(), frameCount.ok() ? nullptr : &frameCount.error(),
-                         device.ok() ? nullptr : &device.error()})
-    if (e) return fail(*e, 2);
-  if (fov.value() && (*fov.value() <= 0.0 || *fov.value() >= 180.0))
-    return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: --fov must be in (0, 180)"), 2);
-  if (absorption.value() && !(std::isfinite(*absorption.value()) && *absorption.value() >= 0.0))
-    return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: --absorption must be finite and >= 0"), 2);
-  if (frameCount.value() && (*frameCount.value() < 1 || *frameCount.value() > 100000))
-    return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: --frames must be in 1..100000"), 2);
-
-  const std::string sceneSpec = args.positional()[0];
-  const bool builtin = sceneSpec.rfind("builtin:", 0) == 0;
-  std::string mode = args.get("mode").value_or(builtin ? "single-interface" : "sh");
-  if (mode == "field") mode = "sh";
-  if (mode != "single-interface" && mode != "sh" && mode != "exact" && mode != "full-tree")
-    return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: unknown --mode '" + mode +
-                                                          "' (available: sh, single-interface, exact, full-tree)"), 2);
-  auto maxBounces = args.integer("max-bounces");
-  auto treeDepth = args.integer("tree-depth");
-  auto threads = args.integer("threads");
-  for (const Error* e : {maxBounces.ok() ? nullptr : &maxBounces.error(), treeDepth.ok() ? nullptr : &treeDepth.error(),
-                         threads.ok() ? nullptr : &threads.error()})
-    if (e) return fail(*e, 2);
-  if (maxBounces.value() && (*maxBounces.value() < 1 || *maxBounces.value() > 1024))
-    return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: --max-bounces must be 1..1024"), 2);
-  if (treeDepth.value() && (*treeDepth.value() < 1 || *treeDepth.value() > 16))
-    return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: --tree-depth must be 1..16"), 2);
-  if (threads.value() && (*threads.value() < 1 || *threads.value() > 1024))
-    return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: --threads must be 1..1024"), 2);
-  auto spp = args.integer("spp");
-  if (!spp) return fail(spp.error(), 2);
-  uint32_t samplesPerAxis = 1;
-  if (spp.value()) {
-    const int64_t n = *spp.value();
-    while (n <= 64 && int64_t(samplesPerAxis + 1) * (samplesPerAxis + 1) <= n) ++samplesPerAxis;
-    if (n < 1 || n > 64 || int64_t(samplesPerAxis) * samplesPerAxis != n)
-      return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: --spp must be a perfect square in 1..64 "
-                                                        "(1, 4, 9, 16, 25, 36, 49, 64), got " + std::to_string(n)), 2);
-  }
+// The command line, read and checked: usage errors only, nothing loaded yet.
+struct Request {
+  std::string input, output, mode, env;
+  bool scene = false;  // a scene (builtin: or glTF), not a field
+  std::optional<std::array<float, 3>> eye, target, up;
+  float fov = 40.0f;
+  std::optional<std::array<uint32_t, 2>> size;
+  std::optional<float> exposure, absorption;
+  uint32_t samplesPerAxis = 1, frames = 1;
+  std::optional<uint32_t> maxBounces, treeDepth, threads;
+  int device = -1;
   PathRule pathRule = PathRule::HighestEnergy;
+  SceneOverrides overrides;
+  std::optional<std::string> scenePath;  // --scene
+};
+
+Error usage(const std::string& message) { return makeError(ErrorCode::InvalidArgument, message); }
+
+template <class T>
+std::optional<T> narrow(const std::optional<int64_t>& v) {
+  return v ? std::optional<T>(static_cast<T>(*v)) : std::nullopt;
+}
+
+// --spp N -> S with S * S = N (the parser checked 1..64).
+Result<uint32_t> samplesPerAxisOf(const Args& args) {
+  auto spp = args.integer("spp");
+  if (!spp) return spp.error();
+  if (!spp.value()) return 1u;
+  const int64_t n = *spp.value();
+  uint32_t s = 1;
+  while (int64_t(s + 1) * (s + 1) <= n) ++s;
+  if (int64_t(s) * s != n)
+    return usage("shrefract render: --spp must be a perfect square in 1..64 (1, 4, 9, 16, 25, 36, 49, 64), got " +
+                 std::to_string(n));
+  return s;
+}
+
+// Flags that apply to some inputs or modes only.
+Result<void> checkApplicability(const Args& args, const Request& r) {
+  const bool cpu = r.mode == "exact" || r.mode == "full-tree";
+  if (r.mode != "exact" && (args.has("path-rule") || args.has("throughput")))
+    return usage(std::string("shrefract render: ") + (args.has("path-rule") ? "--path-rule" : "--throughput") +
+                 " applies to --mode exact only");
+  if (r.scene && r.mode == "sh")
+    return usage("shrefract render: " + r.input + " is a scene and --mode sh needs a refraction field; bake one "
+                 "(shrefract bake " + r.input + " -o FIELD.shrf) and render FIELD.shrf, or use --mode "
+                 "single-interface, exact or full-tree");
+  if (!r.scene && (args.has("ior") || args.has("tessellation") || args.has("allow-open")))
+    return usage("shrefract render: --ior, --tessellation and --allow-open apply to scenes only; a field's "
+                 "geometry and media are baked");
+  if (r.scene && args.has("tessellation") && r.input.rfind("builtin:", 0) != 0)
+    return usage("shrefract render: --tessellation applies to built-in scenes only, not " + r.input);
+  if (args.has("scene") && (r.scene || !cpu))
+    return usage("shrefract render: --scene applies to --mode exact or full-tree of a field");
+  if (r.size && (uint64_t((*r.size)[0]) * r.samplesPerAxis > 16384 || uint64_t((*r.size)[1]) * r.samplesPerAxis > 16384))
+    return usage("shrefract render: --size " + std::to_string((*r.size)[0]) + "x" + std::to_string((*r.size)[1]) +
+                 " with --spp " + std::to_string(r.samplesPerAxis * r.samplesPerAxis) +
+                 " needs more than 16384 samples per axis");
+  return {};
+}
+
+Result<Request> readRequest(const Args& args) {
+  Request r;
+  if (args.positional().size() != 1)
+    return usage("shrefract render: expected exactly one FIELD.shrf or SCENE argument");
+  const auto output = args.get("output");
+  if (!output) return usage("shrefract render: missing -o OUT.png|exr");
+  if (!hasExtension(*output, ".png") && !hasExtension(*output, ".exr"))
+    return usage(*output + ": output must end in .png or .exr");
+  r.input = args.positional()[0];
+  r.output = *output;
+  r.scene = isSceneInput(r.input);
+  r.env = args.get("env").value_or("builtin");
+  auto eye = args.vec3("eye"), target = args.vec3("target"), up = args.vec3("up");
+  for (const auto* v : {&eye, &target, &up})
+    if (!*v) return v->error();
+  r.eye = eye.value();
+  r.target = target.value();
+  r.up = up.value();
+  // Kinds and ranges were checked by Args::parse.
+  if (auto v = args.number("fov").value()) r.fov = static_cast<float>(*v);
+  r.size = args.size("size").value();
+  if (auto v = args.number("exposure").value()) r.exposure = static_cast<float>(*v);
+  if (auto v = args.number("absorption").value()) r.absorption = static_cast<float>(*v);
+  r.frames = narrow<uint32_t>(args.integer("frames").value()).value_or(1u);
+  r.maxBounces = narrow<uint32_t>(args.integer("max-bounces").value());
+  r.treeDepth = narrow<uint32_t>(args.integer("tree-depth").value());
+  r.threads = narrow<uint32_t>(args.integer("threads").value());
+  r.device = narrow<int>(args.integer("device").value()).value_or(-1);
+  auto spa = samplesPerAxisOf(args);
+  if (!spa) return spa.error();
+  r.samplesPerAxis = spa.value();
+  r.mode = args.get("mode").value_or(r.scene ? "single-interface" : "sh");
+  if (r.mode == "field") r.mode = "sh";
+  if (r.mode != "single-interface" && r.mode != "sh" && r.mode != "exact" && r.mode != "full-tree")
+    return usage("shrefract render: unknown --mode '" + r.mode + "' (available: sh, single-interface, exact, full-tree)");
   if (const auto rule = args.get("path-rule")) {
-    if (*rule == "first-refraction") pathRule = PathRule::FirstRefraction;
+    if (*rule == "first-refraction") r.pathRule = PathRule::FirstRefraction;
     else if (*rule != "highest-energy")
-      return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: unknown --path-rule '" + *rule +
-                                                            "' (available: highest-energy, first-refraction)"), 2);
+      return usage("shrefract render: unknown --path-rule '" + *rule + "' (available: highest-energy, first-refraction)");
   }
-  if (mode != "exact" && (args.has("path-rule") || args.has("throughput")))
-    return fail(makeError(ErrorCode::InvalidArgument, std::string("shrefract render: ") +
-                                                          (args.has("path-rule") ? "--path-rule" : "--throughput") +
-                                                          " applies to --mode exact only"), 2);
-  if (size.value()) {
-    // Checked here, before any work: the reference renderers' limit on the sub-sample grid.
-    const auto wh = *size.value();
-    if (uint64_t(wh[0]) * samplesPerAxis > 16384 || uint64_t(wh[1]) * samplesPerAxis > 16384)
-      return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: --size " + std::to_string(wh[0]) + "x" +
-                                                            std::to_string(wh[1]) + " with --spp " +
-                                                            std::to_string(samplesPerAxis * samplesPerAxis) +
-                                                            " needs more than 16384 samples per axis"), 2);
-  }
-  if (builtin && mode == "sh")
-    return fail(makeError(ErrorCode::InvalidArgument,
-                          "shrefract render: " + sceneSpec + " has no refraction field; bake one first "
-                          "(shrefract bake " + sceneSpec + " -o FIELD.shrf) and render FIELD.shrf"), 2);
-  if (!builtin && (ior.value() || tess.value()))
-    return fail(makeError(ErrorCode::InvalidArgument, "shrefract render: --ior and --tessellation apply to built-in "
-                                                      "scenes only; a field's geometry and media are baked"), 2);
+  r.overrides = sceneOverridesFrom(args, false);
+  r.scenePath = args.get("scene");
+  if (auto ok = checkApplicability(args, r); !ok) return ok.error();
+  return r;
+}
 
-  // Load everything from disk before touching the GPU, so that input errors come first.
-  std::optional<bake::Scene> scene;
+std::string vecText(const std::array<float, 3>& v) {
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "%g,%g,%g", double(v[0]), double(v[1]), double(v[2]));
+  return buf;
+}
+
+// A camera that can look: the eye is not the target, the up vector is not along the view, and
+// every number stays finite. Named after the flags given (the defaults otherwise).
+Result<void> checkCamera(const Camera& c, const Request& r) {
+  const glm::vec3 eye(c.eye[0], c.eye[1], c.eye[2]), target(c.target[0], c.target[1], c.target[2]);
+  const glm::vec3 up(c.up[0], c.up[1], c.up[2]);
+  const glm::vec3 view = target - eye;
+  const std::string eyeName = r.eye ? "--eye " + vecText(c.eye) : "the default eye " + vecText(c.eye);
+  const std::string targetName = r.target ? "--target " + vecText(c.target) : "the default target " + vecText(c.target);
+  if (!std::isfinite(glm::length(view)))
+    return usage("shrefract render: " + eyeName + " and " + targetName + " are too far apart to render");
+  if (glm::length(view) <= 1e-6f * std::max({1.0f, glm::length(eye), glm::length(target)}))
+    return usage("shrefract render: " + eyeName + " is the same point as " + targetName +
+                 "; the camera has no view direction");
+  const float sine = glm::length(glm::cross(glm::normalize(view), up)) / std::max(glm::length(up), 1e-30f);
+  if (!(glm::length(up) > 0.0f) || !(sine > 1e-4f))
+    return usage("shrefract render: " + (r.up ? "--up " + vecText(c.up) : "the default up 0,1,0") +
+                 " is parallel to the view from " + eyeName + " to " + targetName + "; give another --up");
+  return {};
+}
+
+// What the render reads from disk, all before any long work.
+struct Inputs {
+  std::optional<bake::Scene> scene;  // the scene drawn or traced
   std::optional<Field> field;
-  if (builtin) {
-    bake::BuiltinSceneOptions sceneOptions;
-    if (tess.value()) sceneOptions.tessellation = static_cast<int>(*tess.value());
-    if (ior.value()) sceneOptions.iorOverride = static_cast<float>(*ior.value());
-    auto made = bake::makeBuiltinScene(sceneSpec.substr(8), sceneOptions);
-    if (!made) return fail(makeError(made.error().code, sceneSpec + ": " + made.error().message));
-    scene = std::move(made).value();
+  bake::Image environment;
+};
+
+// The scene of a scene input, or (CPU modes of a field) the scene the field was baked from.
+Result<bake::Scene> loadTracedScene(const Request& r, const std::optional<Field>& field) {
+  std::string spec = r.input;
+  if (field) {
+    auto resolved = bakedSceneSpec(r.input, field->settings.source, r.scenePath);
+    if (!resolved) return resolved.error();
+    spec = resolved.value();
+  }
+  std::vector<std::string> warnings;
+  auto scene = loadScene(spec, r.overrides, &warnings);
+  if (!scene) {
+    if (!field) return scene.error();
+    return makeError(scene.error().code, r.input + ": cannot rebuild the baked scene: " + scene.error().message);
+  }
+  for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  return scene;
+}
+
+Result<Inputs> loadInputs(const Request& r) {
+  Inputs in;
+  if (!r.scene) {
+    auto read = readField(r.input);
+    if (!read) return read.error();
+    in.field = std::move(read).value();
+  }
+  if (r.scene || r.mode == "exact" || r.mode == "full-tree") {
+    auto scene = loadTracedScene(r, in.field);
+    if (!scene) return scene.error();
+    in.scene = std::move(scene).value();
+  }
+  auto env = offscreen::loadEnvironmentImage(r.env);
+  if (!env) return env.error();
+  in.environment = std::move(env).value();
+  return in;
+}
+
+// The default view frames what is drawn (a field's mesh, or the scene), then the flags apply.
+Camera cameraFor(const Request& r, const Inputs& in) {
+  Camera camera;
+  if (in.field) {
+    std::array<float, 3> lo{}, hi{};
+    offscreen::meshBounds(in.field->mesh, lo, hi);
+    camera = offscreen::frameBounds(lo, hi, r.fov);
   } else {
-    auto read = readField(sceneSpec);
-    if (!read) return fail(read.error());
-    field = std::move(read).value();
+    camera = offscreen::defaultCamera(*in.scene, r.fov);
   }
-  auto envImage = offscreen::loadEnvironmentImage(args.get("env").value_or("builtin"));
-  if (!envImage) return fail(envImage.error());
+  if (r.eye) camera.eye = *r.eye;
+  if (r.target) camera.target = *r.target;
+  if (r.up) camera.up = *r.up;
+  return camera;
+}
 
-  if (mode == "exact" || mode == "full-tree") {
-    // CPU references: the true paths through the baked (or built-in) scene, same camera.
-    std::optional<bake::Scene> traced = scene;
-    if (!traced) {
-      auto rebuilt = loadScene(field->settings.source, {}, nullptr);
-      if (!rebuilt)
-        return fail(makeError(rebuilt.error().code, sceneSpec + ": cannot rebuild the baked scene: " +
-                                                        rebuilt.error().message));
-      traced = std::move(rebuilt).value();
-    }
-    auto tracer = bake::Tracer::create(*traced);
-    if (!tracer) return fail(makeError(tracer.error().code, sceneSpec + ": " + tracer.error().message));
-    bake::ReferenceOptions ro;
-    ro.mode = mode == "exact" ? bake::ReferenceMode::Exact : bake::ReferenceMode::FullTree;
-    const float fovDegrees = fov.value() ? static_cast<float>(*fov.value()) : 40.0f;
-    if (field) {
-      std::array<float, 3> lo{}, hi{};
-      offscreen::meshBounds(field->mesh, lo, hi);
-      ro.camera = offscreen::frameBounds(lo, hi, fovDegrees);
-    } else {
-      ro.camera = offscreen::defaultCamera(*traced, fovDegrees);
-    }
-    if (eye.value()) ro.camera.eye = *eye.value();
-    if (target.value()) ro.camera.target = *target.value();
-    if (up.value()) ro.camera.up = *up.value();
-    if (size.value()) {
-      ro.width = (*size.value())[0];
-      ro.height = (*size.value())[1];
-    }
-    if (exposure.value()) ro.exposure = static_cast<float>(*exposure.value());
-    if (absorption.value()) ro.absorptionScale = static_cast<float>(*absorption.value());
-    if (maxBounces.value()) ro.maxBounces = static_cast<uint32_t>(*maxBounces.value());
-    if (treeDepth.value()) ro.treeDepth = static_cast<uint32_t>(*treeDepth.value());
-    if (threads.value()) ro.threads = static_cast<uint32_t>(*threads.value());
-    ro.pathRule = pathRule;
-    ro.throughput = args.has("throughput");
-    ro.samplesPerAxis = samplesPerAxis;
-    auto image = bake::renderReference(*tracer.value(), *traced, envImage.value(), ro);
-    if (!image) return fail(image.error());
-    if (auto written = bake::writeImage(*output, image.value().color); !written) return fail(written.error());
-    if (args.has("json"))
-      std::printf("{\"output\": %s, \"scene\": %s, \"mode\": %s, \"width\": %u, \"height\": %u, "
-                  "\"spp\": %u, \"path_rule\": %s, \"throughput\": %s, \"rays\": %llu, \"cpu_seconds\": %.4f}\n",
-                  jsonString(*output).c_str(), jsonString(sceneSpec).c_str(), jsonString(mode).c_str(), ro.width,
-                  ro.height, samplesPerAxis * samplesPerAxis, jsonString(toString(pathRule)).c_str(),
-                  ro.throughput ? "true" : "false", static_cast<unsigned long long>(image.value().rays),
-                  image.value().seconds);
-    else
-      std::printf("rendered %s (%ux%u, %s, CPU) in %.2f s -> %s\n", sceneSpec.c_str(), ro.width, ro.height,
-                  mode.c_str(), image.value().seconds, output->c_str());
-    return 0;
+// Exact and full-tree: CPU references traced with Embree, with progress on stderr.
+int renderCpu(const Args& args, const Request& r, const Inputs& in, const Camera& camera) {
+  auto tracer = bake::Tracer::create(*in.scene);
+  if (!tracer) return fail(makeError(tracer.error().code, r.input + ": " + tracer.error().message));
+  bake::ReferenceOptions ro;
+  ro.mode = r.mode == "exact" ? bake::ReferenceMode::Exact : bake::ReferenceMode::FullTree;
+  ro.camera = camera;
+  if (r.size) {
+    ro.width = (*r.size)[0];
+    ro.height = (*r.size)[1];
   }
+  ro.exposure = r.exposure.value_or(ro.exposure);
+  ro.absorptionScale = r.absorption.value_or(ro.absorptionScale);
+  ro.maxBounces = r.maxBounces.value_or(ro.maxBounces);
+  ro.treeDepth = r.treeDepth.value_or(ro.treeDepth);
+  ro.threads = r.threads.value_or(0u);
+  ro.pathRule = r.pathRule;
+  ro.throughput = args.has("throughput");
+  ro.samplesPerAxis = r.samplesPerAxis;
+  Progress progress("render " + r.mode, stderr);
+  ro.progress = [&](const bake::ReferenceProgress& p) {
+    progress.update(p.rowsDone, p.rowsTotal, p.seconds, p.seconds > 0 ? double(p.rays) / p.seconds : 0.0, "rays/s");
+  };
+  auto image = bake::renderReference(*tracer.value(), *in.scene, in.environment, ro);
+  progress.finish();
+  if (!image) return fail(image.error());
+  if (auto written = bake::writeImage(r.output, image.value().color); !written) return fail(written.error());
+  const auto& result = image.value();
+  if (args.has("json"))
+    std::printf("{\"output\": %s, \"scene\": %s, \"mode\": %s, \"width\": %u, \"height\": %u, "
+                "\"spp\": %u, \"path_rule\": %s, \"throughput\": %s, \"rays\": %llu, \"cpu_seconds\": %.4f}\n",
+                jsonString(r.output).c_str(), jsonString(r.input).c_str(), jsonString(r.mode).c_str(), ro.width,
+                ro.height, r.samplesPerAxis * r.samplesPerAxis, jsonString(toString(r.pathRule)).c_str(),
+                ro.throughput ? "true" : "false", static_cast<unsigned long long>(result.rays), result.seconds);
+  else
+    std::printf("rendered %s (%ux%u, %u spp, %s, CPU) in %.2f s, %.3g rays (%.3g rays/s) -> %s\n", r.input.c_str(),
+                ro.width, ro.height, r.samplesPerAxis * r.samplesPerAxis, r.mode.c_str(), result.seconds,
+                double(result.rays), result.seconds > 0 ? double(result.rays) / result.seconds : 0.0,
+                r.output.c_str());
+  return 0;
+}
 
+void printGpuSummary(const Args& args, const Request& r, const Inputs& in, const offscreen::FrameSettings& frame,
+                     const offscreen::FrameTimings& timings, const std::string& deviceName, double seconds) {
+  std::vector<double> wall = timings.wallMs;
+  std::sort(wall.begin(), wall.end());
+  const double wallMedian = wall.empty() ? 0.0 : wall[wall.size() / 2];
+  double wallMean = 0.0;
+  for (double w : wall) wallMean += w / double(wall.size());
+  if (!args.has("json")) {
+    std::printf("rendered %s (%ux%u, %s, %s) in %.2f s -> %s\n", r.input.c_str(), frame.width, frame.height,
+                r.mode.c_str(), deviceName.c_str(), seconds, r.output.c_str());
+    return;
+  }
+  std::printf("{\"output\": %s, \"scene\": %s, \"mode\": %s, \"environment\": %s, \"width\": %u, "
+              "\"height\": %u, \"spp\": %u, \"device\": %s, \"frames\": %zu, ",
+              jsonString(r.output).c_str(), jsonString(r.input).c_str(), jsonString(r.mode).c_str(),
+              jsonString(args.has("cube-env") ? "cube" : "lat-long").c_str(), frame.width, frame.height,
+              r.samplesPerAxis * r.samplesPerAxis, jsonString(deviceName).c_str(), timings.wallMs.size());
+  if (in.field)
+    std::printf("\"field\": {\"order\": %u, \"width\": %u, \"height\": %u, \"quantization\": %s, "
+                "\"triangles\": %zu}, ",
+                in.field->order, in.field->width, in.field->height,
+                jsonString(toString(in.field->quantization)).c_str(), in.field->mesh.indices.size() / 3);
+  if (timings.gpuTimestamps)
+    std::printf("\"gpu_ms\": {\"decompression\": %.4f, \"raster\": %.4f}, ", timings.decompressionMs,
+                timings.rasterMs);
+  else
+    std::printf("\"gpu_ms\": null, ");
+  std::printf("\"wall_ms\": {\"mean\": %.4f, \"median\": %.4f, \"min\": %.4f, \"max\": %.4f}, "
+              "\"seconds\": %.4f}\n",
+              wallMean, wallMedian, wall.empty() ? 0.0 : wall.front(), wall.empty() ? 0.0 : wall.back(), seconds);
+}
+
+// SH field and single-interface modes: the engine's passes on the GPU.
+int renderGpu(const Args& args, const Request& r, const Inputs& in, const Camera& camera) {
   const auto start = std::chrono::steady_clock::now();
   harness::HarnessOptions options;
   options.enableValidation = !args.has("no-validation");
-  options.deviceIndex = device.value() ? static_cast<int>(*device.value()) : -1;
+  options.deviceIndex = r.device;
   auto session = offscreen::createSession(options);
-  if (!session) return fail(session.error());
+  if (!session) {
+    // A device index the machine does not have is a usage error naming the flag.
+    if (r.device >= 0 && session.error().code == ErrorCode::InvalidArgument)
+      return fail(usage("shrefract render: --device " + std::to_string(r.device) + ": " + session.error().message), 2);
+    return fail(session.error());
+  }
   offscreen::Session& s = *session.value();
-  auto env = offscreen::uploadEnvironment(s, envImage.value(), args.has("cube-env"));
+  auto env = offscreen::uploadEnvironment(s, in.environment, args.has("cube-env"));
   if (!env) return fail(env.error());
   std::vector<std::unique_ptr<Object>> objects;
-  if (scene) {
-    auto uploaded = offscreen::uploadScene(s, *scene);
+  if (in.field) {
+    auto uploaded = offscreen::uploadField(s, *in.field);
+    if (!uploaded) return fail(makeError(uploaded.error().code, r.input + ": " + uploaded.error().message));
+    objects.push_back(std::move(uploaded).value());
+  } else {
+    auto uploaded = offscreen::uploadScene(s, *in.scene);
     if (!uploaded) return fail(uploaded.error());
     objects = std::move(uploaded).value();
-  } else {
-    auto uploaded = offscreen::uploadField(s, *field);
-    if (!uploaded) return fail(makeError(uploaded.error().code, sceneSpec + ": " + uploaded.error().message));
-    objects.push_back(std::move(uploaded).value());
   }
   for (auto& o : objects)
-    if (absorption.value()) o->shading.absorptionScale = static_cast<float>(*absorption.value());
+    if (r.absorption) o->shading.absorptionScale = *r.absorption;
 
   offscreen::FrameSettings frame;
-  const float fovDegrees = fov.value() ? static_cast<float>(*fov.value()) : 40.0f;
-  if (scene) {
-    frame.camera = offscreen::defaultCamera(*scene, fovDegrees);
-  } else {
-    std::array<float, 3> lo{}, hi{};
-    offscreen::meshBounds(field->mesh, lo, hi);
-    frame.camera = offscreen::frameBounds(lo, hi, fovDegrees);
+  frame.camera = camera;
+  if (r.size) {
+    frame.width = (*r.size)[0];
+    frame.height = (*r.size)[1];
   }
-  if (eye.value()) frame.camera.eye = *eye.value();
-  if (target.value()) frame.camera.target = *target.value();
-  if (up.value()) frame.camera.up = *up.value();
-  if (size.value()) {
-    frame.width = (*size.value())[0];
-    frame.height = (*size.value())[1];
-  }
-  if (exposure.value()) frame.exposure = static_cast<float>(*exposure.value());
-  frame.mode = mode == "sh" ? ShadingMode::Field : ShadingMode::SingleInterface;
-  frame.frames = frameCount.value() ? static_cast<uint32_t>(*frameCount.value()) : 1u;
-  frame.samplesPerAxis = samplesPerAxis;
+  frame.exposure = r.exposure.value_or(frame.exposure);
+  frame.mode = r.mode == "sh" ? ShadingMode::Field : ShadingMode::SingleInterface;
+  frame.frames = r.frames;
+  frame.samplesPerAxis = r.samplesPerAxis;
   std::vector<Object*> drawList;
   for (auto& o : objects) drawList.push_back(o.get());
   offscreen::FrameTimings timings;
@@ -300,38 +404,38 @@ int renderCommand(int argc, char** argv) {
   if (messages != 0)
     return fail(makeError(ErrorCode::Vulkan, "shrefract render: " + std::to_string(messages) +
                                                  " Vulkan validation message(s); no image written"));
-  if (auto written = bake::writeImage(*output, image.value()); !written) return fail(written.error());
+  if (auto written = bake::writeImage(r.output, image.value()); !written) return fail(written.error());
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  std::vector<double> wall = timings.wallMs;
-  std::sort(wall.begin(), wall.end());
-  const double wallMedian = wall.empty() ? 0.0 : wall[wall.size() / 2];
-  double wallMean = 0.0;
-  for (double w : wall) wallMean += w / double(wall.size());
-  if (args.has("json")) {
-    std::printf("{\"output\": %s, \"scene\": %s, \"mode\": %s, \"environment\": %s, \"width\": %u, "
-                "\"height\": %u, \"spp\": %u, \"device\": %s, \"frames\": %zu, ",
-                jsonString(*output).c_str(), jsonString(sceneSpec).c_str(), jsonString(mode).c_str(),
-                jsonString(args.has("cube-env") ? "cube" : "lat-long").c_str(), frame.width, frame.height,
-                samplesPerAxis * samplesPerAxis,
-                jsonString(s.harness->deviceName()).c_str(), timings.wallMs.size());
-    if (field)
-      std::printf("\"field\": {\"order\": %u, \"width\": %u, \"height\": %u, \"quantization\": %s, "
-                  "\"triangles\": %zu}, ",
-                  field->order, field->width, field->height, jsonString(toString(field->quantization)).c_str(),
-                  field->mesh.indices.size() / 3);
-    if (timings.gpuTimestamps)
-      std::printf("\"gpu_ms\": {\"decompression\": %.4f, \"raster\": %.4f}, ", timings.decompressionMs,
-                  timings.rasterMs);
-    else
-      std::printf("\"gpu_ms\": null, ");
-    std::printf("\"wall_ms\": {\"mean\": %.4f, \"median\": %.4f, \"min\": %.4f, \"max\": %.4f}, "
-                "\"seconds\": %.4f}\n",
-                wallMean, wallMedian, wall.empty() ? 0.0 : wall.front(), wall.empty() ? 0.0 : wall.back(), seconds);
-  } else {
-    std::printf("rendered %s (%ux%u, %s, %s) in %.2f s -> %s\n", sceneSpec.c_str(), frame.width, frame.height,
-                mode.c_str(), s.harness->deviceName().c_str(), seconds, output->c_str());
-  }
+  printGpuSummary(args, r, in, frame, timings, s.harness->deviceName(), seconds);
   return 0;
+}
+
+}  // namespace
+
+int renderCommand(int argc, char** argv) {
+  const std::vector<FlagSpec> flags = renderFlags();
+  auto parsed = Args::parse("render", argc, argv, 2, flags);
+  if (!parsed) return fail(parsed.error(), 2);
+  const Args& args = parsed.value();
+  if (args.has("help")) {
+    std::printf("usage: shrefract render FIELD.shrf|SCENE -o OUT.png|exr [flags]\n"
+                "  FIELD.shrf: a baked refraction field (shrefract bake): every mode\n"
+                "  SCENE: builtin:NAME (sphere, cube, torus, glass-of-water) or a .gltf/.glb file: the modes that\n"
+                "         need no field (single-interface, exact, full-tree)\n%s",
+                usageLines(flags).c_str());
+    return 0;
+  }
+  auto request = readRequest(args);
+  if (!request) return fail(request.error(), 2);
+  const Request& r = request.value();
+  // The output first: an unwritable path fails before any loading or rendering.
+  if (auto writable = checkOutputPath(r.output); !writable) return fail(writable.error());
+  auto inputs = loadInputs(r);
+  if (!inputs) return fail(inputs.error());
+  const Camera camera = cameraFor(r, inputs.value());
+  if (auto ok = checkCamera(camera, r); !ok) return fail(ok.error(), 2);
+  if (r.mode == "exact" || r.mode == "full-tree") return renderCpu(args, r, inputs.value(), camera);
+  return renderGpu(args, r, inputs.value(), camera);
 }
 
 }  // namespace shrefract::cli

@@ -1,84 +1,79 @@
 // `shrefract report [SCENES...] -o DIR`: error against run time for every setting.
 #include <cstdio>
+#include <filesystem>
+#include <optional>
 #include <string>
+
+#include <unistd.h>
 
 #include "cli/args.h"
 #include "cli/commands.h"
+#include "cli/scene_source.h"
 #include "report/report.h"
 
 namespace shrefract::cli {
+namespace {
 
-int reportCommand(int argc, char** argv) {
-  const std::vector<FlagSpec> flags = {
-      {"output", true, "output directory (created); also -o"},
+namespace fs = std::filesystem;
+using K = ValueKind;
+
+// Every flag once: its kind and range are what the parser checks and what --help prints.
+std::vector<FlagSpec> reportFlags() {
+  std::vector<FlagSpec> flags = {
+      {"output", true, "output directory (replaced only once the report is complete); also -o"},
       {"full", false, "the paper's workload (35k samples, 32x64 directions; long)"},
       {"smoke", false, "a tiny report in seconds (for tests)"},
       {"fidelity-only", false, "only the fidelity section (physical reference, encodings, error decomposition)"},
-      {"size", true, "image size WxH (default 320x240; --full 640x480)"},
-      {"frames", true, "GPU frames timed per setting"},
-      {"threads", true, "bake and CPU reference threads (default: all cores)"},
-      {"device", true, "Vulkan device index"},
-      {"help", false, "this text"},
+      {"size", true, "image size WxH (default 320x240; --full 640x480)", K::Size, {1, 16384}, {1, 16384}},
+      {"frames", true, "GPU frames timed per setting", K::Integer, {1, 1000}},
+      {"samples", true, "surface sample budget of every bake (default by size: --smoke 300, 3000 or the "
+                        "bake's default, --full 35000); raise it for scenes with many vertices", K::Integer, {1, 1e8}},
+      {"threads", true, "bake and CPU reference threads (default: all cores)", K::Integer, {1, 1024}},
+      {"device", true, "Vulkan device index", K::Integer, {0, 1024}},
   };
-  auto parsed = Args::parse("report", argc, argv, 2, flags);
-  if (!parsed) {
-    std::fprintf(stderr, "%s\n", parsed.error().message.c_str());
-    return 2;
-  }
-  const Args& args = parsed.value();
-  if (args.has("help")) {
-    std::printf("usage: shrefract report [SCENES...] -o DIR [flags]\n"
-                "  SCENES: builtin:NAME[?tessellation=N&ior=X&absorption=Y] or glTF files\n"
-                "  default: builtin:sphere and builtin:glass-of-water for the settings sweeps; the fidelity\n"
-                "  section takes the four built-in scenes and ../shared/assets/bunny.glb when it exists\n%s",
-                usageLines(flags).c_str());
-    return 0;
-  }
-  auto bad = [](const std::string& m) {
-    std::fprintf(stderr, "%s\n", m.c_str());
-    return 2;
-  };
-  const auto out = args.get("output");
-  if (!out) return bad("shrefract report: missing -o DIR");
-  if (args.has("full") && args.has("smoke")) return bad("shrefract report: --full and --smoke exclude each other");
-  auto size = args.size("size");
-  auto frames = args.integer("frames");
-  auto threads = args.integer("threads");
-  auto device = args.integer("device");
-  for (const Error* e : {size.ok() ? nullptr : &size.error(), frames.ok() ? nullptr : &frames.error(),
-                         threads.ok() ? nullptr : &threads.error(), device.ok() ? nullptr : &device.error()})
-    if (e) return bad(e->message);
-  if (frames.value() && (*frames.value() < 1 || *frames.value() > 1000)) return bad("shrefract report: --frames must be 1..1000");
-  if (threads.value() && (*threads.value() < 1 || *threads.value() > 1024)) return bad("shrefract report: --threads must be 1..1024");
+  for (auto& f : sceneFlags(true)) flags.push_back(f);
+  flags.push_back({"help", false, "this text"});
+  return flags;
+}
 
-  report::ReportOptions options;
-  options.scenes = args.positional();
-  options.outputDirectory = *out;
-  options.size = args.has("full") ? report::ReportSize::Full
-                 : args.has("smoke") ? report::ReportSize::Smoke
-                                     : report::ReportSize::Default;
-  if (size.value()) {
-    options.width = (*size.value())[0];
-    options.height = (*size.value())[1];
-  }
-  if (frames.value()) options.frames = static_cast<uint32_t>(*frames.value());
-  if (threads.value()) options.threads = static_cast<uint32_t>(*threads.value());
-  if (device.value()) options.deviceIndex = static_cast<int>(*device.value());
-  options.fidelityOnly = args.has("fidelity-only");
-  auto result = report::runReport(options);
-  if (!result) {
-    std::fprintf(stderr, "%s\n", result.error().message.c_str());
-    return 1;
-  }
+int usageError(const std::string& m) {
+  std::fprintf(stderr, "%s\n", m.c_str());
+  return 2;
+}
+
+// The output directory may exist (it is replaced), but not as a file, and its parent must.
+Result<void> checkOutputDirectory(const fs::path& dir) {
+  std::error_code ec;
+  if (fs::exists(dir, ec) && !fs::is_directory(dir, ec))
+    return makeError(ErrorCode::Io, dir.string() + ": exists and is not a directory");
+  fs::path parent = dir.parent_path();
+  if (parent.empty()) parent = ".";
+  if (!fs::is_directory(parent, ec)) return makeError(ErrorCode::Io, dir.string() + ": parent directory does not exist");
+  if (access(parent.c_str(), W_OK) != 0) return makeError(ErrorCode::Io, dir.string() + ": parent directory is not writable");
+  return {};
+}
+
+// Moves the finished report from `staging` to `dir`, replacing an earlier report there.
+Result<void> publish(const fs::path& staging, const fs::path& dir) {
+  std::error_code ec;
+  const fs::path old = dir.string() + ".old-" + std::to_string(getpid());
+  const bool replacing = fs::exists(dir, ec);
+  if (replacing) fs::rename(dir, old, ec);
+  if (!ec) fs::rename(staging, dir, ec);
+  if (ec) return makeError(ErrorCode::Io, dir.string() + ": cannot move the report into place: " + ec.message());
+  if (replacing) fs::remove_all(old, ec);
+  return {};
+}
+
+void printSummary(const report::ReportResult& result, const std::string& out) {
   std::printf("report: %zu settings measured in %.1f s; wrote %zu files to %s (start with %s/report.md)\n",
-              result.value().rows.size(), result.value().seconds, result.value().files.size(), out->c_str(),
-              out->c_str());
-  for (const auto& row : result.value().rows)
+              result.rows.size(), result.seconds, result.files.size(), out.c_str(), out.c_str());
+  for (const auto& row : result.rows)
     if (row.group == "order" || row.group == "baseline")
       std::printf("  %-40s %-24s mean angle %6.2f deg  PSNR %6.2f dB  frame %8.2f ms%s\n",
                   row.scene.substr(0, 40).c_str(), row.label.c_str(), row.meanAngle, row.psnr, row.frameMs,
                   row.gpu ? "" : " (CPU)");
-  for (const auto& scene : result.value().fidelity) {
+  for (const auto& scene : result.fidelity) {
     if (!scene.skipped.empty()) {
       std::printf("  fidelity %-31s skipped: %s\n", scene.scene.substr(0, 31).c_str(), scene.skipped.c_str());
       continue;
@@ -89,6 +84,73 @@ int reportCommand(int argc, char** argv) {
                     (row.kind == "field" ? row.series + " " + row.label : row.label).substr(0, 40).c_str(),
                     row.psnrPhysical);
   }
+}
+
+}  // namespace
+
+int reportCommand(int argc, char** argv) {
+  const std::vector<FlagSpec> flags = reportFlags();
+  auto parsed = Args::parse("report", argc, argv, 2, flags);
+  if (!parsed) return usageError(parsed.error().message);
+  const Args& args = parsed.value();
+  if (args.has("help")) {
+    std::printf("usage: shrefract report [SCENES...] -o DIR [flags]\n"
+                "  SCENES: builtin:NAME or glTF files; --allow-open, --ior, --absorption and --tessellation apply\n"
+                "  to them as in bake. Default: builtin:sphere and builtin:glass-of-water for the settings sweeps;\n"
+                "  the fidelity section takes the four built-in scenes and ../shared/assets/bunny.glb when it exists\n%s",
+                usageLines(flags).c_str());
+    return 0;
+  }
+  if (!args.get("output")) return usageError("shrefract report: missing -o DIR");
+  // "out/" names the directory out, and its staging sibling must not land inside it.
+  fs::path outPath = fs::path(*args.get("output")).lexically_normal();
+  if (outPath.filename().empty()) outPath = outPath.parent_path();
+  const auto out = std::optional<std::string>(outPath.string());
+  if (args.has("full") && args.has("smoke")) return usageError("shrefract report: --full and --smoke exclude each other");
+  const SceneOverrides overrides = sceneOverridesFrom(args, true);
+  const bool sceneFlag = args.has("allow-open") || args.has("ior") || args.has("absorption") || args.has("tessellation");
+  if (sceneFlag && args.positional().empty())
+    return usageError("shrefract report: --allow-open, --ior, --absorption and --tessellation apply to the SCENES "
+                      "given; give at least one");
+
+  report::ReportOptions options;
+  for (const std::string& scene : args.positional()) options.scenes.push_back(canonicalSceneSpec(scene, overrides));
+  options.size = args.has("full") ? report::ReportSize::Full
+                 : args.has("smoke") ? report::ReportSize::Smoke
+                                     : report::ReportSize::Default;
+  // Kinds and ranges were checked by Args::parse.
+  if (auto size = args.size("size").value()) {
+    options.width = (*size)[0];
+    options.height = (*size)[1];
+  }
+  if (auto v = args.integer("frames").value()) options.frames = static_cast<uint32_t>(*v);
+  if (auto v = args.integer("threads").value()) options.threads = static_cast<uint32_t>(*v);
+  if (auto v = args.integer("samples").value()) options.samples = static_cast<uint64_t>(*v);
+  if (auto v = args.integer("device").value()) options.deviceIndex = static_cast<int>(*v);
+  options.fidelityOnly = args.has("fidelity-only");
+
+  if (auto ok = checkOutputDirectory(*out); !ok) {
+    std::fprintf(stderr, "%s\n", ok.error().message.c_str());
+    return 1;
+  }
+  // Written beside DIR and moved into place once complete: a failed run leaves nothing behind.
+  const fs::path staging = *out + ".partial-" + std::to_string(getpid());
+  options.outputDirectory = staging.string();
+  auto result = report::runReport(options);
+  if (result) {
+    if (auto moved = publish(staging, *out); !moved) result = moved.error();
+  }
+  if (!result) {
+    std::error_code ec;
+    fs::remove_all(staging, ec);
+    // A device index the machine does not have is a usage error naming the flag.
+    const std::string message = result.error().message;
+    const bool badDevice = options.deviceIndex >= 0 && message.find("device index") != std::string::npos;
+    if (badDevice) return usageError("shrefract report: --device " + std::to_string(options.deviceIndex) + ": " + message);
+    std::fprintf(stderr, "%s\n", message.c_str());
+    return 1;
+  }
+  printSummary(result.value(), *out);
   return 0;
 }
 

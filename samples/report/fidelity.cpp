@@ -58,7 +58,7 @@ BakeSettings withEncoding(BakeSettings s, Encoding encoding, uint32_t order, uin
   return s;
 }
 
-Profile profileFor(ReportSize size) {
+Profile profileFor(ReportSize size, uint64_t samples) {
   Profile p;
   BakeSettings base;  // the default bake: order 8, 32x64 directions, split layout, default budget
   BakeSettings sweep = base;
@@ -109,6 +109,7 @@ Profile profileFor(ReportSize size) {
   }
   base.quantization = Quantization::F16;
   sweep.quantization = Quantization::F16;
+  if (samples != 0) base.sampleBudget = sweep.sampleBudget = samples;  // report --samples
   const std::string dirs = fmt(" %ux%u", base.directionsTheta, base.directionsPhi);
   const std::string baseLabel = base.encoding == Encoding::Sh ? fmt("sh L%u", base.order)
                                                                : fmt("pca K%u N%u", base.components, base.tableSize);
@@ -673,7 +674,7 @@ std::string markdownOf(const Profile& p, const std::vector<FidelityScene>& scene
 Result<FidelityResult> runFidelity(const FidelityOptions& options, offscreen::Session& session,
                                    std::vector<std::string>& files) {
   const auto start = Clock::now();
-  const Profile profile = profileFor(options.size);
+  const Profile profile = profileFor(options.size, options.samples);
   const uint32_t width = options.width ? options.width : profile.width;
   const uint32_t height = options.height ? options.height : profile.height;
   const std::vector<std::string> specs = options.scenes.empty() ? profile.scenes : options.scenes;

@@ -35,6 +35,7 @@ struct FidelityOptions {
   uint32_t width = 0, height = 0;   // 0: by size
   uint32_t frames = 0;              // GPU frames timed per row; 0: by size
   uint32_t threads = 0;
+  uint64_t samples = 0;             // sample budget of every bake; 0: by size
 };
 
 // Runs the section on `session` (validation messages are the caller's to check). Images and plots

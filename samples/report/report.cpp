@@ -205,7 +205,8 @@ struct StabilityRow {
 Result<ReportResult> runReport(const ReportOptions& options) {
   namespace fs = std::filesystem;
   const auto start = Clock::now();
-  const SizeProfile profile = profileFor(options.size);
+  SizeProfile profile = profileFor(options.size);
+  if (options.samples != 0) profile.base.sampleBudget = options.samples;
   const uint32_t width = options.width ? options.width : profile.width;
   const uint32_t height = options.height ? options.height : profile.height;
   const uint32_t frames = options.frames ? options.frames : profile.frames;
@@ -530,6 +531,7 @@ Result<ReportResult> runReport(const ReportOptions& options) {
   fo.height = options.height;
   fo.frames = options.frames;
   fo.threads = options.threads;
+  fo.samples = options.samples;
   auto fidelity = runFidelity(fo, session, result.files);
   if (!fidelity) return fidelity.error();
   result.fidelity = fidelity.value().scenes;

@@ -29,6 +29,7 @@ struct ReportOptions {
   uint32_t width = 0, height = 0;   // 0: by size
   uint32_t frames = 0;              // GPU frames timed per setting; 0: by size
   uint32_t threads = 0;             // bake and CPU reference threads; 0: all
+  uint64_t samples = 0;             // sample budget of the bakes (stiff cases: at most 1500); 0: by size
   int deviceIndex = -1;
   bool validation = true;
   bool fidelityOnly = false;        // only the fidelity section (report/fidelity.h)

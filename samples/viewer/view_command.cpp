@@ -17,41 +17,35 @@
 namespace shrefract::cli {
 namespace {
 
-const std::vector<FlagSpec> kFlags = {
-    {"field2", true, "a second field of the same object (e.g. the charts bake beside the split one); F toggles"},
-    {"env", true, "lat-long image file or 'builtin'; repeatable; E cycles through them and builtin"},
-    {"size", true, "window size WxH (default 960x640); with --screenshot, the image size"},
-    {"fov", true, "vertical field of view in degrees (default 40)"},
-    {"exposure", true, "linear scale applied before display (default 1)"},
-    {"absorption", true, "initial absorption scale k in exp2(-tau * k) (default 1)"},
-    {"order", true, "initial SH order (default: the baked order)"},
-    {"mode", true, "initial shading: field (default for fields) or single-interface"},
-    {"ior", true, "override the glass IOR of a built-in scene"},
-    {"tessellation", true, "tessellation level of a built-in scene (0..7, default 3)"},
-    {"frames", true, "render this many frames, then exit (default: until the window closes)"},
-    {"screenshot", true, "write the last frame to this .png or .exr at exit"},
-    {"keys", true, "apply one key per frame, e.g. ']-em' (the keys below; for tests)"},
-    {"device", true, "Vulkan device index (default: first)"},
-    {"no-validation", false, "do not enable the Vulkan validation layer"},
-    {"no-vsync", false, "present without waiting for vertical blank where the surface allows it"},
-    {"help", false, "this text"},
-};
+using K = ValueKind;
+
+// Every flag once: its kind and range are what the parser checks and what --help prints.
+std::vector<FlagSpec> viewFlags() {
+  std::vector<FlagSpec> flags = {
+      {"field2", true, "a second field of the same object (e.g. the charts bake beside the split one); F toggles"},
+      {"env", true, "lat-long image file or 'builtin'; repeatable; E cycles through them and builtin"},
+      {"size", true, "window size WxH (default 960x640); with --screenshot, the image size", K::Size, {1, 16384},
+       {1, 16384}},
+      {"fov", true, "vertical field of view in degrees (default 40)", K::Real, {0, 180, true, true}},
+      {"exposure", true, "linear scale applied before display (default 1)", K::Real, {0, kUnbounded, true}},
+      {"absorption", true, "initial absorption scale k in exp2(-tau * k) (default 1)", K::Real, {0, kUnbounded}},
+      {"order", true, "initial SH order (default: the baked order)", K::Integer, {0, 32}},
+      {"mode", true, "initial shading: field (default for fields) or single-interface (default for scenes)"},
+      {"frames", true, "render this many frames, then exit (default: until the window closes)", K::Integer, {1, 1e8}},
+      {"screenshot", true, "write the last frame to this .png or .exr at exit"},
+      {"keys", true, "apply one key per frame, e.g. ']-em' (the keys below; for tests)"},
+      {"device", true, "Vulkan device index (default: first)", K::Integer, {0, 1024}},
+      {"no-validation", false, "do not enable the Vulkan validation layer"},
+      {"no-vsync", false, "present without waiting for vertical blank where the surface allows it"},
+  };
+  for (auto& f : sceneFlags(false)) flags.push_back(f);
+  flags.push_back({"help", false, "this text"});
+  return flags;
+}
 
 int fail(const std::string& message, int code) {
   std::fprintf(stderr, "%s\n", message.c_str());
   return code;
-}
-
-bool endsWith(const std::string& text, const char* suffix) {
-  const size_t n = std::strlen(suffix);
-  if (text.size() < n) return false;
-  std::string tail = text.substr(text.size() - n);
-  for (auto& ch : tail) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-  return tail == suffix;
-}
-
-bool isScene(const std::string& spec) {
-  return spec.rfind("builtin:", 0) == 0 || endsWith(spec, ".gltf") || endsWith(spec, ".glb");
 }
 
 }  // namespace
@@ -71,13 +65,14 @@ int viewCommand(int argc, char** argv) {
       rest.push_back(argv[i]);
     }
   }
+  const std::vector<FlagSpec> kFlags = viewFlags();
   auto parsed = Args::parse("view", static_cast<int>(rest.size()), rest.data(), 2, kFlags);
   if (!parsed) return fail(parsed.error().message, 2);
   const Args& args = parsed.value();
   if (args.has("help")) {
     std::printf("usage: shrefract view FIELD.shrf [FIELD2.shrf] | SCENE [flags]\n"
                 "  FIELD.shrf: a baked refraction field (SH and single-interface modes)\n"
-                "  SCENE: builtin:NAME or a .gltf/.glb file (single-interface shading only)\n"
+                "  SCENE: builtin:NAME or a .gltf/.glb file (single-interface shading only; --allow-open as in bake)\n"
                 "  The window title shows the frame time and the GPU decompression and raster times.\n%s%s",
                 usageLines(kFlags).c_str(), viewer::keyHelp());
     return 0;
@@ -87,10 +82,10 @@ int viewCommand(int argc, char** argv) {
   if (auto second = args.get("field2")) inputs.push_back(*second);
   if (inputs.empty() || inputs.size() > 2)
     return fail("shrefract view: expected FIELD.shrf [FIELD2.shrf] (or --field2) or one SCENE", 2);
-  const bool scene = isScene(inputs[0]);
+  const bool scene = isSceneInput(inputs[0]);
   if (scene && inputs.size() != 1)
     return fail("shrefract view: a SCENE is shown alone (single-interface); a second field needs a first field", 2);
-  if (!scene && inputs.size() == 2 && isScene(inputs[1]))
+  if (!scene && inputs.size() == 2 && isSceneInput(inputs[1]))
     return fail("shrefract view: " + inputs[1] + " is a scene; only two fields can be shown together", 2);
 
   auto size = args.size("size");
@@ -114,33 +109,18 @@ int viewCommand(int argc, char** argv) {
     options.width = (*size.value())[0];
     options.height = (*size.value())[1];
   }
-  if (options.width < 1 || options.height < 1 || options.width > 16384 || options.height > 16384)
-    return fail("shrefract view: --size must be between 1x1 and 16384x16384", 2);
-  if (fov.value()) {
-    if (*fov.value() <= 0.0 || *fov.value() >= 180.0) return fail("shrefract view: --fov must be in (0, 180)", 2);
-    options.verticalFovDegrees = static_cast<float>(*fov.value());
-  }
-  if (exposure.value()) {
-    if (!(*exposure.value() > 0.0)) return fail("shrefract view: --exposure must be > 0", 2);
-    options.exposure = static_cast<float>(*exposure.value());
-  }
-  if (absorption.value()) {
-    if (!(*absorption.value() >= 0.0)) return fail("shrefract view: --absorption must be >= 0", 2);
-    options.absorption = static_cast<float>(*absorption.value());
-  }
-  if (order.value()) {
-    if (*order.value() < 0 || *order.value() > 32) return fail("shrefract view: --order must be in 0..32", 2);
-    options.order = static_cast<uint32_t>(*order.value());
-  }
-  if (frames.value()) {
-    if (*frames.value() < 1 || *frames.value() > 100000000)
-      return fail("shrefract view: --frames must be in 1..100000000", 2);
-    options.frames = static_cast<uint32_t>(*frames.value());
-  }
+  // Kinds and ranges were checked by Args::parse.
+  if (fov.value()) options.verticalFovDegrees = static_cast<float>(*fov.value());
+  if (exposure.value()) options.exposure = static_cast<float>(*exposure.value());
+  if (absorption.value()) options.absorption = static_cast<float>(*absorption.value());
+  if (order.value()) options.order = static_cast<uint32_t>(*order.value());
+  if (frames.value()) options.frames = static_cast<uint32_t>(*frames.value());
   if (args.has("no-vsync")) options.vsync = false;
   if (auto shot = args.get("screenshot")) {
-    if (!endsWith(*shot, ".png") && !endsWith(*shot, ".exr"))
+    if (!hasExtension(*shot, ".png") && !hasExtension(*shot, ".exr"))
       return fail("shrefract view: " + *shot + ": --screenshot must end in .png or .exr", 2);
+    // Checked now: a missing folder fails before the window opens, not after the frames.
+    if (auto writable = checkOutputPath(*shot); !writable) return fail(writable.error().message, 1);
     options.screenshot = *shot;
   }
   options.keys = args.get("keys").value_or("");
@@ -157,18 +137,20 @@ int viewCommand(int argc, char** argv) {
     return fail("shrefract view: " + inputs[0] + " has no refraction field; bake one first (shrefract bake " +
                     inputs[0] + " -o FIELD.shrf) and view FIELD.shrf", 2);
   options.mode = mode == "field" ? ShadingMode::Field : ShadingMode::SingleInterface;
-  if (!scene && (ior.value() || tess.value()))
-    return fail("shrefract view: --ior and --tessellation apply to scenes only; a field's geometry and media are baked", 2);
+  if (!scene && (ior.value() || tess.value() || args.has("allow-open")))
+    return fail("shrefract view: --ior, --tessellation and --allow-open apply to scenes only; a field's geometry and "
+                "media are baked", 2);
 
   // Load everything from disk before opening a window, so that input errors come first.
   if (scene) {
-    SceneOverrides overrides;
-    if (ior.value()) overrides.ior = static_cast<float>(*ior.value());
-    if (tess.value()) overrides.tessellation = static_cast<int>(*tess.value());
+    const SceneOverrides overrides = sceneOverridesFrom(args, false);
     std::vector<std::string> warnings;
+    if (tess.value() && inputs[0].rfind("builtin:", 0) != 0)
+      return fail("shrefract view: --tessellation applies to built-in scenes only, not " + inputs[0], 2);
     auto loaded = loadScene(inputs[0], overrides, &warnings);
-    for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+    // On failure the error alone: one line naming the file (the warnings led up to it).
     if (!loaded) return fail(loaded.error().message, 1);
+    for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     options.scene = std::move(loaded).value();
     options.sceneName = inputs[0];
   } else {

@@ -424,6 +424,11 @@ int runViewer(const ViewerOptions& options) {
   ho.instanceExtensions.assign(glfwExtensions, glfwExtensions + glfwExtensionCount);
   ho.deviceExtensions.push_back(VK_KHR_SWAPCHAIN_EXTENSION_NAME);
   auto session = offscreen::createSession(ho);
+  if (!session && options.deviceIndex >= 0 && session.error().code == ErrorCode::InvalidArgument) {
+    // A device index the machine does not have is a usage error naming the flag (as in render).
+    std::fprintf(stderr, "shrefract view: --device %d: %s\n", options.deviceIndex, session.error().message.c_str());
+    return 2;
+  }
   if (!session) return fail(session.error().message);
   h.session = std::move(session).value();
   harness::Harness& hr = *h.session->harness;

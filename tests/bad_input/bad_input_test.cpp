@@ -209,6 +209,7 @@ struct Case {
   std::vector<std::string> mustName;       // substrings the message must contain (file, flag, ...)
   std::string output;                      // the output path that must not exist afterwards
   bool needsDevice = false;                // fails only after rendering (GPU needed to get there)
+  int exit = 0;                            // the exit status required (0: any non-zero one)
 };
 
 std::vector<std::string> quickBake(const std::string& scene, const std::string& out) {
@@ -414,6 +415,45 @@ std::vector<Case> cases() {
                "out.shrf"});
   c.push_back({"unknown path rule", with({"--path-rule", "widest"}), none, {"--path-rule", "widest"}, "out.shrf"});
 
+  // Scenes given to render, cameras (issue 14).
+  const std::vector<std::string> sphere{"render", "builtin:sphere", "--tessellation", "1", "--size", "16x12",
+                                        "--mode", "exact", "-o", "out.png"};
+  auto camera = [&](std::vector<std::string> extra) {
+    std::vector<std::string> a = sphere;
+    a.insert(a.end(), extra.begin(), extra.end());
+    return a;
+  };
+  c.push_back({".glb cut in half, rendered", {"render", "cut.glb", "-o", "out.png"},
+               [](const fs::path& dir) {
+                 const std::string glb = tetrahedronGlb();
+                 writeBytes(dir / "cut.glb", glb.substr(0, glb.size() / 2));
+               },
+               {"cut.glb", "glTF"}, "out.png", false, 1});
+  c.push_back({"damaged glTF under another extension, rendered", {"render", "scene.bin", "-o", "out.png"},
+               text("scene.bin", "{\"asset\": {\"version\": "), {"scene.bin", "glTF"}, "out.png", false, 1});
+  c.push_back({"field-only mode on a glTF scene", {"render", "tetra.gltf", "--mode", "sh", "-o", "out.png"},
+               gltf("tetra.gltf", [](json&) {}), {"tetra.gltf", "--mode sh"}, "out.png", false, 2});
+  c.push_back({"eye equal to target", camera({"--eye", "0,0,3", "--target", "0,0,3"}), none,
+               {"--eye 0,0,3", "--target 0,0,3"}, "out.png", false, 2});
+  c.push_back({"up parallel to the view", camera({"--eye", "0,0,3", "--up", "0,0,1"}), none, {"--up 0,0,1"},
+               "out.png", false, 2});
+  c.push_back({"eye too large for a float", camera({"--eye", "1e39,0,0"}), none, {"--eye"}, "out.png", false, 2});
+  c.push_back({"exposure not positive", camera({"--exposure", "-1"}), none, {"--exposure"}, "out.png", false, 2});
+  c.push_back({"direction grid out of range", with({"--directions", "1000x16"}), none, {"--directions", "1000x16"},
+               "out.shrf", false, 2});
+  c.push_back({"field scene that moved", {"render", "moved.shrf", "--mode", "exact", "-o", "out.png"},
+               [](const fs::path& dir) {
+                 Field f = testing::makeSyntheticField({});
+                 f.settings.source = "gone.gltf?absolute=/nonexistent/gone.gltf";
+                 writeBytes(dir / "moved.shrf", bytesOf(serializeField(f)));
+               },
+               {"moved.shrf", "--scene"}, "out.png", false, 1});
+  c.push_back({"report of a missing scene", {"report", "missing.gltf", "--smoke", "-o", "rep"}, none,
+               {"missing.gltf"}, "rep", false, 1});
+  c.push_back({"view screenshot in a missing directory",
+               {"view", "builtin:sphere", "--frames", "1", "--screenshot", "nodir/shot.png"}, none, {"nodir/shot.png"},
+               "nodir/shot.png", false, 1});
+
   // Outputs.
   c.push_back({"bake output without .shrf", quickBake("builtin:sphere", "out.txt"), none, {"out.txt"}, "out.txt"});
   c.push_back({"bake output in a missing directory", quickBake("builtin:sphere", "nodir/out.shrf"), none,
@@ -504,6 +544,9 @@ TEST(BadInput, EveryCaseFailsWithOneLineAndNoOutput) {
     EXPECT_EQ(o.signal, 0) << "killed by signal " << o.signal << "; stderr: " << o.err;
     EXPECT_NE(o.exitCode, 0) << joinArgs(c.args) << " succeeded; stdout: " << o.out;
     EXPECT_NE(o.exitCode, -1);
+    if (c.exit != 0) {
+      EXPECT_EQ(o.exitCode, c.exit) << joinArgs(c.args) << ": " << o.err;
+    }
     // Exactly one line: one newline, at the end.
     EXPECT_EQ(std::count(o.err.begin(), o.err.end(), '\n'), 1) << "stderr:\n" << o.err;
     EXPECT_TRUE(!o.err.empty() && o.err.back() == '\n') << "stderr:\n" << o.err;

@@ -61,6 +61,33 @@ TEST(Bake, DeterministicAcrossThreadCounts) {
   EXPECT_EQ(dataBytes(bake("torus", one, 2)), dataBytes(bake("torus", two, 2)));
 }
 
+// The --max-error and --max-bytes-per-sample searches run their probes in parallelFor (oneTBB):
+// their choice and the field must not depend on the thread count either.
+// Besides the field, the notes (each candidate's measured error, printed to 4 digits) must match.
+TEST(Bake, SearchesAreDeterministicAcrossThreadCounts) {
+  BakeSettings error = small(), bytes = small();
+  error.maxErrorDegrees = 6.0f;
+  bytes.maxBytesPerSample = 40.0f;
+  auto run = [](BakeSettings s, uint32_t threads, std::string& notes) {
+    s.threads = threads;
+    s.source = "builtin:torus";
+    BuiltinSceneOptions so;
+    so.tessellation = 1;
+    BakeOptions options;
+    options.settings = s;
+    options.note = [&notes](const std::string& line) { notes += line + "\n"; };
+    auto field = bakeField(makeBuiltinScene("torus", so).value(), options);
+    EXPECT_TRUE(field.ok()) << (field.ok() ? "" : field.error().message);
+    return field.ok() ? dataBytes(std::move(field).value()) : std::vector<uint8_t>{};
+  };
+  for (const BakeSettings& s : {error, bytes}) {
+    std::string notesOne, notesThree;
+    EXPECT_EQ(run(s, 1, notesOne), run(s, 3, notesThree));
+    EXPECT_FALSE(notesOne.empty());
+    EXPECT_EQ(notesOne, notesThree);
+  }
+}
+
 TEST(Bake, AbsorbingMediaKeepTheOpticalDepthChannel) {
   BakeSettings s = small();
   s.sampleBudget = 3000;

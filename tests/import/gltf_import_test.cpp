@@ -29,223 +29,16 @@
 
 #include <unistd.h>
 
+#include "import/gltf_writer.h"
+
 namespace shrefract::bake {
 namespace {
 
 using nlohmann::json;
-
-constexpr int kFloat = 5126;
-constexpr int kUnsignedByte = 5121;
-constexpr int kUnsignedShort = 5123;
-constexpr int kUnsignedInt = 5125;
+using namespace shrefract::gltf_test;
 
 // Float tolerance on positions and normals computed in double and stored as float.
 constexpr float kTolerance = 1e-5f;
-
-std::string base64(const std::vector<uint8_t>& bytes) {
-  static const char* kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  for (size_t i = 0; i < bytes.size(); i += 3) {
-    const uint32_t b0 = bytes[i];
-    const uint32_t b1 = i + 1 < bytes.size() ? bytes[i + 1] : 0u;
-    const uint32_t b2 = i + 2 < bytes.size() ? bytes[i + 2] : 0u;
-    const uint32_t triple = (b0 << 16) | (b1 << 8) | b2;
-    out += kAlphabet[(triple >> 18) & 63u];
-    out += kAlphabet[(triple >> 12) & 63u];
-    out += i + 1 < bytes.size() ? kAlphabet[(triple >> 6) & 63u] : '=';
-    out += i + 2 < bytes.size() ? kAlphabet[triple & 63u] : '=';
-  }
-  return out;
-}
-
-// Builds a glTF document with one binary buffer.
-class GltfWriter {
- public:
-  GltfWriter() {
-    doc_["asset"] = {{"version", "2.0"}, {"generator", "shrefract gltf_import_test"}};
-  }
-
-  json& doc() { return doc_; }
-
-  // Appends raw bytes (4-byte aligned) as a buffer view; returns its index.
-  int addView(const void* data, size_t bytes, size_t stride = 0) {
-    while (bin_.size() % 4 != 0) {
-      bin_.push_back(0);
-    }
-    json view = {{"buffer", 0}, {"byteOffset", bin_.size()}, {"byteLength", bytes}};
-    if (stride != 0) {
-      view["byteStride"] = stride;
-    }
-    const auto* p = static_cast<const uint8_t*>(data);
-    bin_.insert(bin_.end(), p, p + bytes);
-    doc_["bufferViews"].push_back(view);
-    return static_cast<int>(doc_["bufferViews"].size()) - 1;
-  }
-
-  int addAccessor(int view, int componentType, size_t count, const char* type,
-                  size_t byteOffset = 0, bool normalized = false) {
-    json accessor = {{"bufferView", view},
-                     {"componentType", componentType},
-                     {"count", count},
-                     {"type", type}};
-    if (byteOffset != 0) {
-      accessor["byteOffset"] = byteOffset;
-    }
-    if (normalized) {
-      accessor["normalized"] = true;
-    }
-    doc_["accessors"].push_back(accessor);
-    return static_cast<int>(doc_["accessors"].size()) - 1;
-  }
-
-  int addVec3(const std::vector<glm::vec3>& values) {
-    const int view = addView(values.data(), values.size() * sizeof(glm::vec3));
-    const int accessor = addAccessor(view, kFloat, values.size(), "VEC3");
-    glm::vec3 lo = values.front();
-    glm::vec3 hi = values.front();
-    for (const glm::vec3& v : values) {
-      lo = glm::min(lo, v);
-      hi = glm::max(hi, v);
-    }
-    doc_["accessors"][static_cast<size_t>(accessor)]["min"] = {lo.x, lo.y, lo.z};
-    doc_["accessors"][static_cast<size_t>(accessor)]["max"] = {hi.x, hi.y, hi.z};
-    return accessor;
-  }
-
-  // Indices as u8, u16 or u32.
-  int addIndices(const std::vector<uint32_t>& indices, int componentType = kUnsignedInt) {
-    std::vector<uint8_t> bytes;
-    for (uint32_t index : indices) {
-      if (componentType == kUnsignedByte) {
-        bytes.push_back(static_cast<uint8_t>(index));
-      } else if (componentType == kUnsignedShort) {
-        const auto v = static_cast<uint16_t>(index);
-        bytes.insert(bytes.end(), {static_cast<uint8_t>(v & 0xFFu), static_cast<uint8_t>(v >> 8)});
-      } else {
-        uint8_t raw[4];
-        std::memcpy(raw, &index, 4);
-        bytes.insert(bytes.end(), raw, raw + 4);
-      }
-    }
-    const int view = addView(bytes.data(), bytes.size());
-    return addAccessor(view, componentType, indices.size(), "SCALAR");
-  }
-
-  int addMaterial(json material) {
-    doc_["materials"].push_back(std::move(material));
-    return static_cast<int>(doc_["materials"].size()) - 1;
-  }
-
-  int addMesh(json primitives, const std::string& name = "") {
-    json mesh = {{"primitives", std::move(primitives)}};
-    if (!name.empty()) {
-      mesh["name"] = name;
-    }
-    doc_["meshes"].push_back(mesh);
-    return static_cast<int>(doc_["meshes"].size()) - 1;
-  }
-
-  int addNode(json node) {
-    doc_["nodes"].push_back(std::move(node));
-    return static_cast<int>(doc_["nodes"].size()) - 1;
-  }
-
-  void setScene(const std::vector<int>& nodes) {
-    doc_["scenes"] = json::array({json{{"nodes", nodes}}});
-    doc_["scene"] = 0;
-  }
-
-  json finished(bool glb) const {
-    json out = doc_;
-    json buffer = {{"byteLength", bin_.size()}};
-    if (!glb) {
-      buffer["uri"] = "data:application/octet-stream;base64," + base64(bin_);
-    }
-    out["buffers"] = json::array({buffer});
-    return out;
-  }
-
-  std::string writeGltf(const std::filesystem::path& path) const {
-    std::ofstream(path, std::ios::binary) << finished(false).dump(1);
-    return path.string();
-  }
-
-  std::string writeGlb(const std::filesystem::path& path) const {
-    std::string text = finished(true).dump();
-    while (text.size() % 4 != 0) {
-      text += ' ';
-    }
-    std::vector<uint8_t> bin = bin_;
-    while (bin.size() % 4 != 0) {
-      bin.push_back(0);
-    }
-    std::vector<uint8_t> file;
-    auto u32 = [&file](uint32_t v) {
-      for (int i = 0; i < 4; ++i) {
-        file.push_back(static_cast<uint8_t>(v >> (8 * i)));
-      }
-    };
-    u32(0x46546C67u);  // "glTF"
-    u32(2);
-    u32(static_cast<uint32_t>(12 + 8 + text.size() + 8 + bin.size()));
-    u32(static_cast<uint32_t>(text.size()));
-    u32(0x4E4F534Au);  // "JSON"
-    file.insert(file.end(), text.begin(), text.end());
-    u32(static_cast<uint32_t>(bin.size()));
-    u32(0x004E4942u);  // "BIN\0"
-    file.insert(file.end(), bin.begin(), bin.end());
-    std::ofstream(path, std::ios::binary)
-        .write(reinterpret_cast<const char*>(file.data()),
-               static_cast<std::streamsize>(file.size()));
-    return path.string();
-  }
-
- private:
-  json doc_;
-  std::vector<uint8_t> bin_;
-};
-
-// Cube of edge 2 * half centred at `center`: 8 corners (corner i has coordinate k at +half when
-// bit k of i is set), 12 triangles counter-clockwise seen from outside.
-struct Cube {
-  std::vector<glm::vec3> positions;
-  std::vector<glm::vec3> normals;  // corner normals: normalized corner directions
-  std::vector<uint32_t> indices;
-};
-
-Cube makeCube(float half = 1.0f, glm::vec3 center = glm::vec3(0.0f)) {
-  Cube cube;
-  for (uint32_t i = 0; i < 8; ++i) {
-    const glm::vec3 d((i & 1u) ? 1.0f : -1.0f, (i & 2u) ? 1.0f : -1.0f, (i & 4u) ? 1.0f : -1.0f);
-    cube.positions.push_back(center + half * d);
-    cube.normals.push_back(glm::normalize(d));
-  }
-  for (uint32_t axis = 0; axis < 3; ++axis) {
-    const uint32_t u = (axis + 1) % 3;
-    const uint32_t w = (axis + 2) % 3;
-    for (uint32_t side = 0; side < 2; ++side) {
-      const uint32_t base = side << axis;
-      const uint32_t c00 = base;
-      const uint32_t c10 = base | (1u << u);
-      const uint32_t c11 = base | (1u << u) | (1u << w);
-      const uint32_t c01 = base | (1u << w);
-      if (side == 1) {  // u x w = +axis: (c00, c10, c11) is counter-clockwise seen from +axis
-        cube.indices.insert(cube.indices.end(), {c00, c10, c11, c00, c11, c01});
-      } else {
-        cube.indices.insert(cube.indices.end(), {c00, c11, c10, c00, c01, c11});
-      }
-    }
-  }
-  return cube;
-}
-
-json glassMaterial(double ior, const std::string& name = "glass") {
-  return json{{"name", name},
-              {"extensions",
-               {{"KHR_materials_ior", {{"ior", ior}}},
-                {"KHR_materials_transmission", {{"transmissionFactor", 1.0}}},
-                {"KHR_materials_volume", {{"thicknessFactor", 1.0}}}}}};
-}
 
 // A writer holding one cube mesh (indexed, u32, with normals) on one node, material 0.
 struct CubeFile {
@@ -711,6 +504,87 @@ TEST_F(GltfImport, DegenerateTrianglesAreDropped) {
   EXPECT_EQ(triangles(scene), 12u);
   EXPECT_EQ(report.triangles, 12u);
   EXPECT_TRUE(anyWarningContains(report, "dropped 2 degenerate"));
+}
+
+// Meshes as exporters write them (docs/scenes.md, "Repairs"): welded, deduplicated, degenerate
+// triangles dropped, each repair counted in a warning; overlapping volumes named in a warning.
+TEST_F(GltfImport, BlenderStyleBoxesAreRepairedAndTheirOverlapNamed) {
+  const BlenderBoxesCounts counts;
+  ImportReport report;
+  const Scene scene = importOk(blenderStyleBoxes().writeGltf(file("boxes.gltf")), {}, &report);
+  ASSERT_EQ(scene.surfaces.size(), 2u);
+  EXPECT_EQ(scene.media.size(), 3u);
+  for (const Surface& s : scene.surfaces) {
+    EXPECT_TRUE(checkSurface(s).closed()) << s.name;
+    EXPECT_EQ(s.indices.size() / 3, 12u) << s.name;
+    EXPECT_EQ(s.outerMedium, 0u) << s.name << ": overlapping, so neither is inside the other";
+  }
+  EXPECT_TRUE(anyWarningContains(report, "('boxA') in node 0 ('A'): welded " + std::to_string(counts.welded) +
+                                             " vertex(es)"));
+  EXPECT_TRUE(anyWarningContains(report, "('boxA') in node 0 ('A'): dropped " +
+                                             std::to_string(counts.duplicated) + " duplicated triangle(s)"));
+  EXPECT_TRUE(anyWarningContains(report, "('boxA') in node 0 ('A'): dropped " +
+                                             std::to_string(counts.degenerateA) + " degenerate"));
+  EXPECT_TRUE(anyWarningContains(report, "('boxB') in node 1 ('B'): dropped " +
+                                             std::to_string(counts.degenerateB) + " degenerate"));
+  EXPECT_TRUE(anyWarningContains(report, "mesh 0 ('boxA') in node 0 ('A') and mesh 1 ('boxB') in node 1 ('B') "
+                                         "overlap"));
+  EXPECT_FALSE(anyWarningContains(report, "('boxB') in node 1 ('B'): welded"));
+}
+
+// Two boxes of one material joined face to face in one mesh: the shared face is written once per
+// box with opposite windings; both copies go and the union is one closed volume.
+TEST_F(GltfImport, InternalWallsBetweenJoinedPartsAreDropped) {
+  const FaceBox left = makeFaceBox(1.0f, glm::vec3(-1.0f, 0.0f, 0.0f));
+  const FaceBox right = makeFaceBox(1.0f, glm::vec3(1.0f, 0.0f, 0.0f));
+  FaceBox both = left;
+  for (const glm::vec3& p : right.positions) both.positions.push_back(p);
+  for (const glm::vec3& n : right.normals) both.normals.push_back(n);
+  for (uint32_t i : right.indices) both.indices.push_back(i + 24);
+  GltfWriter w;
+  const int m = w.addMaterial(glassMaterial(1.5));
+  json attributes = {{"POSITION", w.addVec3(both.positions)}, {"NORMAL", w.addVec3(both.normals)}};
+  const int mesh = w.addMesh(json::array({json{{"attributes", attributes}, {"indices", w.addIndices(both.indices)},
+                                               {"material", m}}}), "bar");
+  w.setScene({w.addNode(json{{"mesh", mesh}})});
+  ImportReport report;
+  const Scene scene = importOk(w.writeGltf(file("bar.gltf")), {}, &report);
+  ASSERT_EQ(scene.surfaces.size(), 1u);
+  EXPECT_TRUE(checkSurface(scene.surfaces[0]).closed());
+  EXPECT_EQ(scene.surfaces[0].indices.size() / 3, 20u);
+  EXPECT_TRUE(anyWarningContains(report, "dropped 4 triangle(s) in coincident pairs of opposite winding"));
+  EXPECT_NEAR(signedVolume(scene, 1), 16.0, 1e-4);
+}
+
+// Only a volume still open after the repairs is refused, and the message names the tool's flag.
+TEST_F(GltfImport, AVolumeStillOpenAfterRepairsNamesAllowOpen) {
+  Cube cube = makeCube();
+  cube.indices.resize(cube.indices.size() - 3);
+  CubeFile f = cubeFile(cube);
+  Result<Scene> scene = importGltf(f.writer.writeGltf(file("open.gltf")));
+  ASSERT_FALSE(scene.ok());
+  EXPECT_NE(scene.error().message.find("--allow-open"), std::string::npos) << scene.error().message;
+}
+
+// Nested volumes are a medium stack, not an overlap.
+TEST_F(GltfImport, NestedVolumesAreNotReportedAsOverlapping) {
+  GltfWriter w;
+  const Cube outer = makeCube(2.0f);
+  const Cube inner = makeCube(0.5f, glm::vec3(0.3f, 0.2f, 0.1f));
+  const int glass = w.addMaterial(glassMaterial(1.5, "glass"));
+  const int water = w.addMaterial(glassMaterial(1.33, "water"));
+  auto add = [&w](const Cube& c, int material) {
+    json attributes = {{"POSITION", w.addVec3(c.positions)}};
+    const int mesh = w.addMesh(json::array({json{{"attributes", attributes}, {"indices", w.addIndices(c.indices)},
+                                                  {"material", material}}}));
+    return w.addNode(json{{"mesh", mesh}});
+  };
+  w.setScene({add(outer, glass), add(inner, water)});
+  ImportReport report;
+  const Scene scene = importOk(w.writeGltf(file("nested.gltf")), {}, &report);
+  ASSERT_EQ(scene.surfaces.size(), 2u);
+  EXPECT_EQ(scene.surfaces[1].outerMedium, scene.surfaces[0].innerMedium);
+  EXPECT_FALSE(anyWarningContains(report, "overlap"));
 }
 
 TEST_F(GltfImport, MultipleMaterialsInOneMeshBecomeSeparateVolumes) {

@@ -36,8 +36,12 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <map>
+#include <set>
+#include <optional>
+#include <cstdio>
 #include <string>
 #include <system_error>
 #include <utility>
@@ -58,6 +62,17 @@ constexpr double kMinAttenuationColor = 1e-6;
 // Interior points of volumes with no opposite wall (open meshes) are pushed inside by this
 // fraction of the volume's bounding-box diagonal.
 constexpr double kInteriorOffset = 1e-4;
+
+// Positions of one volume closer than this fraction of its bounding-box diagonal are welded: the
+// cracks exporters leave (float round-off in transforms, split vertices written twice) are far
+// smaller, real features of a mesh far larger (the bunny's vertex spacing is ~1e-3 of its size).
+constexpr double kWeldTolerance = 1e-5;
+
+// Overlap test between closed volumes: this many vertices of each (evenly strided) are tested
+// against the other, each pulled this fraction of the diagonal toward its volume's centre so that
+// volumes that only touch (a shared face) do not count.
+constexpr size_t kOverlapProbes = 64;
+constexpr double kOverlapInset = 1e-3;
 
 // Node hierarchies are walked recursively; this bounds the stack a malicious file can take.
 // Real scenes are a few levels deep.
@@ -242,7 +257,7 @@ struct Volume {
   std::vector<uint32_t> indices;
   bool anyUvs = false;
   bool missingUvs = false;
-  size_t degenerate = 0;        // triangles dropped (two corners at one position)
+  size_t degenerate = 0;        // triangles dropped (two corners at one position once welded)
   size_t computedNormals = 0;   // vertices whose normal was computed
   // Filled by finalize().
   bool closed = false;
@@ -251,6 +266,109 @@ struct Volume {
   glm::dvec3 boundsMax{0.0};
   uint32_t medium = 0;
 };
+
+
+// What repairVolume changed, for the warnings.
+struct Repairs {
+  size_t welded = 0;        // vertices moved onto another within the tolerance
+  size_t duplicated = 0;    // triangles dropped: the same corners, the same winding, as a kept one
+  size_t internal = 0;      // triangles dropped in pairs: the same corners, opposite windings
+  double tolerance = 0.0;
+};
+
+glm::dvec3 boundsDiagonal(const std::vector<glm::vec3>& positions) {
+  glm::dvec3 lo(positions.front()), hi(positions.front());
+  for (const glm::vec3& p : positions) {
+    lo = glm::min(lo, glm::dvec3(p));
+    hi = glm::max(hi, glm::dvec3(p));
+  }
+  return hi - lo;
+}
+
+// Welds positions closer than `tolerance` (a spatial hash with cells of the tolerance; the first
+// vertex of a cluster is kept): every vertex gets its representative's id and position. Vertices
+// stay separate (their normals and uvs may differ), only positions are shared, as closure needs.
+std::vector<uint32_t> weldPositions(std::vector<glm::vec3>& positions, double tolerance, size_t& moved) {
+  std::vector<uint32_t> representative(positions.size());
+  std::map<std::array<int64_t, 3>, std::vector<uint32_t>> cells;
+  const double cell = tolerance > 0.0 ? tolerance : 1.0;
+  auto cellOf = [cell](const glm::vec3& p) {
+    // Clamped: a far-away vertex of a tiny mesh must not overflow the cell index.
+    const glm::dvec3 c = glm::clamp(glm::floor(glm::dvec3(p) / cell), -4e18, 4e18);
+    return std::array<int64_t, 3>{static_cast<int64_t>(c.x), static_cast<int64_t>(c.y), static_cast<int64_t>(c.z)};
+  };
+  auto find = [&](const glm::vec3& p) -> std::optional<uint32_t> {
+    const auto c = cellOf(p);
+    for (int64_t dx = -1; dx <= 1; ++dx)
+      for (int64_t dy = -1; dy <= 1; ++dy)
+        for (int64_t dz = -1; dz <= 1; ++dz) {
+          const auto it = cells.find({c[0] + dx, c[1] + dy, c[2] + dz});
+          if (it == cells.end()) continue;
+          for (uint32_t r : it->second)
+            if (glm::length(glm::dvec3(positions[r]) - glm::dvec3(p)) <= tolerance) return r;
+        }
+    return std::nullopt;
+  };
+  moved = 0;
+  for (uint32_t i = 0; i < positions.size(); ++i) {
+    const auto r = find(positions[i]);
+    if (!r) {
+      representative[i] = i;
+      cells[cellOf(positions[i])].push_back(i);
+      continue;
+    }
+    representative[i] = *r;
+    if (positions[i] != positions[*r]) ++moved;
+    positions[i] = positions[*r];
+  }
+  return representative;
+}
+
+// The corners of a triangle as welded ids, rotated so the smallest comes first (winding kept).
+std::array<uint32_t, 3> canonical(uint32_t a, uint32_t b, uint32_t c) {
+  if (b < a && b < c) return {b, c, a};
+  if (c < a && c < b) return {c, a, b};
+  return {a, b, c};
+}
+
+// Meshes as exporters write them: welds positions within the tolerance, drops triangles whose
+// corners coincide once welded (counted in volume.degenerate), keeps one of every set of
+// duplicated triangles, and drops both triangles of a pair with the same corners and opposite
+// windings (an internal wall between two parts of one volume, e.g. two boxes joined face to face).
+Repairs repairVolume(Volume& volume) {
+  Repairs repairs;
+  if (volume.positions.empty()) return repairs;
+  repairs.tolerance = kWeldTolerance * glm::length(boundsDiagonal(volume.positions));
+  const std::vector<uint32_t> id = weldPositions(volume.positions, repairs.tolerance, repairs.welded);
+  std::map<std::array<uint32_t, 3>, size_t> kept;  // canonical corners -> triangle in `out`
+  std::vector<std::array<uint32_t, 3>> out;
+  std::vector<uint8_t> dropped;
+  for (size_t t = 0; t + 2 < volume.indices.size(); t += 3) {
+    const uint32_t a = volume.indices[t], b = volume.indices[t + 1], c = volume.indices[t + 2];
+    if (id[a] == id[b] || id[b] == id[c] || id[c] == id[a]) {
+      ++volume.degenerate;
+      continue;
+    }
+    const auto key = canonical(id[a], id[b], id[c]);
+    if (kept.count(key) != 0) {
+      ++repairs.duplicated;
+      continue;
+    }
+    if (auto opposite = kept.find(canonical(id[a], id[c], id[b])); opposite != kept.end()) {
+      dropped[opposite->second] = 1;
+      kept.erase(opposite);
+      repairs.internal += 2;
+      continue;
+    }
+    kept.emplace(key, out.size());
+    out.push_back({a, b, c});
+    dropped.push_back(0);
+  }
+  volume.indices.clear();
+  for (size_t t = 0; t < out.size(); ++t)
+    if (dropped[t] == 0) volume.indices.insert(volume.indices.end(), out[t].begin(), out[t].end());
+  return repairs;
+}
 
 class Importer {
  public:
@@ -278,10 +396,14 @@ class Importer {
   Result<std::vector<glm::vec2>> readTexcoords(int accessorIndex, const std::string& what) const;
   Result<std::vector<uint32_t>> readIndices(int accessorIndex, const std::string& what,
                                             size_t vertexCount) const;
+  void reportRepairs(const Volume& volume, const Repairs& repairs);
   Result<void> finalize(Volume& volume);
   Result<Medium> mediumOf(int materialIndex);
   glm::dvec3 interiorPoint(const Volume& volume) const;
   bool contains(const Volume& container, const glm::dvec3& point) const;
+  // {probes inside, probes tested}
+  std::pair<size_t, size_t> probesInside(const Volume& probed, const Volume& container) const;
+  std::set<std::pair<size_t, size_t>> findOverlaps();
 
   const std::string& path_;
   const ImportOptions& options_;
@@ -290,18 +412,40 @@ class Importer {
   std::vector<Volume> volumes_;
 };
 
-Result<void> Importer::load() {
-  const std::string extension = lowercase(std::filesystem::path(path_).extension().string());
-  if (extension != ".gltf" && extension != ".glb") {
-    return fail(ErrorCode::InvalidArgument,
-                "not a glTF file (expected the extension .gltf or .glb)");
+// The container of a glTF file: by its extension, else by its first bytes (the binary magic
+// "glTF", or a JSON object), so that a file exported under another name still imports.
+std::optional<bool> isBinaryGltf(const std::string& path) {
+  const std::string extension = lowercase(std::filesystem::path(path).extension().string());
+  if (extension == ".gltf" || extension == ".glb") {
+    return extension == ".glb";
   }
+  std::ifstream in(path, std::ios::binary);
+  char head[64] = {};
+  in.read(head, sizeof head);
+  const auto n = static_cast<size_t>(in.gcount());
+  if (n >= 4 && std::memcmp(head, "glTF", 4) == 0) {
+    return true;
+  }
+  for (size_t i = 0; i < n; ++i) {
+    if (!std::isspace(static_cast<unsigned char>(head[i]))) {
+      return head[i] == '{' ? std::optional<bool>(false) : std::nullopt;
+    }
+  }
+  return std::nullopt;
+}
+
+Result<void> Importer::load() {
   std::error_code ec;
   if (!std::filesystem::exists(path_, ec)) {
     return fail(ErrorCode::Io, "no such file");
   }
   if (!std::filesystem::is_regular_file(path_, ec)) {
     return fail(ErrorCode::Io, "not a regular file");
+  }
+  const std::optional<bool> binary = isBinaryGltf(path_);
+  if (!binary) {
+    return fail(ErrorCode::InvalidArgument,
+                "not a glTF file (neither the extension .gltf or .glb nor glTF content)");
   }
 
   tinygltf::TinyGLTF loader;
@@ -312,7 +456,7 @@ Result<void> Importer::load() {
       nullptr);
   std::string err;
   std::string warnings;
-  const bool ok = extension == ".glb" ? loader.LoadBinaryFromFile(&model_, &err, &warnings, path_)
+  const bool ok = *binary ? loader.LoadBinaryFromFile(&model_, &err, &warnings, path_)
                                       : loader.LoadASCIIFromFile(&model_, &err, &warnings, path_);
   for (const std::string& line : lines(warnings)) {
     warn(line);
@@ -776,13 +920,6 @@ Result<void> Importer::addPrimitive(const std::string& where, const tinygltf::Pr
     uint32_t a = indices[t];
     uint32_t b = indices[t + 1];
     uint32_t c = indices[t + 2];
-    const glm::vec3& pa = volume.positions[base + a];
-    const glm::vec3& pb = volume.positions[base + b];
-    const glm::vec3& pc = volume.positions[base + c];
-    if (pa == pb || pb == pc || pc == pa) {
-      ++volume.degenerate;
-      continue;
-    }
     if (mirrored) {
       std::swap(b, c);  // a mirroring transform turns counter-clockwise into clockwise
     }
@@ -792,12 +929,29 @@ Result<void> Importer::addPrimitive(const std::string& where, const tinygltf::Pr
   return {};
 }
 
-Result<void> Importer::finalize(Volume& volume) {
-  const size_t triangleCount = volume.indices.size() / 3;
+void Importer::reportRepairs(const Volume& volume, const Repairs& repairs) {
+  char tolerance[32];
+  std::snprintf(tolerance, sizeof tolerance, "%.3g", repairs.tolerance);
+  if (repairs.welded > 0) {
+    warn(volume.label + ": welded " + std::to_string(repairs.welded) + " vertex(es) onto another within " +
+         tolerance);
+  }
   if (volume.degenerate > 0) {
     warn(volume.label + ": dropped " + std::to_string(volume.degenerate) +
          " degenerate triangle(s) (two corners at one position)");
   }
+  if (repairs.duplicated > 0) {
+    warn(volume.label + ": dropped " + std::to_string(repairs.duplicated) + " duplicated triangle(s)");
+  }
+  if (repairs.internal > 0) {
+    warn(volume.label + ": dropped " + std::to_string(repairs.internal) +
+         " triangle(s) in coincident pairs of opposite winding (internal walls)");
+  }
+}
+
+Result<void> Importer::finalize(Volume& volume) {
+  reportRepairs(volume, repairVolume(volume));
+  const size_t triangleCount = volume.indices.size() / 3;
   double area = 0.0;
   for (size_t t = 0; t < triangleCount; ++t) {
     const glm::dvec3 a(volume.positions[volume.indices[3 * t]]);
@@ -843,7 +997,8 @@ Result<void> Importer::finalize(Volume& volume) {
         std::to_string(topology.inconsistentEdges) + " inconsistently wound and " +
         std::to_string(topology.nonManifoldEdges) + " non-manifold edge(s)";
     if (!options_.allowOpenMeshes) {
-      return fail(ErrorCode::InvalidArgument, problem + " (allowOpenMeshes accepts it)");
+      return fail(ErrorCode::InvalidArgument,
+                  problem + " after the repairs (allowOpenMeshes, the tool's --allow-open, accepts it)");
     }
     warn(problem + "; kept as is");
   }
@@ -1090,6 +1245,57 @@ bool Importer::contains(const Volume& container, const glm::dvec3& point) const 
   return votes >= 2;
 }
 
+// How many of up to kOverlapProbes vertices of `probed` (each pulled slightly toward its centre)
+// lie inside the closed volume `container`.
+std::pair<size_t, size_t> Importer::probesInside(const Volume& probed, const Volume& container) const {
+  const size_t n = probed.positions.size();
+  const size_t step = std::max<size_t>(1, (n + kOverlapProbes - 1) / kOverlapProbes);
+  const glm::dvec3 centre = 0.5 * (probed.boundsMin + probed.boundsMax);
+  const double inset = kOverlapInset * glm::length(probed.boundsMax - probed.boundsMin);
+  size_t inside = 0;
+  size_t tested = 0;
+  for (size_t i = 0; i < n; i += step, ++tested) {
+    const glm::dvec3 p(probed.positions[i]);
+    const glm::dvec3 toCentre = centre - p;
+    const double length = glm::length(toCentre);
+    const glm::dvec3 probe = length > inset ? p + toCentre * (inset / length) : centre;
+    inside += contains(container, probe) ? 1 : 0;
+  }
+  return {inside, tested};
+}
+
+// Pairs (u < v) of closed volumes that overlap (neither inside the other, nor apart), each named
+// in a warning. Overlapping volumes are siblings: neither is the other's container, and the
+// tracer takes each crossed surface's media as labelled (docs/scenes.md, "Overlapping volumes").
+// Detected when a probe vertex of one lies inside the other; volumes that cross without a vertex
+// inside the other (two long bars in a cross) are not detected.
+std::set<std::pair<size_t, size_t>> Importer::findOverlaps() {
+  std::set<std::pair<size_t, size_t>> overlaps;
+  for (size_t u = 0; u < volumes_.size(); ++u) {
+    for (size_t v = u + 1; v < volumes_.size(); ++v) {
+      const Volume& a = volumes_[u];
+      const Volume& b = volumes_[v];
+      if (!a.closed || !b.closed || glm::any(glm::lessThan(a.boundsMax, b.boundsMin)) ||
+          glm::any(glm::lessThan(b.boundsMax, a.boundsMin))) {
+        continue;
+      }
+      const auto [aInB, aProbes] = probesInside(a, b);
+      const auto [bInA, bProbes] = probesInside(b, a);
+      const bool apart = aInB == 0 && bInA == 0;
+      const bool aNested = aInB >= aProbes && bInA == 0;
+      const bool bNested = bInA >= bProbes && aInB == 0;
+      if (apart || aNested || bNested) {
+        continue;
+      }
+      overlaps.emplace(u, v);
+      warn(a.label + " and " + b.label +
+           " overlap (neither contains the other); in the overlap a path is in the medium of the "
+           "volume whose surface it crossed last (docs/scenes.md)");
+    }
+  }
+  return overlaps;
+}
+
 Result<Scene> Importer::run() {
   if (options_.iorOverride &&
       (!std::isfinite(*options_.iorOverride) || *options_.iorOverride <= 0.0f)) {
@@ -1133,6 +1339,7 @@ Result<Scene> Importer::run() {
       return finalized.error();
     }
   }
+  const std::set<std::pair<size_t, size_t>> overlaps = findOverlaps();
 
   Scene scene;
   scene.name = std::filesystem::path(path_).stem().string();
@@ -1164,7 +1371,8 @@ Result<Scene> Importer::run() {
     const glm::dvec3 point = interiorPoint(volumes_[v]);
     size_t container = volumes_.size();
     for (size_t u = 0; u < volumes_.size(); ++u) {
-      if (u == v || !volumes_[u].closed || !contains(volumes_[u], point)) {
+      const bool sibling = overlaps.count({std::min(u, v), std::max(u, v)}) != 0;
+      if (u == v || sibling || !volumes_[u].closed || !contains(volumes_[u], point)) {
         continue;
       }
       if (container == volumes_.size() ||

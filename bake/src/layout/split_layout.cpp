@@ -95,7 +95,7 @@ Result<SampleAtlas> buildSplitLayout(const Scene& scene, const LayoutOptions& op
       return makeError(ErrorCode::InvalidArgument,
                        "split layout: sample budget " + std::to_string(static_cast<uint64_t>(target.value())) +
                            " is below the " + std::to_string(count(1)) +
-                           " samples of one per welded vertex (edge resolution 1)");
+                           " samples of one per welded vertex (edge resolution 1); raise --samples");
     }
   }
 

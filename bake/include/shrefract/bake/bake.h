@@ -45,7 +45,14 @@ struct BakeOptions {
 // kMaxTableSize).
 inline constexpr uint32_t kMaxBakeTableSize = 32;
 
-// Bakes `scene`. Errors: invalid settings (order 0..24, directions 1..512 per axis, spatial 0/3/5),
+// The hemisphere grid a bake accepts (settings.directionsTheta x directionsPhi), and the cap on
+// interactions: one declaration, read by the bake's checks and by the tool's flags.
+inline constexpr uint32_t kMinDirectionRows = 1, kMaxDirectionRows = 512;
+inline constexpr uint32_t kMinDirectionColumns = 1, kMaxDirectionColumns = 1024;
+inline constexpr uint32_t kMaxBakeBounces = 1024;
+
+// Bakes `scene`. Errors: invalid settings (order 0..kMaxFitOrder, the direction grid and bounces
+// above, spatial 0/3/5),
 // an invalid scene, layout failures. The result passes validateField().
 Result<Field> bakeField(const Scene& scene, const BakeOptions& options);
 

@@ -20,8 +20,8 @@ struct ImportOptions {
   std::optional<float> iorOverride;
   // Replaces the absorption of every medium except air. Must be finite and >= 0.
   std::optional<float> absorptionOverride;
-  // Volumes with open, inconsistently wound or non-manifold edges are an error unless this is
-  // set; then they are kept as they are and reported as warnings.
+  // Volumes with open, inconsistently wound or non-manifold edges after the repairs are an error
+  // unless this is set (the tool's --allow-open); then they are kept and reported as warnings.
   bool allowOpenMeshes = false;
 };
 
@@ -48,8 +48,14 @@ struct ImportReport {
 // innerMedium is the material's medium, its outerMedium the medium of the smallest other volume
 // containing it (air when none). Closed volumes that are inside out are turned outward (warning).
 //
+// The container is chosen by the extension (.gltf, .glb), else by the content ("glTF" magic or a
+// JSON object). Meshes are repaired before the closure check (docs/scenes.md, "Repairs": weld
+// within 1e-5 of the diagonal, degenerate, duplicated and internal-wall triangles dropped; each a
+// warning with its count); closed volumes that overlap are named in a warning and are siblings
+// (neither is the other's container).
+//
 // Errors, each a single line "<path>: <problem>" naming the mesh, primitive and accessor where
-// one is at fault: Io (missing or unreadable file), InvalidArgument (not .gltf/.glb, no scene or
+// one is at fault: Io (missing or unreadable file), InvalidArgument (not glTF, no scene or
 // no triangles, a zero-area volume, an open or inconsistently wound volume without
 // allowOpenMeshes, a volume inside another of the same material, a bad override), CorruptData
 // (parse errors, accessors out of range, bad indices, non-finite values), Unsupported (other

@@ -1,0 +1,318 @@
+// The tool on scenes as users hand them over (issue 14), through the real binary ($SHREFRACT_TOOL,
+// set by ctest): a Blender-style glTF written here bakes with a warning per repair and renders in
+// every mode; a field finds its scene from any working directory (and through --scene once the
+// scene moved); camera errors exit 2 with one line before any work and never touch an existing
+// output; every range --help prints is the range the parser enforces (and the bake library's).
+// GPU modes run on lavapipe like the GPU tests and are skipped, with a line, without a device.
+#include <gtest/gtest.h>
+#include <shrefract/bake/bake.h>
+#include <shrefract/bake/image.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "import/gltf_writer.h"
+#include "viewer/run_command.h"
+
+namespace shrefract {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::shellQuote;
+
+struct ToolRun {
+  int exit = -1;
+  std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+size_t lineCount(const std::string& text) { return static_cast<size_t>(std::count(text.begin(), text.end(), '\n')); }
+
+bool noDevice(const ToolRun& r) {
+  return r.err.find("no Vulkan") != std::string::npos || r.err.find("Vulkan 1.3") != std::string::npos;
+}
+
+class SceneCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const char* tool = std::getenv("SHREFRACT_TOOL");
+    ASSERT_NE(tool, nullptr) << "SHREFRACT_TOOL is not set (ctest sets it to the shrefract binary)";
+    tool_ = tool;
+    dir_ = fs::current_path() / "scene_cli_work" / ::testing::UnitTest::GetInstance()->current_test_info()->name();
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    if (!HasFailure()) fs::remove_all(dir_);
+  }
+
+  // Runs the tool in `where` (relative to the test's directory) with stdout and stderr apart.
+  ToolRun run(const std::string& where, const std::vector<std::string>& args) const {
+    const fs::path errPath = dir_ / ".stderr";
+    std::string command = "{ cd " + shellQuote((dir_ / where).string()) + " && " + shellQuote(tool_);
+    for (const auto& a : args) {
+      command.push_back(' ');
+      command.append(shellQuote(a));
+    }
+    command.append(" 2>");
+    command.append(shellQuote(errPath.string()));
+    command.append("; }");
+    const testing::CommandResult result = testing::runCommand(command);
+    ToolRun r{result.exitCode, result.output, slurp(errPath)};
+    fs::remove(errPath);
+    return r;
+  }
+
+  void writeBoxes(const fs::path& relative) const {
+    fs::create_directories((dir_ / relative).parent_path());
+    gltf_test::blenderStyleBoxes().writeGltf(dir_ / relative);
+  }
+
+  std::string tool_;
+  fs::path dir_;
+};
+
+// A rendered image: finite everywhere, and not flat (the object is in view).
+void expectFiniteAndNotFlat(const fs::path& image) {
+  auto read = bake::loadImage(image.string());
+  ASSERT_TRUE(read.ok()) << read.error().message;
+  const auto& px = read.value().rgba;
+  ASSERT_FALSE(px.empty());
+  float lo = px[0], hi = px[0];
+  for (float v : px) {
+    ASSERT_TRUE(std::isfinite(v)) << image;
+    lo = std::min(lo, v);
+    hi = std::max(hi, v);
+  }
+  EXPECT_GT(hi - lo, 0.05f) << image << " is flat";
+}
+
+TEST_F(SceneCli, BlenderStyleGltfBakesWithRepairWarningsAndRendersInEveryMode) {
+  writeBoxes("boxes.gltf");
+  const gltf_test::BlenderBoxesCounts counts;
+  const ToolRun bake = run(".", {"bake", "boxes.gltf", "-o", "boxes.shrf", "--samples", "800", "--directions", "8x16",
+                             "--order", "2", "--threads", "2", "--held-out", "0"});
+  ASSERT_EQ(bake.exit, 0) << bake.err;
+  const std::string a = "warning: boxes.gltf: mesh 0 ('boxA') in node 0 ('A'): ";
+  const std::string b = "warning: boxes.gltf: mesh 1 ('boxB') in node 1 ('B'): ";
+  for (const std::string& expected :
+       {a + "welded " + std::to_string(counts.welded) + " vertex(es)",
+        a + "dropped " + std::to_string(counts.duplicated) + " duplicated triangle(s)",
+        a + "dropped " + std::to_string(counts.degenerateA) + " degenerate triangle(s)",
+        b + "dropped " + std::to_string(counts.degenerateB) + " degenerate triangle(s)",
+        std::string("warning: boxes.gltf: mesh 0 ('boxA') in node 0 ('A') and mesh 1 ('boxB') in node 1 ('B') overlap")})
+    EXPECT_NE(bake.err.find(expected), std::string::npos) << "missing '" << expected << "' in:\n" << bake.err;
+
+  // CPU modes of the scene and of the field (its scene rebuilt from the record).
+  for (const auto& [input, mode] : std::vector<std::pair<std::string, std::string>>{
+           {"boxes.gltf", "exact"}, {"boxes.gltf", "full-tree"}, {"boxes.shrf", "exact"}, {"boxes.shrf", "full-tree"}}) {
+    const std::string out = fs::path(input).stem().string() + "_" + mode + ".exr";
+    const ToolRun r = run(".", {"render", input, "--mode", mode, "--tree-depth", "3", "--size", "48x36", "-o", out});
+    ASSERT_EQ(r.exit, 0) << input << " " << mode << ": " << r.err;
+    EXPECT_NE(r.err.find("render " + mode + ": 100%"), std::string::npos) << "no progress: " << r.err;
+    expectFiniteAndNotFlat(dir_ / out);
+  }
+  // A field-only mode on a scene: one usage line.
+  const ToolRun sh = run(".", {"render", "boxes.gltf", "--mode", "sh", "-o", "no.png"});
+  EXPECT_EQ(sh.exit, 2);
+  EXPECT_EQ(lineCount(sh.err), 1u) << sh.err;
+  EXPECT_NE(sh.err.find("needs a refraction field"), std::string::npos) << sh.err;
+  EXPECT_FALSE(fs::exists(dir_ / "no.png"));
+
+  // GPU modes: the scene in single-interface, the field in sh.
+  for (const auto& [input, mode] : std::vector<std::pair<std::string, std::string>>{
+           {"boxes.gltf", "single-interface"}, {"boxes.shrf", "sh"}, {"boxes.shrf", "single-interface"}}) {
+    const std::string out = fs::path(input).stem().string() + "_" + mode + ".exr";
+    const ToolRun r = run(".", {"render", input, "--mode", mode, "--size", "48x36", "-o", out});
+    if (r.exit != 0 && noDevice(r)) GTEST_SKIP() << "no Vulkan device: " << r.err;
+    ASSERT_EQ(r.exit, 0) << input << " " << mode << ": " << r.err;
+    expectFiniteAndNotFlat(dir_ / out);
+  }
+}
+
+TEST_F(SceneCli, ExactModeOfAFieldWorksFromAnotherDirectoryAndWithScene) {
+  writeBoxes("a/models/boxes.gltf");
+  fs::create_directories(dir_ / "a/fields");
+  fs::create_directories(dir_ / "b");
+  const ToolRun bake = run("a", {"bake", "models/boxes.gltf", "-o", "fields/f.shrf", "--samples", "800", "--directions",
+                             "8x16", "--order", "2", "--threads", "2", "--held-out", "0"});
+  ASSERT_EQ(bake.exit, 0) << bake.err;
+  const std::vector<std::string> exact = {"render", "../a/fields/f.shrf", "--mode", "exact", "--size", "32x24"};
+  auto with = [&exact](std::vector<std::string> extra) {
+    std::vector<std::string> args = exact;
+    args.insert(args.end(), extra.begin(), extra.end());
+    return args;
+  };
+  const ToolRun fromB = run("b", with({"-o", "x.png"}));
+  EXPECT_EQ(fromB.exit, 0) << fromB.err;
+  EXPECT_TRUE(fs::exists(dir_ / "b/x.png"));
+
+  fs::rename(dir_ / "a/models/boxes.gltf", dir_ / "moved.gltf");
+  const ToolRun lost = run("b", with({"-o", "y.png"}));
+  EXPECT_EQ(lost.exit, 1);
+  EXPECT_EQ(lineCount(lost.err), 1u) << lost.err;
+  EXPECT_NE(lost.err.find("--scene"), std::string::npos) << lost.err;
+  EXPECT_NE(lost.err.find("f.shrf"), std::string::npos) << lost.err;
+  EXPECT_FALSE(fs::exists(dir_ / "b/y.png"));
+  const ToolRun found = run("b", with({"--scene", "../moved.gltf", "-o", "z.png"}));
+  EXPECT_EQ(found.exit, 0) << found.err;
+  EXPECT_TRUE(fs::exists(dir_ / "b/z.png"));
+}
+
+TEST_F(SceneCli, CameraErrorsExit2WithOneLineAndKeepAnExistingOutput) {
+  std::ofstream(dir_ / "out.png") << "an earlier image";
+  const std::vector<std::string> base = {"render", "builtin:sphere", "--tessellation", "1", "--size", "16x12",
+                                         "--mode", "exact", "-o", "out.png"};
+  struct Bad {
+    std::vector<std::string> flags;
+    std::vector<std::string> named;
+    int exit;
+  };
+  const std::vector<Bad> cases = {
+      {{"--eye", "0,0,3", "--target", "0,0,3"}, {"--eye 0,0,3", "same point", "--target 0,0,3"}, 2},
+      {{"--eye", "0,3,0"}, {"--eye 0,3,0", "up 0,1,0 is parallel"}, 2},
+      {{"--eye", "0,0,3", "--up", "0,0,-2"}, {"--up 0,0,-2 is parallel"}, 2},
+      {{"--up", "0,0,0"}, {"--up 0,0,0"}, 2},
+      {{"--eye", "1e39,0,0"}, {"--eye"}, 2},
+      {{"--exposure", "-1"}, {"--exposure"}, 2},
+      {{"--exposure", "0"}, {"--exposure"}, 2},
+      {{"--env", "missing.hdr"}, {"missing.hdr"}, 1},
+  };
+  for (const Bad& c : cases) {
+    std::vector<std::string> args = base;
+    args.insert(args.end(), c.flags.begin(), c.flags.end());
+    const ToolRun r = run(".", args);
+    EXPECT_EQ(r.exit, c.exit) << c.flags.front() << ": " << r.err;
+    EXPECT_EQ(lineCount(r.err), 1u) << r.err;
+    for (const std::string& name : c.named) EXPECT_NE(r.err.find(name), std::string::npos) << r.err;
+    EXPECT_EQ(slurp(dir_ / "out.png"), "an earlier image") << "clobbered by " << c.flags.front();
+  }
+}
+
+// A report that fails after it has written images leaves no partial directory, and an earlier
+// report in DIR stays as it was.
+TEST_F(SceneCli, AFailedReportLeavesNoPartialDirectory) {
+  fs::create_directories(dir_ / "rep");
+  std::ofstream(dir_ / "rep/report.md") << "an earlier report";
+  const ToolRun r = run(".", {"report", "builtin:sphere", "--tessellation", "1", "--smoke", "--threads", "2",
+                              "--samples", "10", "-o", "rep"});
+  if (r.exit != 0 && noDevice(r)) GTEST_SKIP() << "no Vulkan device: " << r.err;
+  EXPECT_EQ(r.exit, 1) << r.err;
+  EXPECT_NE(r.err.find("raise --samples"), std::string::npos) << r.err;
+  std::vector<std::string> entries;
+  for (const auto& e : fs::directory_iterator(dir_)) entries.push_back(e.path().filename().string());
+  EXPECT_EQ(entries, std::vector<std::string>{"rep"});
+  std::vector<std::string> inside;
+  for (const auto& e : fs::directory_iterator(dir_ / "rep")) inside.push_back(e.path().filename().string());
+  EXPECT_EQ(inside, std::vector<std::string>{"report.md"});
+  EXPECT_EQ(slurp(dir_ / "rep/report.md"), "an earlier report");
+}
+
+// One probe of a range: a value and whether the parser must accept it.
+struct Probe {
+  std::string value;
+  bool accepted;
+};
+
+// Integers in full ("100000000"; an integer flag refuses "1e+08").
+std::string text(double v) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.17g", v);
+  return buffer;
+}
+
+// Values just outside and on (or inside) a range as --help prints it (args.cpp, Bounds::text).
+std::vector<Probe> probesOf(const std::string& range) {
+  std::smatch m;
+  const std::string num = "(-?[0-9.e+]+)";
+  if (std::regex_match(range, m, std::regex(num + "\\.\\." + num))) {
+    const double lo = std::stod(m[1]), hi = std::stod(m[2]);
+    return {{text(lo - 1), false}, {text(lo), true}, {text(hi), true}, {text(hi + 1), false}};
+  }
+  if (std::regex_match(range, m, std::regex(">= " + num)))
+    return {{text(std::stod(m[1]) - 1), false}, {text(std::stod(m[1])), true}};
+  if (std::regex_match(range, m, std::regex("> " + num)))
+    return {{text(std::stod(m[1])), false}, {text(std::stod(m[1]) + 1), true}};
+  if (std::regex_match(range, m, std::regex("([\\[(])" + num + ", " + num + "([\\])])"))) {
+    const double lo = std::stod(m[2]), hi = std::stod(m[3]);
+    return {{text(lo), m[1] == "["}, {text(hi), m[4] == "]"}, {text((lo + hi) / 2), true},
+            {text(lo - 1), false}, {text(hi + 1), false}};
+  }
+  return {};
+}
+
+// "A..B x C..D" (sizes): each side's probes with the other side at its lowest accepted value.
+std::vector<Probe> sizeProbesOf(const std::string& range) {
+  const size_t x = range.find(" x ");
+  const auto first = probesOf(range.substr(0, x)), second = probesOf(range.substr(x + 3));
+  if (first.size() < 2 || second.size() < 2) return {};
+  auto pair = [](const std::string& w, const std::string& h) {
+    std::string v = w;
+    v.push_back('x');
+    v.append(h);
+    return v;
+  };
+  std::vector<Probe> out;
+  for (const Probe& p : first) out.push_back({pair(p.value, second[1].value), p.accepted});
+  for (const Probe& p : second) out.push_back({pair(first[1].value, p.value), p.accepted});
+  return out;
+}
+
+TEST_F(SceneCli, EveryRangeInHelpIsTheParsersRange) {
+  const std::regex line("^  --([a-z0-9-]+) VALUE .*\\[range: (.*)\\]$");
+  std::map<std::string, std::string> bakeRanges;
+  for (const std::string command : {"bake", "render", "view", "report"}) {
+    const ToolRun help = run(".", {command, "--help"});
+    ASSERT_EQ(help.exit, 0) << command;
+    std::istringstream lines(help.out);
+    size_t ranges = 0;
+    for (std::string l; std::getline(lines, l);) {
+      std::smatch m;
+      if (!std::regex_match(l, m, line)) continue;
+      const std::string flag = "--" + m[1].str(), range = m[2];
+      if (command == std::string("bake")) bakeRanges[flag] = range;
+      const bool size = range.find(" x ") != std::string::npos;
+      const std::vector<Probe> probes = size ? sizeProbesOf(range) : probesOf(range);
+      ASSERT_GE(probes.size(), 2u) << command << " " << flag << ": cannot read the range '" << range << "'";
+      ++ranges;
+      for (const Probe& p : probes) {
+        // No input and no output: a value the parser accepts gets the missing-argument error,
+        // which names no flag; a rejected value gets the range error naming the flag and range.
+        const ToolRun r = run(".", {command, flag + "=" + p.value});
+        EXPECT_EQ(r.exit, 2) << command << " " << flag << "=" << p.value << ": " << r.err;
+        EXPECT_EQ(lineCount(r.err), 1u) << r.err;
+        const bool rangeError = r.err.find(flag) != std::string::npos;
+        EXPECT_EQ(rangeError, !p.accepted) << command << " " << flag << "=" << p.value << ": " << r.err;
+        if (!p.accepted) {
+          EXPECT_NE(r.err.find(range), std::string::npos) << r.err;
+        }
+      }
+    }
+    EXPECT_GE(ranges, 4u) << command << " --help prints too few ranges:\n" << help.out;
+  }
+  // The bake library's own limits are the ones printed.
+  EXPECT_EQ(bakeRanges["--directions"], std::to_string(bake::kMinDirectionRows) + ".." +
+                                            std::to_string(bake::kMaxDirectionRows) + " x " +
+                                            std::to_string(bake::kMinDirectionColumns) + ".." +
+                                            std::to_string(bake::kMaxDirectionColumns));
+  EXPECT_EQ(bakeRanges["--max-bounces"], "1.." + std::to_string(bake::kMaxBakeBounces));
+  EXPECT_EQ(bakeRanges["--table-size"], "2.." + std::to_string(bake::kMaxBakeTableSize));
+}
+
+}  // namespace
+}  // namespace shrefract
