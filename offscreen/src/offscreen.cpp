@@ -21,6 +21,13 @@ Session::~Session() {
   harness.reset();
 }
 
+uint32_t endSession(std::unique_ptr<Session> session) {
+  if (!session || !session->harness) return 0;
+  const auto log = session->harness->messageLog();
+  session.reset();
+  return log->count();
+}
+
 Result<std::unique_ptr<Session>> createSession(const harness::HarnessOptions& options,
                                                harness::HarnessFailure* failure) {
   auto h = harness::Harness::create(options, failure);

@@ -2,7 +2,11 @@
 
 namespace shrefract::cli {
 
-// Each command returns the process exit code: 0 success, 1 failure, 2 usage error.
+// Each command returns the process exit code: 0 success, 1 failure, 2 usage error, and for the
+// commands that need the GPU (render's engine modes, report) kExitNoDevice when the machine has no
+// Vulkan driver or device (tests skip on it; docs/bad-input.md).
+inline constexpr int kExitNoDevice = 3;
+
 int renderCommand(int argc, char** argv);
 int bakeCommand(int argc, char** argv);
 int infoCommand(int argc, char** argv);

@@ -51,7 +51,7 @@ std::vector<FlagSpec> renderFlags() {
       {"spp", true, "samples per pixel N, a perfect square: sqrt(N) x sqrt(N) stratified samples, averaged "
                     "(default 1; every mode)", K::Integer, {1, 64}},
       {"threads", true, "CPU modes: worker threads (default: all cores)", K::Integer, {1, 1024}},
-      {"absorption", true, "absorption scale k in exp2(-tau * k) (default 1)", K::Real, {0, kUnbounded}},
+      {"absorption", true, "absorption scale k in exp(-tau * k) (default 1: the media as defined)", K::Real, {0, kUnbounded}},
       {"exposure", true, "linear scale applied before writing (default 1)", K::Real, {0, kUnbounded, true}},
       {"frames", true, "frames rendered, for timings (default 1; the image is the last frame)", K::Integer,
        {1, 100000}},
@@ -66,7 +66,7 @@ std::vector<FlagSpec> renderFlags() {
 
 int fail(const Error& e, int code = 1) {
   std::fprintf(stderr, "%s\n", e.message.c_str());
-  return code;
+  return e.code == ErrorCode::NoDevice ? kExitNoDevice : code;
 }
 
 std::string jsonString(const std::string& text) {
@@ -400,13 +400,15 @@ int renderGpu(const Args& args, const Request& r, const Inputs& in, const Camera
   objects.clear();
   env.value().reset();
 
-  const uint32_t messages = s.harness->messageCount();
+  // Counted through the teardown too: a leak is reported only while the device goes.
+  const std::string deviceName = s.harness->deviceName();
+  const uint32_t messages = offscreen::endSession(std::move(session).value());
   if (messages != 0)
     return fail(makeError(ErrorCode::Vulkan, "shrefract render: " + std::to_string(messages) +
                                                  " Vulkan validation message(s); no image written"));
   if (auto written = bake::writeImage(r.output, image.value()); !written) return fail(written.error());
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  printGpuSummary(args, r, in, frame, timings, s.harness->deviceName(), seconds);
+  printGpuSummary(args, r, in, frame, timings, deviceName, seconds);
   return 0;
 }
 

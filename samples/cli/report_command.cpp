@@ -148,7 +148,7 @@ int reportCommand(int argc, char** argv) {
     const bool badDevice = options.deviceIndex >= 0 && message.find("device index") != std::string::npos;
     if (badDevice) return usageError("shrefract report: --device " + std::to_string(options.deviceIndex) + ": " + message);
     std::fprintf(stderr, "%s\n", message.c_str());
-    return 1;
+    return result.error().code == ErrorCode::NoDevice ? kExitNoDevice : 1;
   }
   printSummary(result.value(), *out);
   return 0;

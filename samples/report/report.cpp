@@ -536,9 +536,11 @@ Result<ReportResult> runReport(const ReportOptions& options) {
   if (!fidelity) return fidelity.error();
   result.fidelity = fidelity.value().scenes;
 
-  if (session.harness->messageCount() != 0)
-    return makeError(ErrorCode::Vulkan, "report: " + std::to_string(session.harness->messageCount()) +
-                                            " Vulkan validation message(s)");
+  // Counted through the teardown too: a leak is reported only while the device goes.
+  const std::string deviceName = session.harness->deviceName();
+  gpuEnvironment.value().reset();
+  if (const uint32_t messages = offscreen::endSession(std::move(sessionResult).value()); messages != 0)
+    return makeError(ErrorCode::Vulkan, "report: " + std::to_string(messages) + " Vulkan validation message(s)");
   result.seconds = since(start);
 
   // report.md
@@ -546,7 +548,7 @@ Result<ReportResult> runReport(const ReportOptions& options) {
   md += "# shrefract report: error against run time\n\n";
   md += fmt("Device: %s. Images %ux%u, %u GPU frames timed per setting (median wall time per frame; GPU "
             "times are timestamps of the last frame). Environment: built-in procedural, %u px wide. Total %.1f s.\n\n",
-            session.harness->deviceName().c_str(), width, height, frames, profile.environmentWidth, result.seconds);
+            deviceName.c_str(), width, height, frames, profile.environmentWidth, result.seconds);
   md += "Errors are measured over the object's pixels against the exact per-pixel reference (Embree, highest-energy "
         "path, with parallax): PSNR and SSIM of the colour, and the angle between the decoded and the exact "
         "exit direction. Memory is the field file size. Sweeps vary one setting from the base "

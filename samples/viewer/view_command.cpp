@@ -28,7 +28,7 @@ std::vector<FlagSpec> viewFlags() {
        {1, 16384}},
       {"fov", true, "vertical field of view in degrees (default 40)", K::Real, {0, 180, true, true}},
       {"exposure", true, "linear scale applied before display (default 1)", K::Real, {0, kUnbounded, true}},
-      {"absorption", true, "initial absorption scale k in exp2(-tau * k) (default 1)", K::Real, {0, kUnbounded}},
+      {"absorption", true, "initial absorption scale k in exp(-tau * k) (default 1: the media as defined)", K::Real, {0, kUnbounded}},
       {"order", true, "initial SH order (default: the baked order)", K::Integer, {0, 32}},
       {"mode", true, "initial shading: field (default for fields) or single-interface (default for scenes)"},
       {"frames", true, "render this many frames, then exit (default: until the window closes)", K::Integer, {1, 1e8}},

@@ -53,6 +53,7 @@ void MessageLog::add(std::string text) {
 Result<std::unique_ptr<Harness>> Harness::create(const HarnessOptions& options, HarnessFailure* failure) {
   auto fail = [&](HarnessFailure kind, Error e) -> Result<std::unique_ptr<Harness>> {
     if (failure) *failure = kind;
+    if (kind == HarnessFailure::NoDevice) e.code = ErrorCode::NoDevice;  // tools map it to their exit code
     return e;
   };
   if (failure) *failure = HarnessFailure::None;

@@ -17,6 +17,7 @@ enum class ErrorCode {
   Io,               // a file could not be opened, read or written
   CorruptData,      // a file or buffer failed validation (truncated, bad checksum, bad values)
   Unsupported,      // valid input that this version cannot handle (newer file version, format)
+  NoDevice,         // no Vulkan driver or no suitable device (the headless harness: nothing to run on)
 };
 
 const char* toString(ErrorCode code);

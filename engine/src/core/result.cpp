@@ -10,6 +10,7 @@ const char* toString(ErrorCode code) {
     case ErrorCode::Io: return "I/O error";
     case ErrorCode::CorruptData: return "corrupt data";
     case ErrorCode::Unsupported: return "unsupported";
+    case ErrorCode::NoDevice: return "no Vulkan device";
   }
   return "unknown error";
 }

@@ -29,6 +29,11 @@ struct Session {
 Result<std::unique_ptr<Session>> createSession(const harness::HarnessOptions& options,
                                                harness::HarnessFailure* failure = nullptr);
 
+// Destroys the session (its engine objects, then the device and instance) and returns the number
+// of validation messages over its whole life, teardown included (leaked objects are reported while
+// the device goes). The engine objects created on it must be gone already.
+uint32_t endSession(std::unique_ptr<Session> session);
+
 // "builtin" gives the procedural environment; anything else is a lat-long image file.
 Result<bake::Image> loadEnvironmentImage(const std::string& spec, uint32_t builtinWidth = 1024);
 
