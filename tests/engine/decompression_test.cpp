@@ -82,5 +82,67 @@ TEST(Decompression, GpuMatchesCpuReference) {
   testing::expectNoMessagesThroughDestruction(h);
 }
 
+// Two instances of one upload decode at different SH orders (Object::setDecodeOrder), each
+// matching the CPU reference summed to its order; coverageOrder follows the size on screen.
+TEST(Decompression, InstancesDecodeAtTheirOwnOrder) {
+  auto h = testing::harnessOrSkip();
+  ASSERT_TRUE(h);
+  auto context = testing::createContext(*h);
+  ASSERT_TRUE(context.ok()) << context.error().message;
+  Context& ctx = *context.value();
+  auto decompressor = Decompressor::create(ctx);
+  ASSERT_TRUE(decompressor.ok()) << decompressor.error().message;
+  SyntheticFieldOptions options;
+  options.order = 8;
+  options.emptyAndGutters = true;
+  options.seed = 41;
+  const Field field = testing::makeSyntheticField(options);
+  auto full = testing::uploadFieldNow(ctx, field);
+  ASSERT_TRUE(full.ok()) << full.error().message;
+  std::unique_ptr<Object> low;
+  ASSERT_TRUE(ctx.uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
+                   auto created = Object::createInstance(ctx, *full.value(), cmd);
+                   if (!created) return created.error();
+                   low = std::move(created).value();
+                   return {};
+                 }).ok());
+  EXPECT_FALSE(low->setDecodeOrder(9).ok()) << "above the baked order";
+  ASSERT_TRUE(low->setDecodeOrder(3).ok());
+  EXPECT_EQ(low->decodeOrder(), 3u);
+  EXPECT_EQ(full.value()->decodeOrder(), 8u);
+  const std::array<float, 3> eye{0.3f, 0.8f, 3.0f};
+  testing::DistortionStats stats;
+  auto gpuFull = testing::decompressAndRead(*h, *decompressor.value(), *full.value(), eye);
+  auto gpuLow = testing::decompressAndRead(*h, *decompressor.value(), *low, eye);
+  ASSERT_TRUE(gpuFull.ok() && gpuLow.ok());
+  testing::compareDistortion(field, gpuFull.value(), reference::decompress(field, eye), kTolerance, stats);
+  testing::compareDistortion(field, gpuLow.value(), reference::decompress(field, eye, 3), kTolerance, stats);
+  EXPECT_GT(testing::countChanged(gpuFull.value(), gpuLow.value()), 100u) << "order 3 must differ from order 8";
+
+  // A change of order decodes again at the next record; the same order does not.
+  ASSERT_TRUE(h->submitAndWait([&](VkCommandBuffer cmd) { (void)decompressor.value()->record(cmd, eye, {low.get()}); }).ok());
+  EXPECT_EQ(decompressor.value()->lastStats().unchanged, 1u);
+  ASSERT_TRUE(low->setDecodeOrder(5).ok());
+  ASSERT_TRUE(h->submitAndWait([&](VkCommandBuffer cmd) { (void)decompressor.value()->record(cmd, eye, {low.get()}); }).ok());
+  EXPECT_EQ(decompressor.value()->lastStats().decompressed, 1u);
+
+  // The synthetic band spans about 2 units: 40 pixels high at 1 unit away, a few pixels far off.
+  Camera camera;
+  camera.eye = {0.0f, 0.0f, 2.5f};
+  EXPECT_EQ(coverageOrder(*low, camera, {256, 256}), 8u);
+  camera.eye = {0.0f, 0.0f, 400.0f};
+  const uint32_t far = coverageOrder(*low, camera, {256, 256});
+  EXPECT_LT(far, 3u) << "a speck on screen cannot show high bands";
+  camera.eye = {0.0f, 0.0f, 0.5f};  // inside the bounds: corners behind the eye
+  EXPECT_EQ(coverageOrder(*low, camera, {256, 256}), 8u);
+
+  low.reset();
+  full.value().reset();
+  decompressor.value().reset();
+  ctx.releaseDeferred();
+  context.value().reset();
+  testing::expectNoMessagesThroughDestruction(h);
+}
+
 }  // namespace
 }  // namespace shrefract

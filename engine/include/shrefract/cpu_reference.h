@@ -38,7 +38,8 @@ float roundToBinary16(float value);
 //         times clamp(s.throughput, 0, 1) when field.throughput (the last channel),
 //   w = s.tau clamped to +-65504 when the field has an optical depth channel, 0 otherwise;
 // zero for empty and gutter texels. Preconditions: validateField(field) succeeded, texel in range.
-Vec4 decodeTexel(const Field& field, uint64_t texel, const Vec3& eye);
+// `order`: an SH field decoded at a lower order (Object::setDecodeOrder); ignored otherwise.
+Vec4 decodeTexel(const Field& field, uint64_t texel, const Vec3& eye, uint32_t order = UINT32_MAX);
 
 // A distortion image as the engine leaves it: width * height RGBA texels, row-major, each value
 // representable in binary16.
@@ -53,7 +54,7 @@ struct DistortionImage {
 // The whole atlas for `eye`: decodeTexel for every texel, rounded to binary16, then every gutter
 // rule target = a + b - c computed in float on the rounded values and rounded again.
 // Precondition: validateField(field) succeeded.
-DistortionImage decompress(const Field& field, const Vec3& eye);
+DistortionImage decompress(const Field& field, const Vec3& eye, uint32_t order = UINT32_MAX);
 
 // Bilinear sample at normalized coordinates (u, v), as a sampler with LINEAR filtering and
 // CLAMP_TO_EDGE addressing: texel centres at ((i + 0.5) / width, (j + 0.5) / height), exact

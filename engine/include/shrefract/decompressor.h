@@ -73,6 +73,13 @@ struct DecompressStats {
   uint32_t dispatches = 0;    // compute dispatches (decompression and gutter passes)
 };
 
+// An SH order for `object` from its size on screen, for Object::setDecodeOrder: with P the larger
+// side, in pixels, of the screen rectangle its world bounds project to (camera, extent), band L
+// varies at least L + 1 times across the object's directions, which P pixels can show only while
+// 2 (L + 1) <= P: min(fieldOrder(), max(0, floor(P / 2) - 1)). fieldOrder() when a corner of the
+// bounds is behind the eye (the projection is unbounded) and for non-finite cameras.
+uint32_t coverageOrder(const Object& object, const Camera& camera, VkExtent2D extent);
+
 struct DecompressorImpl;
 
 class Decompressor {

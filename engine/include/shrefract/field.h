@@ -239,9 +239,11 @@ void evaluateCoefficients(const EncodingShape& shape, const float* coefficients,
                           const std::array<float, 3>& localDirection, float* out);
 
 // Decoded channels at a local direction of one sample (texel of kind kTexelSample): its dequantized
-// coefficients through evaluateCoefficients. Preconditions: validateField(field) succeeded, texel
-// in range and a sample.
-void evaluateSample(const Field& field, uint64_t texel, const std::array<float, 3>& localDirection, float* out);
+// coefficients through evaluateCoefficients. `order` below an SH field's order sums its first
+// (order + 1)^2 bands only (Object::setDecodeOrder). Preconditions: validateField(field)
+// succeeded, texel in range and a sample.
+void evaluateSample(const Field& field, uint64_t texel, const std::array<float, 3>& localDirection, float* out,
+                    uint32_t order = UINT32_MAX);
 
 // Dequantized coefficient a_layer(texel), value v < valuesPerLayer(). Preconditions:
 // validateField(field) succeeded, indices in range.

@@ -101,9 +101,16 @@ class Object {
   Object& operator=(const Object&) = delete;
 
   bool hasField() const;
-  // The field's SH order (0 for Table and Pca fields) and atlas size (0 without a field).
+  // The field's SH order as baked (0 for Table and Pca fields) and atlas size (0 without a field).
   uint32_t fieldOrder() const;
   VkExtent2D fieldExtent() const;
+  // The SH order this object decodes with, 0..fieldOrder() (default: fieldOrder()): the first
+  // (order + 1)^2 bands of the same upload, chosen at run time per object and per instance (e.g.
+  // by screen coverage: coverageOrder in shrefract/decompressor.h). A change decodes the object
+  // again at the next Decompressor::record(). Error (InvalidArgument): above fieldOrder(), or an
+  // object without a field.
+  Result<void> setDecodeOrder(uint32_t order);
+  uint32_t decodeOrder() const;
   // The distortion image (R16G16B16A16_SFLOAT, extent fieldExtent(), one level, one layer;
   // VK_NULL_HANDLE without a field): texel (x, y) holds the decoded exit direction (xyz, unit, or
   // zero for empty texels; for a field with throughput, of length the clamped throughput) and

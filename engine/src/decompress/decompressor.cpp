@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <compare>
 #include <map>
 #include <string>
@@ -351,6 +352,26 @@ Result<void> recordFields(DecompressorImpl& d, VkCommandBuffer cmd, const std::a
 }
 
 }  // namespace
+
+uint32_t coverageOrder(const Object& object, const Camera& camera, VkExtent2D extent) {
+  const uint32_t full = object.fieldOrder();
+  std::array<float, 3> lo{}, hi{};
+  worldBounds(object, lo, hi);
+  const glm::mat4 clipFromWorld = clipFromView(camera, extent) * viewFromWorld(camera);
+  glm::vec2 min(INFINITY), max(-INFINITY);
+  for (int corner = 0; corner < 8; ++corner) {
+    const glm::vec4 clip = clipFromWorld * glm::vec4((corner & 1) ? hi[0] : lo[0], (corner & 2) ? hi[1] : lo[1],
+                                                     (corner & 4) ? hi[2] : lo[2], 1.0f);
+    if (!(clip.w > 0.0f)) return full;  // behind the eye (or NaN): no bound on the projected size
+    const glm::vec2 ndc = glm::vec2(clip) / clip.w;
+    min = glm::min(min, ndc);
+    max = glm::max(max, ndc);
+  }
+  const float pixels = std::max((max.x - min.x) * 0.5f * float(extent.width), (max.y - min.y) * 0.5f * float(extent.height));
+  if (!std::isfinite(pixels)) return full;
+  const float bands = std::floor(pixels * 0.5f) - 1.0f;
+  return bands <= 0.0f ? 0u : std::min(full, bands >= float(full) ? full : static_cast<uint32_t>(bands));
+}
 
 Result<void> Decompressor::record(VkCommandBuffer cmd, const std::array<float, 3>& eye,
                                   const std::vector<Object*>& objects) {

@@ -71,13 +71,15 @@ void evaluateCoefficients(const EncodingShape& shape, const float* a, const floa
     }
 }
 
-void evaluateSample(const Field& field, uint64_t texel, const std::array<float, 3>& w, float* out) {
-  const uint32_t layers = field.layerCount(), values = field.valuesPerLayer();
+void evaluateSample(const Field& field, uint64_t texel, const std::array<float, 3>& w, float* out, uint32_t order) {
+  EncodingShape shape = field.shape();
+  if (shape.encoding == Encoding::Sh) shape.order = std::min(shape.order, order);
+  const uint32_t layers = shape.layerCount(), values = shape.valuesPerLayer();
   thread_local std::vector<float> a;
   a.resize(size_t(layers) * values);
   for (uint32_t i = 0; i < layers; ++i)
     for (uint32_t v = 0; v < values; ++v) a[size_t(i) * values + v] = fieldCoefficient(field, i, texel, v);
-  evaluateCoefficients(field.shape(), a.data(), field.basis.data(), w, out);
+  evaluateCoefficients(shape, a.data(), field.basis.data(), w, out);
 }
 
 }  // namespace shrefract

@@ -316,7 +316,17 @@ Result<void> createFieldInstance(ContextImpl& c, ObjectImpl& object, VkCommandBu
 }
 
 bool Object::hasField() const { return impl_->field != nullptr; }
-uint32_t Object::fieldOrder() const { return impl_->field ? impl_->field->order : 0; }
+uint32_t Object::fieldOrder() const { return impl_->field ? impl_->field->bakedOrder : 0; }
+uint32_t Object::decodeOrder() const { return impl_->field ? impl_->field->order : 0; }
+
+Result<void> Object::setDecodeOrder(uint32_t order) {
+  FieldResources* f = impl_->field.get();
+  if (!f || order > f->bakedOrder)
+    return makeError(ErrorCode::InvalidArgument, "Object::setDecodeOrder: order " + std::to_string(order) +
+                                                     " is above the field's order " + std::to_string(fieldOrder()));
+  f->order = order;  // the Decompressor picks its pipeline, and decodes again, by this
+  return {};
+}
 VkExtent2D Object::fieldExtent() const {
   return impl_->field ? VkExtent2D{impl_->field->width, impl_->field->height} : VkExtent2D{0, 0};
 }
@@ -358,7 +368,7 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   f.width = field.width;
   f.height = field.height;
   f.encoding = field.encoding;
-  f.order = field.order;
+  f.order = f.bakedOrder = field.order;
   f.tableSize = field.tableSize;
   f.components = field.components;
   f.channels = field.channels;

@@ -21,7 +21,8 @@ inline constexpr uint32_t kVertexFloats = 9;
 struct FieldResources {
   uint32_t width = 0, height = 0;
   Encoding encoding = Encoding::Sh;  // picks the decompression shader (Sh, or Table and Pca)
-  uint32_t order = 0;                // Sh
+  uint32_t order = 0;                // Sh: the order decoded (per instance, <= bakedOrder)
+  uint32_t bakedOrder = 0;           // Sh: the order stored
   uint32_t tableSize = 0;            // Table, Pca
   uint32_t components = 0;           // Pca
   uint32_t channels = 4;

@@ -37,14 +37,14 @@ const float* texelAt(const DistortionImage& image, uint32_t x, uint32_t y) {
 
 float roundToBinary16(float value) { return halfToFloat(floatToHalf(value)); }
 
-Vec4 decodeTexel(const Field& field, uint64_t texel, const Vec3& eye) {
+Vec4 decodeTexel(const Field& field, uint64_t texel, const Vec3& eye, uint32_t order) {
   if (field.texelKinds[texel] != kTexelSample) return {0.0f, 0.0f, 0.0f, 0.0f};
   const float* m = &field.frames[texel * 12];
   std::array<float, 3> w{};
   for (int k = 0; k < 3; ++k) w[k] = m[4 * k] * eye[0] + m[4 * k + 1] * eye[1] + m[4 * k + 2] * eye[2] + m[4 * k + 3];
   w[2] = std::max(w[2], 0.0f);
   float sum[5] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
-  evaluateSample(field, texel, w, sum);
+  evaluateSample(field, texel, w, sum, order);
   // As decompress_common.glsl (distortionTexel).
   const float tau = field.hasOpticalDepth() ? std::clamp(sum[3], -gpu::kMaxOpticalDepth, gpu::kMaxOpticalDepth) : 0.0f;
   Vec4 out{0.0f, 0.0f, 0.0f, tau};
@@ -60,14 +60,14 @@ Vec4 decodeTexel(const Field& field, uint64_t texel, const Vec3& eye) {
   return out;
 }
 
-DistortionImage decompress(const Field& field, const Vec3& eye) {
+DistortionImage decompress(const Field& field, const Vec3& eye, uint32_t order) {
   DistortionImage image;
   image.width = field.width;
   image.height = field.height;
   image.throughput = field.throughput;
   image.rgba.resize(size_t(field.texelCount()) * 4);
   for (uint64_t t = 0; t < field.texelCount(); ++t) {
-    const Vec4 v = decodeTexel(field, t, eye);
+    const Vec4 v = decodeTexel(field, t, eye, order);
     for (int c = 0; c < 4; ++c) image.rgba[t * 4 + c] = roundToBinary16(v[c]);
   }
   // Rules read sample texels only (validateField), so the order of application does not matter.
