@@ -60,7 +60,9 @@
 #include <shrefract/renderer.h>
 
 #include <cstdint>
+#include <initializer_list>
 #include <memory>
+#include <span>
 #include <vector>
 
 namespace shrefract {
@@ -102,11 +104,18 @@ class Decompressor {
   // world-space eye position the raster pass will use (Camera::eye). Fails only when a pipeline
   // cannot be created; then nothing has been recorded.
   // Objects whose image already holds this eye's decompression are left out (see above).
-  Result<void> record(VkCommandBuffer cmd, const std::array<float, 3>& eye, const std::vector<Object*>& objects);
+  Result<void> record(VkCommandBuffer cmd, const std::array<float, 3>& eye, std::span<Object* const> objects);
+  Result<void> record(VkCommandBuffer cmd, const std::array<float, 3>& eye, std::initializer_list<Object*> objects) {
+    return record(cmd, eye, std::span<Object* const>(objects.begin(), objects.size()));
+  }
   // The same for camera.eye, leaving out in addition the objects outside the view frustum of
   // (camera, extent), as Renderer::recordObjects() does with the same arguments.
   Result<void> record(VkCommandBuffer cmd, const Camera& camera, VkExtent2D extent,
-                      const std::vector<Object*>& objects);
+                      std::span<Object* const> objects);
+  Result<void> record(VkCommandBuffer cmd, const Camera& camera, VkExtent2D extent,
+                      std::initializer_list<Object*> objects) {
+    return record(cmd, camera, extent, std::span<Object* const>(objects.begin(), objects.size()));
+  }
 
   // Counts of the last record() call (all zero after a failed call).
   const DecompressStats& lastStats() const;

@@ -37,7 +37,9 @@
 
 #include <array>
 #include <cstdint>
+#include <initializer_list>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -104,7 +106,11 @@ class Renderer {
   // bounds lie outside the view frustum of (camera, extent) are not drawn (frustumCulling); the
   // Decompressor's camera overload leaves out the same objects.
   void recordObjects(VkCommandBuffer cmd, const Environment& environment, const Camera& camera, VkExtent2D extent,
-                     const std::vector<Object*>& objects, ShadingMode mode = ShadingMode::SingleInterface);
+                     std::span<Object* const> objects, ShadingMode mode = ShadingMode::SingleInterface);
+  void recordObjects(VkCommandBuffer cmd, const Environment& environment, const Camera& camera, VkExtent2D extent,
+                     std::initializer_list<Object*> objects, ShadingMode mode = ShadingMode::SingleInterface) {
+    recordObjects(cmd, environment, camera, extent, std::span<Object* const>(objects.begin(), objects.size()), mode);
+  }
   // Counts of the last recordObjects() call.
   const DrawStats& lastDrawStats() const;
 

@@ -211,7 +211,7 @@ void dispatchGrid(ContextImpl& c, VkCommandBuffer cmd, uint32_t groups) {
 
 // Both record() overloads; `frustum` null: no culling.
 Result<void> recordFields(DecompressorImpl& d, VkCommandBuffer cmd, const std::array<float, 3>& eye,
-                          const ViewFrustum* frustum, const std::vector<Object*>& objects) {
+                          const ViewFrustum* frustum, std::span<Object* const> objects) {
   ContextImpl& c = *d.context;
   d.lastStats = DecompressStats{};
   DecompressStats stats;
@@ -374,12 +374,12 @@ uint32_t coverageOrder(const Object& object, const Camera& camera, VkExtent2D ex
 }
 
 Result<void> Decompressor::record(VkCommandBuffer cmd, const std::array<float, 3>& eye,
-                                  const std::vector<Object*>& objects) {
+                                  std::span<Object* const> objects) {
   return recordFields(*impl_, cmd, eye, nullptr, objects);
 }
 
 Result<void> Decompressor::record(VkCommandBuffer cmd, const Camera& camera, VkExtent2D extent,
-                                  const std::vector<Object*>& objects) {
+                                  std::span<Object* const> objects) {
   const ViewFrustum frustum = viewFrustum(clipFromView(camera, extent) * viewFromWorld(camera));
   return recordFields(*impl_, cmd, camera.eye, &frustum, objects);
 }

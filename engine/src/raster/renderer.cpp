@@ -335,7 +335,7 @@ void Renderer::recordBackground(VkCommandBuffer cmd, const Environment& environm
 }
 
 void Renderer::recordObjects(VkCommandBuffer cmd, const Environment& environment, const Camera& camera,
-                             VkExtent2D extent, const std::vector<Object*>& objects, ShadingMode mode) {
+                             VkExtent2D extent, std::span<Object* const> objects, ShadingMode mode) {
   RendererImpl& r = *impl_;
   ContextImpl& c = *r.context;
   const glm::mat4 clipFromWorld = clipFromView(camera, extent) * viewFromWorld(camera);
