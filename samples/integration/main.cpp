@@ -291,8 +291,14 @@ Host::Host() {
   messengerInfo.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
                               VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT;
   messengerInfo.pfnUserCallback = onDebugMessage;
+  // Synchronization validation too: a missing or too-narrow barrier is a counted message.
+  const VkValidationFeatureEnableEXT syncValidation = VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT;
+  VkValidationFeaturesEXT validationFeatures{VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT};
+  validationFeatures.enabledValidationFeatureCount = 1;
+  validationFeatures.pEnabledValidationFeatures = &syncValidation;
+  validationFeatures.pNext = &messengerInfo;  // also reports problems inside vkCreateInstance / vkDestroyInstance
   VkInstanceCreateInfo ici{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
-  ici.pNext = &messengerInfo;  // also reports problems inside vkCreateInstance / vkDestroyInstance
+  ici.pNext = &validationFeatures;
   ici.pApplicationInfo = &app;
   ici.enabledLayerCount = 1;
   ici.ppEnabledLayerNames = &layer;

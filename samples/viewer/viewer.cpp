@@ -135,8 +135,8 @@ struct Host {
 
   VkDevice device() const { return session->harness->device(); }
 
-  // Destroys every Vulkan object but the device and instance (which the session owns), so that the
-  // validation messages of the teardown are counted before the messenger goes away.
+  // Destroys every Vulkan object but the device and instance (which the session owns; the frame
+  // loop's end then destroys the session and counts what the layer reported through it).
   void releaseGpuObjects() {
     if (!session) return;
     vkDeviceWaitIdle(device());
@@ -674,13 +674,15 @@ int runViewer(const ViewerOptions& options) {
                             : h.swapchain->presentMode() == VK_PRESENT_MODE_MAILBOX_KHR   ? "mailbox"
                                                                                           : "other";
   h.releaseGpuObjects();
-  const uint32_t messages = hr.messageCount();
+  // Counted through the device's and instance's destruction too (leaks are reported only then).
+  const std::string deviceName = hr.deviceName();
+  const uint32_t messages = offscreen::endSession(std::move(h.session));
   if (messages != 0)
     return fail(std::to_string(messages) + " Vulkan validation message(s)" + (shot ? "; no screenshot written" : ""));
   if (shot)
     if (auto written = bake::writeImage(options.screenshot, *shot); !written) return fail(written.error().message);
   std::printf("shrefract view: %llu frames on %s (present mode %s), 0 validation messages%s%s\n",
-              static_cast<unsigned long long>(frame), hr.deviceName().c_str(), presentMode,
+              static_cast<unsigned long long>(frame), deviceName.c_str(), presentMode,
               shot ? "; screenshot " : "", shot ? options.screenshot.c_str() : "");
   std::printf("last title: %s\n", lastTitle.c_str());  // the state and the last frame's timings
   return 0;
