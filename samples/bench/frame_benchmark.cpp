@@ -15,8 +15,8 @@
 // the whole row in every series, so that "1 instance" is the same view with only the middle one.
 // Series of F frames each (after two warm-up frames), recorded into two command buffers with a
 // fence each, as a host with two frames in flight does:
-//  - moving eye, N instances: the eye orbits the row by 0.2 degrees per frame, so every instance
-//    is decompressed every frame (the worst case);
+//  - moving eye, N instances: the eye swings about the row by 0.2 degrees per frame (between -30
+//    and +30 degrees), so every instance is decompressed every frame (the worst case);
 //  - moving eye, 1 instance: the same with the middle instance only;
 //  - still eye, N instances: after the first frame the Decompressor skips every instance (its
 //    image already holds this eye's decompression), so the frame is the raster pass alone.
@@ -157,6 +157,15 @@ Result<void> placeInstances(Context& context, Scene& scene, uint32_t instances) 
   return {};
 }
 
+// The eye of frame i of a moving series: it swings about the vertical axis through the target,
+// 0.2 degrees per frame between -30 and +30 degrees, so that every frame has a new eye (every
+// instance is decompressed) however many frames run, and a one-sided object (the synthetic
+// square) never turns its back to the camera, which would leave only the background to draw.
+float swingDegrees(uint32_t frame) {
+  const float p = std::fmod(0.2f * float(frame), 120.0f);
+  return p < 60.0f ? p - 30.0f : 90.0f - p;
+}
+
 // The camera turned about the vertical axis through its target.
 Camera orbit(const Camera& base, float degrees) {
   const float a = degrees * std::numbers::pi_v<float> / 180.0f;
@@ -218,24 +227,6 @@ Result<void> createFrames(Frames& f, const Options& o) {
   return {};
 }
 
-// This frame's writes to a target after the previous frame's (both frames share the targets; one
-// queue, so the barrier orders them); the contents are discarded, as both are cleared.
-void toAttachment(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkPipelineStageFlags2 stages,
-                  VkAccessFlags2 access, VkImageLayout layout) {
-  VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
-  b.srcStageMask = b.dstStageMask = stages;
-  b.srcAccessMask = b.dstAccessMask = access;
-  b.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-  b.newLayout = layout;
-  b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.image = image;
-  b.subresourceRange = {aspect, 0, 1, 0, 1};
-  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-  dep.imageMemoryBarrierCount = 1;
-  dep.pImageMemoryBarriers = &b;
-  vkCmdPipelineBarrier2(cmd, &dep);
-}
-
 struct Pass {
   Renderer& renderer;
   Decompressor& decompressor;
@@ -247,34 +238,7 @@ struct Pass {
 // where an object covers it before its fragment shader runs (renderer.h allows either order).
 void recordRaster(VkCommandBuffer cmd, const Frames& f, const Pass& pass, const Camera& camera, VkExtent2D extent,
                   const std::vector<Object*>& objects) {
-  toAttachment(cmd, f.color.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-               VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
-  toAttachment(cmd, f.depth.image, VK_IMAGE_ASPECT_DEPTH_BIT,
-               VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-               VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-               VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
-  VkRenderingAttachmentInfo colorAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  colorAttachment.imageView = f.color.view;
-  colorAttachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-  colorAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  colorAttachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  VkRenderingAttachmentInfo depthAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  depthAttachment.imageView = f.depth.view;
-  depthAttachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  depthAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  depthAttachment.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-  depthAttachment.clearValue.depthStencil = {1.0f, 0};
-  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-  ri.renderArea = {{0, 0}, extent};
-  ri.layerCount = 1;
-  ri.colorAttachmentCount = 1;
-  ri.pColorAttachments = &colorAttachment;
-  ri.pDepthAttachment = &depthAttachment;
-  vkCmdBeginRendering(cmd, &ri);
-  const VkViewport viewport{0.0f, 0.0f, float(extent.width), float(extent.height), 0.0f, 1.0f};
-  const VkRect2D scissor{{0, 0}, extent};
-  vkCmdSetViewport(cmd, 0, 1, &viewport);
-  vkCmdSetScissor(cmd, 0, 1, &scissor);
+  beginRendering(cmd, f.color, f.depth);
   pass.renderer.recordObjects(cmd, pass.environment, camera, extent, objects, pass.shading);
   pass.renderer.recordBackground(cmd, pass.environment, camera, extent);
   vkCmdEndRendering(cmd);
@@ -345,7 +309,7 @@ Result<SeriesResult> runSeries(Frames& f, Context& context, const Pass& pass, co
     }
     const uint32_t slot = i % kInFlight;
     const bool measured = i >= kWarmUp;
-    const Camera cam = movingEye ? orbit(camera, 0.2f * float(i)) : camera;
+    const Camera cam = movingEye ? orbit(camera, swingDegrees(i)) : camera;
     auto done = frame(f, slot, measuredInSlot[slot], context, pass, cam, extent, objects, samples, measured);
     if (!done) return done.error();
     measuredInSlot[slot] = measured;
