@@ -337,28 +337,53 @@ void printSeries(const char* name, const SeriesResult& r, bool timestamps) {
   std::printf("  [%.1f decompressions per frame, %u drawn]\n", r.decompressionsPerFrame, r.drawn);
 }
 
-// The same-run ratios: what N instances cost against one, what moving the eye costs against the
-// still eye (whose decompression the Decompressor skips), and decompression against raster.
-void printRatios(const SeriesResult& movingN, const SeriesResult& moving1, const SeriesResult& stillN,
+std::string instancesLabel(uint32_t n) { return n == 1 ? "1 instance" : std::to_string(n) + " instances"; }
+
+// The same-run ratios: what N instances cost against one (moving1 is null when N is 1), what
+// moving the eye costs against the still eye (whose decompression the Decompressor skips), and
+// decompression against raster.
+void printRatios(const SeriesResult& movingN, const SeriesResult* moving1, const SeriesResult& stillN,
                  uint32_t instances, bool timestamps) {
+  const std::string n = instancesLabel(instances);
   std::printf("ratios (same run):\n");
-  std::printf("  moving eye, %u instances / 1 instance: wall %.2fx, CPU %.2fx", instances,
-              movingN.wallMs / moving1.wallMs, movingN.cpuMs / moving1.cpuMs);
+  if (moving1) {
+    std::printf("  moving eye, %s / 1 instance: wall %.2fx, CPU %.2fx", n.c_str(), movingN.wallMs / moving1->wallMs,
+                movingN.cpuMs / moving1->cpuMs);
+    if (timestamps)
+      std::printf(", GPU decompression %.2fx, raster %.2fx", movingN.decompressMs / moving1->decompressMs,
+                  movingN.rasterMs / moving1->rasterMs);
+    std::printf("\n");
+  }
+  std::printf("  moving eye / still eye (%s): wall %.2fx, CPU %.2fx\n", n.c_str(), movingN.wallMs / stillN.wallMs,
+              movingN.cpuMs / stillN.cpuMs);
   if (timestamps)
-    std::printf(", GPU decompression %.2fx, raster %.2fx", movingN.decompressMs / moving1.decompressMs,
-                movingN.rasterMs / moving1.rasterMs);
-  std::printf("\n  moving eye / still eye (%u instances): wall %.2fx, CPU %.2fx\n", instances,
-              movingN.wallMs / stillN.wallMs, movingN.cpuMs / stillN.cpuMs);
-  if (timestamps)
-    std::printf("  decompression / raster (moving eye, %u instances, GPU): %.2f\n", instances,
+    std::printf("  decompression / raster (moving eye, %s, GPU): %.2f\n", n.c_str(),
                 movingN.decompressMs / movingN.rasterMs);
   else
     std::printf("  decompression / raster: no GPU timestamps on this queue; (moving - still) / still wall: %.2f\n",
                 (movingN.wallMs - stillN.wallMs) / stillN.wallMs);
 }
 
+struct Named {
+  std::string name;
+  std::vector<Object*> objects;
+  bool moving = false;
+  SeriesResult result;
+};
+
+// The series of a scene: moving eye with all instances, with the middle one alone (only when
+// there are several: with one it would measure the same thing twice), still eye with all.
+std::vector<Named> seriesOf(const Scene& scene, uint32_t instances) {
+  std::vector<Object*> all;
+  for (const auto& object : scene.objects) all.push_back(object.get());
+  const std::string n = instancesLabel(instances);
+  std::vector<Named> series{{"moving eye, " + n, all, true, {}}};
+  if (instances > 1) series.push_back({"moving eye, 1 instance", {scene.objects[instances / 2].get()}, true, {}});
+  series.push_back({"still eye, " + n, all, false, {}});
+  return series;
+}
+
 int benchmarkScene(Gpu& gpu, Frames& frames, const Environment& environment, Scene& scene, const Options& o) {
-  harness::Harness& h = *gpu.harness;
   auto placed = placeInstances(*gpu.context, scene, o.instances);
   if (!placed) return fail(scene.name + ": " + placed.error().message);
   auto renderer = Renderer::create(*gpu.context, RendererCreateInfo{o.colorFormat, VK_FORMAT_D32_SFLOAT});
@@ -368,32 +393,21 @@ int benchmarkScene(Gpu& gpu, Frames& frames, const Environment& environment, Sce
   if (auto prepared = decompressor.value()->prepare(*scene.objects[0]); !prepared)
     return fail(prepared.error().message);
   const Field& f = scene.field;
-  std::printf("field: %s, order %u, %s, %u channels, %ux%u atlas, %zu triangles; %u instances\n", scene.name.c_str(),
-              f.order, toString(f.quantization), f.channels, f.width, f.height, f.mesh.indices.size() / 3,
-              o.instances);
-  std::vector<Object*> all, middle{scene.objects[o.instances / 2].get()};
-  for (auto& object : scene.objects) all.push_back(object.get());
+  std::printf("field: %s, order %u, %s, %u channels, %ux%u atlas, %zu triangles; %s\n", scene.name.c_str(), f.order,
+              toString(f.quantization), f.channels, f.width, f.height, f.mesh.indices.size() / 3,
+              instancesLabel(o.instances).c_str());
   const Pass pass{*renderer.value(), *decompressor.value(), environment, o.shading};
-  struct Named {
-    const char* name;
-    const std::vector<Object*>* objects;
-    bool moving;
-    SeriesResult result;
-  };
-  const std::string movingN = "moving eye, " + std::to_string(o.instances) + " instances";
-  const std::string stillN = "still eye, " + std::to_string(o.instances) + " instances";
-  std::array<Named, 3> runs{{{movingN.c_str(), &all, true, {}},
-                             {"moving eye, 1 instance", &middle, true, {}},
-                             {stillN.c_str(), &all, false, {}}}};
   const bool timestamps = frames.timers[0]->available();
-  for (Named& n : runs) {
-    auto r = runSeries(frames, *gpu.context, pass, scene.camera, *n.objects, n.moving, o.frames);
+  std::vector<Named> series = seriesOf(scene, o.instances);
+  for (Named& n : series) {
+    auto r = runSeries(frames, *gpu.context, pass, scene.camera, n.objects, n.moving, o.frames);
     if (!r) return fail(r.error().message);
     n.result = r.value();
-    printSeries(n.name, n.result, timestamps);
+    printSeries(n.name.c_str(), n.result, timestamps);
   }
-  printRatios(runs[0].result, runs[1].result, runs[2].result, o.instances, timestamps);
-  vkDeviceWaitIdle(h.device());
+  const SeriesResult* moving1 = series.size() == 3 ? &series[1].result : nullptr;
+  printRatios(series.front().result, moving1, series.back().result, o.instances, timestamps);
+  vkDeviceWaitIdle(gpu.harness->device());
   return 0;
 }
 
@@ -407,7 +421,7 @@ Result<Scene> loadScene(const Options& o, size_t index) {
   }
   scene.name = o.fields[index];
   auto read = readField(scene.name);
-  if (!read) return makeError(read.error().code, scene.name + ": " + read.error().message);
+  if (!read) return read.error();  // readField names the file
   scene.field = std::move(read).value();
   return scene;
 }
