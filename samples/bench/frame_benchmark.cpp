@@ -1,397 +1,532 @@
-// Frame benchmark: the SH path (decompression + raster) at 1280x720 against the exact CPU reference
-// (Embree, the baked scene rebuilt from the field's recorded source) at the same size and camera,
-// in the same run. Target (issue 8), on lavapipe with 2 cores: the bunny at order 8 at 30 frames
-// per second or more, and at least 10x faster than the exact reference.
+// Frame benchmark: what a host's frame costs (decompression + raster) at 1920x1080, with N
+// instances of one field side by side, two frames in flight, and the ratios that matter measured in
+// the same run. Links only the engine, the headless harness and Vulkan, so that it runs on any
+// machine with a Vulkan driver (no Embree, no OpenImageIO); the exact-reference comparison, which
+// needs the bake, is shrefract_reference_benchmark.
 //
-//   shrefract_frame_benchmark FIELD.shrf [--size WxH] [--frames N] [--env builtin|FILE] [--cube-env]
+//   shrefract_frame_benchmark [FIELD.shrf ...] [--instances N] [--size WxH] [--frames N] [--cube-env]
 //                             [--shading field|exit-direction|single-interface]
-//                             [--format rgba16f|rgba8|rgba32f] [--threads T] [--no-reference]
-//                             [--validation]
+//                             [--format rgba16f|rgba8|rgba32f] [--validation]
 //
-// Run it from the directory the field was baked in when the field's source is a relative path
-// (shrefract info FIELD.shrf shows it). Three series of N frames, each frame recorded, submitted and
-// waited for on its own (no frames in flight: the wall time is the whole frame):
-//  - moving: the eye orbits by 0.2 degrees per frame, so every frame decompresses (the worst case);
-//  - static: the eye stays; after the first frame the decompression is skipped (Decompressor);
-//  - raster only: no field decompression recorded at all, for the split of the frame;
-//  - background only: the environment pass alone.
-// CPU is the process CPU time per frame: on a software device (llvmpipe) that is the work itself,
-// whatever else competes for the cores, while wall and GPU timestamps include the waiting.
-// Each frame draws the objects first and the background after them (renderer.h allows either
-// order), into a colour target of --format (default RGBA16F) and a D32 depth target. --shading and
-// --format exist to take the frame apart (what the fragment shading or the target format costs).
-// The exact reference uses the camera and environment of the SH frames and every hardware thread
-// (--threads to change).
-// GPU timestamps give the decompression and raster parts; medians over the frames. Exit code 0
-// with "SKIPPED:" when there is no Vulkan device or FIELD.shrf is missing.
-#include <shrefract/bake/reference_render.h>
-#include <shrefract/bake/tracer.h>
+// Scenes: each FIELD.shrf (read with readField), or without one a synthetic field (bench_support:
+// order 8, u8, 4 channels, a 256x256 atlas of samples on a flat square). The environment is
+// procedural (a sky gradient with a bright grid and a sun), so no image file is read. The N
+// instances share one upload (Object::createInstance) and stand in a row along x; the camera frames
+// the whole row in every series, so that "1 instance" is the same view with only the middle one.
+// Series of F frames each (after two warm-up frames), recorded into two command buffers with a
+// fence each, as a host with two frames in flight does:
+//  - moving eye, N instances: the eye swings about the row by 0.2 degrees per frame (between -30
+//    and +30 degrees), so every instance is decompressed every frame (the worst case);
+//  - moving eye, 1 instance: the same with the middle instance only;
+//  - still eye, N instances: after the first frame the Decompressor skips every instance (its
+//    image already holds this eye's decompression), so the frame is the raster pass alone.
+// Wall is the series' elapsed time divided by F (with frames in flight the frames overlap, so this
+// is the frame rate a host sees, not one frame's latency); CPU is the process CPU time per frame,
+// which on a software device (lavapipe) is the work itself whatever else competes for the cores.
+// GPU timestamps (where the queue has them) split each frame into decompression and raster;
+// medians over the frames. Exit code 0 with "SKIPPED:" when there is no Vulkan device; 2 with one
+// line for bad arguments or a FIELD.shrf that does not exist.
 #include <shrefract/decompressor.h>
+#include <shrefract/environment.h>
+#include <shrefract/renderer.h>
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <numbers>
 #include <string>
 #include <vector>
 
-#include <glm/glm.hpp>
-
 #include "bench/bench_support.h"
-#include "cli/scene_source.h"
-#include "offscreen/offscreen.h"
 
 namespace shrefract::bench {
 namespace {
 
+constexpr uint32_t kInFlight = 2;
+constexpr uint32_t kWarmUp = kInFlight;  // first use of each command buffer and of the attachments
+// Timestamp marks of a frame: 0 start, 1 after decompression, 2 after the raster pass.
+constexpr uint32_t kMarks = 3;
+
 struct Options {
-  std::string field;
-  uint32_t width = 1280, height = 720;
+  std::vector<std::string> fields;  // empty: the synthetic field
+  uint32_t instances = 4;
+  uint32_t width = 1920, height = 1080;
   uint32_t frames = 30;
-  std::string environment = "builtin";
   bool cube = false;
   ShadingMode shading = ShadingMode::Field;
-  // --format rgba16f (default: what a host renders HDR into), rgba8 (R8G8B8A8_UNORM), rgba32f
-  VkFormat colorFormat = VK_FORMAT_R16G16B16A16_SFLOAT;  // --shading: field (default), exit-direction, single-interface
-  uint32_t threads = 0;
-  bool reference = true;
+  VkFormat colorFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
   bool validation = false;
 };
 
-int usage(const char* message) {
-  if (message) std::fprintf(stderr, "%s\n", message);
-  std::fprintf(stderr,
-               "usage: shrefract_frame_benchmark FIELD.shrf [--size WxH] [--frames N] [--env builtin|FILE] [--cube-env]\n"
-               "                                 [--shading field|exit-direction|single-interface]\n"
-               "                                 [--format rgba16f|rgba8|rgba32f]\n"
-               "                                 [--threads T] [--no-reference] [--validation]\n");
+// Bad arguments: one line naming the flag or file, exit 2. --help: the synopsis, exit 0.
+int usage(const std::string& message) {
+  std::fprintf(stderr, "shrefract_frame_benchmark: %s (--help for usage)\n", message.c_str());
   return 2;
 }
 
-enum class Series { Moving, Static, RasterOnly, BackgroundOnly };
+int help() {
+  std::printf("usage: shrefract_frame_benchmark [FIELD.shrf ...] [--instances N] [--size WxH] [--frames N]\n"
+              "                                 [--cube-env] [--shading field|exit-direction|single-interface]\n"
+              "                                 [--format rgba16f|rgba8|rgba32f] [--validation]\n");
+  return 0;
+}
 
-struct SeriesResult {
-  double wallMs = 0.0, decompressMs = 0.0, rasterMs = 0.0;  // medians
-  double cpuMs = 0.0;  // median process CPU time per frame (the work itself on a software device)
-  uint32_t decompressedFrames = 0;                          // frames that recorded a decompression
-  uint32_t drawn = 0, culled = 0;                           // last frame
+// Prints a run-time failure (one line) and returns exit code 1.
+int fail(const std::string& message) {
+  std::fprintf(stderr, "%s\n", message.c_str());
+  return 1;
+}
+
+// The procedural environment: lat-long, row 0 = zenith (environment.h). A blue sky over a dark
+// ground, a bright grid every 15 degrees and a sun, so that refracted lookups land on structure
+// (as with a photographed map) rather than on a constant colour the texture cache would flatter.
+std::vector<float> proceduralSky(uint32_t width, uint32_t height) {
+  std::vector<float> rgba(size_t(width) * height * 4);
+  constexpr float pi = std::numbers::pi_v<float>;
+  for (uint32_t y = 0; y < height; ++y)
+    for (uint32_t x = 0; x < width; ++x) {
+      const float theta = pi * (float(y) + 0.5f) / float(height);   // from the zenith
+      const float phi = 2.0f * pi * (float(x) + 0.5f) / float(width);
+      const float up = std::cos(theta);
+      std::array<float, 3> c = up > 0.0f ? std::array<float, 3>{0.3f + 0.3f * (1 - up), 0.5f + 0.2f * (1 - up), 0.9f}
+                                         : std::array<float, 3>{0.25f, 0.2f, 0.15f};
+      const float gridDegrees = 15.0f * pi / 180.0f;
+      const bool line = std::fmod(theta, gridDegrees) < 0.02f || std::fmod(phi, gridDegrees) < 0.02f;
+      const float sun = std::abs(theta - 0.25f * pi) < 0.05f && std::abs(phi - 0.5f * pi) < 0.05f ? 20.0f : 0.0f;
+      float* p = &rgba[(size_t(y) * width + x) * 4];
+      for (int k = 0; k < 3; ++k) p[k] = c[size_t(k)] + (line ? 1.5f : 0.0f) + sun;
+      p[3] = 1.0f;
+    }
+  return rgba;
+}
+
+struct Scene {
+  std::string name;
+  Field field;
+  std::vector<std::unique_ptr<Object>> objects;  // objects[0] the upload, the others its instances
+  Camera camera;
 };
 
-// Timestamp marks of a frame: 0 start, 1 after decompression, 2 before rendering, 3 after.
-constexpr uint32_t kMarks = 4;
+// Object-space bounds of the field's render mesh.
+void meshBounds(const Field& field, std::array<float, 3>& lo, std::array<float, 3>& hi) {
+  lo = {1e30f, 1e30f, 1e30f};
+  hi = {-1e30f, -1e30f, -1e30f};
+  for (size_t i = 0; i + 2 < field.mesh.positions.size(); i += 3)
+    for (size_t k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], field.mesh.positions[i + k]);
+      hi[k] = std::max(hi[k], field.mesh.positions[i + k]);
+    }
+}
 
+// Uploads the field once and makes instances-1 more instances of it, in a row along x with a
+// quarter of the object's width between neighbours, centred on the object's own centre; the camera
+// looks at the row from +z (the synthetic square faces +z), a little above, far enough back that
+// the whole row fits the vertical field of view and the wider horizontal one.
+Result<void> placeInstances(Context& context, Scene& scene, uint32_t instances) {
+  std::array<float, 3> lo{}, hi{};
+  meshBounds(scene.field, lo, hi);
+  const float spacing = 1.25f * std::max(hi[0] - lo[0], 1e-3f);
+  auto uploaded = context.uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
+    auto source = Object::createFromField(context, scene.field, cmd);
+    if (!source) return source.error();
+    scene.objects.push_back(std::move(source).value());
+    for (uint32_t k = 1; k < instances; ++k) {
+      auto instance = Object::createInstance(context, *scene.objects[0], cmd);
+      if (!instance) return instance.error();
+      scene.objects.push_back(std::move(instance).value());
+    }
+    return {};
+  });
+  if (!uploaded) return uploaded.error();
+  for (uint32_t k = 0; k < instances; ++k)
+    scene.objects[k]->worldFromObject.translation = {(float(k) - 0.5f * float(instances - 1)) * spacing, 0.0f, 0.0f};
+  const std::array<float, 3> centre{0.5f * (lo[0] + hi[0]), 0.5f * (lo[1] + hi[1]), 0.5f * (lo[2] + hi[2])};
+  const float dx = hi[0] - lo[0], dy = hi[1] - lo[1], dz = hi[2] - lo[2];
+  const float radius = 0.5f * std::sqrt(dx * dx + dy * dy + dz * dz) + 0.5f * float(instances - 1) * spacing;
+  Camera& camera = scene.camera;
+  camera.verticalFovDegrees = 40.0f;
+  const float distance = 1.1f * radius / std::sin(0.5f * camera.verticalFovDegrees * std::numbers::pi_v<float> / 180.0f);
+  camera.target = centre;
+  camera.eye = {centre[0], centre[1] + 0.25f * distance, centre[2] + 0.97f * distance};
+  camera.nearPlane = 0.01f * distance;
+  camera.farPlane = 10.0f * distance;
+  return {};
+}
+
+// The eye of frame i of a moving series: it swings about the vertical axis through the target,
+// 0.2 degrees per frame between -30 and +30 degrees, so that every frame has a new eye (every
+// instance is decompressed) however many frames run, and a one-sided object (the synthetic
+// square) never turns its back to the camera, which would leave only the background to draw.
+float swingDegrees(uint32_t frame) {
+  const float p = std::fmod(0.2f * float(frame), 120.0f);
+  return p < 60.0f ? p - 30.0f : 90.0f - p;
+}
+
+// The camera turned about the vertical axis through its target.
 Camera orbit(const Camera& base, float degrees) {
-  const glm::vec3 target(base.target[0], base.target[1], base.target[2]);
-  const glm::vec3 eye(base.eye[0], base.eye[1], base.eye[2]);
-  const float a = glm::radians(degrees);
-  const glm::vec3 d = eye - target;
-  const glm::vec3 rotated(std::cos(a) * d.x + std::sin(a) * d.z, d.y, -std::sin(a) * d.x + std::cos(a) * d.z);
+  const float a = degrees * std::numbers::pi_v<float> / 180.0f;
+  const float dx = base.eye[0] - base.target[0], dz = base.eye[2] - base.target[2];
   Camera c = base;
-  const glm::vec3 e = target + rotated;
-  c.eye = {e.x, e.y, e.z};
+  c.eye[0] = base.target[0] + std::cos(a) * dx + std::sin(a) * dz;
+  c.eye[2] = base.target[2] - std::sin(a) * dx + std::cos(a) * dz;
   return c;
 }
 
-Result<SeriesResult> runSeries(offscreen::Session& session, const Environment& environment, Object& object,
-                               const Camera& camera, const Options& options, Series series) {
-  harness::Harness& h = *session.harness;
-  const VkFormat colorFormat = options.colorFormat;
-  const VkFormat depthFormat = VK_FORMAT_D32_SFLOAT;
-  RendererCreateInfo rci;
-  rci.colorFormat = colorFormat;
-  rci.depthFormat = depthFormat;
-  auto renderer = Renderer::create(*session.context, rci);
-  if (!renderer) return renderer.error();
-  auto decompressor = Decompressor::create(*session.context);
-  if (!decompressor) return decompressor.error();
-  if (auto prepared = decompressor.value()->prepare(object); !prepared) return prepared.error();
-  object.invalidateDistortion();  // every series starts from scratch
-  auto color = h.createImage(options.width, options.height, colorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT,
-                             VK_IMAGE_ASPECT_COLOR_BIT);
-  if (!color) return color.error();
-  auto depth = h.createImage(options.width, options.height, depthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
-                             VK_IMAGE_ASPECT_DEPTH_BIT);
-  if (!depth) {
-    h.destroyImage(color.value());
-    return depth.error();
-  }
-  harness::Harness::Image colorImage = color.value(), depthImage = depth.value();
-  GpuTimer timer(h, kMarks);
-  const VkExtent2D extent{options.width, options.height};
-  const std::vector<Object*> objects{&object};
-  std::vector<double> wall, decompress, raster, cpu;
-  SeriesResult result;
-  Result<void> status{};
-  // One warm-up frame (first use of the attachments), then the measured frames.
-  for (uint32_t frame = 0; frame <= options.frames && status.ok(); ++frame) {
-    const Camera cam = series == Series::Moving ? orbit(camera, 0.2f * float(frame)) : camera;
-    session.context->beginFrame();
-    const auto start = std::chrono::steady_clock::now();
-    const double cpuStart = processCpuMs();
-    Result<void> recorded{};
-    bool decompressed = false;
-    auto submitted = h.submitAndWait([&](VkCommandBuffer cmd) {
-      timer.begin(cmd);
-      timer.mark(cmd, 0);
-      if (series == Series::Moving || series == Series::Static) {
-        recorded = decompressor.value()->record(cmd, cam, extent, objects);
-        decompressed = decompressor.value()->lastStats().decompressed > 0;
-      }
-      timer.mark(cmd, 1);
-      std::array<VkImageMemoryBarrier2, 2> toAttachment{};
-      for (auto& b : toAttachment) {
-        b = {VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
-        b.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-        b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-      }
-      toAttachment[0].srcStageMask = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT;
-      toAttachment[0].dstStageMask = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT;
-      toAttachment[0].dstAccessMask = VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT;
-      toAttachment[0].newLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-      toAttachment[0].image = colorImage.image;
-      toAttachment[0].subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-      toAttachment[1].srcStageMask =
-          VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
-      toAttachment[1].dstStageMask = toAttachment[1].srcStageMask;
-      toAttachment[1].dstAccessMask =
-          VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT;
-      toAttachment[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-      toAttachment[1].image = depthImage.image;
-      toAttachment[1].subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, 1};
-      VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-      dep.imageMemoryBarrierCount = 2;
-      dep.pImageMemoryBarriers = toAttachment.data();
-      vkCmdPipelineBarrier2(cmd, &dep);
-      timer.mark(cmd, 2);
-      VkRenderingAttachmentInfo colorAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-      colorAttachment.imageView = colorImage.view;
-      colorAttachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-      colorAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-      colorAttachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-      VkRenderingAttachmentInfo depthAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-      depthAttachment.imageView = depthImage.view;
-      depthAttachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-      depthAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-      depthAttachment.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-      depthAttachment.clearValue.depthStencil = {1.0f, 0};
-      VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-      ri.renderArea = {{0, 0}, extent};
-      ri.layerCount = 1;
-      ri.colorAttachmentCount = 1;
-      ri.pColorAttachments = &colorAttachment;
-      ri.pDepthAttachment = &depthAttachment;
-      vkCmdBeginRendering(cmd, &ri);
-      const VkViewport viewport{0.0f, 0.0f, float(extent.width), float(extent.height), 0.0f, 1.0f};
-      const VkRect2D scissor{{0, 0}, extent};
-      vkCmdSetViewport(cmd, 0, 1, &viewport);
-      vkCmdSetScissor(cmd, 0, 1, &scissor);
-      // Objects first, then the background at the far plane: the depth test rejects the background
-      // where an object covers it before its fragment shader runs (renderer.h allows either order).
-      if (series != Series::BackgroundOnly)
-        renderer.value()->recordObjects(cmd, environment, cam, extent, objects, options.shading);
-      renderer.value()->recordBackground(cmd, environment, cam, extent);
-      vkCmdEndRendering(cmd);
-      timer.mark(cmd, 3);
-    });
-    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    const double cpuMs = processCpuMs() - cpuStart;
-    if (!submitted) status = submitted.error();
-    else if (!recorded) status = recorded.error();
-    if (!status || frame == 0) continue;
-    wall.push_back(ms);
-    cpu.push_back(cpuMs);
-    decompress.push_back(timer.elapsedMs(0, 1));
-    raster.push_back(timer.elapsedMs(2, 3));
-    result.decompressedFrames += decompressed ? 1u : 0u;
-    result.drawn = renderer.value()->lastDrawStats().drawn;
-    result.culled = renderer.value()->lastDrawStats().culled;
-  }
-  h.destroyImage(colorImage);
-  h.destroyImage(depthImage);
-  if (!status) return status.error();
-  result.wallMs = median(wall);
-  result.decompressMs = median(decompress);
-  result.rasterMs = median(raster);
-  result.cpuMs = median(cpu);
-  return result;
+// Attachments, command buffers and fences of the frame loop, shared by every series.
+struct Frames {
+  harness::Harness& h;
+  harness::Harness::Image color{}, depth{};
+  VkCommandPool pool = VK_NULL_HANDLE;
+  std::array<VkCommandBuffer, kInFlight> cmd{};
+  std::array<VkFence, kInFlight> fence{};
+  std::vector<std::unique_ptr<GpuTimer>> timers;  // one per slot: read after its fence
+  explicit Frames(harness::Harness& harness) : h(harness) {}
+  ~Frames();
+};
+
+Frames::~Frames() {
+  vkDeviceWaitIdle(h.device());
+  for (VkFence f : fence)
+    if (f) vkDestroyFence(h.device(), f, nullptr);
+  if (pool) vkDestroyCommandPool(h.device(), pool, nullptr);
+  timers.clear();
+  if (color.image) h.destroyImage(color);
+  if (depth.image) h.destroyImage(depth);
 }
 
-int run(const Options& options) {
-  if (!std::filesystem::exists(options.field)) {
-    std::printf("SKIPPED: %s does not exist (bake it first, see docs/performance.md)\n", options.field.c_str());
-    return 0;
+Result<void> createFrames(Frames& f, const Options& o) {
+  auto color = f.h.createImage(o.width, o.height, o.colorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT,
+                               VK_IMAGE_ASPECT_COLOR_BIT);
+  if (!color) return color.error();
+  f.color = color.value();
+  auto depth = f.h.createImage(o.width, o.height, VK_FORMAT_D32_SFLOAT, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                               VK_IMAGE_ASPECT_DEPTH_BIT);
+  if (!depth) return depth.error();
+  f.depth = depth.value();
+  VkCommandPoolCreateInfo pci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+  pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+  pci.queueFamilyIndex = f.h.queueFamily();
+  if (vkCreateCommandPool(f.h.device(), &pci, nullptr, &f.pool) != VK_SUCCESS)
+    return makeError(ErrorCode::Vulkan, "vkCreateCommandPool failed");
+  VkCommandBufferAllocateInfo ai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+  ai.commandPool = f.pool;
+  ai.commandBufferCount = kInFlight;
+  if (vkAllocateCommandBuffers(f.h.device(), &ai, f.cmd.data()) != VK_SUCCESS)
+    return makeError(ErrorCode::Vulkan, "vkAllocateCommandBuffers failed");
+  for (VkFence& fence : f.fence) {
+    VkFenceCreateInfo fci{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+    fci.flags = VK_FENCE_CREATE_SIGNALED_BIT;
+    if (vkCreateFence(f.h.device(), &fci, nullptr, &fence) != VK_SUCCESS)
+      return makeError(ErrorCode::Vulkan, "vkCreateFence failed");
+    f.timers.push_back(std::make_unique<GpuTimer>(f.h, kMarks));
   }
-  auto read = readField(options.field);
-  if (!read) {
-    std::fprintf(stderr, "%s\n", read.error().message.c_str());
-    return 1;
-  }
-  const Field field = std::move(read).value();
-  auto envImage = offscreen::loadEnvironmentImage(options.environment);
-  if (!envImage) {
-    std::fprintf(stderr, "%s\n", envImage.error().message.c_str());
-    return 1;
-  }
-  harness::HarnessOptions ho;
-  ho.enableValidation = options.validation;
-  harness::HarnessFailure failure = harness::HarnessFailure::None;
-  auto created = offscreen::createSession(ho, &failure);
-  if (!created) {
-    if (failure == harness::HarnessFailure::NoDevice) {
-      std::printf("SKIPPED: no Vulkan device: %s\n", created.error().message.c_str());
-      return 0;
-    }
-    std::fprintf(stderr, "%s\n", created.error().message.c_str());
-    return 1;
-  }
-  offscreen::Session& session = *created.value();
-  auto environment = offscreen::uploadEnvironment(session, envImage.value(), options.cube);
-  if (!environment) {
-    std::fprintf(stderr, "%s\n", environment.error().message.c_str());
-    return 1;
-  }
-  auto object = offscreen::uploadField(session, field);
-  if (!object) {
-    std::fprintf(stderr, "%s: %s\n", options.field.c_str(), object.error().message.c_str());
-    return 1;
-  }
-  std::array<float, 3> lo{}, hi{};
-  offscreen::meshBounds(field.mesh, lo, hi);
-  const Camera camera = offscreen::frameBounds(lo, hi, 40.0f);
-  uint64_t samples = 0;
-  for (uint8_t k : field.texelKinds) samples += k == kTexelSample;
+  return {};
+}
 
-  std::printf("device: %s\n", session.harness->deviceName().c_str());
-  std::printf("field: %s (%s), order %u, %s, %u channels, %ux%u atlas, %llu samples, %zu triangles\n",
-              options.field.c_str(), field.settings.source.c_str(), field.order, toString(field.quantization),
-              field.channels, field.width, field.height, static_cast<unsigned long long>(samples),
-              field.mesh.indices.size() / 3);
-  std::printf("frame: %ux%u, %u frames per series, median per frame (wall: record + submit + wait)\n", options.width,
-              options.height, options.frames);
-  struct Named {
-    const char* name;
-    Series series;
-    SeriesResult result;
-  };
-  std::array<Named, 4> runs{{{"moving eye (decompress every frame)", Series::Moving, {}},
-                             {"static eye (decompression skipped)", Series::Static, {}},
-                             {"raster only (no decompression)", Series::RasterOnly, {}},
-                             {"background only (no object)", Series::BackgroundOnly, {}}}};
-  for (Named& n : runs) {
-    auto r = runSeries(session, *environment.value(), *object.value(), camera, options, n.series);
-    if (!r) {
-      std::fprintf(stderr, "%s\n", r.error().message.c_str());
-      return 1;
-    }
-    n.result = r.value();
-    std::printf("  %-38s wall %8.2f ms (%6.1f fps)  GPU decompression %7.2f ms  raster %7.2f ms  CPU %7.2f ms  "
-                "[decompressed in %u of %u frames; drawn %u, culled %u]\n",
-                n.name, n.result.wallMs, 1000.0 / n.result.wallMs, n.result.decompressMs, n.result.rasterMs,
-                n.result.cpuMs, n.result.decompressedFrames, options.frames, n.result.drawn, n.result.culled);
+struct Pass {
+  Renderer& renderer;
+  Decompressor& decompressor;
+  const Environment& environment;
+  ShadingMode shading;
+};
+
+// Objects first, then the background at the far plane: the depth test rejects the background
+// where an object covers it before its fragment shader runs (renderer.h allows either order).
+void recordRaster(VkCommandBuffer cmd, const Frames& f, const Pass& pass, const Camera& camera, VkExtent2D extent,
+                  const std::vector<Object*>& objects) {
+  beginRendering(cmd, f.color, f.depth);
+  pass.renderer.recordObjects(cmd, pass.environment, camera, extent, objects, pass.shading);
+  pass.renderer.recordBackground(cmd, pass.environment, camera, extent);
+  vkCmdEndRendering(cmd);
+}
+
+struct SeriesResult {
+  double wallMs = 0.0, cpuMs = 0.0;          // per frame: series total / frames
+  double decompressMs = 0.0, rasterMs = 0.0;  // GPU timestamps, medians
+  double decompressionsPerFrame = 0.0;        // objects decompressed, mean over the frames
+  uint32_t drawn = 0;                         // draw calls of the last frame
+};
+
+struct Samples {
+  std::vector<double> decompress, raster;
+  uint64_t decompressions = 0;
+};
+
+// Records, submits and (with the fence of the frame two back) paces one frame in `slot`; the
+// slot's timestamps, from the frame it held before, go to `samples` when that frame was measured.
+Result<void> frame(Frames& f, uint32_t slot, bool readPrevious, Context& context, const Pass& pass,
+                   const Camera& camera, VkExtent2D extent, const std::vector<Object*>& objects, Samples& samples,
+                   bool measured) {
+  VkDevice device = f.h.device();
+  if (vkWaitForFences(device, 1, &f.fence[slot], VK_TRUE, UINT64_MAX) != VK_SUCCESS)
+    return makeError(ErrorCode::Vulkan, "vkWaitForFences failed");
+  GpuTimer& timer = *f.timers[slot];
+  if (readPrevious && timer.available()) {
+    samples.decompress.push_back(timer.elapsedMs(0, 1));
+    samples.raster.push_back(timer.elapsedMs(1, 2));
   }
-  object.value().reset();
-  environment.value().reset();
-  if (const uint32_t messages = session.harness->messageCount(); messages) {
+  context.beginFrame();  // this slot's previous frame is done: release what it retired
+  vkResetFences(device, 1, &f.fence[slot]);
+  VkCommandBuffer cmd = f.cmd[slot];
+  vkResetCommandBuffer(cmd, 0);
+  VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+  bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+  vkBeginCommandBuffer(cmd, &bi);
+  timer.begin(cmd);
+  timer.mark(cmd, 0);
+  auto recorded = pass.decompressor.record(cmd, camera, extent, objects);
+  if (measured) samples.decompressions += pass.decompressor.lastStats().decompressed;
+  timer.mark(cmd, 1);
+  recordRaster(cmd, f, pass, camera, extent, objects);
+  timer.mark(cmd, 2);
+  vkEndCommandBuffer(cmd);
+  // Submitted even when the decompression failed: the Decompressor then recorded nothing, and an
+  // unsubmitted buffer would leave the fence unsignalled for the next wait.
+  VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+  si.commandBufferCount = 1;
+  si.pCommandBuffers = &cmd;
+  if (vkQueueSubmit(f.h.queue(), 1, &si, f.fence[slot]) != VK_SUCCESS)
+    return makeError(ErrorCode::Vulkan, "vkQueueSubmit failed");
+  if (!recorded) return recorded.error();
+  return {};
+}
+
+Result<SeriesResult> runSeries(Frames& f, Context& context, const Pass& pass, const Camera& camera,
+                               const std::vector<Object*>& objects, bool movingEye, uint32_t frames) {
+  const VkExtent2D extent{f.color.width, f.color.height};
+  Samples samples;
+  std::array<bool, kInFlight> measuredInSlot{};
+  std::chrono::steady_clock::time_point start;
+  double cpuStart = 0.0;
+  for (uint32_t i = 0; i < kWarmUp + frames; ++i) {
+    if (i == kWarmUp) {
+      start = std::chrono::steady_clock::now();
+      cpuStart = processCpuMs();
+    }
+    const uint32_t slot = i % kInFlight;
+    const bool measured = i >= kWarmUp;
+    const Camera cam = movingEye ? orbit(camera, swingDegrees(i)) : camera;
+    auto done = frame(f, slot, measuredInSlot[slot], context, pass, cam, extent, objects, samples, measured);
+    if (!done) return done.error();
+    measuredInSlot[slot] = measured;
+  }
+  for (uint32_t slot = 0; slot < kInFlight; ++slot) {  // the last frames: wait, then read
+    vkWaitForFences(f.h.device(), 1, &f.fence[slot], VK_TRUE, UINT64_MAX);
+    if (measuredInSlot[slot] && f.timers[slot]->available()) {
+      samples.decompress.push_back(f.timers[slot]->elapsedMs(0, 1));
+      samples.raster.push_back(f.timers[slot]->elapsedMs(1, 2));
+    }
+  }
+  SeriesResult r;
+  r.wallMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count() / frames;
+  r.cpuMs = (processCpuMs() - cpuStart) / frames;
+  r.decompressMs = median(samples.decompress);
+  r.rasterMs = median(samples.raster);
+  r.decompressionsPerFrame = double(samples.decompressions) / frames;
+  r.drawn = pass.renderer.lastDrawStats().drawn;
+  return r;
+}
+
+void printSeries(const char* name, const SeriesResult& r, bool timestamps) {
+  std::printf("  %-28s wall %8.2f ms (%6.1f fps)  CPU %8.2f ms", name, r.wallMs, 1000.0 / r.wallMs, r.cpuMs);
+  if (timestamps) std::printf("  GPU decompression %7.2f ms  raster %7.2f ms", r.decompressMs, r.rasterMs);
+  std::printf("  [%.1f decompressions per frame, %u drawn]\n", r.decompressionsPerFrame, r.drawn);
+}
+
+std::string instancesLabel(uint32_t n) { return n == 1 ? "1 instance" : std::to_string(n) + " instances"; }
+
+// The same-run ratios: what N instances cost against one (moving1 is null when N is 1), what
+// moving the eye costs against the still eye (whose decompression the Decompressor skips), and
+// decompression against raster.
+void printRatios(const SeriesResult& movingN, const SeriesResult* moving1, const SeriesResult& stillN,
+                 uint32_t instances, bool timestamps) {
+  const std::string n = instancesLabel(instances);
+  std::printf("ratios (same run):\n");
+  if (moving1) {
+    std::printf("  moving eye, %s / 1 instance: wall %.2fx, CPU %.2fx", n.c_str(), movingN.wallMs / moving1->wallMs,
+                movingN.cpuMs / moving1->cpuMs);
+    if (timestamps)
+      std::printf(", GPU decompression %.2fx, raster %.2fx", movingN.decompressMs / moving1->decompressMs,
+                  movingN.rasterMs / moving1->rasterMs);
+    std::printf("\n");
+  }
+  std::printf("  moving eye / still eye (%s): wall %.2fx, CPU %.2fx\n", n.c_str(), movingN.wallMs / stillN.wallMs,
+              movingN.cpuMs / stillN.cpuMs);
+  if (timestamps)
+    std::printf("  decompression / raster (moving eye, %s, GPU): %.2f\n", n.c_str(),
+                movingN.decompressMs / movingN.rasterMs);
+  else
+    std::printf("  decompression / raster: no GPU timestamps on this queue; (moving - still) / still wall: %.2f\n",
+                (movingN.wallMs - stillN.wallMs) / stillN.wallMs);
+}
+
+struct Named {
+  std::string name;
+  std::vector<Object*> objects;
+  bool moving = false;
+  SeriesResult result;
+};
+
+// The series of a scene: moving eye with all instances, with the middle one alone (only when
+// there are several: with one it would measure the same thing twice), still eye with all.
+std::vector<Named> seriesOf(const Scene& scene, uint32_t instances) {
+  std::vector<Object*> all;
+  for (const auto& object : scene.objects) all.push_back(object.get());
+  const std::string n = instancesLabel(instances);
+  std::vector<Named> series{{"moving eye, " + n, all, true, {}}};
+  if (instances > 1) series.push_back({"moving eye, 1 instance", {scene.objects[instances / 2].get()}, true, {}});
+  series.push_back({"still eye, " + n, all, false, {}});
+  return series;
+}
+
+int benchmarkScene(Gpu& gpu, Frames& frames, const Environment& environment, Scene& scene, const Options& o) {
+  auto placed = placeInstances(*gpu.context, scene, o.instances);
+  if (!placed) return fail(scene.name + ": " + placed.error().message);
+  auto renderer = Renderer::create(*gpu.context, RendererCreateInfo{o.colorFormat, VK_FORMAT_D32_SFLOAT});
+  auto decompressor = Decompressor::create(*gpu.context);
+  if (!renderer || !decompressor)
+    return fail((!renderer ? renderer.error() : decompressor.error()).message);
+  if (auto prepared = decompressor.value()->prepare(*scene.objects[0]); !prepared)
+    return fail(prepared.error().message);
+  const Field& f = scene.field;
+  std::printf("field: %s, order %u, %s, %u channels, %ux%u atlas, %zu triangles; %s\n", scene.name.c_str(), f.order,
+              toString(f.quantization), f.channels, f.width, f.height, f.mesh.indices.size() / 3,
+              instancesLabel(o.instances).c_str());
+  const Pass pass{*renderer.value(), *decompressor.value(), environment, o.shading};
+  const bool timestamps = frames.timers[0]->available();
+  std::vector<Named> series = seriesOf(scene, o.instances);
+  for (Named& n : series) {
+    auto r = runSeries(frames, *gpu.context, pass, scene.camera, n.objects, n.moving, o.frames);
+    if (!r) return fail(r.error().message);
+    n.result = r.value();
+    printSeries(n.name.c_str(), n.result, timestamps);
+  }
+  const SeriesResult* moving1 = series.size() == 3 ? &series[1].result : nullptr;
+  printRatios(series.front().result, moving1, series.back().result, o.instances, timestamps);
+  vkDeviceWaitIdle(gpu.harness->device());
+  return 0;
+}
+
+// The scenes in order: each FIELD.shrf, or the synthetic field.
+Result<Scene> loadScene(const Options& o, size_t index) {
+  Scene scene;
+  if (o.fields.empty()) {
+    scene.name = "synthetic (flat square, bench_support)";
+    scene.field = syntheticField({});
+    return scene;
+  }
+  scene.name = o.fields[index];
+  auto read = readField(scene.name);
+  if (!read) return read.error();  // readField names the file
+  scene.field = std::move(read).value();
+  return scene;
+}
+
+Result<std::unique_ptr<Environment>> createEnvironment(Context& context, bool cube) {
+  constexpr uint32_t kWidth = 1024, kHeight = 512;
+  const std::vector<float> sky = proceduralSky(kWidth, kHeight);
+  std::unique_ptr<Environment> environment;
+  auto uploaded = context.uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
+    const LatLongEnvironmentDesc desc{kWidth, kHeight, sky.data()};
+    auto env = cube ? Environment::createCubeFromLatLong(context, desc, 0, cmd)
+                    : Environment::createLatLong(context, desc, cmd);
+    if (!env) return env.error();
+    environment = std::move(env).value();
+    return {};
+  });
+  if (!uploaded) return uploaded.error();
+  return environment;
+}
+
+int run(const Options& o) {
+  bool noDevice = false;
+  std::unique_ptr<Gpu> gpu = createGpu(o.validation, &noDevice);
+  if (!gpu) return noDevice ? 0 : 1;
+  std::printf("device: %s\n", gpu->harness->deviceName().c_str());
+  std::printf("frame: %ux%u, %u frames per series after %u warm-up, %u frames in flight; %s environment\n", o.width,
+              o.height, o.frames, kWarmUp, kInFlight, o.cube ? "procedural cube" : "procedural lat-long");
+  int rc = 0;
+  {
+    auto environment = createEnvironment(*gpu->context, o.cube);
+    if (!environment) return fail(environment.error().message);
+    Frames frames(*gpu->harness);
+    if (auto created = createFrames(frames, o); !created)
+      return fail(created.error().message);
+    for (size_t i = 0; i < std::max<size_t>(1, o.fields.size()) && rc == 0; ++i) {
+      auto scene = loadScene(o, i);
+      if (!scene) return fail(scene.error().message);
+      rc = benchmarkScene(*gpu, frames, *environment.value(), scene.value(), o);
+    }
+  }
+  if (const uint32_t messages = gpu->harness->messageCount(); messages) {
     std::fprintf(stderr, "%u Vulkan validation message(s)\n", messages);
     return 1;
   }
-  const double moving = runs[0].result.wallMs;
-  std::printf("SH path, moving eye: %.1f fps (target >= 30: %s)\n", 1000.0 / moving,
-              1000.0 / moving >= 30.0 ? "met" : "NOT met");
-  std::printf("SH path, static eye: %.1f fps\n", 1000.0 / runs[1].result.wallMs);
+  return rc;
+}
 
-  if (!options.reference) return 0;
-  // The recorded scene, found relative to the field file as `render --mode exact` finds it.
-  auto spec = cli::bakedSceneSpec(options.field, field.settings.source, std::nullopt);
-  auto scene = spec ? cli::loadScene(spec.value(), {}, nullptr) : Result<bake::Scene>(spec.error());
-  if (!scene) {
-    std::printf("reference: SKIPPED: cannot rebuild the baked scene '%s': %s\n", field.settings.source.c_str(),
-                scene.error().message.c_str());
-    return 0;
+// Parses a whole decimal number in [lo, hi]; false for anything else ("12x", "", "-1").
+bool parseCount(const char* text, uint32_t lo, uint32_t hi, uint32_t& out) {
+  if (!text || !*text) return false;
+  char* end = nullptr;
+  const unsigned long v = std::strtoul(text, &end, 10);
+  if (*end || text[0] == '-' || v < lo || v > hi) return false;
+  out = uint32_t(v);
+  return true;
+}
+
+// Returns -1 when the arguments are good, else the exit code (2 after one line for bad ones).
+int parseArguments(int argc, char** argv, Options& o) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const char* v = i + 1 < argc ? argv[i + 1] : nullptr;
+    auto takes = [&]() { return ++i, v ? std::string(v) : std::string(); };
+    if (a == "--help" || a == "-h") return help();
+    if (a == "--size") {
+      unsigned w = 0, h = 0;
+      char tail = 0;
+      if (std::sscanf(takes().c_str(), "%ux%u%c", &w, &h, &tail) != 2 || w == 0 || h == 0 || w > 8192 || h > 8192)
+        return usage("--size expects WxH (1..8192)");
+      o.width = w, o.height = h;
+    } else if (a == "--frames") {
+      if (!parseCount(takes().c_str(), 1, 10000, o.frames)) return usage("--frames expects 1..10000");
+    } else if (a == "--instances") {
+      if (!parseCount(takes().c_str(), 1, 256, o.instances)) return usage("--instances expects 1..256");
+    } else if (a == "--shading") {
+      const std::string s = takes();
+      if (s == "field") o.shading = ShadingMode::Field;
+      else if (s == "exit-direction") o.shading = ShadingMode::FieldExitDirection;
+      else if (s == "single-interface") o.shading = ShadingMode::SingleInterface;
+      else return usage("--shading expects field, exit-direction or single-interface");
+    } else if (a == "--format") {
+      const std::string s = takes();
+      if (s == "rgba16f") o.colorFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
+      else if (s == "rgba8") o.colorFormat = VK_FORMAT_R8G8B8A8_UNORM;
+      else if (s == "rgba32f") o.colorFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
+      else return usage("--format expects rgba16f, rgba8 or rgba32f");
+    } else if (a == "--cube-env") {
+      o.cube = true;
+    } else if (a == "--validation") {
+      o.validation = true;
+    } else if (!a.empty() && a[0] != '-') {
+      if (!std::filesystem::is_regular_file(a)) return usage(a + ": no such file");
+      o.fields.push_back(a);
+    } else {
+      return usage("unknown argument " + a);
+    }
   }
-  auto tracer = bake::Tracer::create(scene.value());
-  if (!tracer) {
-    std::fprintf(stderr, "%s\n", tracer.error().message.c_str());
-    return 1;
-  }
-  bake::ReferenceOptions ro;
-  ro.mode = bake::ReferenceMode::Exact;
-  ro.width = options.width;
-  ro.height = options.height;
-  ro.camera = camera;
-  ro.threads = options.threads;
-  const auto start = std::chrono::steady_clock::now();
-  auto reference = bake::renderReference(*tracer.value(), scene.value(), envImage.value(), ro);
-  const double referenceMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  if (!reference) {
-    std::fprintf(stderr, "%s\n", reference.error().message.c_str());
-    return 1;
-  }
-  std::printf("  %-38s wall %8.2f ms (%6.2f fps), %llu rays\n", "exact reference (CPU, Embree)", referenceMs,
-              1000.0 / referenceMs, static_cast<unsigned long long>(reference.value().rays));
-  const double ratio = referenceMs / moving;
-  std::printf("exact reference / SH frame (moving eye): %.1fx (target >= 10: %s); static eye: %.1fx\n", ratio,
-              ratio >= 10.0 ? "met" : "NOT met", referenceMs / runs[1].result.wallMs);
-  return 0;
+  return -1;
 }
 
 }  // namespace
 }  // namespace shrefract::bench
 
 int main(int argc, char** argv) {
-  using namespace shrefract::bench;
-  Options options;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
-    if (a == "--help" || a == "-h") {
-      usage(nullptr);
-      return 0;
-    } else if (a == "--size") {
-      const char* v = value();
-      unsigned w = 0, h = 0;
-      if (!v || std::sscanf(v, "%ux%u", &w, &h) != 2 || w == 0 || h == 0 || w > 8192 || h > 8192)
-        return usage("--size expects WxH (1..8192)");
-      options.width = w;
-      options.height = h;
-    } else if (a == "--frames") {
-      const char* v = value();
-      if (!v || std::atoi(v) < 1 || std::atoi(v) > 10000) return usage("--frames expects 1..10000");
-      options.frames = static_cast<uint32_t>(std::atoi(v));
-    } else if (a == "--env") {
-      const char* v = value();
-      if (!v) return usage("--env expects builtin or a file");
-      options.environment = v;
-    } else if (a == "--threads") {
-      const char* v = value();
-      if (!v || std::atoi(v) < 1 || std::atoi(v) > 1024) return usage("--threads expects 1..1024");
-      options.threads = static_cast<uint32_t>(std::atoi(v));
-    } else if (a == "--shading") {
-      const std::string v = value() ? argv[i] : "";
-      if (v == "field") options.shading = shrefract::ShadingMode::Field;
-      else if (v == "exit-direction") options.shading = shrefract::ShadingMode::FieldExitDirection;
-      else if (v == "single-interface") options.shading = shrefract::ShadingMode::SingleInterface;
-      else return usage("--shading expects field, exit-direction or single-interface");
-    } else if (a == "--format") {
-      const std::string v = value() ? argv[i] : "";
-      if (v == "rgba16f") options.colorFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
-      else if (v == "rgba8") options.colorFormat = VK_FORMAT_R8G8B8A8_UNORM;
-      else if (v == "rgba32f") options.colorFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
-      else return usage("--format expects rgba16f, rgba8 or rgba32f");
-    } else if (a == "--cube-env") {
-      options.cube = true;
-    } else if (a == "--no-reference") {
-      options.reference = false;
-    } else if (a == "--validation") {
-      options.validation = true;
-    } else if (!a.empty() && a[0] != '-' && options.field.empty()) {
-      options.field = a;
-    } else {
-      return usage(("unknown argument " + a).c_str());
-    }
-  }
-  if (options.field.empty()) return usage("missing FIELD.shrf");
-  return run(options);
+  shrefract::bench::Options options;
+  if (const int rc = shrefract::bench::parseArguments(argc, argv, options); rc >= 0) return rc;
+  return shrefract::bench::run(options);
 }
