@@ -1,5 +1,6 @@
 #include <shrefract/context.h>
 
+#include <algorithm>
 #include <cstring>
 #include <string>
 
@@ -191,6 +192,53 @@ Result<BufferAllocation> ContextImpl::createBuffer(VkDeviceSize size, VkBufferUs
     }
   }
   return b;
+}
+
+Result<BufferAllocation> ContextImpl::createUnboundBuffer(VkDeviceSize size, VkBufferUsageFlags usage) {
+  BufferAllocation b;
+  b.size = size;
+  VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+  bci.size = size;
+  bci.usage = usage;
+  const VkResult r = vk.vkCreateBuffer(device(), &bci, alloc(), &b.buffer);
+  if (r != VK_SUCCESS) return vulkanError("vkCreateBuffer", r);
+  return b;
+}
+
+Result<MemoryBlock> ContextImpl::bindBlock(const std::vector<BufferAllocation*>& buffers) {
+  std::vector<VkDeviceSize> offsets;
+  VkDeviceSize end = 0;
+  uint32_t typeBits = ~0u;
+  for (const BufferAllocation* b : buffers) {
+    VkMemoryRequirements req{};
+    vk.vkGetBufferMemoryRequirements(device(), b->buffer, &req);
+    const VkDeviceSize offset = (end + req.alignment - 1) / req.alignment * req.alignment;
+    offsets.push_back(offset);
+    end = offset + req.size;
+    typeBits &= req.memoryTypeBits;
+  }
+  MemoryBlock block;
+  VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+  mai.allocationSize = std::max<VkDeviceSize>(end, 1);
+  mai.memoryTypeIndex = findMemoryType(typeBits, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+  if (mai.memoryTypeIndex == UINT32_MAX)
+    return makeError(ErrorCode::MissingFeature, "no memory type suits all of an object's buffers");
+  VkResult r = vk.vkAllocateMemory(device(), &mai, alloc(), &block.memory);
+  if (r != VK_SUCCESS) return vulkanError("vkAllocateMemory", r);
+  block.memoryBytes = mai.allocationSize;
+  memoryBytes += block.memoryBytes;
+  for (size_t i = 0; i < buffers.size(); ++i)
+    if ((r = vk.vkBindBufferMemory(device(), buffers[i]->buffer, block.memory, offsets[i])) != VK_SUCCESS) {
+      destroyBlock(block);  // the caller destroys the buffers, which no command has used yet
+      return vulkanError("vkBindBufferMemory", r);
+    }
+  return block;
+}
+
+void ContextImpl::destroyBlock(MemoryBlock& block) {
+  if (block.memory) vk.vkFreeMemory(device(), block.memory, alloc());
+  memoryBytes -= block.memoryBytes;
+  block = MemoryBlock{};
 }
 
 void ContextImpl::destroyBuffer(BufferAllocation& b) {

@@ -22,6 +22,13 @@ struct BufferAllocation {
   void* mapped = nullptr;  // host-visible allocations only
 };
 
+// One device-local allocation shared by several buffers of an object (each bound at its own
+// aligned offset): an object costs one vkAllocateMemory for its buffers, not one per buffer.
+struct MemoryBlock {
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+  VkDeviceSize memoryBytes = 0;
+};
+
 struct ImageAllocation {
   VkImage image = VK_NULL_HANDLE;
   VkDeviceMemory memory = VK_NULL_HANDLE;
@@ -60,6 +67,12 @@ struct ContextImpl {
 
   uint32_t findMemoryType(uint32_t typeBits, VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred) const;
   Result<BufferAllocation> createBuffer(VkDeviceSize size, VkBufferUsageFlags usage, bool hostVisible);
+  // A device-local buffer without memory, for bindBlock (destroyBuffer frees only the buffer).
+  Result<BufferAllocation> createUnboundBuffer(VkDeviceSize size, VkBufferUsageFlags usage);
+  // Allocates one device-local block for `buffers` (created unbound) and binds each at an offset
+  // aligned to its requirement. Error (MissingFeature) when no memory type suits them all.
+  Result<MemoryBlock> bindBlock(const std::vector<BufferAllocation*>& buffers);
+  void destroyBlock(MemoryBlock& block);
   void destroyBuffer(BufferAllocation& buffer);
   Result<ImageAllocation> createImage(const VkImageCreateInfo& imageInfo, VkImageViewType viewType,
                                       VkImageAspectFlags aspect);

@@ -26,7 +26,7 @@ static_assert(gpu::kEncodingSh == uint32_t(Encoding::Sh) && gpu::kEncodingTable 
 namespace {
 
 Result<BufferAllocation> createDeviceBuffer(ContextImpl& c, VkDeviceSize bytes, VkBufferUsageFlags usage) {
-  return c.createBuffer(bytes, usage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, false);
+  return c.createUnboundBuffer(bytes, usage | VK_BUFFER_USAGE_TRANSFER_DST_BIT);  // bound in one block
 }
 
 // Values per plane of the Sh coefficients: the sample count rounded up to whole invocations.
@@ -301,6 +301,7 @@ void destroyFieldShared(ContextImpl& c, FieldResources& f) {
   if (f.coefficientWords) c.vk.vkDestroyBufferView(d, f.coefficientWords, c.alloc());
   for (BufferAllocation* b : {&f.coefficients, &f.scaleBias, &f.frames, &f.sampleTexels, &f.gutters, &f.basis})
     c.destroyBuffer(*b);
+  c.destroyBlock(f.block);
   f = FieldResources{};
 }
 
@@ -422,6 +423,10 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   if (!coefficients) return coefficients.error();
   f.coefficients = coefficients.value();
   f.coefficientBytes = sizes.coefficients;
+  auto block = c.bindBlock({&f.coefficients, &f.scaleBias, &f.frames, &f.sampleTexels, &f.gutters, &f.basis});
+  if (!block) return block.error();
+  f.block = block.value();
+  countMemory(*impl, f.block);
   {
     // Read through a texel buffer when the device's limit allows (gpu_layout.h,
     // kSpecCoefficientsStorage); otherwise the view covers a prefix and is not read.
@@ -433,8 +438,6 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
     const VkResult vr = c.vk.vkCreateBufferView(c.device(), &bvci, c.alloc(), &f.coefficientWords);
     if (vr != VK_SUCCESS) return vulkanError("vkCreateBufferView", vr);
   }
-  for (const BufferAllocation* b : {&f.coefficients, &f.scaleBias, &f.frames, &f.sampleTexels, &f.gutters, &f.basis})
-    countMemory(c, *impl, *b);
 
   // Coefficient staging, written in place (the largest upload: no intermediate copy).
   auto staging = c.createBuffer(sizes.coefficients, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);

@@ -48,15 +48,11 @@ ObjectImpl::~ObjectImpl() {
   if (source || !context) return;  // an instance's mesh and field data are its source's
   context->destroyBuffer(vertices);
   context->destroyBuffer(indices);
+  context->destroyBlock(meshBlock);
   if (field) destroyFieldShared(*context, *field);
 }
 
-void countMemory(ContextImpl& c, ObjectImpl& object, const BufferAllocation& buffer) {
-  if (!buffer.buffer) return;
-  VkMemoryRequirements requirements{};
-  c.vk.vkGetBufferMemoryRequirements(c.device(), buffer.buffer, &requirements);
-  object.gpuMemoryBytes += requirements.size;
-}
+void countMemory(ObjectImpl& object, const MemoryBlock& block) { object.gpuMemoryBytes += block.memoryBytes; }
 
 void countMemory(ContextImpl& c, ObjectImpl& object, const ImageAllocation& image) {
   if (!image.image) return;
@@ -116,14 +112,16 @@ Result<void> createMeshBuffers(ContextImpl& c, const MeshDesc& mesh, VkCommandBu
     }
   const VkDeviceSize vbytes = interleaved.size() * sizeof(float);
   const VkDeviceSize ibytes = VkDeviceSize(mesh.indexCount) * sizeof(uint32_t);
-  auto vb = c.createBuffer(vbytes, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, false);
+  auto vb = c.createUnboundBuffer(vbytes, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT);
   if (!vb) return vb.error();
   o.vertices = vb.value();
-  auto ib = c.createBuffer(ibytes, VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, false);
+  auto ib = c.createUnboundBuffer(ibytes, VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT);
   if (!ib) return ib.error();
   o.indices = ib.value();
-  countMemory(c, o, o.vertices);
-  countMemory(c, o, o.indices);
+  auto block = c.bindBlock({&o.vertices, &o.indices});
+  if (!block) return block.error();
+  o.meshBlock = block.value();
+  countMemory(o, o.meshBlock);
   if (auto r = c.recordBufferUpload(cmd, o.vertices.buffer, interleaved.data(), vbytes); !r) return r.error();
   if (auto r = c.recordBufferUpload(cmd, o.indices.buffer, mesh.indices, ibytes); !r) return r.error();
   VkMemoryBarrier2 barrier{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};

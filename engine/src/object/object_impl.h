@@ -33,6 +33,7 @@ struct FieldResources {
   bool coefficientsStorage = false;  // the coefficients exceed the device's maxTexelBufferElements
   uint32_t gutterCount = 0;
   VkDeviceSize coefficientBytes = 0;  // size of `coefficients` (descriptor ranges)
+  MemoryBlock block;              // the memory of the buffers below (one allocation)
   BufferAllocation coefficients;  // Sh: channel planes; Table, Pca: sample-major (gpu_layout.h)
   VkBufferView coefficientWords = VK_NULL_HANDLE;  // R32_UINT texel view of `coefficients`
   ImageAllocation distortion;     // per instance: RGBA16F, written by the decompression pass
@@ -64,6 +65,7 @@ struct ObjectImpl {
   std::shared_ptr<const ObjectImpl> source;
   BufferAllocation vertices;
   BufferAllocation indices;
+  MemoryBlock meshBlock;  // the memory of vertices and indices (one allocation)
   uint32_t indexCount = 0;
   // Object-space axis-aligned bounds of the mesh's vertices.
   std::array<float, 3> boundsMin{};
@@ -93,8 +95,8 @@ std::array<float, 4> unitRotation(const Transform& worldFromObject);
 // World-space bounds of the object's mesh placed by its worldFromObject (culling).
 void worldBounds(const Object& object, std::array<float, 3>& min, std::array<float, 3>& max);
 
-// Adds the device memory that `buffer` / `image` occupies to `object.gpuMemoryBytes`.
-void countMemory(ContextImpl& c, ObjectImpl& object, const BufferAllocation& buffer);
+// Adds the device memory that `block` / `image` occupies to `object.gpuMemoryBytes`.
+void countMemory(ObjectImpl& object, const MemoryBlock& block);
 void countMemory(ContextImpl& c, ObjectImpl& object, const ImageAllocation& image);
 
 // Validates `mesh`, creates the vertex and index buffers of `object` and records their upload.
