@@ -642,10 +642,10 @@ std::string markdownOf(const Profile& p, const std::vector<FidelityScene>& scene
                 r.gpu ? "-" : number(r.cpuMs).c_str());
     }
     const BakeSettings& d = p.variants.front().settings;
-    md += fmt("\nError decomposition of the default field (SH order %u, %ux%u directions, %s layout, %s, %s path "
+    md += fmt("\nError decomposition of the default field (%s %s, %ux%u directions, %s layout, %s, %s path "
               "rule): each step adds one approximation to the stage above it; *step* is the PSNR between the two "
               "stages, *cumulative* the new stage against the physical reference.\n\n",
-              d.order, d.directionsTheta, d.directionsPhi, toString(d.layout),
+              toString(d.encoding), parametersOf(d).c_str(), d.directionsTheta, d.directionsPhi, toString(d.layout),
               d.sampleBudget ? fmt("%" PRIu64 " samples asked", d.sampleBudget).c_str() : "the default sample budget",
               ruleName(d.pathRule));
     md += "| step | compares | step PSNR dB | cumulative PSNR dB |\n|---|---|---|---|\n";
