@@ -458,7 +458,11 @@ Result<ReferenceImage> renderDistortion(const FieldMesh& mesh, const reference::
   const uint32_t bigWidth = o.width * s, bigHeight = o.height * s;
   const glm::mat4 dirFromClip = directionFromClip(o.camera, bigWidth, bigHeight);
   const TriangleBins bins = binTriangles(mesh, o.camera, bigWidth, bigHeight);
-  const reference::LatLongImage latLong{env.width, env.height, env.rgba.data()};
+  // reference::render's filtered lookups: the engine's level chain, built once.
+  const std::vector<std::vector<float>> levels =
+      reference::environmentLevels(reference::LatLongImage{env.width, env.height, env.rgba.data()});
+  const reference::LatLongImage latLong{env.width, env.height, env.rgba.data(), &levels};
+  const reference::RenderObject object{&mesh, &distortion, o.shading, Transform{}};
 
   // One sub-sample: reference::render's per-pixel operations for pixel (bx, by) of the big image.
   auto shade = [&](uint32_t bx, uint32_t by) {
@@ -481,7 +485,10 @@ Result<ReferenceImage> renderDistortion(const FieldMesh& mesh, const reference::
     }
     // reference::render's per-sample operations, through its own functions.
     const reference::SurfacePoint point = reference::surfacePointAt(mesh, bestTriangle, *best);
-    const reference::Vec3 c = reference::shadeField(distortion, latLong, point, o.camera.eye, o.shading, o.exposure);
+    const reference::LookupFootprints footprints =
+        reference::pixelFootprints(object, bestTriangle, o.camera, bigWidth, bigHeight, bx, by);
+    const reference::Vec3 c =
+        reference::shadeField(distortion, latLong, point, o.camera.eye, o.shading, o.exposure, Transform{}, footprints);
     sample.color = glm::vec3(c[0], c[1], c[2]);
     sample.hit = true;
     const reference::Vec3 dir = reference::shadedExitDirection(distortion, point, o.camera.eye);

@@ -149,8 +149,9 @@ struct DistortionRenderOptions {
 
 // The engine's raster pass on the CPU for one field object: per sub-sample, the same operations
 // as reference::render (the nearest front-facing triangle of `mesh` in double precision, its
-// perspective-correct attributes, reference::shadeField with `distortion`; the environment where
-// no triangle is hit), but only the triangles whose screen bounds cover the sample are tested, so
+// perspective-correct attributes, reference::shadeField with `distortion` and the filtered lookups
+// of reference::pixelFootprints for the sub-sample grid; the environment's level 0 where no
+// triangle is hit), but only the triangles whose screen bounds cover the sample are tested, so
 // it runs on big meshes. `rays` counts sub-samples. Per-pixel results equal reference::render's
 // at S = 1 (reference_test checks it). Errors as renderReference's, and a distortion image whose
 // size disagrees with its pixels.
