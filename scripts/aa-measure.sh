@@ -6,6 +6,10 @@
 #
 #   scripts/aa-measure.sh SHREFRACT OUTDIR [SCENE...]     (SCENE: sphere cube torus glass-of-water)
 #
+# MASK_FROM=DIR (another run's OUTDIR) measures against that run's mask and reference instead, so
+# that two builds are compared on the same pixels (the mask comes from single-interface renders,
+# whose filtering moves a few silhouette pixels in or out).
+#
 # Fields are baked with --samples 4000 (the README's example; a few minutes on 2 cores instead of
 # the default bake's): the comparison is each mode at 1 spp against the same mode at 4x4, so the
 # field's own angular error is common to both.
@@ -28,13 +32,20 @@ for s in "${scenes[@]}"; do
   r "$scene" --mode single-interface --ior 1.9 -o "$d/mask_b.png"
   [ -f "$d/reference.png" ] || r "$scene" --mode full-tree --spp 16 -o "$d/reference.png"
   r "$scene" --mode full-tree -o "$d/full-tree_1.png"  # at 4x4 it is the reference itself
+  filtered=()
+  if "$tool" render --help 2>&1 | grep -- --filtered > /dev/null; then  # builds before the filtered lookups lack it
+    r "$scene" --mode full-tree --filtered -o "$d/full-tree_filtered_1.png"
+    filtered=("$d/full-tree_filtered_1.png" "$d/exact_filtered_1.png" "$d/exact_filtered_16.png")
+  fi
   for spp in 1 16; do
     r "$scene" --mode exact --spp $spp -o "$d/exact_$spp.png"
+    [ ${#filtered[@]} = 0 ] || r "$scene" --mode exact --filtered --spp $spp -o "$d/exact_filtered_$spp.png"
     r "$d/field.shrf" --spp $spp -o "$d/field_$spp.png"
     r "$scene" --mode single-interface --spp $spp -o "$d/single-interface_$spp.png"
   done
   echo "== $s"
-  python3 "$here/aa_psnr.py" "$d/mask_a.png" "$d/mask_b.png" "$d/reference.png" \
+  m=${MASK_FROM:-$out}/$s
+  python3 "$here/aa_psnr.py" "$m/mask_a.png" "$m/mask_b.png" "$m/reference.png" \
     "$d"/full-tree_1.png "$d"/exact_1.png "$d"/exact_16.png "$d"/field_1.png "$d"/field_16.png \
-    "$d"/single-interface_1.png "$d"/single-interface_16.png
+    "$d"/single-interface_1.png "$d"/single-interface_16.png "${filtered[@]}"
 done

@@ -81,7 +81,8 @@ std::vector<std::vector<float>> environmentLevels(const LatLongImage& environmen
 // the angle (radians) a unit direction with screen derivatives ddx, ddy spans across the pixel,
 // 2 asin(min(max(|ddx|, |ddy|) / 2, 1)) ...
 float directionFootprint(const Vec3& ddx, const Vec3& ddy);
-// ... and the level for it, clamp(log2(max(footprint, 1e-30) / texelAngle), 0, maxLevel).
+// ... and the level for it, clamp(log2(max(footprint, 1e-30) / texelAngle) + kEnvironmentLevelBias,
+// 0, maxLevel) (gpu_layout.h: -1).
 float environmentLevel(float footprint, float texelAngle, float maxLevel);
 // Radians per level 0 texel: 2 pi / width (lat-long, at the equator), pi / (2 faceSize) (cube).
 float latLongTexelAngle(float width);

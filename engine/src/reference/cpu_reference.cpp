@@ -139,7 +139,7 @@ float directionFootprint(const Vec3& ddx, const Vec3& ddy) {
 }
 
 float environmentLevel(float footprint, float texelAngle, float maxLevel) {
-  return std::clamp(std::log2(std::max(footprint, 1e-30f) / texelAngle), 0.0f, maxLevel);
+  return std::clamp(std::log2(std::max(footprint, 1e-30f) / texelAngle) + gpu::kEnvironmentLevelBias, 0.0f, maxLevel);
 }
 
 float latLongTexelAngle(float width) { return 2.0f * std::numbers::pi_v<float> / width; }

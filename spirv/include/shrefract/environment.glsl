@@ -3,6 +3,8 @@
 #ifndef SHREFRACT_ENVIRONMENT_GLSL
 #define SHREFRACT_ENVIRONMENT_GLSL
 
+#include "shrefract/gpu_layout.h"
+
 const float kShrPi = 3.14159265358979323846;
 
 vec2 latLongUv(vec3 dir) {
@@ -26,10 +28,11 @@ float directionFootprint(vec3 ddx, vec3 ddy) {
   return 2.0 * asin(min(0.5 * chord, 1.0));
 }
 
-// The level whose texels span `footprint` radians, for a level 0 texel of `texelAngle` radians,
-// clamped to [0, maxLevel]; a footprint below one texel (or zero) is level 0.
+// The level for a footprint of `footprint` radians, for a level 0 texel of `texelAngle` radians:
+// the level whose texels span it, plus kEnvironmentLevelBias (gpu_layout.h), clamped to
+// [0, maxLevel]; a footprint below two texels (or zero) is level 0.
 float environmentLevel(float footprint, float texelAngle, float maxLevel) {
-  return clamp(log2(max(footprint, 1e-30) / texelAngle), 0.0, maxLevel);
+  return clamp(log2(max(footprint, 1e-30) / texelAngle) + kEnvironmentLevelBias, 0.0, maxLevel);
 }
 
 // Radians per level 0 texel: lat-long at the equator (2 pi / width; texels narrow toward the poles,
