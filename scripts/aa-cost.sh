@@ -2,12 +2,12 @@
 # The added GPU time of the filtered lookups (docs/antialiasing.md): the raster pass's GPU time
 # (render --json, gpu_ms.raster, a median over the frames) of a build without them (BEFORE) and
 # with them (AFTER), alternated in one run on the same machine, for a field and a single-interface
-# render. Prints each run and the after / before ratio of the medians.
+# render (FRAMES frames each, default 20). Prints each run and the after / before ratio of the medians.
 #
 #   scripts/aa-cost.sh BEFORE_SHREFRACT AFTER_SHREFRACT FIELD.shrf SCENE [ROUNDS]
 set -euo pipefail
 before=$1 after=$2 field=$3 scene=$4 rounds=${5:-3}
-ms() { "$1" render "${@:2}" --size 640x480 --frames 20 --json -o /tmp/aa-cost.png 2>/dev/null |
+ms() { "$1" render "${@:2}" --size 640x480 --frames ${FRAMES:-20} --json -o /tmp/aa-cost.png 2>/dev/null |
   python3 -c 'import json,sys; print(json.load(sys.stdin)["gpu_ms"]["raster"])'; }
 for what in field single-interface; do
   if [ $what = field ]; then args=("$field"); else args=("$scene" --mode single-interface); fi
