@@ -17,7 +17,6 @@ vec3 lookupEnvironment(vec3 dir, float footprint) {
 #else
 layout(set = 0, binding = kBindingEnvironment) uniform sampler2D environmentMap;
 vec3 lookupEnvironment(vec3 dir, float footprint) { return sampleEnvironment(environmentMap, dir, footprint); }
-
 #endif
 
 // The footprint of a world direction across this pixel: fine derivatives (each 2x2 quad's own row

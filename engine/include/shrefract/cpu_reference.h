@@ -7,7 +7,8 @@
 // What differs from the GPU, and why tests need a tolerance: the order of the float sums, the GPU's
 // sqrt/inversesqrt/exp precision, its bilinear weights (fixed point on many devices, 8 bits on
 // lavapipe), its RGBA16F environment (the reference samples the float image it is given; pass
-// it through roundToBinary16 to match), and rasterization at triangle edges.
+// it through roundToBinary16 to match), its level-of-detail precision between the environment's
+// levels (render's filtered lookups), and rasterization at triangle edges.
 //
 // All functions are thread-safe (no shared state).
 #pragma once
