@@ -48,6 +48,8 @@ std::vector<FlagSpec> renderFlags() {
                           "first-refraction (refract unless totally reflected)"},
       {"throughput", false, "exact mode: weight the transmitted light by the path's Fresnel throughput"},
       {"tree-depth", true, "full-tree mode: depth of the Fresnel tree (default 8)", K::Integer, {1, 16}},
+      {"filtered", false, "exact and full-tree modes: read the environment at the level of each lookup's pixel "
+                          "footprint, as the engine does (docs/antialiasing.md; 3x the rays)"},
       {"spp", true, "samples per pixel N, a perfect square: sqrt(N) x sqrt(N) stratified samples, averaged "
                     "(default 1; every mode)", K::Integer, {1, 64}},
       {"threads", true, "CPU modes: worker threads (default: all cores)", K::Integer, {1, 1024}},
@@ -130,6 +132,8 @@ Result<void> checkApplicability(const Args& args, const Request& r) {
   if (r.mode != "exact" && (args.has("path-rule") || args.has("throughput")))
     return usage(std::string("shrefract render: ") + (args.has("path-rule") ? "--path-rule" : "--throughput") +
                  " applies to --mode exact only");
+  if (!cpu && args.has("filtered"))
+    return usage("shrefract render: --filtered applies to --mode exact and full-tree only (the GPU modes always filter)");
   if (r.scene && r.mode == "sh")
     return usage("shrefract render: " + r.input + " is a scene and --mode sh needs a refraction field; bake one "
                  "(shrefract bake " + r.input + " -o FIELD.shrf) and render FIELD.shrf, or use --mode "
@@ -297,6 +301,7 @@ int renderCpu(const Args& args, const Request& r, const Inputs& in, const Camera
   ro.threads = r.threads.value_or(0u);
   ro.pathRule = r.pathRule;
   ro.throughput = args.has("throughput");
+  ro.filtered = args.has("filtered");
   ro.samplesPerAxis = r.samplesPerAxis;
   Progress progress("render " + r.mode, stderr);
   ro.progress = [&](const bake::ReferenceProgress& p) {
@@ -309,10 +314,12 @@ int renderCpu(const Args& args, const Request& r, const Inputs& in, const Camera
   const auto& result = image.value();
   if (args.has("json"))
     std::printf("{\"output\": %s, \"scene\": %s, \"mode\": %s, \"width\": %u, \"height\": %u, "
-                "\"spp\": %u, \"path_rule\": %s, \"throughput\": %s, \"rays\": %llu, \"cpu_seconds\": %.4f}\n",
+                "\"spp\": %u, \"path_rule\": %s, \"throughput\": %s, \"filtered\": %s, \"rays\": %llu, "
+                "\"cpu_seconds\": %.4f}\n",
                 jsonString(r.output).c_str(), jsonString(r.input).c_str(), jsonString(r.mode).c_str(), ro.width,
                 ro.height, r.samplesPerAxis * r.samplesPerAxis, jsonString(toString(r.pathRule)).c_str(),
-                ro.throughput ? "true" : "false", static_cast<unsigned long long>(result.rays), result.seconds);
+                ro.throughput ? "true" : "false", ro.filtered ? "true" : "false",
+                static_cast<unsigned long long>(result.rays), result.seconds);
   else
     std::printf("rendered %s (%ux%u, %u spp, %s, CPU) in %.2f s, %.3g rays (%.3g rays/s) -> %s\n", r.input.c_str(),
                 ro.width, ro.height, r.samplesPerAxis * r.samplesPerAxis, r.mode.c_str(), result.seconds,

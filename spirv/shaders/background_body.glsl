@@ -6,5 +6,7 @@ layout(location = 0) in vec3 inDirection;
 layout(location = 0) out vec4 outColor;
 
 void main() {
-  outColor = vec4(lookupEnvironment(inDirection), 1.0);
+  // Level 0: the background is measured against the CPU reference's level 0 lookups, and a camera
+  // ray spans less than an environment texel at the views and maps in use (docs/antialiasing.md).
+  outColor = vec4(lookupEnvironment(inDirection, 0.0), 1.0);
 }

@@ -28,7 +28,12 @@ void main() {
   if (dot(refracted, refracted) == 0.0) refracted = reflected;
   // Bent in object space, looked up in world space.
   vec4 q = pc.worldFromObjectRotation;
-  vec3 color = (1.0 - fresnel) * lookupEnvironment(rotateByQuaternion(q, refracted)) * pc.tint.rgb;
-  if (pc.medium.z > 0.5) color += fresnel * lookupEnvironment(rotateByQuaternion(q, reflected));
+  vec3 refractedWorld = rotateByQuaternion(q, refracted);
+  vec3 reflectedWorld = rotateByQuaternion(q, reflected);
+  // Footprints in uniform control flow (fine derivatives): filtered lookups, see the field shader.
+  float refractedFootprint = pixelFootprint(refractedWorld);
+  float reflectedFootprint = pixelFootprint(reflectedWorld);
+  vec3 color = (1.0 - fresnel) * lookupEnvironment(refractedWorld, refractedFootprint) * pc.tint.rgb;
+  if (pc.medium.z > 0.5) color += fresnel * lookupEnvironment(reflectedWorld, reflectedFootprint);
   outColor = vec4(color * pc.eyeObject.w, 1.0);
 }

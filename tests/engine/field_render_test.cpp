@@ -195,6 +195,75 @@ TEST_F(FieldRender, TwoObjectsMatchCpuReference) {
   }
 }
 
+// Filtered environment lookups (docs/antialiasing.md): through glass whose exit directions diverge,
+// a fine stripe pattern must be read at the level the footprint calls for. The GPU matches the CPU
+// mirror (environmentLevels, pixelFootprints) on every object pixel but a few at silhouettes, and
+// differs visibly from level 0 lookups (what it did before), so that a broken chain, level or
+// derivative shows. Planted once: the CPU mirror with zero footprints fails the first check.
+TEST_F(FieldRender, FilteredLookupsMatchCpuMirror) {
+  bake::Image env;  // 512 x 256, 8-texel stripes in u and v: aliases where a pixel spans several
+  env.width = 512;
+  env.height = 256;
+  env.rgba.resize(size_t(env.width) * env.height * 4);
+  for (uint32_t y = 0; y < env.height; ++y)
+    for (uint32_t x = 0; x < env.width; ++x) {
+      float* p = &env.rgba[(size_t(y) * env.width + x) * 4];
+      const bool a = (x / 4) % 2 != 0, b = (y / 4) % 2 != 0;
+      p[0] = a ? 0.9f : 0.1f;
+      p[1] = b ? 0.8f : 0.2f;
+      p[2] = a != b ? 0.7f : 0.3f;
+      p[3] = 1.0f;
+    }
+  auto gpuEnv = offscreen::uploadEnvironment(*session, env);
+  ASSERT_TRUE(gpuEnv.ok()) << gpuEnv.error().message;
+  testing::SyntheticFieldOptions a;
+  a.order = 4;
+  a.quantization = Quantization::F16;
+  a.channels = 4;
+  a.radius = 0.9f;
+  a.width = 48;
+  a.height = 24;
+  a.seed = 5;
+  const Field field = testing::makeSyntheticField(a);
+  auto object = offscreen::uploadField(*session, field);
+  ASSERT_TRUE(object.ok()) << object.error().message;
+  object.value()->shading.reflection = true;
+  offscreen::FrameSettings frame;
+  frame.width = 160;
+  frame.height = 120;
+  frame.camera.eye = {0.2f, 0.6f, 4.0f};
+  frame.camera.verticalFovDegrees = 45.0f;
+  frame.mode = ShadingMode::Field;
+  auto gpu = offscreen::renderFrame(*session, *gpuEnv.value(), {object.value().get()}, frame);
+  ASSERT_TRUE(gpu.ok()) << gpu.error().message;
+
+  const reference::DistortionImage distortion = reference::decompress(field, frame.camera.eye);
+  const std::vector<reference::RenderObject> cpuObjects{{&field.mesh, &distortion, object.value()->shading}};
+  const reference::LatLongImage cpuEnv{env.width, env.height, env.rgba.data()};
+  const reference::RenderedImage cpu = reference::render(cpuObjects, cpuEnv, frame.camera, frame.width, frame.height);
+  const std::vector<std::vector<float>> noChain;  // an empty chain: every lookup at level 0
+  const reference::LatLongImage levelZeroEnv{env.width, env.height, env.rgba.data(), &noChain};
+  const reference::RenderedImage levelZero =
+      reference::render(cpuObjects, levelZeroEnv, frame.camera, frame.width, frame.height);
+  // Tighter than kFieldTolerance's fraction: on the objects only silhouettes may differ.
+  constexpr float kObjectFailFraction = 0.002f;
+  bake::Image diff;
+  const Comparison mirror = compare(gpu.value(), cpu.rgba, kFieldTolerance, &cpu.object, &diff);
+  const Comparison unfiltered = compare(gpu.value(), levelZero.rgba, kFieldTolerance, &cpu.object);
+  std::printf("filtered lookups: %u of %u object pixels outside tolerance against the CPU mirror (max |diff| "
+              "%.4f), %u against level 0 lookups (max |diff| %.4f)\n",
+              mirror.failed, mirror.pixels, double(mirror.maxDiff), unfiltered.failed, double(unfiltered.maxDiff));
+  EXPECT_GT(mirror.pixels, 3000u) << "the object must cover a good part of the image";
+  const bool pass = float(mirror.failed) <= kObjectFailFraction * float(mirror.pixels);
+  EXPECT_TRUE(pass) << mirror.failed << " of " << mirror.pixels << " object pixels outside tolerance";
+  EXPECT_GT(unfiltered.failed, mirror.pixels / 10) << "the filtered levels must change what the glass shows";
+  if (!pass || std::getenv("SHREFRACT_WRITE_TEST_IMAGES")) {
+    writeForInspection("filtered_gpu.png", gpu.value());
+    writeForInspection("filtered_cpu.png", bake::Image{cpu.width, cpu.height, cpu.rgba});
+    writeForInspection("filtered_diff_x10.png", diff);
+  }
+}
+
 // One field drawn as two instances: rotated, moved and scaled differently, each decoded for the eye
 // in its own space. Matches the CPU reference of the same placed scene (same tolerance as above),
 // and the second instance adds its distortion image to device memory, nothing else.

@@ -1,5 +1,5 @@
 # `shrefract render` supersampling and path flags: --spp (a perfect square 1..64, every mode),
-# --path-rule and --throughput (exact mode). Range and usage errors exit 2 with one line naming the
+# --path-rule and --throughput (exact mode), --filtered (exact and full-tree). Range and usage errors exit 2 with one line naming the
 # flag and write nothing; good values render (CPU modes always; the GPU case skips without a
 # device, printing "SKIPPED: no Vulkan device"). Inputs: SHREFRACT (the tool), WORK_DIR.
 file(REMOVE_RECURSE ${WORK_DIR})
@@ -33,20 +33,21 @@ expect_usage_error(--spp 4000x10 --mode exact --spp 25)
 expect_usage_error(--path-rule 16x12 --mode exact --path-rule sideways)
 expect_usage_error(--path-rule 16x12 --mode single-interface --path-rule first-refraction)
 expect_usage_error(--throughput 16x12 --mode full-tree --throughput)
+expect_usage_error(--filtered 16x12 --mode single-interface --filtered)
 
 # CPU modes: always available.
-execute_process(COMMAND ${SHREFRACT} ${base} --size 16x12 --mode exact --spp 4 --path-rule first-refraction --throughput --json
+execute_process(COMMAND ${SHREFRACT} ${base} --size 16x12 --mode exact --spp 4 --path-rule first-refraction --throughput --filtered --json
                 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT rc EQUAL 0 OR NOT EXISTS ${WORK_DIR}/out.png)
   message(FATAL_ERROR "exact render with --spp 4 failed (${rc}): ${err}")
 endif()
-foreach(field "\"spp\": 4" "\"path_rule\": \"first-refraction\"" "\"throughput\": true")
+foreach(field "\"spp\": 4" "\"path_rule\": \"first-refraction\"" "\"throughput\": true" "\"filtered\": true")
   if(NOT out MATCHES "${field}")
     message(FATAL_ERROR "the JSON summary lacks ${field}: ${out}")
   endif()
 endforeach()
 file(REMOVE ${WORK_DIR}/out.png)
-execute_process(COMMAND ${SHREFRACT} ${base} --size 16x12 --mode full-tree --tree-depth 3 --spp 9 RESULT_VARIABLE rc ERROR_VARIABLE err)
+execute_process(COMMAND ${SHREFRACT} ${base} --size 16x12 --mode full-tree --tree-depth 3 --spp 9 --filtered RESULT_VARIABLE rc ERROR_VARIABLE err)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "full-tree render with --spp 9 failed (${rc}): ${err}")
 endif()

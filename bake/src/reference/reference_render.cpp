@@ -199,15 +199,77 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
   ts.maxBounces = o.mode == ReferenceMode::FullTree ? o.treeDepth : o.maxBounces;
   ts.pathRule = o.pathRule;
 
-  // One sub-sample: the eye ray along d.
-  auto shade = [&](glm::vec3 d, std::vector<PathResult>& leaves, uint64_t& rays) {
+  // Filtered lookups (o.filtered, docs/antialiasing.md): the engine's level chain, built once.
+  std::vector<std::vector<float>> levels;
+  reference::LatLongImage filteredEnv{env.width, env.height, env.rgba.data()};
+  if (o.filtered) {
+    levels = reference::environmentLevels(filteredEnv);
+    filteredEnv.levels = &levels;
+  }
+  // Level 0 (bake::sampleLatLong) unless filtered with a footprint.
+  auto lookup = [&](glm::vec3 dir, float footprint) {
+    if (!o.filtered) return sampleLatLong(env, dir);
+    const reference::Vec3 c = reference::sampleLatLong(filteredEnv, {dir.x, dir.y, dir.z}, footprint);
+    return glm::vec3(c[0], c[1], c[2]);
+  };
+
+  // One sub-sample's trace: the eye ray along d and, in FullTree mode, its tree's leaves.
+  struct Traced {
+    EyeRayResult hit;
+    std::vector<PathResult> leaves;
+  };
+  auto trace = [&](glm::vec3 d, Traced& t, uint64_t& rays) {
+    t.hit = tracer.traceEyeRay(eye, d, ts);
+    rays += t.hit.rays;
+    t.leaves.clear();
+    if (!t.hit.hit || o.mode != ReferenceMode::FullTree) return;
+    SurfacePoint point;
+    point.position = t.hit.position;
+    point.shadingNormal = t.hit.shadingNormal;
+    point.geometricNormal = t.hit.shadingNormal;
+    point.surface = t.hit.surface;
+    point.triangle = t.hit.triangle;
+    tracer.traceTree(point, d, o.treeDepth, t.leaves);
+    rays += t.leaves.size();
+  };
+  // The directions a sub-sample looks up: [0] the front reflection, then the transmitted ones
+  // (SingleInterface: the refracted ray; Exact: the path's exit; FullTree: every leaf's exit).
+  // keys[i]: the path's number of interfaces (the reflection: 0); a neighbour's lookup with another
+  // key went another way through the object, and its direction is no derivative of this one.
+  auto lookups = [&](glm::vec3 d, const Traced& t, std::vector<glm::vec3>& dirs, std::vector<uint32_t>& keys) {
+    dirs.clear();
+    keys.clear();
+    if (!t.hit.hit) return;
+    dirs.push_back(t.hit.reflectedDirection);
+    keys.push_back(0);
+    if (o.mode == ReferenceMode::SingleInterface) {
+      const Surface& surface = scene.surfaces[t.hit.surface];
+      const float eta = scene.media[surface.outerMedium].ior / scene.media[surface.innerMedium].ior;
+      glm::vec3 r = glm::refract(d, t.hit.shadingNormal, eta);
+      if (glm::dot(r, r) == 0.0f) r = t.hit.reflectedDirection;
+      dirs.push_back(glm::normalize(r));
+      keys.push_back(0);
+    } else if (o.mode == ReferenceMode::Exact) {
+      dirs.push_back(t.hit.transmitted.exitDirection);
+      keys.push_back(t.hit.transmitted.interactions);
+    } else {
+      for (const PathResult& leaf : t.leaves) {
+        dirs.push_back(leaf.exitDirection);
+        keys.push_back(leaf.interactions);
+      }
+    }
+  };
+
+  // One sub-sample: the eye ray along d, traced as `t`; footprints[i] (filtered) for lookup i.
+  auto shade = [&](glm::vec3 d, const Traced& t, const std::vector<glm::vec3>& dirs,
+                   const std::vector<float>& footprints) {
     Sample sample;
-    const EyeRayResult hit = tracer.traceEyeRay(eye, d, ts);
-    rays += hit.rays;
+    const EyeRayResult& hit = t.hit;
     if (!hit.hit) {
       sample.color = sampleLatLong(env, d) * o.exposure;
       return sample;
     }
+    auto footprint = [&](size_t i) { return i < footprints.size() ? footprints[i] : 0.0f; };
     sample.hit = true;
     const Surface& surface = scene.surfaces[hit.surface];
     const float eta = scene.media[surface.outerMedium].ior / scene.media[surface.innerMedium].ior;
@@ -217,28 +279,19 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
     glm::vec3 transmitted(0.0f);
     if (o.mode == ReferenceMode::SingleInterface) {
       f = fresnelDielectric(cosI, eta);
-      glm::vec3 t = glm::refract(d, n, eta);
-      if (glm::dot(t, t) == 0.0f) t = hit.reflectedDirection;
-      sample.direction = glm::normalize(t);
-      transmitted = sampleLatLong(env, sample.direction);
+      sample.direction = dirs[1];
+      transmitted = lookup(sample.direction, footprint(1));
     } else if (o.mode == ReferenceMode::Exact) {
       const PathResult& path = hit.transmitted;
       sample.direction = path.exitDirection;
-      transmitted = sampleLatLong(env, path.exitDirection) * std::exp(-path.opticalDepth * o.absorptionScale);
+      transmitted = lookup(path.exitDirection, footprint(1)) * std::exp(-path.opticalDepth * o.absorptionScale);
       if (o.throughput) transmitted *= path.energy;
     } else {
-      leaves.clear();
-      SurfacePoint point;
-      point.position = hit.position;
-      point.shadingNormal = hit.shadingNormal;
-      point.geometricNormal = hit.shadingNormal;
-      point.surface = hit.surface;
-      point.triangle = hit.triangle;
-      tracer.traceTree(point, d, o.treeDepth, leaves);
-      rays += leaves.size();
       glm::vec3 sum(0.0f), dirSum(0.0f);
-      for (const PathResult& leaf : leaves) {
-        sum += leaf.energy * sampleLatLong(env, leaf.exitDirection) * std::exp(-leaf.opticalDepth * o.absorptionScale);
+      for (size_t i = 0; i < t.leaves.size(); ++i) {
+        const PathResult& leaf = t.leaves[i];
+        sum += leaf.energy * lookup(leaf.exitDirection, footprint(i + 1)) *
+               std::exp(-leaf.opticalDepth * o.absorptionScale);
         dirSum += leaf.energy * leaf.exitDirection;
       }
       transmitted = sum;
@@ -247,19 +300,46 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
     // One colour model in every mode (docs/scenes.md): the colour of the medium behind the front
     // surface tints all the light transmitted through it.
     glm::vec3 color = (1.0f - f) * transmitted * scene.media[surface.innerMedium].color;
-    if (o.reflection) color += f * sampleLatLong(env, hit.reflectedDirection);
+    if (o.reflection) color += f * lookup(hit.reflectedDirection, footprint(0));
     sample.color = color * o.exposure;
     return sample;
   };
 
   out.rays = forEachRow(o.height, threadCount(o.threads), start, o.progress, [&](uint32_t y, uint64_t& rays) {
-    std::vector<PathResult> leaves;
+    Traced self, nx, ny;
+    std::vector<glm::vec3> dirs, dirsX, dirsY;
+    std::vector<uint32_t> keys, keysX, keysY;
+    std::vector<float> footprints;
+    auto ray = [&](uint32_t bx, uint32_t by) { return glm::normalize(rayThrough(dirFromClip, bigWidth, bigHeight, bx, by)); };
     for (uint32_t x = 0; x < o.width; ++x) {
       PixelAccumulator pixel;
       for (uint32_t j = 0; j < s; ++j)
         for (uint32_t i = 0; i < s; ++i) {
-          const glm::vec3 d = glm::normalize(rayThrough(dirFromClip, bigWidth, bigHeight, x * s + i, y * s + j));
-          pixel.add(shade(d, leaves, rays));
+          const uint32_t bx = x * s + i, by = y * s + j;
+          const glm::vec3 d = ray(bx, by);
+          trace(d, self, rays);
+          lookups(d, self, dirs, keys);
+          footprints.clear();
+          if (o.filtered && self.hit.hit) {
+            // The engine's fine derivatives on the sub-sample grid: the quad neighbours in x and y,
+            // traced in full. A lookup whose neighbour hit another surface, took a different tree
+            // or met another number of interfaces has no derivative on that axis (a path's
+            // discontinuity is not a footprint: the 4x4 reference sees two sharp images there).
+            const glm::vec3 dx = ray(bx ^ 1u, by), dy = ray(bx, by ^ 1u);
+            trace(dx, nx, rays);
+            trace(dy, ny, rays);
+            lookups(dx, nx, dirsX, keysX);
+            lookups(dy, ny, dirsY, keysY);
+            const bool sameX = nx.hit.hit && nx.hit.surface == self.hit.surface && dirsX.size() == dirs.size();
+            const bool sameY = ny.hit.hit && ny.hit.surface == self.hit.surface && dirsY.size() == dirs.size();
+            const float sx = (bx & 1u) ? 1.0f : -1.0f, sy = (by & 1u) ? 1.0f : -1.0f;
+            for (size_t k = 0; k < dirs.size(); ++k) {
+              const glm::vec3 ddx = sameX && keysX[k] == keys[k] ? sx * (dirs[k] - dirsX[k]) : glm::vec3(0.0f);
+              const glm::vec3 ddy = sameY && keysY[k] == keys[k] ? sy * (dirs[k] - dirsY[k]) : glm::vec3(0.0f);
+              footprints.push_back(reference::directionFootprint({ddx.x, ddx.y, ddx.z}, {ddy.x, ddy.y, ddy.z}));
+            }
+          }
+          pixel.add(shade(d, self, dirs, footprints));
         }
       pixel.store(out, size_t(y) * o.width + x, s * s);
     }
@@ -458,7 +538,11 @@ Result<ReferenceImage> renderDistortion(const FieldMesh& mesh, const reference::
   const uint32_t bigWidth = o.width * s, bigHeight = o.height * s;
   const glm::mat4 dirFromClip = directionFromClip(o.camera, bigWidth, bigHeight);
   const TriangleBins bins = binTriangles(mesh, o.camera, bigWidth, bigHeight);
-  const reference::LatLongImage latLong{env.width, env.height, env.rgba.data()};
+  // reference::render's filtered lookups: the engine's level chain, built once.
+  const std::vector<std::vector<float>> levels =
+      reference::environmentLevels(reference::LatLongImage{env.width, env.height, env.rgba.data()});
+  const reference::LatLongImage latLong{env.width, env.height, env.rgba.data(), &levels};
+  const reference::RenderObject object{&mesh, &distortion, o.shading, Transform{}};
 
   // One sub-sample: reference::render's per-pixel operations for pixel (bx, by) of the big image.
   auto shade = [&](uint32_t bx, uint32_t by) {
@@ -481,7 +565,10 @@ Result<ReferenceImage> renderDistortion(const FieldMesh& mesh, const reference::
     }
     // reference::render's per-sample operations, through its own functions.
     const reference::SurfacePoint point = reference::surfacePointAt(mesh, bestTriangle, *best);
-    const reference::Vec3 c = reference::shadeField(distortion, latLong, point, o.camera.eye, o.shading, o.exposure);
+    const reference::LookupFootprints footprints =
+        reference::pixelFootprints(object, bestTriangle, o.camera, bigWidth, bigHeight, bx, by);
+    const reference::Vec3 c =
+        reference::shadeField(distortion, latLong, point, o.camera.eye, o.shading, o.exposure, Transform{}, footprints);
     sample.color = glm::vec3(c[0], c[1], c[2]);
     sample.hit = true;
     const reference::Vec3 dir = reference::shadedExitDirection(distortion, point, o.camera.eye);

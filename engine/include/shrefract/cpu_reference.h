@@ -7,7 +7,8 @@
 // What differs from the GPU, and why tests need a tolerance: the order of the float sums, the GPU's
 // sqrt/inversesqrt/exp precision, its bilinear weights (fixed point on many devices, 8 bits on
 // lavapipe), its RGBA16F environment (the reference samples the float image it is given; pass
-// it through roundToBinary16 to match), and rasterization at triangle edges.
+// it through roundToBinary16 to match), its level-of-detail precision between the environment's
+// levels (render's filtered lookups), and rasterization at triangle edges.
 //
 // All functions are thread-safe (no shared state).
 #pragma once
@@ -66,11 +67,34 @@ struct LatLongImage {
   uint32_t width = 0;
   uint32_t height = 0;
   const float* rgba = nullptr;
+  // Levels 1.. of its chain (environmentLevels). Null or empty: every lookup reads level 0 (render()
+  // builds the chain itself when it is null; an empty chain keeps it unfiltered).
+  const std::vector<std::vector<float>>* levels = nullptr;
 };
 
-// Bilinear lookup in `direction` (any non-zero length), repeating in u and clamping in v, as the
-// engine's environment sampler does. Precondition: the image is not empty.
-Vec3 sampleLatLong(const LatLongImage& environment, const Vec3& direction);
+// Levels 1 .. environmentLevelCount(width, height) - 1 of the chain the engine builds at upload
+// (environment.cpp): level l, max(1, w >> l) x max(1, h >> l), is level l - 1 resampled
+// bilinearly at its texel centres with clamp to edge, as a linear vkCmdBlitImage does (the 2x2 box
+// where the size is even), every level rounded to binary16 as the RGBA16F image holds it (level 0
+// is rounded before filtering; environment.rgba itself is left alone).
+std::vector<std::vector<float>> environmentLevels(const LatLongImage& environment);
+
+// The level selection of spirv/include/shrefract/environment.glsl, same float operations:
+// the angle (radians) a unit direction with screen derivatives ddx, ddy spans across the pixel,
+// 2 asin(min(max(|ddx|, |ddy|) / 2, 1)) ...
+float directionFootprint(const Vec3& ddx, const Vec3& ddy);
+// ... and the level for it, clamp(log2(max(footprint, 1e-30) / texelAngle) + kEnvironmentLevelBias,
+// 0, maxLevel) (gpu_layout.h: -1).
+float environmentLevel(float footprint, float texelAngle, float maxLevel);
+// Radians per level 0 texel: 2 pi / width (lat-long, at the equator), pi / (2 faceSize) (cube).
+float latLongTexelAngle(float width);
+float cubeTexelAngle(float faceSize);
+
+// Lookup in `direction` (any non-zero length) for a footprint of `footprint` radians across the
+// pixel: bilinear in the two levels around environmentLevel(...) (repeat in u, clamp in v) and
+// linear between them, as the engine's sampler does with its explicit level; level 0 alone when
+// footprint is 0 or environment.levels is null. Precondition: the image is not empty.
+Vec3 sampleLatLong(const LatLongImage& environment, const Vec3& direction, float footprint = 0.0f);
 
 // World direction of the centre of texel (i, j) of cube face `face` (0..5: +X, -X, +Y, -Y, +Z,
 // -Z), not normalized; see CubeEnvironmentDesc.
@@ -84,16 +108,23 @@ struct SurfacePoint {
   float frontIor = 0.0f;  // n_inside / n_outside; 0: shading.ior
 };
 
+// Footprints (radians, directionFootprint) of a fragment's two environment lookups; zero reads level 0.
+struct LookupFootprints {
+  float exit = 0.0f;       // the exit (refracted) direction
+  float reflected = 0.0f;  // the front reflection
+};
+
 // ShadingMode::Field for one fragment (see renderer.h), before the colour attachment's format
 // conversion. `distortion` must be decompressed for the same eye. When distortion.throughput is
 // set, the transmitted term is multiplied by min(|d.xyz|, 1) of the bilinear sample d, as the GPU
 // does for an object whose field has a throughput channel (ObjectPushConstants.tint.a).
 // `point` and `eye` are in the object's space; the exit and reflection directions are turned to
 // world space with worldFromObject's rotation before the lookups, and the optical depth scaled by
-// its scale, as the object pass does.
+// its scale, as the object pass does. `footprints` filter the two lookups (sampleLatLong); render()
+// computes them as the GPU's fine derivatives do (pixelFootprints).
 Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environment, const SurfacePoint& point,
                 const Vec3& eye, const ObjectShading& shading, float exposure = 1.0f,
-                const Transform& worldFromObject = Transform{});
+                const Transform& worldFromObject = Transform{}, const LookupFootprints& footprints = {});
 
 // One object for render(): its mesh (positions, normals, uvs, frontIor, indices as in FieldMesh)
 // and its decompressed image. Pointers must stay valid during render().
@@ -132,11 +163,21 @@ SurfacePoint surfacePointAt(const FieldMesh& mesh, uint32_t first, const Triangl
 // the view direction where it vanishes.
 Vec3 shadedExitDirection(const DistortionImage& distortion, const SurfacePoint& point, const Vec3& eye);
 
+// The footprints the object pass computes for pixel (x, y) where the visible surface is triangle
+// `first / 3` of object.mesh: the world exit and reflection directions shaded at the centres of the
+// pixel, of its 2x2 quad's neighbour in x (x ^ 1) and in y (y ^ 1), all on the plane of that
+// triangle (its attributes extrapolated beyond its edges, as the GPU's helper lanes do), and
+// directionFootprint of the fine derivatives (odd minus even column, odd minus even row).
+// `eye` is the world eye position.
+LookupFootprints pixelFootprints(const RenderObject& object, uint32_t first, const Camera& camera, uint32_t width,
+                                 uint32_t height, uint32_t x, uint32_t y);
+
 // The background pass and Field-mode objects, ray cast per pixel centre (each object in its own
 // space: the ray brought into it by the inverse of worldFromObject): the nearest front-facing
 // triangle (counter-clockwise seen from the eye, as the GPU culls) with its perspective-correct
-// barycentric attributes, shaded with shadeField; the environment in the ray's direction where no
-// triangle is hit. Near and far planes are ignored (scenes in tests sit well inside them).
+// barycentric attributes, shaded with shadeField and pixelFootprints' filtered lookups (the chain
+// built with environmentLevels when environment.levels is null); the environment's level 0 in the
+// ray's direction where no triangle is hit, as the background pass reads it. Near and far planes are ignored (scenes in tests sit well inside them).
 RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImage& environment, const Camera& camera,
                      uint32_t width, uint32_t height, float exposure = 1.0f);
 

@@ -1,6 +1,8 @@
 // An environment map on the GPU: the distant surroundings that refracted and reflected rays see.
 //
-// Two encodings, both RGBA16F, one mip level, sampled bilinearly at level 0:
+// Two encodings, both RGBA16F with a level chain (environmentLevelCount levels, each the 2x2 box of
+// the one above, built on the GPU at upload with linear blits), sampled trilinearly at the level
+// that the angle a looked-up direction spans across the pixel calls for (docs/antialiasing.md):
 //  - lat-long (equirectangular, 2:1), +Y up, docs/environment-maps.md and spirv/include/shrefract/
 //    environment.glsl: u = 0.5 + atan2(x, -z) / (2 pi), v = acos(y) / pi, row 0 = zenith; wraps in
 //    u, clamps in v;
@@ -38,6 +40,14 @@ struct CubeEnvironmentDesc {
 };
 
 enum class EnvironmentEncoding : uint32_t { LatLong = 0, Cube = 1 };
+
+// Levels in the chain of an environment whose level 0 (a cube: each face) is width x height: down
+// to 1 x 1, level l being max(1, width >> l) x max(1, height >> l).
+inline uint32_t environmentLevelCount(uint32_t width, uint32_t height) {
+  uint32_t levels = 1;
+  for (uint32_t size = width > height ? width : height; size > 1; size >>= 1) ++levels;
+  return levels;
+}
 
 class Environment {
  public:

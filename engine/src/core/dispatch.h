@@ -27,6 +27,7 @@ namespace shrefract {
   X(vkCmdClearColorImage)             \
   X(vkCmdCopyBuffer)                  \
   X(vkCmdCopyBufferToImage)           \
+  X(vkCmdBlitImage)                   \
   X(vkCmdDispatch)                    \
   X(vkCmdDraw)                        \
   X(vkCmdDrawIndexed)                 \

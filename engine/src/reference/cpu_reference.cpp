@@ -4,6 +4,9 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <numbers>
+
+#include <shrefract/environment.h>
 
 #include <glm/glm.hpp>
 #include <glm/gtc/matrix_transform.hpp>
@@ -96,10 +99,71 @@ Vec4 sampleBilinear(const DistortionImage& image, float u, float v) {
   return out;
 }
 
-Vec3 sampleLatLong(const LatLongImage& env, const Vec3& direction) {
+std::vector<std::vector<float>> environmentLevels(const LatLongImage& env) {
+  const uint32_t count = environmentLevelCount(env.width, env.height);
+  std::vector<std::vector<float>> levels;
+  std::vector<float> above(env.rgba, env.rgba + size_t(env.width) * env.height * 4);
+  for (float& v : above) v = roundToBinary16(v);
+  uint32_t w = env.width, h = env.height;
+  for (uint32_t level = 1; level < count; ++level) {
+    const uint32_t w2 = std::max(1u, w >> 1), h2 = std::max(1u, h >> 1);
+    std::vector<float> next(size_t(w2) * h2 * 4);
+    for (uint32_t j = 0; j < h2; ++j)
+      for (uint32_t i = 0; i < w2; ++i) {
+        // The destination texel centre in source texels, less half a texel: bilinear, clamped.
+        const float x = (float(i) + 0.5f) * float(w) / float(w2) - 0.5f;
+        const float y = (float(j) + 0.5f) * float(h) / float(h2) - 0.5f;
+        const float fx = std::floor(x), fy = std::floor(y);
+        const float ax = x - fx, ay = y - fy;
+        auto cx = [&](float t) { return size_t(std::clamp(t, 0.0f, float(w - 1))); };
+        auto cy = [&](float t) { return size_t(std::clamp(t, 0.0f, float(h - 1))); };
+        const size_t x0 = cx(fx), x1 = cx(fx + 1.0f), y0 = cy(fy), y1 = cy(fy + 1.0f);
+        for (size_t c = 0; c < 4; ++c) {
+          auto at = [&](size_t px, size_t py) { return above[(py * w + px) * 4 + c]; };
+          const float top = (1.0f - ax) * at(x0, y0) + ax * at(x1, y0);
+          const float bottom = (1.0f - ax) * at(x0, y1) + ax * at(x1, y1);
+          next[(size_t(j) * w2 + i) * 4 + c] = roundToBinary16((1.0f - ay) * top + ay * bottom);
+        }
+      }
+    levels.push_back(next);
+    above = std::move(next);
+    w = w2;
+    h = h2;
+  }
+  return levels;
+}
+
+float directionFootprint(const Vec3& ddx, const Vec3& ddy) {
+  const float chord = std::max(glm::length(toGlm(ddx)), glm::length(toGlm(ddy)));
+  return 2.0f * std::asin(std::min(0.5f * chord, 1.0f));
+}
+
+float environmentLevel(float footprint, float texelAngle, float maxLevel) {
+  return std::clamp(std::log2(std::max(footprint, 1e-30f) / texelAngle) + gpu::kEnvironmentLevelBias, 0.0f, maxLevel);
+}
+
+float latLongTexelAngle(float width) { return 2.0f * std::numbers::pi_v<float> / width; }
+float cubeTexelAngle(float faceSize) { return 0.5f * std::numbers::pi_v<float> / faceSize; }
+
+Vec3 sampleLatLong(const LatLongImage& env, const Vec3& direction, float footprint) {
   float out[4];
-  sampleLatLongBilinear(env.rgba, env.width, env.height, direction[0], direction[1], direction[2], out);
-  return {out[0], out[1], out[2]};
+  if (!env.levels || env.levels->empty() || footprint <= 0.0f) {
+    sampleLatLongBilinear(env.rgba, env.width, env.height, direction[0], direction[1], direction[2], out);
+    return {out[0], out[1], out[2]};
+  }
+  const float level = environmentLevel(footprint, latLongTexelAngle(float(env.width)), float(env.levels->size()));
+  const uint32_t l0 = static_cast<uint32_t>(level);
+  const float frac = level - float(l0);
+  auto sampleLevel = [&](uint32_t l) {
+    float c[4];
+    const float* rgba = l == 0 ? env.rgba : (*env.levels)[l - 1].data();
+    sampleLatLongBilinear(rgba, std::max(1u, env.width >> l), std::max(1u, env.height >> l), direction[0],
+                          direction[1], direction[2], c);
+    return glm::vec3(c[0], c[1], c[2]);
+  };
+  glm::vec3 c = sampleLevel(l0);
+  if (frac > 0.0f) c = (1.0f - frac) * c + frac * sampleLevel(l0 + 1);
+  return fromGlm(c);
 }
 
 Vec3 cubeTexelDirection(uint32_t face, uint32_t i, uint32_t j, uint32_t faceSize) {
@@ -115,28 +179,50 @@ Vec3 cubeTexelDirection(uint32_t face, uint32_t i, uint32_t j, uint32_t faceSize
   }
 }
 
-Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environment, const SurfacePoint& point,
-                const Vec3& eyeArray, const ObjectShading& shading, float exposure, const Transform& worldFromObject) {
-  glm::vec3 n = glm::normalize(toGlm(point.normal));
-  const glm::vec3 v = glm::normalize(toGlm(point.position) - toGlm(eyeArray));
-  float cosI = -glm::dot(v, n);
-  if (cosI < 1e-4f) {
-    n = glm::normalize(n + (1e-4f - cosI) * -v);
-    cosI = -glm::dot(v, n);
+namespace {
+
+// What the object pass computes from its inputs before the lookups (object_field_body.glsl).
+struct FieldFragment {
+  glm::vec3 v, n;
+  float cosI = 0.0f;
+  Vec4 d{};
+  float len2 = 0.0f;
+  glm::vec3 exitWorld, reflectedWorld;
+};
+
+FieldFragment fieldFragment(const DistortionImage& distortion, const SurfacePoint& point, const Vec3& eyeArray,
+                            const Transform& worldFromObject) {
+  FieldFragment f;
+  f.n = glm::normalize(toGlm(point.normal));
+  f.v = glm::normalize(toGlm(point.position) - toGlm(eyeArray));
+  f.cosI = -glm::dot(f.v, f.n);
+  if (f.cosI < 1e-4f) {
+    f.n = glm::normalize(f.n + (1e-4f - f.cosI) * -f.v);
+    f.cosI = -glm::dot(f.v, f.n);
   }
+  f.d = sampleBilinear(distortion, point.uv[0], point.uv[1]);
+  const glm::vec3 dir(f.d[0], f.d[1], f.d[2]);
+  f.len2 = glm::dot(dir, dir);
+  const glm::vec3 exitDirection = f.len2 > gpu::kMinDirectionLength2 ? dir / std::sqrt(f.len2) : f.v;
+  f.exitWorld = toGlm(rotateDirection(worldFromObject, fromGlm(exitDirection)));
+  f.reflectedWorld = toGlm(rotateDirection(worldFromObject, fromGlm(glm::reflect(f.v, f.n))));
+  return f;
+}
+
+}  // namespace
+
+Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environment, const SurfacePoint& point,
+                const Vec3& eyeArray, const ObjectShading& shading, float exposure, const Transform& worldFromObject,
+                const LookupFootprints& footprints) {
+  const FieldFragment f = fieldFragment(distortion, point, eyeArray, worldFromObject);
   const float ior = point.frontIor > 0.0f ? point.frontIor : shading.ior;
-  const float fresnel = fresnelDielectric(cosI, 1.0f / ior);
-  const Vec4 d = sampleBilinear(distortion, point.uv[0], point.uv[1]);
-  const glm::vec3 dir(d[0], d[1], d[2]);
-  const float len2 = glm::dot(dir, dir);
-  const glm::vec3 exitDirection = len2 > gpu::kMinDirectionLength2 ? dir / std::sqrt(len2) : v;
-  float transmittance = std::exp(-std::max(d[3], 0.0f) * (shading.absorptionScale * worldFromObject.scale));
-  if (distortion.throughput) transmittance *= std::min(std::sqrt(len2), 1.0f);
-  const Vec3 exitWorld = rotateDirection(worldFromObject, fromGlm(exitDirection));
-  glm::vec3 color = (1.0f - fresnel) * transmittance * toGlm(shading.tint) * toGlm(sampleLatLong(environment, exitWorld));
+  const float fresnel = fresnelDielectric(f.cosI, 1.0f / ior);
+  float transmittance = std::exp(-std::max(f.d[3], 0.0f) * (shading.absorptionScale * worldFromObject.scale));
+  if (distortion.throughput) transmittance *= std::min(std::sqrt(f.len2), 1.0f);
+  glm::vec3 color = (1.0f - fresnel) * transmittance * toGlm(shading.tint) *
+                    toGlm(sampleLatLong(environment, fromGlm(f.exitWorld), footprints.exit));
   if (shading.reflection)
-    color += fresnel *
-             toGlm(sampleLatLong(environment, rotateDirection(worldFromObject, fromGlm(glm::reflect(v, n)))));
+    color += fresnel * toGlm(sampleLatLong(environment, fromGlm(f.reflectedWorld), footprints.reflected));
   return fromGlm(color * exposure);
 }
 
@@ -199,6 +285,43 @@ SurfacePoint surfacePointAt(const FieldMesh& mesh, uint32_t first, const Triangl
   return point;
 }
 
+LookupFootprints pixelFootprints(const RenderObject& object, uint32_t first, const Camera& camera, uint32_t width,
+                                 uint32_t height, uint32_t x, uint32_t y) {
+  const FieldMesh& mesh = *object.mesh;
+  const Transform& placed = object.worldFromObject;
+  const Vec3 eyeObject = inverseTransformPoint(placed, camera.eye);
+  const glm::dvec3 eye(eyeObject[0], eyeObject[1], eyeObject[2]);
+  glm::dvec3 p[3];
+  for (int k = 0; k < 3; ++k) {
+    const float* q = &mesh.positions[size_t(mesh.indices[first + uint32_t(k)]) * 3];
+    p[k] = glm::dvec3(q[0], q[1], q[2]);
+  }
+  const glm::dvec3 e1 = p[1] - p[0], e2 = p[2] - p[0];
+  // The triangle's plane hit by the ray through pixel (px, py), barycentrics unbounded: what a
+  // fragment of this triangle interpolates there, inside the triangle or not.
+  auto fragmentAt = [&](uint32_t px, uint32_t py) {
+    Vec3 rayObject = inverseRotateDirection(placed, pixelRay(camera, width, height, px, py));
+    for (float& c : rayObject) c /= placed.scale;
+    const glm::dvec3 ray(rayObject[0], rayObject[1], rayObject[2]);
+    const glm::dvec3 pv = glm::cross(ray, e2);
+    const double det = glm::dot(e1, pv);
+    const glm::dvec3 tv = eye - p[0];
+    const glm::dvec3 qv = glm::cross(tv, e1);
+    TriangleHit hit{0.0, 0.0, 0.0};
+    if (std::fabs(det) > 1e-300) hit = TriangleHit{glm::dot(e2, qv) / det, glm::dot(tv, pv) / det, glm::dot(ray, qv) / det};
+    return fieldFragment(*object.distortion, surfacePointAt(mesh, first, hit), eyeObject, placed);
+  };
+  const FieldFragment self = fragmentAt(x, y);
+  const FieldFragment nx = fragmentAt(x ^ 1u, y), ny = fragmentAt(x, y ^ 1u);
+  // Fine derivatives: odd column minus even column, odd row minus even row.
+  const float sx = (x & 1u) ? 1.0f : -1.0f, sy = (y & 1u) ? 1.0f : -1.0f;
+  auto footprint = [&](const glm::vec3& a, const glm::vec3& bx, const glm::vec3& by) {
+    return directionFootprint(fromGlm(sx * (a - bx)), fromGlm(sy * (a - by)));
+  };
+  return {footprint(self.exitWorld, nx.exitWorld, ny.exitWorld),
+          footprint(self.reflectedWorld, nx.reflectedWorld, ny.reflectedWorld)};
+}
+
 Vec3 shadedExitDirection(const DistortionImage& distortion, const SurfacePoint& point, const Vec3& eye) {
   const Vec4 d = sampleBilinear(distortion, point.uv[0], point.uv[1]);
   glm::vec3 dir(d[0], d[1], d[2]);
@@ -209,6 +332,13 @@ Vec3 shadedExitDirection(const DistortionImage& distortion, const SurfacePoint& 
 
 RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImage& environment, const Camera& camera,
                      uint32_t width, uint32_t height, float exposure) {
+  // The chain the engine builds at upload, unless the caller has it already.
+  std::vector<std::vector<float>> ownLevels;
+  LatLongImage filtered = environment;
+  if (!filtered.levels) {
+    ownLevels = environmentLevels(environment);
+    filtered.levels = &ownLevels;
+  }
   RenderedImage image;
   image.width = width;
   image.height = height;
@@ -252,8 +382,9 @@ RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImag
       const RenderObject& object = objects[size_t(bestObject)];
       const SurfacePoint point = surfacePointAt(*object.mesh, bestTriangle, *best);
       const Vec3& eye = objectEyes[size_t(bestObject)];
-      const Vec3 c = shadeField(*object.distortion, environment, point, eye, object.shading, exposure,
-                                object.worldFromObject);
+      const LookupFootprints footprints = pixelFootprints(object, bestTriangle, camera, width, height, px, py);
+      const Vec3 c = shadeField(*object.distortion, filtered, point, eye, object.shading, exposure,
+                                object.worldFromObject, footprints);
       for (int k = 0; k < 3; ++k) out[k] = c[size_t(k)];
       image.object[size_t(py) * width + px] = bestObject;
       const Vec3 dir = rotateDirection(object.worldFromObject, shadedExitDirection(*object.distortion, point, eye));

@@ -3,6 +3,8 @@
 #ifndef SHREFRACT_ENVIRONMENT_GLSL
 #define SHREFRACT_ENVIRONMENT_GLSL
 
+#include "shrefract/gpu_layout.h"
+
 const float kShrPi = 3.14159265358979323846;
 
 vec2 latLongUv(vec3 dir) {
@@ -12,10 +14,38 @@ vec2 latLongUv(vec3 dir) {
   return vec2(u, v);
 }
 
-// Level 0 always: the lat-long wrap in u would make derivative-based LOD pick the
-// smallest mip along the seam.
-vec3 sampleEnvironment(sampler2D env, vec3 dir) {
-  return textureLod(env, latLongUv(dir), 0.0).rgb;
+// Filtered lookups (docs/antialiasing.md). The environment has a level chain (a 2x2 box per level,
+// built at upload); the level is chosen from the angle a lookup direction spans across the pixel,
+// not from the sampler's own uv derivatives: those jump by a whole turn at the lat-long seam and
+// know nothing of how the glass bends the rays. Mirrored by engine/src/reference/cpu_reference.cpp
+// (directionFootprint, environmentLevel) and tested against it (tests/engine/environment_level_test).
+
+// Angle (radians) spanned across the pixel by a unit direction with screen derivatives ddx, ddy:
+// the larger chord, converted to its arc (a chord of 2 is a half turn). Isotropic on purpose: one
+// level for both axes (textureLod), the blur of the longer axis, so that nothing aliases.
+float directionFootprint(vec3 ddx, vec3 ddy) {
+  float chord = max(length(ddx), length(ddy));
+  return 2.0 * asin(min(0.5 * chord, 1.0));
+}
+
+// The level for a footprint of `footprint` radians, for a level 0 texel of `texelAngle` radians:
+// the level whose texels span it, plus kEnvironmentLevelBias (gpu_layout.h), clamped to
+// [0, maxLevel]; a footprint below two texels (or zero) is level 0.
+float environmentLevel(float footprint, float texelAngle, float maxLevel) {
+  return clamp(log2(max(footprint, 1e-30) / texelAngle) + kEnvironmentLevelBias, 0.0, maxLevel);
+}
+
+// Radians per level 0 texel: lat-long at the equator (2 pi / width; texels narrow toward the poles,
+// where the level is then coarser than the texels need in u and right in v), a cube face on
+// average (a face spans pi / 2 over its size).
+float latLongTexelAngle(float width) { return 2.0 * kShrPi / width; }
+float cubeTexelAngle(float faceSize) { return 0.5 * kShrPi / faceSize; }
+
+// Lat-long lookup for a footprint of `footprint` radians (0: level 0, the sharpest).
+vec3 sampleEnvironment(sampler2D env, vec3 dir, float footprint) {
+  float level = environmentLevel(footprint, latLongTexelAngle(float(textureSize(env, 0).x)),
+                                 float(textureQueryLevels(env) - 1));
+  return textureLod(env, latLongUv(dir), level).rgb;
 }
 
 // Schlick is not enough near TIR for dense media; this is the exact unpolarized Fresnel

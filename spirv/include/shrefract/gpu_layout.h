@@ -131,6 +131,13 @@ SHR_CONSTF(kMinDirectionLength2, 1e-20f)
 // Optical depth is clamped to the finite range of the RGBA16F distortion image.
 SHR_CONSTF(kMaxOpticalDepth, 65504.0f)
 
+// Filtered environment lookups (environment.glsl environmentLevel, docs/antialiasing.md): the
+// level is log2(footprint / texel angle) + this bias. The level whose texels are as wide as the
+// footprint, read bilinearly, blurs over a tent about twice the footprint (its own box, then the
+// bilinear tap); one level finer leaves about the pixel's own footprint, as supersampling does.
+// Measured against the 4x4 references in docs/antialiasing.md.
+SHR_CONSTF(kEnvironmentLevelBias, -1.0f)
+
 // Texel roles as stored in the kinds buffer (the values of field.h's kTexel* constants).
 SHR_CONST(kGpuTexelEmpty, 0u)
 SHR_CONST(kGpuTexelSample, 1u)

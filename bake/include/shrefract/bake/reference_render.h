@@ -71,6 +71,13 @@ struct ReferenceOptions {
   uint32_t treeDepth = 8;          // FullTree: interfaces after the front one
   uint32_t samplesPerAxis = 1;     // S: S x S stratified samples per pixel (see the top), 1..kMaxSamplesPerAxis
   uint32_t threads = 0;            // 0: all hardware threads
+  // Look the environment up as the engine does (docs/antialiasing.md): its level chain
+  // (reference::environmentLevels), at the level of each lookup's footprint, from the directions
+  // of the sub-sample's quad neighbours in the sub-sample grid (x ^ 1, y ^ 1), traced as well
+  // (3x the rays). A neighbour that hits another surface, misses, or (FullTree) has another number
+  // of leaves gives no derivative on that axis. The background stays at level 0. False: level 0
+  // everywhere (bake::sampleLatLong), as the physical reference is rendered.
+  bool filtered = false;
   // Called from the calling thread, between the rows it renders, at most every 100 ms, and once
   // at the end. May be empty.
   std::function<void(const ReferenceProgress&)> progress;
@@ -149,8 +156,9 @@ struct DistortionRenderOptions {
 
 // The engine's raster pass on the CPU for one field object: per sub-sample, the same operations
 // as reference::render (the nearest front-facing triangle of `mesh` in double precision, its
-// perspective-correct attributes, reference::shadeField with `distortion`; the environment where
-// no triangle is hit), but only the triangles whose screen bounds cover the sample are tested, so
+// perspective-correct attributes, reference::shadeField with `distortion` and the filtered lookups
+// of reference::pixelFootprints for the sub-sample grid; the environment's level 0 where no
+// triangle is hit), but only the triangles whose screen bounds cover the sample are tested, so
 // it runs on big meshes. `rays` counts sub-samples. Per-pixel results equal reference::render's
 // at S = 1 (reference_test checks it). Errors as renderReference's, and a distortion image whose
 // size disagrees with its pixels.

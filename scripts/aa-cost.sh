@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# The added GPU time of the filtered lookups (docs/antialiasing.md): the raster pass's GPU time
+# (render --json, gpu_ms.raster, a median over the frames) of a build without them (BEFORE) and
+# with them (AFTER), alternated in one run on the same machine, for a field and a single-interface
+# render (FRAMES frames each, default 20). Prints each run and the after / before ratio of the medians.
+#
+#   scripts/aa-cost.sh BEFORE_SHREFRACT AFTER_SHREFRACT FIELD.shrf SCENE [ROUNDS]
+set -euo pipefail
+before=$1 after=$2 field=$3 scene=$4 rounds=${5:-3}
+ms() { "$1" render "${@:2}" --size 640x480 --frames ${FRAMES:-20} --json -o /tmp/aa-cost.png 2>/dev/null |
+  python3 -c 'import json,sys; print(json.load(sys.stdin)["gpu_ms"]["raster"])'; }
+for what in field single-interface; do
+  if [ $what = field ]; then args=("$field"); else args=("$scene" --mode single-interface); fi
+  b=() a=()
+  for ((i = 0; i < rounds; ++i)); do
+    b+=("$(ms "$before" "${args[@]}")")
+    a+=("$(ms "$after" "${args[@]}")")
+  done
+  python3 - "$what" "${b[*]}" "${a[*]}" <<'PY'
+import statistics, sys
+what, b, a = sys.argv[1], [float(x) for x in sys.argv[2].split()], [float(x) for x in sys.argv[3].split()]
+mb, ma = statistics.median(b), statistics.median(a)
+print(f"{what}: raster GPU ms before {b} after {a}; medians {mb:.3f} -> {ma:.3f}, ratio {ma / mb:.3f}")
+PY
+done

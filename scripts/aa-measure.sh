@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# Anti-aliasing measurement (docs/antialiasing.md): every mode at 1 sample per pixel and at 4x4
+# against the physical reference (full tree, depth 8, 4x4), PSNR over the object pixels with colours
+# clamped (8-bit PNGs), on the built-in scenes with the built-in environment, the tool's default
+# views, 320x240.
+#
+#   scripts/aa-measure.sh SHREFRACT OUTDIR [SCENE...]     (SCENE: sphere cube torus glass-of-water)
+#
+# MASK_FROM=DIR (another run's OUTDIR) measures against that run's mask and reference instead, so
+# that two builds are compared on the same pixels (the mask comes from single-interface renders,
+# whose filtering moves a few silhouette pixels in or out).
+#
+# Fields are baked with --samples 4000 (the README's example; a few minutes on 2 cores instead of
+# the default bake's): the comparison is each mode at 1 spp against the same mode at 4x4, so the
+# field's own angular error is common to both.
+set -euo pipefail
+tool=$1
+out=$2
+shift 2
+scenes=("$@")
+[ ${#scenes[@]} -gt 0 ] || scenes=(sphere cube torus glass-of-water)
+here=$(cd "$(dirname "$0")" && pwd)
+size=320x240
+for s in "${scenes[@]}"; do
+  d=$out/$s
+  mkdir -p "$d"
+  scene=builtin:$s
+  [ -f "$d/field.shrf" ] || "$tool" bake "$scene" --samples 4000 -o "$d/field.shrf" > "$d/bake.log"
+  r() { "$tool" render "$@" --size $size > /dev/null; }
+  # The object mask: two IORs change every object pixel and no background pixel.
+  r "$scene" --mode single-interface --ior 1.2 -o "$d/mask_a.png"
+  r "$scene" --mode single-interface --ior 1.9 -o "$d/mask_b.png"
+  [ -f "$d/reference.png" ] || r "$scene" --mode full-tree --spp 16 -o "$d/reference.png"
+  r "$scene" --mode full-tree -o "$d/full-tree_1.png"  # at 4x4 it is the reference itself
+  filtered=()
+  if "$tool" render --help 2>&1 | grep -- --filtered > /dev/null; then  # builds before the filtered lookups lack it
+    r "$scene" --mode full-tree --filtered -o "$d/full-tree_filtered_1.png"
+    filtered=("$d/full-tree_filtered_1.png" "$d/exact_filtered_1.png" "$d/exact_filtered_16.png")
+  fi
+  for spp in 1 16; do
+    r "$scene" --mode exact --spp $spp -o "$d/exact_$spp.png"
+    [ ${#filtered[@]} = 0 ] || r "$scene" --mode exact --filtered --spp $spp -o "$d/exact_filtered_$spp.png"
+    r "$d/field.shrf" --spp $spp -o "$d/field_$spp.png"
+    r "$scene" --mode single-interface --spp $spp -o "$d/single-interface_$spp.png"
+  done
+  echo "== $s"
+  m=${MASK_FROM:-$out}/$s
+  python3 "$here/aa_psnr.py" "$m/mask_a.png" "$m/mask_b.png" "$m/reference.png" \
+    "$d"/full-tree_1.png "$d"/exact_1.png "$d"/exact_16.png "$d"/field_1.png "$d"/field_16.png \
+    "$d"/single-interface_1.png "$d"/single-interface_16.png "${filtered[@]}"
+done

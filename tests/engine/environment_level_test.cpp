@@ -1,0 +1,217 @@
+// The environment's level selection (docs/antialiasing.md) on the GPU against the CPU reference:
+// spirv/include/shrefract/environment.glsl (directionFootprint, environmentLevel) evaluated by a
+// compute shader for known and random screen derivatives, and cpu_reference's mirror of both. A
+// known derivative gives a known level: a direction turning through 8 texel angles across the
+// pixel reads level 2 (log2 8 and the bias of -1, gpu_layout.h kEnvironmentLevelBias). Also the CPU mirror of the level chain the upload builds (environmentLevels).
+#include <gtest/gtest.h>
+#include <shrefract/cpu_reference.h>
+#include <shrefract/environment.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <numbers>
+#include <random>
+#include <vector>
+
+#include "gpu_test_support.h"
+#include "test_spirv.h"
+
+namespace {
+
+namespace reference = shrefract::reference;
+
+struct Case {  // tests/engine/environment_level_test.comp
+  float ddx[4];
+  float ddy[4];
+  float params[4];  // texel angle, max level
+};
+struct Expected {
+  float footprint = -1.0f, level = -1.0f;  // negative: only compared with the CPU
+};
+constexpr uint32_t kLocalSize = 64;
+// The GPU's asin, log2 and length against the CPU's: lavapipe measures about 1e-6; a wrong formula
+// is off by a tenth of a level or more.
+constexpr float kLevelTolerance = 1e-3f;
+
+Case makeCase(reference::Vec3 ddx, reference::Vec3 ddy, float texelAngle, float maxLevel) {
+  return Case{{ddx[0], ddx[1], ddx[2], 0.0f}, {ddy[0], ddy[1], ddy[2], 0.0f}, {texelAngle, maxLevel, 0.0f, 0.0f}};
+}
+
+TEST(EnvironmentLevel, GpuMatchesCpuAndKnownLevels) {
+  auto h = shrefract::testing::harnessOrSkip();
+  ASSERT_TRUE(h);
+  VkDevice device = h->device();
+
+  const float texel = reference::latLongTexelAngle(256.0f);  // a 256 x 128 lat-long map, 9 levels
+  auto chordFor = [](float angle) { return 2.0f * std::sin(0.5f * angle); };
+  std::vector<Case> cases;
+  std::vector<Expected> expected;
+  auto add = [&](const Case& c, Expected e) {
+    cases.push_back(c);
+    expected.push_back(e);
+  };
+  // A direction turning through 8 texels across the pixel in x: level 2; in y, the same.
+  add(makeCase({chordFor(8.0f * texel), 0, 0}, {0, 0, 0}, texel, 8.0f), {8.0f * texel, 2.0f});
+  add(makeCase({0, 0, 0}, {0, chordFor(8.0f * texel), 0}, texel, 8.0f), {8.0f * texel, 2.0f});
+  // The larger of the two axes decides (isotropic): 2 texels in x, 32 in y -> level 4.
+  add(makeCase({0, chordFor(2.0f * texel), 0}, {0, 0, chordFor(32.0f * texel)}, texel, 8.0f), {32.0f * texel, 4.0f});
+  // Two texels, half a texel, or no change at all: level 0.
+  add(makeCase({chordFor(2.0f * texel), 0, 0}, {0, 0, 0}, texel, 8.0f), {2.0f * texel, 0.0f});
+  add(makeCase({chordFor(0.5f * texel), 0, 0}, {0, 0, 0}, texel, 8.0f), {0.5f * texel, 0.0f});
+  add(makeCase({0, 0, 0}, {0, 0, 0}, texel, 8.0f), {0.0f, 0.0f});
+  // Opposite directions across the pixel (chord 2 and beyond): a half turn, 128 texels, level 6 ...
+  add(makeCase({0, 2.5f, 0}, {0, 0, 0}, texel, 8.0f), {std::numbers::pi_v<float>, 6.0f});
+  // ... clamped to the last level of a shorter chain.
+  add(makeCase({0, 2.0f, 0}, {0, 0, 0}, texel, 5.0f), {std::numbers::pi_v<float>, 5.0f});
+  // A cube map of 64 texels a face: 12 texels -> log2(12) - 1.
+  const float cubeTexel = reference::cubeTexelAngle(64.0f);
+  add(makeCase({chordFor(12.0f * cubeTexel), 0, 0}, {0, 0, 0}, cubeTexel, 6.0f), {12.0f * cubeTexel, std::log2(6.0f)});
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<float> component(-0.3f, 0.3f);
+  for (int i = 0; i < 1000; ++i)
+    add(makeCase({component(rng), component(rng), component(rng)}, {component(rng), component(rng), component(rng)},
+                 texel, 8.0f),
+        {});
+
+  const uint32_t count = uint32_t(cases.size());
+  auto caseBuffer = h->createHostBuffer(count * sizeof(Case), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+  ASSERT_TRUE(caseBuffer.ok()) << caseBuffer.error().message;
+  auto resultBuffer = h->createHostBuffer(count * 2 * sizeof(float), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+  ASSERT_TRUE(resultBuffer.ok()) << resultBuffer.error().message;
+  std::memcpy(caseBuffer->mapped, cases.data(), count * sizeof(Case));
+
+  VkShaderModuleCreateInfo smci{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+  smci.codeSize = sizeof(kSpirv_environment_level_test_comp);
+  smci.pCode = kSpirv_environment_level_test_comp;
+  VkShaderModule module = VK_NULL_HANDLE;
+  ASSERT_EQ(vkCreateShaderModule(device, &smci, nullptr, &module), VK_SUCCESS);
+  VkDescriptorSetLayoutBinding bindings[2] = {};
+  for (uint32_t b = 0; b < 2; ++b) {
+    bindings[b].binding = b;
+    bindings[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    bindings[b].descriptorCount = 1;
+    bindings[b].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
+  }
+  VkDescriptorSetLayoutCreateInfo dslci{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+  dslci.bindingCount = 2;
+  dslci.pBindings = bindings;
+  VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
+  ASSERT_EQ(vkCreateDescriptorSetLayout(device, &dslci, nullptr, &setLayout), VK_SUCCESS);
+  VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(uint32_t)};
+  VkPipelineLayoutCreateInfo plci{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+  plci.setLayoutCount = 1;
+  plci.pSetLayouts = &setLayout;
+  plci.pushConstantRangeCount = 1;
+  plci.pPushConstantRanges = &range;
+  VkPipelineLayout pipelineLayout = VK_NULL_HANDLE;
+  ASSERT_EQ(vkCreatePipelineLayout(device, &plci, nullptr, &pipelineLayout), VK_SUCCESS);
+  VkComputePipelineCreateInfo cpci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+  cpci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+  cpci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+  cpci.stage.module = module;
+  cpci.stage.pName = "main";
+  cpci.layout = pipelineLayout;
+  VkPipeline pipeline = VK_NULL_HANDLE;
+  ASSERT_EQ(vkCreateComputePipelines(device, VK_NULL_HANDLE, 1, &cpci, nullptr, &pipeline), VK_SUCCESS);
+  VkDescriptorPoolSize poolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2};
+  VkDescriptorPoolCreateInfo dpci{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+  dpci.maxSets = 1;
+  dpci.poolSizeCount = 1;
+  dpci.pPoolSizes = &poolSize;
+  VkDescriptorPool pool = VK_NULL_HANDLE;
+  ASSERT_EQ(vkCreateDescriptorPool(device, &dpci, nullptr, &pool), VK_SUCCESS);
+  VkDescriptorSetAllocateInfo dsai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+  dsai.descriptorPool = pool;
+  dsai.descriptorSetCount = 1;
+  dsai.pSetLayouts = &setLayout;
+  VkDescriptorSet set = VK_NULL_HANDLE;
+  ASSERT_EQ(vkAllocateDescriptorSets(device, &dsai, &set), VK_SUCCESS);
+  VkDescriptorBufferInfo infos[2] = {{caseBuffer->buffer, 0, VK_WHOLE_SIZE}, {resultBuffer->buffer, 0, VK_WHOLE_SIZE}};
+  VkWriteDescriptorSet writes[2] = {};
+  for (uint32_t b = 0; b < 2; ++b) {
+    writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+    writes[b].dstSet = set;
+    writes[b].dstBinding = b;
+    writes[b].descriptorCount = 1;
+    writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    writes[b].pBufferInfo = &infos[b];
+  }
+  vkUpdateDescriptorSets(device, 2, writes, 0, nullptr);
+
+  auto submitted = h->submitAndWait([&](VkCommandBuffer cmd) {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineLayout, 0, 1, &set, 0, nullptr);
+    vkCmdPushConstants(cmd, pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(uint32_t), &count);
+    vkCmdDispatch(cmd, (count + kLocalSize - 1) / kLocalSize, 1, 1);
+    VkMemoryBarrier toHost{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+    toHost.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+    toHost.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &toHost, 0,
+                         nullptr, 0, nullptr);
+  });
+  ASSERT_TRUE(submitted.ok()) << submitted.error().message;
+
+  const float* gpu = static_cast<const float*>(resultBuffer->mapped);
+  float worst = 0.0f;
+  uint32_t nonZeroLevels = 0;
+  for (uint32_t i = 0; i < count; ++i) {
+    const Case& c = cases[i];
+    const float cpuFootprint =
+        reference::directionFootprint({c.ddx[0], c.ddx[1], c.ddx[2]}, {c.ddy[0], c.ddy[1], c.ddy[2]});
+    const float cpuLevel = reference::environmentLevel(cpuFootprint, c.params[0], c.params[1]);
+    const float gpuFootprint = gpu[2 * i], gpuLevel = gpu[2 * i + 1];
+    ASSERT_TRUE(std::isfinite(gpuFootprint) && std::isfinite(gpuLevel)) << "case " << i;
+    worst = std::max(worst, std::fabs(gpuLevel - cpuLevel));
+    nonZeroLevels += cpuLevel > 0.0f;
+    EXPECT_NEAR(gpuLevel, cpuLevel, kLevelTolerance) << "case " << i;
+    EXPECT_NEAR(gpuFootprint, cpuFootprint, 1e-5f + 1e-4f * cpuFootprint) << "case " << i;
+    if (expected[i].level >= 0.0f) {
+      EXPECT_NEAR(cpuLevel, expected[i].level, kLevelTolerance) << "case " << i << " (cpu)";
+      EXPECT_NEAR(gpuLevel, expected[i].level, kLevelTolerance) << "case " << i << " (gpu)";
+      EXPECT_NEAR(gpuFootprint, expected[i].footprint, 1e-5f + 1e-4f * expected[i].footprint) << "case " << i;
+    }
+  }
+  std::printf("%u cases (%u above level 0): max |gpu level - cpu level| %.3g (tolerance %.0e)\n", count,
+              nonZeroLevels, double(worst), double(kLevelTolerance));
+  EXPECT_GT(nonZeroLevels, count / 2);  // the random cases reach the filtered levels
+
+  vkDestroyDescriptorPool(device, pool, nullptr);
+  vkDestroyPipeline(device, pipeline, nullptr);
+  vkDestroyPipelineLayout(device, pipelineLayout, nullptr);
+  vkDestroyDescriptorSetLayout(device, setLayout, nullptr);
+  vkDestroyShaderModule(device, module, nullptr);
+  h->destroyBuffer(*resultBuffer);
+  h->destroyBuffer(*caseBuffer);
+  shrefract::testing::expectNoMessagesThroughDestruction(h);
+}
+
+// The CPU chain is the linear blit's: 2x2 boxes at even sizes, binary16 values, down to 1 x 1;
+// lookups between levels blend linearly, and a zero footprint reads level 0.
+TEST(EnvironmentLevel, CpuChainIsTheBlitsBoxes) {
+  std::vector<float> pixels(8 * 4 * 4);
+  for (size_t i = 0; i < pixels.size() / 4; ++i) pixels[i * 4] = float(i % 8) + 0.1f * float(i / 8);
+  reference::LatLongImage env{8, 4, pixels.data()};
+  const std::vector<std::vector<float>> levels = reference::environmentLevels(env);
+  ASSERT_EQ(levels.size() + 1, shrefract::environmentLevelCount(8, 4));
+  ASSERT_EQ(levels.size(), 3u);  // 4x2, 2x1, 1x1
+  ASSERT_EQ(levels[0].size(), 4u * 2 * 4);
+  // Level 1 texel (1, 1): texels (2..3, 2..3) of level 0.
+  const float box = 0.25f * (pixels[(2 * 8 + 2) * 4] + pixels[(2 * 8 + 3) * 4] + pixels[(3 * 8 + 2) * 4] +
+                             pixels[(3 * 8 + 3) * 4]);
+  EXPECT_NEAR(levels[0][(1 * 4 + 1) * 4], box, 2e-3f);
+  float mean = 0.0f;
+  for (size_t i = 0; i < pixels.size() / 4; ++i) mean += pixels[i * 4] / 32.0f;
+  EXPECT_NEAR(levels[2][0], mean, 1e-2f);
+  env.levels = &levels;
+  const reference::Vec3 d{0.3f, 0.2f, -0.9f};
+  const float texel = reference::latLongTexelAngle(8.0f);
+  EXPECT_EQ(reference::sampleLatLong(env, d, 0.0f)[0], reference::sampleLatLong(env, d)[0]);
+  EXPECT_NEAR(reference::sampleLatLong(env, d, 1000.0f)[0], levels[2][0], 1e-6f);  // the last level
+  const float l1 = reference::sampleLatLong(env, d, 4.0f * texel)[0];  // level 1
+  const float l2 = reference::sampleLatLong(env, d, 8.0f * texel)[0];  // level 2
+  EXPECT_NE(l1, l2);
+  EXPECT_NEAR(reference::sampleLatLong(env, d, std::sqrt(32.0f) * texel)[0], 0.5f * (l1 + l2), 1e-5f);
+}
+
+}  // namespace
