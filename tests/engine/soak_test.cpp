@@ -30,60 +30,6 @@ struct Slot {
   VkFence fence = VK_NULL_HANDLE;
 };
 
-void barrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkPipelineStageFlags2 stages,
-             VkAccessFlags2 access, VkImageLayout layout) {
-  VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
-  b.srcStageMask = b.dstStageMask = stages;  // this frame's writes after the previous frame's
-  b.srcAccessMask = access;
-  b.dstAccessMask = access;
-  b.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;  // contents discarded: both targets are cleared
-  b.newLayout = layout;
-  b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.image = image;
-  b.subresourceRange = {aspect, 0, 1, 0, 1};
-  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-  dep.imageMemoryBarrierCount = 1;
-  dep.pImageMemoryBarriers = &b;
-  vkCmdPipelineBarrier2(cmd, &dep);
-}
-
-// The raster pass into the host's colour and depth targets.
-void recordRaster(VkCommandBuffer cmd, const harness::Harness::Image& color, const harness::Harness::Image& depth,
-                  Renderer& renderer, const Environment& environment, const Camera& camera,
-                  const std::vector<Object*>& objects) {
-  barrier(cmd, color.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-          VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
-  barrier(cmd, depth.image, VK_IMAGE_ASPECT_DEPTH_BIT,
-          VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-          VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-          VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
-  VkRenderingAttachmentInfo colorAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  colorAttachment.imageView = color.view;
-  colorAttachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-  colorAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  colorAttachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  VkRenderingAttachmentInfo depthAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  depthAttachment.imageView = depth.view;
-  depthAttachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  depthAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  depthAttachment.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-  depthAttachment.clearValue.depthStencil = {1.0f, 0};
-  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-  ri.renderArea = {{0, 0}, kExtent};
-  ri.layerCount = 1;
-  ri.colorAttachmentCount = 1;
-  ri.pColorAttachments = &colorAttachment;
-  ri.pDepthAttachment = &depthAttachment;
-  vkCmdBeginRendering(cmd, &ri);
-  const VkViewport viewport{0.0f, 0.0f, float(kExtent.width), float(kExtent.height), 0.0f, 1.0f};
-  const VkRect2D scissor{{0, 0}, kExtent};
-  vkCmdSetViewport(cmd, 0, 1, &viewport);
-  vkCmdSetScissor(cmd, 0, 1, &scissor);
-  renderer.recordObjects(cmd, environment, camera, kExtent, objects, ShadingMode::Field);
-  renderer.recordBackground(cmd, environment, camera, kExtent);
-  vkCmdEndRendering(cmd);
-}
-
 TEST(Soak, InstancesComeAndGoOverAThousandFrames) {
   auto h = testing::harnessOrSkip();
   ASSERT_TRUE(h);
@@ -180,7 +126,8 @@ TEST(Soak, InstancesComeAndGoOverAThousandFrames) {
     const float orbit = 0.003f * float(frame);
     camera.eye = {4.0f * std::sin(orbit), 0.8f, 4.0f * std::cos(orbit)};
     ASSERT_TRUE(decompressor.value()->record(slot.cmd, camera, kExtent, objects).ok());
-    recordRaster(slot.cmd, color.value(), depth.value(), *renderer.value(), *environment, camera, objects);
+    testing::recordRaster(slot.cmd, kExtent, color.value(), depth.value(), nullptr, *renderer.value(), *environment,
+                          camera, objects);
     ASSERT_EQ(vkEndCommandBuffer(slot.cmd), VK_SUCCESS);
     VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
     si.commandBufferCount = 1;

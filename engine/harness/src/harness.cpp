@@ -269,7 +269,8 @@ void Harness::destroyBuffer(Buffer& b) {
 }
 
 Result<Harness::Image> Harness::createImage(uint32_t width, uint32_t height, VkFormat format,
-                                            VkImageUsageFlags usage, VkImageAspectFlags aspect) {
+                                            VkImageUsageFlags usage, VkImageAspectFlags aspect,
+                                            VkSampleCountFlagBits samples) {
   Image img;
   img.format = format;
   img.width = width;
@@ -280,7 +281,7 @@ Result<Harness::Image> Harness::createImage(uint32_t width, uint32_t height, VkF
   ici.extent = {width, height, 1};
   ici.mipLevels = 1;
   ici.arrayLayers = 1;
-  ici.samples = VK_SAMPLE_COUNT_1_BIT;
+  ici.samples = samples;
   ici.tiling = VK_IMAGE_TILING_OPTIMAL;
   ici.usage = usage;
   ici.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;

@@ -78,6 +78,11 @@ struct RendererCreateInfo {
   // recordObjects() leaves out objects whose bounds lie outside the camera's view frustum (they
   // would produce no fragment). Off only to measure what culling saves.
   bool frustumCulling = true;
+  // The sample count of the host's attachments (MSAA: the attachments, and their resolve, are the
+  // host's). Must be one the device supports for colour and, with depth, depth attachments
+  // (framebufferColorSampleCounts / framebufferDepthSampleCounts), else Renderer::create fails with
+  // Unsupported.
+  VkSampleCountFlagBits sampleCount = VK_SAMPLE_COUNT_1_BIT;
 };
 
 // What the last recordObjects() call did.

@@ -104,7 +104,7 @@ Result<VkPipeline> createGraphicsPipeline(ContextImpl& c, const RendererCreateIn
   rs.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
   rs.lineWidth = 1.0f;
   VkPipelineMultisampleStateCreateInfo ms{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
-  ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+  ms.rasterizationSamples = info.sampleCount;  // the host's attachments
   VkPipelineDepthStencilStateCreateInfo ds{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
   const bool hasDepth = info.depthFormat != VK_FORMAT_UNDEFINED;
   ds.depthTestEnable = hasDepth ? VK_TRUE : VK_FALSE;
@@ -252,6 +252,12 @@ gpu::ObjectPushConstants objectPushConstants(const Object& object, const glm::ma
 
 Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, const RendererCreateInfo& info) {
   ContextImpl& c = ContextAccess::impl(context);
+  const VkPhysicalDeviceLimits& limits = c.properties.limits;
+  const VkSampleCountFlags supported = limits.framebufferColorSampleCounts &
+                                       (info.depthFormat != VK_FORMAT_UNDEFINED ? limits.framebufferDepthSampleCounts : ~0u);
+  if (!(supported & info.sampleCount) || (info.sampleCount & (info.sampleCount - 1)) != 0)
+    return makeError(ErrorCode::Unsupported, "Renderer::create: the device does not support " +
+                                                 std::to_string(info.sampleCount) + " samples per pixel");
   auto impl = std::make_unique<RendererImpl>();
   impl->context = &c;
   impl->info = info;

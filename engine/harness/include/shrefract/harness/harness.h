@@ -99,7 +99,7 @@ class Harness {
     uint32_t width = 0, height = 0;
   };
   Result<Image> createImage(uint32_t width, uint32_t height, VkFormat format, VkImageUsageFlags usage,
-                            VkImageAspectFlags aspect);
+                            VkImageAspectFlags aspect, VkSampleCountFlagBits samples = VK_SAMPLE_COUNT_1_BIT);
   void destroyImage(Image& image);
 
   // Reads back a VK_FORMAT_R32G32B32A32_SFLOAT or R8G8B8A8_UNORM color image that is in
