@@ -239,57 +239,9 @@ Result<bake::Image> renderFrame(Session& session, const Environment& environment
         vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries, 1);
       }
 
-      // The attachments are cleared every frame; the barrier also orders this frame's writes
-      // after the previous frame's.
-      std::array<VkImageMemoryBarrier2, 2> toAttachment{};
-      for (auto& b : toAttachment) {
-        b = {VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
-        b.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-        b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-      }
-      toAttachment[0].srcStageMask = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_2_COPY_BIT;
-      toAttachment[0].dstStageMask = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT;
-      toAttachment[0].dstAccessMask = VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT;
-      toAttachment[0].newLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-      toAttachment[0].image = colorImage.image;
-      toAttachment[0].subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-      toAttachment[1].srcStageMask =
-          VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
-      toAttachment[1].dstStageMask =
-          VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
-      toAttachment[1].dstAccessMask =
-          VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT;
-      toAttachment[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-      toAttachment[1].image = depthImage.image;
-      toAttachment[1].subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, 1};
-      VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-      dep.imageMemoryBarrierCount = 2;
-      dep.pImageMemoryBarriers = toAttachment.data();
-      vkCmdPipelineBarrier2(cmd, &dep);
-
+      // Timestamp 2 before the attachments' barriers: the raster time includes them (cheap).
       if (queries) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries, 2);
-      VkRenderingAttachmentInfo colorAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-      colorAttachment.imageView = colorImage.view;
-      colorAttachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-      colorAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-      colorAttachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-      VkRenderingAttachmentInfo depthAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-      depthAttachment.imageView = depthImage.view;
-      depthAttachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-      depthAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-      depthAttachment.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-      depthAttachment.clearValue.depthStencil = {1.0f, 0};
-      VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-      ri.renderArea = {{0, 0}, extent};
-      ri.layerCount = 1;
-      ri.colorAttachmentCount = 1;
-      ri.pColorAttachments = &colorAttachment;
-      ri.pDepthAttachment = &depthAttachment;
-      vkCmdBeginRendering(cmd, &ri);
-      VkViewport viewport{0.0f, 0.0f, float(extent.width), float(extent.height), 0.0f, 1.0f};
-      VkRect2D scissor{{0, 0}, extent};
-      vkCmdSetViewport(cmd, 0, 1, &viewport);
-      vkCmdSetScissor(cmd, 0, 1, &scissor);
+      harness::beginRendering(cmd, colorImage, depthImage);
       renderer.value()->recordBackground(cmd, environment, settings.camera, extent);
       renderer.value()->recordObjects(cmd, environment, settings.camera, extent, objects, settings.mode);
       vkCmdEndRendering(cmd);

@@ -68,11 +68,6 @@ class GpuTimer {
   bool fetched_ = false;
 };
 
-// The host's side of a raster frame into `color` and `depth` (the engine never touches them):
-// barriers that order this frame's writes after the previous frame's (contents discarded: both are
-// cleared), vkCmdBeginRendering clearing colour to 0 and depth to 1.0, viewport and scissor over the
-// whole image (renderer.h's contract). The caller records the engine's draws and vkCmdEndRendering.
-void beginRendering(VkCommandBuffer cmd, const harness::Harness::Image& color, const harness::Harness::Image& depth);
 
 double median(std::vector<double> values);
 

@@ -238,7 +238,7 @@ struct Pass {
 // where an object covers it before its fragment shader runs (renderer.h allows either order).
 void recordRaster(VkCommandBuffer cmd, const Frames& f, const Pass& pass, const Camera& camera, VkExtent2D extent,
                   const std::vector<Object*>& objects) {
-  beginRendering(cmd, f.color, f.depth);
+  harness::beginRendering(cmd, f.color, f.depth);
   pass.renderer.recordObjects(cmd, pass.environment, camera, extent, objects, pass.shading);
   pass.renderer.recordBackground(cmd, pass.environment, camera, extent);
   vkCmdEndRendering(cmd);

@@ -82,7 +82,7 @@ struct SeriesResult {
 };
 
 // Timestamp marks of a frame: 0 start, 1 after decompression, 2 before the attachment barriers and
-// rendering (beginRendering), 3 after.
+// rendering (harness::beginRendering), 3 after.
 constexpr uint32_t kMarks = 4;
 
 Camera orbit(const Camera& base, float degrees) {
@@ -144,7 +144,7 @@ Result<SeriesResult> runSeries(offscreen::Session& session, const Environment& e
       }
       timer.mark(cmd, 1);
       timer.mark(cmd, 2);
-      beginRendering(cmd, colorImage, depthImage);
+      harness::beginRendering(cmd, colorImage, depthImage);
       // Objects first, then the background at the far plane: the depth test rejects the background
       // where an object covers it before its fragment shader runs (renderer.h allows either order).
       if (series != Series::BackgroundOnly)

@@ -93,69 +93,15 @@ inline Result<std::vector<float>> readDistortion(harness::Harness& h, const Obje
   return out;
 }
 
-// Host-side barrier for an attachment whose contents are discarded (it is cleared): this frame's
-// writes after the previous frame's, in the same stages.
-inline void attachmentBarrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect,
-                              VkPipelineStageFlags2 stages, VkAccessFlags2 access, VkImageLayout layout) {
-  VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
-  b.srcStageMask = b.dstStageMask = stages;
-  b.srcAccessMask = b.dstAccessMask = access;
-  b.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-  b.newLayout = layout;
-  b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.image = image;
-  b.subresourceRange = {aspect, 0, 1, 0, 1};
-  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-  dep.imageMemoryBarrierCount = 1;
-  dep.pImageMemoryBarriers = &b;
-  vkCmdPipelineBarrier2(cmd, &dep);
-}
-
 // The engine's raster pass (objects in Field mode, then the background) into the host's colour and
-// depth targets of `extent`, as a host records it; with `resolve`, the (multisampled) colour is
+// depth targets, as a host records it; with `resolve`, the (multisampled) colour is
 // averaged into it at the end of rendering. Both colour images end in COLOR_ATTACHMENT_OPTIMAL.
-inline void recordRaster(VkCommandBuffer cmd, VkExtent2D extent, const harness::Harness::Image& color,
+inline void recordRaster(VkCommandBuffer cmd, const harness::Harness::Image& color,
                          const harness::Harness::Image& depth, const harness::Harness::Image* resolve,
                          Renderer& renderer, const Environment& environment, const Camera& camera,
                          std::span<Object* const> objects) {
-  const VkPipelineStageFlags2 colorStage = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT;
-  const VkPipelineStageFlags2 depthStages =
-      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
-  attachmentBarrier(cmd, color.image, VK_IMAGE_ASPECT_COLOR_BIT, colorStage, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
-                    VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
-  if (resolve)
-    attachmentBarrier(cmd, resolve->image, VK_IMAGE_ASPECT_COLOR_BIT, colorStage,
-                      VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
-  attachmentBarrier(cmd, depth.image, VK_IMAGE_ASPECT_DEPTH_BIT, depthStages,
-                    VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-                    VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
-  VkRenderingAttachmentInfo colorAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  colorAttachment.imageView = color.view;
-  colorAttachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-  colorAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  colorAttachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  if (resolve) {
-    colorAttachment.resolveMode = VK_RESOLVE_MODE_AVERAGE_BIT;
-    colorAttachment.resolveImageView = resolve->view;
-    colorAttachment.resolveImageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-  }
-  VkRenderingAttachmentInfo depthAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  depthAttachment.imageView = depth.view;
-  depthAttachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  depthAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  depthAttachment.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-  depthAttachment.clearValue.depthStencil = {1.0f, 0};
-  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-  ri.renderArea = {{0, 0}, extent};
-  ri.layerCount = 1;
-  ri.colorAttachmentCount = 1;
-  ri.pColorAttachments = &colorAttachment;
-  ri.pDepthAttachment = &depthAttachment;
-  vkCmdBeginRendering(cmd, &ri);
-  const VkViewport viewport{0.0f, 0.0f, float(extent.width), float(extent.height), 0.0f, 1.0f};
-  const VkRect2D scissor{{0, 0}, extent};
-  vkCmdSetViewport(cmd, 0, 1, &viewport);
-  vkCmdSetScissor(cmd, 0, 1, &scissor);
+  const VkExtent2D extent{color.width, color.height};
+  harness::beginRendering(cmd, color, depth, resolve);
   renderer.recordObjects(cmd, environment, camera, extent, objects, ShadingMode::Field);
   renderer.recordBackground(cmd, environment, camera, extent);
   vkCmdEndRendering(cmd);

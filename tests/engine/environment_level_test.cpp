@@ -12,6 +12,7 @@
 #include <cstring>
 #include <numbers>
 #include <random>
+#include <optional>
 #include <vector>
 
 #include "gpu_test_support.h"
@@ -81,75 +82,12 @@ TEST(EnvironmentLevel, GpuMatchesCpuAndKnownLevels) {
   ASSERT_TRUE(resultBuffer.ok()) << resultBuffer.error().message;
   std::memcpy(caseBuffer->mapped, cases.data(), count * sizeof(Case));
 
-  VkShaderModuleCreateInfo smci{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
-  smci.codeSize = sizeof(kSpirv_environment_level_test_comp);
-  smci.pCode = kSpirv_environment_level_test_comp;
-  VkShaderModule module = VK_NULL_HANDLE;
-  ASSERT_EQ(vkCreateShaderModule(device, &smci, nullptr, &module), VK_SUCCESS);
-  VkDescriptorSetLayoutBinding bindings[2] = {};
-  for (uint32_t b = 0; b < 2; ++b) {
-    bindings[b].binding = b;
-    bindings[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-    bindings[b].descriptorCount = 1;
-    bindings[b].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
-  }
-  VkDescriptorSetLayoutCreateInfo dslci{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
-  dslci.bindingCount = 2;
-  dslci.pBindings = bindings;
-  VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
-  ASSERT_EQ(vkCreateDescriptorSetLayout(device, &dslci, nullptr, &setLayout), VK_SUCCESS);
-  VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(uint32_t)};
-  VkPipelineLayoutCreateInfo plci{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
-  plci.setLayoutCount = 1;
-  plci.pSetLayouts = &setLayout;
-  plci.pushConstantRangeCount = 1;
-  plci.pPushConstantRanges = &range;
-  VkPipelineLayout pipelineLayout = VK_NULL_HANDLE;
-  ASSERT_EQ(vkCreatePipelineLayout(device, &plci, nullptr, &pipelineLayout), VK_SUCCESS);
-  VkComputePipelineCreateInfo cpci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
-  cpci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
-  cpci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-  cpci.stage.module = module;
-  cpci.stage.pName = "main";
-  cpci.layout = pipelineLayout;
-  VkPipeline pipeline = VK_NULL_HANDLE;
-  ASSERT_EQ(vkCreateComputePipelines(device, VK_NULL_HANDLE, 1, &cpci, nullptr, &pipeline), VK_SUCCESS);
-  VkDescriptorPoolSize poolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2};
-  VkDescriptorPoolCreateInfo dpci{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
-  dpci.maxSets = 1;
-  dpci.poolSizeCount = 1;
-  dpci.pPoolSizes = &poolSize;
-  VkDescriptorPool pool = VK_NULL_HANDLE;
-  ASSERT_EQ(vkCreateDescriptorPool(device, &dpci, nullptr, &pool), VK_SUCCESS);
-  VkDescriptorSetAllocateInfo dsai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
-  dsai.descriptorPool = pool;
-  dsai.descriptorSetCount = 1;
-  dsai.pSetLayouts = &setLayout;
-  VkDescriptorSet set = VK_NULL_HANDLE;
-  ASSERT_EQ(vkAllocateDescriptorSets(device, &dsai, &set), VK_SUCCESS);
-  VkDescriptorBufferInfo infos[2] = {{caseBuffer->buffer, 0, VK_WHOLE_SIZE}, {resultBuffer->buffer, 0, VK_WHOLE_SIZE}};
-  VkWriteDescriptorSet writes[2] = {};
-  for (uint32_t b = 0; b < 2; ++b) {
-    writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-    writes[b].dstSet = set;
-    writes[b].dstBinding = b;
-    writes[b].descriptorCount = 1;
-    writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-    writes[b].pBufferInfo = &infos[b];
-  }
-  vkUpdateDescriptorSets(device, 2, writes, 0, nullptr);
-
-  auto submitted = h->submitAndWait([&](VkCommandBuffer cmd) {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineLayout, 0, 1, &set, 0, nullptr);
-    vkCmdPushConstants(cmd, pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(uint32_t), &count);
-    vkCmdDispatch(cmd, (count + kLocalSize - 1) / kLocalSize, 1, 1);
-    VkMemoryBarrier toHost{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
-    toHost.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
-    toHost.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &toHost, 0,
-                         nullptr, 0, nullptr);
-  });
+  std::optional<shrefract::testing::TestComputeShader> shader;
+  shader.emplace(device, kSpirv_environment_level_test_comp, sizeof(kSpirv_environment_level_test_comp),
+                 uint32_t(sizeof(uint32_t)), caseBuffer->buffer, resultBuffer->buffer);
+  ASSERT_TRUE(shader->ok());
+  auto submitted = h->submitAndWait(
+      [&](VkCommandBuffer cmd) { shader->record(cmd, &count, (count + kLocalSize - 1) / kLocalSize); });
   ASSERT_TRUE(submitted.ok()) << submitted.error().message;
 
   const float* gpu = static_cast<const float*>(resultBuffer->mapped);
@@ -176,11 +114,7 @@ TEST(EnvironmentLevel, GpuMatchesCpuAndKnownLevels) {
               nonZeroLevels, double(worst), double(kLevelTolerance));
   EXPECT_GT(nonZeroLevels, count / 2);  // the random cases reach the filtered levels
 
-  vkDestroyDescriptorPool(device, pool, nullptr);
-  vkDestroyPipeline(device, pipeline, nullptr);
-  vkDestroyPipelineLayout(device, pipelineLayout, nullptr);
-  vkDestroyDescriptorSetLayout(device, setLayout, nullptr);
-  vkDestroyShaderModule(device, module, nullptr);
+  shader.reset();
   h->destroyBuffer(*resultBuffer);
   h->destroyBuffer(*caseBuffer);
   shrefract::testing::expectNoMessagesThroughDestruction(h);

@@ -40,7 +40,7 @@ Result<std::vector<float>> render(harness::Harness& h, Context& context, Decompr
   Object* const objects[] = {&object};
   auto submitted = h.submitAndWait([&](VkCommandBuffer cmd) {
     recorded = decompressor.record(cmd, camera, extent, {&object});
-    testing::recordRaster(cmd, extent, color.value(), depth.value(), msaa ? &resolve.value() : nullptr,
+    testing::recordRaster(cmd, color.value(), depth.value(), msaa ? &resolve.value() : nullptr,
                           *renderer.value(), environment, camera, objects);
   });
   auto pixels = h.readbackColor(msaa ? resolve.value() : color.value(), VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);

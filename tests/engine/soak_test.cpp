@@ -126,8 +126,8 @@ TEST(Soak, InstancesComeAndGoOverAThousandFrames) {
     const float orbit = 0.003f * float(frame);
     camera.eye = {4.0f * std::sin(orbit), 0.8f, 4.0f * std::cos(orbit)};
     ASSERT_TRUE(decompressor.value()->record(slot.cmd, camera, kExtent, objects).ok());
-    testing::recordRaster(slot.cmd, kExtent, color.value(), depth.value(), nullptr, *renderer.value(), *environment,
-                          camera, objects);
+    testing::recordRaster(slot.cmd, color.value(), depth.value(), nullptr, *renderer.value(), *environment, camera,
+                          objects);
     ASSERT_EQ(vkEndCommandBuffer(slot.cmd), VK_SUCCESS);
     VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
     si.commandBufferCount = 1;

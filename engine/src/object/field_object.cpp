@@ -310,7 +310,7 @@ Result<void> createFieldInstance(ContextImpl& c, ObjectImpl& object, VkCommandBu
   auto distortion = createDistortionImage(c, f.width, f.height);
   if (!distortion) return distortion.error();
   f.distortion = distortion.value();
-  countMemory(c, object, f.distortion);
+  countMemory(object, f.distortion);
   recordClear(c, cmd, f.distortion.image);
   recordUploadsVisible(c, cmd, f.distortion.image);
   return createDescriptorSets(c, f);

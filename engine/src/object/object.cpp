@@ -53,13 +53,7 @@ ObjectImpl::~ObjectImpl() {
 }
 
 void countMemory(ObjectImpl& object, const MemoryBlock& block) { object.gpuMemoryBytes += block.memoryBytes; }
-
-void countMemory(ContextImpl& c, ObjectImpl& object, const ImageAllocation& image) {
-  if (!image.image) return;
-  VkMemoryRequirements requirements{};
-  c.vk.vkGetImageMemoryRequirements(c.device(), image.image, &requirements);
-  object.gpuMemoryBytes += requirements.size;
-}
+void countMemory(ObjectImpl& object, const ImageAllocation& image) { object.gpuMemoryBytes += image.memoryBytes; }
 
 std::array<float, 3> Object::boundsMin() const {
   Vec3 min{}, max{};

@@ -97,7 +97,7 @@ void worldBounds(const Object& object, std::array<float, 3>& min, std::array<flo
 
 // Adds the device memory that `block` / `image` occupies to `object.gpuMemoryBytes`.
 void countMemory(ObjectImpl& object, const MemoryBlock& block);
-void countMemory(ContextImpl& c, ObjectImpl& object, const ImageAllocation& image);
+void countMemory(ObjectImpl& object, const ImageAllocation& image);
 
 // Validates `mesh`, creates the vertex and index buffers of `object` and records their upload.
 Result<void> createMeshBuffers(ContextImpl& c, const MeshDesc& mesh, VkCommandBuffer cmd, ObjectImpl& object);

@@ -125,4 +125,13 @@ class Harness {
   std::shared_ptr<MessageLog> log_ = std::make_shared<MessageLog>();
 };
 
+// A host's frame into its own targets, as the tools, benchmarks and tests record it: `color` and
+// `depth` (and `resolve`, the single-sample target of a multisampled `color`, averaged into at the
+// end of rendering) go to attachment layouts with their contents dropped (all are cleared),
+// ordered after the previous frame's writes and any transfer out of them on the same queue; then
+// dynamic rendering begins over color's extent with viewport and scissor set. The caller records
+// the engine's passes and vkCmdEndRendering.
+void beginRendering(VkCommandBuffer cmd, const Harness::Image& color, const Harness::Image& depth,
+                    const Harness::Image* resolve = nullptr);
+
 }  // namespace shrefract::harness
