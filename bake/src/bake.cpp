@@ -249,7 +249,8 @@ class SampleEncoder {
       e.sh_.emplace(std::move(fit.value()));
       e.stride_ = size_t(e.sh_->basisCount()) * channels;
     } else {
-      auto fit = TableFit::create(grid, s.tableSize);
+      auto fit = s.directionSampling == DirectionSampling::Nodes ? TableFit::atNodes(s.tableSize)
+                                                                 : TableFit::create(grid, s.tableSize);
       if (!fit) return fit.error();
       e.table_.emplace(std::move(fit.value()));
       e.stride_ = size_t(e.table_->nodeCount()) * channels;
@@ -278,7 +279,12 @@ struct TracedChecks {
 
 Result<void> checkEncoding(const BakeSettings& s) {
   auto bad = [](const std::string& m) { return makeError(ErrorCode::InvalidArgument, m); };
-  if (s.encoding == Encoding::Sh) return {};
+  if (s.directionSampling != DirectionSampling::Grid && s.directionSampling != DirectionSampling::Nodes)
+    return bad("unknown direction sampling");
+  if (s.encoding == Encoding::Sh)
+    return s.directionSampling == DirectionSampling::Grid
+               ? Result<void>{}
+               : bad("direction sampling 'nodes' needs --encoding table or pca (SH is fitted to a grid)");
   if (s.encoding != Encoding::Table && s.encoding != Encoding::Pca) return bad("unknown encoding");
   if (s.tableSize < 2 || s.tableSize > kMaxBakeTableSize)
     return bad("--table-size must be 2.." + std::to_string(kMaxBakeTableSize) + ", got " + std::to_string(s.tableSize));
@@ -684,8 +690,12 @@ Result<BakePlan> planBake(const Scene& scene, const BakeOptions& options, bool c
     auto chosen = selectForBudget(plan.atlas, *plan.tracer, settings, plan.channels, settings.threads, options.note);
     if (!chosen) return chosen.error();
     settings = chosen.value();
+    // The budget's candidates are measured on grid fits; a chosen SH field can only be a grid one.
+    if (settings.encoding == Encoding::Sh) settings.directionSampling = DirectionSampling::Grid;
   }
-  plan.grid = makeHemisphereGrid(settings.directionsTheta, settings.directionsPhi);
+  plan.grid = settings.directionSampling == DirectionSampling::Nodes
+                  ? makeNodeGrid(settings.tableSize)
+                  : makeHemisphereGrid(settings.directionsTheta, settings.directionsPhi);
   for (const Medium& m : scene.media) plan.media.push_back({m.name, m.ior, m.absorption, {m.color.x, m.color.y, m.color.z}});
   plan.sceneHash = sceneFingerprint(scene, plan.atlas);
   return plan;

@@ -15,7 +15,7 @@ namespace shrefract::bake {
 namespace {
 
 constexpr char kMagic[8] = {'S', 'H', 'R', 'F', 'P', 'A', 'R', 'T'};
-constexpr uint32_t kPartVersion = 1;
+constexpr uint32_t kPartVersion = 2;  // 2: the settings name the direction sampling
 constexpr size_t kHeaderBytes = 8 + 4 + 8 + 8;  // magic, version, payload size, checksum
 
 uint64_t fnv1a(const uint8_t* data, size_t size) {
@@ -103,6 +103,7 @@ void visitSettings(S& s, V& v) {
   v.u32("components", s.components);
   v.enumeration("path rule", s.pathRule, 1);
   v.boolean("throughput", s.throughput);
+  v.enumeration("direction sampling", s.directionSampling, 1);
   v.f32("max bytes per sample", s.maxBytesPerSample);
   v.u64("sample budget", s.sampleBudget);
   v.f32("density", s.samplesPerUnitArea);

@@ -28,7 +28,7 @@ std::vector<FlagSpec> bakeFlags() {
   std::vector<FlagSpec> flags = {
       {"output", true, "output field file (.shrf); also -o"},
       {"order", true, "SH order L (default 8; implies --encoding sh)", K::Integer, {0, double(bake::kMaxFitOrder)}},
-      {"directions", true, "hemisphere grid ROWSxCOLUMNS (default 32x64)", K::Size,
+      {"directions", true, "hemisphere grid ROWSxCOLUMNS (default 32x64; implies --direction-sampling grid)", K::Size,
        {double(bake::kMinDirectionRows), double(bake::kMaxDirectionRows)},
        {double(bake::kMinDirectionColumns), double(bake::kMaxDirectionColumns)}},
       {"layout", true, "split (default; continuity-corrected) or charts (atlas with seams)"},
@@ -46,6 +46,9 @@ std::vector<FlagSpec> bakeFlags() {
        {2, double(bake::kMaxBakeTableSize)}},
       {"components", true, "pca: basis functions K = bytes per sample in u8 (default 324)", K::Integer,
        {1, double(kMaxComponents)}},
+      {"direction-sampling", true, "directions traced per sample: nodes (default for table and pca: the "
+                                   "table's own node directions, exact at every node) or grid (--directions, "
+                                   "fitted; the only one for sh)"},
       {"path-rule", true, "branch followed at every interface: highest-energy (default) or first-refraction"},
       {"throughput", false, "store the path's Fresnel throughput as a channel"},
       {"max-bytes-per-sample", true, "choose the encoding and its parameters with the lowest error within this "
@@ -170,6 +173,18 @@ int bakeCommand(int argc, char** argv) {
   s.components = components.value() ? static_cast<uint32_t>(*components.value()) : 324u;
   if ((order.value() || maxError.value()) && s.encoding != Encoding::Sh)
     return fail("shrefract bake: --order and --max-error apply to --encoding sh only", 2);
+  // Node sampling is the measured better one for tables (docs/encodings.md, "Sampling"); asking
+  // for a grid size asks for the grid.
+  const bool tabulated = s.encoding != Encoding::Sh;
+  const std::string sampling =
+      args.get("direction-sampling").value_or(tabulated && !dirs.value() && !maxBytes.value() ? "nodes" : "grid");
+  if (sampling == "nodes") s.directionSampling = DirectionSampling::Nodes;
+  else if (sampling == "grid") s.directionSampling = DirectionSampling::Grid;
+  else return fail("shrefract bake: --direction-sampling must be nodes or grid, got '" + sampling + "'", 2);
+  if (s.directionSampling == DirectionSampling::Nodes && !tabulated && !maxBytes.value())
+    return fail("shrefract bake: --direction-sampling nodes needs --encoding table or pca", 2);
+  if (s.directionSampling == DirectionSampling::Nodes && dirs.value())
+    return fail("shrefract bake: --directions sets the grid, which --direction-sampling nodes does not trace", 2);
   const std::string rule = args.get("path-rule").value_or("highest-energy");
   if (rule == "highest-energy") s.pathRule = PathRule::HighestEnergy;
   else if (rule == "first-refraction") s.pathRule = PathRule::FirstRefraction;

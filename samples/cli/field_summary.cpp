@@ -64,8 +64,11 @@ std::string fieldSummaryText(const Field& f, uint64_t fileBytes) {
   out += format("path rule: %s\n", toString(s.pathRule));
   out += format("source: %s; %zu media; mesh %zu vertices, %zu triangles\n", s.source.c_str(), f.media.size(),
                 f.mesh.positions.size() / 3, f.mesh.indices.size() / 3);
-  out += format("settings: directions %ux%u, max bounces %u, window %s, spatial %u, regularization %g, threads %u\n",
-                s.directionsTheta, s.directionsPhi, s.maxBounces, toString(s.window), s.spatialNeighbours,
+  const std::string directions = s.directionSampling == DirectionSampling::Nodes
+                                     ? format("the %ux%u table nodes", f.tableSize, f.tableSize)
+                                     : format("%ux%u grid", s.directionsTheta, s.directionsPhi);
+  out += format("settings: directions %s, max bounces %u, window %s, spatial %u, regularization %g, threads %u\n",
+                directions.c_str(), s.maxBounces, toString(s.window), s.spatialNeighbours,
                 static_cast<double>(s.regularization), s.threads);
   out += format("samples: %" PRIu64 " texels, %" PRIu64 " unique points, %" PRIu64 " directions\n", st.samples,
                 st.uniqueSamples, st.directions);
@@ -99,9 +102,9 @@ std::string fieldSummaryJson(const Field& f, uint64_t fileBytes) {
   out += format("\"channels\": %u, \"quantization\": \"%s\", \"file_bytes\": %" PRIu64 ", ", f.channels,
                 toString(f.quantization), fileBytes);
   out += format("\"encoding\": \"%s\", \"table_size\": %u, \"components\": %u, \"throughput\": %s, "
-                "\"bytes_per_sample\": %u, \"path_rule\": \"%s\", ",
+                "\"bytes_per_sample\": %u, \"path_rule\": \"%s\", \"direction_sampling\": \"%s\", ",
                 toString(f.encoding), f.tableSize, f.components, f.throughput ? "true" : "false", f.bytesPerSample(),
-                toString(s.pathRule));
+                toString(s.pathRule), toString(s.directionSampling));
   out += format("\"mesh\": {\"vertices\": %zu, \"triangles\": %zu}, \"media\": %s, ", f.mesh.positions.size() / 3,
                 f.mesh.indices.size() / 3, media.c_str());
   out += "\"settings\": {";

@@ -55,6 +55,8 @@ BakeSettings withEncoding(BakeSettings s, Encoding encoding, uint32_t order, uin
   s.order = encoding == Encoding::Sh ? order : 0;
   s.tableSize = tableSize;
   s.components = components;
+  // Tables are traced at their nodes, as the tool bakes them (docs/encodings.md, "Sampling").
+  s.directionSampling = encoding == Encoding::Sh ? DirectionSampling::Grid : DirectionSampling::Nodes;
   return s;
 }
 
@@ -110,10 +112,19 @@ Profile profileFor(ReportSize size, uint64_t samples) {
   base.quantization = Quantization::F16;
   sweep.quantization = Quantization::F16;
   if (samples != 0) base.sampleBudget = sweep.sampleBudget = samples;  // report --samples
-  const std::string dirs = fmt(" %ux%u", base.directionsTheta, base.directionsPhi);
+  const std::string dirs = base.directionSampling == DirectionSampling::Nodes
+                               ? std::string(" nodes")
+                               : fmt(" %ux%u", base.directionsTheta, base.directionsPhi);
   const std::string baseLabel = base.encoding == Encoding::Sh ? fmt("sh L%u", base.order)
                                                                : fmt("pca K%u N%u", base.components, base.tableSize);
   p.variants.push_back({"default", baseLabel + dirs, base, true});
+  if (base.directionSampling == DirectionSampling::Nodes && size != ReportSize::Smoke) {
+    // The sampling decision, measured: the default field fitted to the 32x64 grid instead.
+    BakeSettings grid = base;
+    grid.directionSampling = DirectionSampling::Grid;
+    p.variants.push_back({"default, grid sampling", baseLabel + fmt(" %ux%u grid", grid.directionsTheta,
+                                                                     grid.directionsPhi), grid});
+  }
   for (uint32_t order : orders) p.variants.push_back({"sh", fmt("L%u", order), withEncoding(sweep, Encoding::Sh, order, 0, 0)});
   {
     BakeSettings s = withEncoding(sweep, Encoding::Sh, base.order, 0, 0);
@@ -281,7 +292,9 @@ Result<void> measureVariant(SceneContext& c, const Variant& v, FidelityScene& ou
   FidelityRow proto = baseRow(c, "field", v.label);
   proto.encoding = toString(s.encoding);
   proto.parameters = parametersOf(s);
-  proto.directions = fmt("%ux%u", s.directionsTheta, s.directionsPhi);
+  proto.directions = s.directionSampling == DirectionSampling::Nodes
+                         ? fmt("%ux%u nodes", s.tableSize, s.tableSize)
+                         : fmt("%ux%u", s.directionsTheta, s.directionsPhi);
   proto.pathRule = s.pathRule;
   proto.throughput = s.throughput;
   proto.gpu = true;
@@ -642,10 +655,13 @@ std::string markdownOf(const Profile& p, const std::vector<FidelityScene>& scene
                 r.gpu ? "-" : number(r.cpuMs).c_str());
     }
     const BakeSettings& d = p.variants.front().settings;
-    md += fmt("\nError decomposition of the default field (%s %s, %ux%u directions, %s layout, %s, %s path "
+    const std::string directions = d.directionSampling == DirectionSampling::Nodes
+                                       ? fmt("traced at the %ux%u table nodes", d.tableSize, d.tableSize)
+                                       : fmt("%ux%u directions", d.directionsTheta, d.directionsPhi);
+    md += fmt("\nError decomposition of the default field (%s %s, %s, %s layout, %s, %s path "
               "rule): each step adds one approximation to the stage above it; *step* is the PSNR between the two "
               "stages, *cumulative* the new stage against the physical reference.\n\n",
-              toString(d.encoding), parametersOf(d).c_str(), d.directionsTheta, d.directionsPhi, toString(d.layout),
+              toString(d.encoding), parametersOf(d).c_str(), directions.c_str(), toString(d.layout),
               d.sampleBudget ? fmt("%" PRIu64 " samples asked", d.sampleBudget).c_str() : "the default sample budget",
               ruleName(d.pathRule));
     md += "| step | compares | step PSNR dB | cumulative PSNR dB |\n|---|---|---|---|\n";

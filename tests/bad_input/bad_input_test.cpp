@@ -411,6 +411,12 @@ std::vector<Case> cases() {
                "out.shrf"});
   c.push_back({"byte budget and error target together", with({"--max-bytes-per-sample", "324", "--max-error", "2"}), none,
                {"--max-bytes-per-sample", "--max-error"}, "out.shrf"});
+  c.push_back({"unknown direction sampling", with({"--direction-sampling", "random"}), none,
+               {"--direction-sampling", "random"}, "out.shrf"});
+  c.push_back({"node sampling of SH", with({"--order", "4", "--direction-sampling", "nodes"}), none,
+               {"--direction-sampling", "table or pca"}, "out.shrf"});
+  c.push_back({"node sampling with a grid size", with({"--direction-sampling", "nodes", "--directions", "8x16"}),
+               none, {"--directions", "--direction-sampling"}, "out.shrf"});
   c.push_back({"SH order with another encoding", with({"--encoding", "pca", "--order", "4"}), none, {"--order"},
                "out.shrf"});
   c.push_back({"unknown path rule", with({"--path-rule", "widest"}), none, {"--path-rule", "widest"}, "out.shrf"});

@@ -174,6 +174,28 @@ TEST_F(SceneCli, ExactModeOfAFieldWorksFromAnotherDirectoryAndWithScene) {
   EXPECT_TRUE(fs::exists(dir_ / "b/z.png"));
 }
 
+// The default bake (Pca) traces the table's nodes; asking for a grid size asks for grid sampling;
+// the field file and `info` say which (docs/encodings.md, "Sampling").
+TEST_F(SceneCli, DefaultBakeTracesTheTableNodesAndAGridSizeAsksForTheGrid) {
+  const std::vector<std::string> base{"bake", "builtin:sphere?tessellation=1", "--samples", "100", "--components", "8"};
+  auto bakeAndInfo = [&](std::vector<std::string> args, const std::string& out) {
+    args.insert(args.end(), {"-o", out});
+    const ToolRun bake = run(".", args);
+    EXPECT_EQ(bake.exit, 0) << bake.err;
+    return run(".", {"info", out, "--json"});
+  };
+  const ToolRun nodes = bakeAndInfo(base, "nodes.shrf");
+  ASSERT_EQ(nodes.exit, 0) << nodes.err;
+  EXPECT_NE(nodes.out.find("\"direction_sampling\": \"nodes\""), std::string::npos) << nodes.out;
+  std::vector<std::string> gridArgs = base;
+  gridArgs.insert(gridArgs.end(), {"--directions", "8x16"});
+  const ToolRun grid = bakeAndInfo(gridArgs, "grid.shrf");
+  ASSERT_EQ(grid.exit, 0) << grid.err;
+  EXPECT_NE(grid.out.find("\"direction_sampling\": \"grid\""), std::string::npos) << grid.out;
+  const ToolRun text = run(".", {"info", "nodes.shrf"});
+  EXPECT_NE(text.out.find("directions the 16x16 table nodes"), std::string::npos) << text.out;
+}
+
 TEST_F(SceneCli, CameraErrorsExit2WithOneLineAndKeepAnExistingOutput) {
   std::ofstream(dir_ / "out.png") << "an earlier image";
   const std::vector<std::string> base = {"render", "builtin:sphere", "--tessellation", "1", "--size", "16x12",

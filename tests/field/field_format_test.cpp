@@ -288,7 +288,7 @@ TEST_P(FieldFormat, HeaderMatchesTheSpec) {
                             (8 + T + 8 + 48 * T + 8 + 16 * f.gutters.size()) +
                             (GetParam().quantization == Quantization::U8 ? 16 + 8 * B * C + 16 + B * T * C
                                                                          : 16 + 16 + 2 * B * T * C) +
-                            (9 * 4 + 4 + 8) +  // ENCD: nine u32/f32 and an empty basis array
+                            (9 * 4 + 4 + 8 + 4) +  // ENCD: nine u32/f32, an empty basis array, the sampling
                             4;
   EXPECT_EQ(b.size(), expected);
   // Sections in their fixed order, ending exactly at the checksum.
@@ -810,6 +810,7 @@ Field makeEncodedField(Encoding encoding, Quantization q, bool throughput) {
   f.channels = throughput ? 5 : 4;
   f.settings.pathRule = PathRule::FirstRefraction;
   f.settings.maxBytesPerSample = 324.0f;
+  f.settings.directionSampling = DirectionSampling::Nodes;
   if (encoding == Encoding::Pca) {
     f.basis.resize(size_t(f.components) * 9 * f.channels);
     for (size_t i = 0; i < f.basis.size(); ++i) f.basis[i] = std::sin(0.37f * float(i));
@@ -846,6 +847,7 @@ TEST_P(FieldEncodings, RoundTripIsExact) {
   EXPECT_EQ(g.throughput, f.throughput);
   EXPECT_EQ(bits(g.basis), bits(f.basis));
   EXPECT_EQ(g.settings.pathRule, PathRule::FirstRefraction);
+  EXPECT_EQ(g.settings.directionSampling, DirectionSampling::Nodes);
   EXPECT_EQ(bits(g.settings.maxBytesPerSample), bits(324.0f));
   EXPECT_EQ(serializeField(g), bytes);
 }
@@ -887,6 +889,7 @@ TEST(FieldEncodingValidation, BrokenEncodingsAreRejected) {
       {"settings", [](Field& f) { f.settings.encoding = Encoding::Table; }},
       {"SH order", [](Field& f) { f.order = f.settings.order = 2; }},
       {"path rule", [](Field& f) { f.settings.pathRule = static_cast<PathRule>(7); }},
+      {"directionSampling", [](Field& f) { f.settings.directionSampling = static_cast<DirectionSampling>(2); }},
       {"encoding", [](Field& f) { f.encoding = f.settings.encoding = static_cast<Encoding>(9); }},
   };
   for (const auto& [what, breakIt] : cases) {
@@ -896,6 +899,12 @@ TEST(FieldEncodingValidation, BrokenEncodingsAreRejected) {
     ASSERT_FALSE(r.ok()) << what;
     EXPECT_TRUE(contains(r.error().message, what)) << what << ": " << r.error().message;
   }
+  // SH is fitted to a grid: an SH field cannot claim its directions were table nodes.
+  Field sh = makeField({4, Quantization::U8});
+  sh.settings.directionSampling = DirectionSampling::Nodes;
+  const Result<void> r = validateField(sh);
+  ASSERT_FALSE(r.ok());
+  EXPECT_TRUE(contains(r.error().message, "directionSampling")) << r.error().message;
 }
 
 TEST(FieldVersion1, StillReadAsAnShFieldWithoutThroughput) {
@@ -917,6 +926,28 @@ TEST(FieldVersion1, StillReadAsAnShFieldWithoutThroughput) {
   putU32(b, 36, 7);
   resign(b);
   EXPECT_FALSE(parse(b, "v1.shrf").ok());
+}
+
+TEST(FieldVersion2, StillReadWithGridSampling) {
+  // A version 2 file is version 3 without the direction sampling at the end of ENCD.
+  const Field f = makeEncodedField(Encoding::Table, Quantization::U8, false);
+  std::vector<uint8_t> b = serializeField(f);
+  const size_t encd = sectionPayload(b, "ENCD");
+  const uint64_t encdLength = getU64(b, encd - 8);
+  b.erase(b.begin() + static_cast<std::ptrdiff_t>(encd + encdLength - 4),
+          b.begin() + static_cast<std::ptrdiff_t>(encd + encdLength));
+  putU64(b, encd - 8, encdLength - 4);
+  putU32(b, 4, 2);
+  putU64(b, 8, b.size());
+  resign(b);
+  const Result<Field> r = parse(b, "v2.shrf");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r.value().settings.directionSampling, DirectionSampling::Grid);
+  EXPECT_EQ(r.value().encoding, Encoding::Table);
+  // The same bytes labelled version 3 are short by the missing field.
+  putU32(b, 4, 3);
+  resign(b);
+  EXPECT_FALSE(parse(b, "v2.shrf").ok());
 }
 
 // The hemi-octahedral map: nodes map back to their grid positions, the border is the horizon, and

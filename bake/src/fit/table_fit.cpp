@@ -4,10 +4,39 @@
 #include <Eigen/Dense>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <numbers>
 #include <string>
 
 namespace shrefract::bake {
+
+DirectionGrid makeNodeGrid(uint32_t n) {
+  DirectionGrid g;
+  g.rows = g.columns = n;
+  for (uint32_t j = 0; j < n; ++j)
+    for (uint32_t i = 0; i < n; ++i) {
+      const std::array<float, 3> d = hemiOctDirection(i, j, n);
+      glm::dvec3 w(d[0], d[1], d[2]);
+      if (w.z < kNodeMinZ) {
+        const double tangential = std::sqrt((1.0 - kNodeMinZ * kNodeMinZ) / (w.x * w.x + w.y * w.y));
+        w = glm::dvec3(w.x * tangential, w.y * tangential, kNodeMinZ);
+      }
+      g.directions.push_back(w);
+      g.weights.push_back(2.0 * std::numbers::pi / (double(n) * n));
+    }
+  return g;
+}
+
+Result<TableFit> TableFit::atNodes(uint32_t n) {
+  if (n < 2 || n > kMaxTableSize)
+    return makeError(ErrorCode::InvalidArgument,
+                     "table size " + std::to_string(n) + " is outside 2.." + std::to_string(kMaxTableSize));
+  TableFit fit;
+  fit.n_ = n;
+  fit.identity_ = true;
+  return fit;
+}
 
 Result<TableFit> TableFit::create(const DirectionGrid& grid, uint32_t n, double lambda) {
   if (n < 2 || n > kMaxTableSize)
@@ -58,6 +87,10 @@ Result<TableFit> TableFit::create(const DirectionGrid& grid, uint32_t n, double 
 void TableFit::fit(const float* values, uint32_t channels, float* out) const {
   // The right-hand side A^T W f touches 4 nodes per direction; then one product with the inverse.
   const uint32_t nodes = nodeCount();
+  if (identity_) {
+    std::copy(values, values + size_t(nodes) * channels, out);
+    return;
+  }
   thread_local std::vector<float> rhs;
   rhs.assign(size_t(nodes) * channels, 0.0f);
   const size_t directions = gridNodes_.size() / 4;

@@ -27,7 +27,8 @@
 
 namespace shrefract {
 
-inline constexpr uint32_t kFieldFormatVersion = 2;  // 1: SH only, no throughput (still read)
+// 1: SH only, no throughput; 2: adds ENCD; 3: adds the direction sampling (1 and 2 still read).
+inline constexpr uint32_t kFieldFormatVersion = 3;
 
 // Largest magnitude of a decoded coefficient (validateField, encodeCoefficients). With at most
 // 1089 basis functions (order 32) the sum of |Y_i| is at most 1089 / sqrt(4 pi) = 307, so every
@@ -54,6 +55,16 @@ enum class SmoothingWindow : uint32_t { None = 0, Hann = 1, Lanczos = 2 };
 // How the hemisphere functions of a sample are stored (see the top of this file).
 enum class Encoding : uint32_t { Sh = 0, Table = 1, Pca = 2 };
 
+// Which view directions the bake traces for each sample (docs/encodings.md, "Sampling").
+enum class DirectionSampling : uint32_t {
+  // The (theta, phi) grid of directionsTheta x directionsPhi, fitted by least squares (SH) or by
+  // the regularized table fit (Table, Pca).
+  Grid = 0,
+  // Table and Pca only: the N x N nodes of the hemi-octahedral table themselves, each node holding
+  // the exit of the path traced at its direction (directionsTheta and Phi are not used).
+  Nodes = 1,
+};
+
 // Which branch a single traced path follows at every interface (docs/tracing.md).
 enum class PathRule : uint32_t {
   HighestEnergy = 0,    // the paper: the branch with the larger Fresnel factor
@@ -65,6 +76,7 @@ const char* toString(Quantization quantization);
 const char* toString(SmoothingWindow window);
 const char* toString(Encoding encoding);
 const char* toString(PathRule rule);
+const char* toString(DirectionSampling sampling);
 
 // Largest table size N (nodes per side) of the Table encoding and of Pca basis functions, and the
 // largest number of Pca components.
@@ -107,6 +119,7 @@ struct BakeSettings {
   uint32_t components = 0;           // Pca: basis functions K
   PathRule pathRule = PathRule::HighestEnergy;
   bool throughput = false;           // the path's Fresnel throughput is stored as a channel
+  DirectionSampling directionSampling = DirectionSampling::Grid;
   float maxBytesPerSample = 0.0f;    // > 0: encoding and parameters were chosen to fit this budget
   uint64_t sampleBudget = 0;         // requested total samples (0: not used)
   float samplesPerUnitArea = 0.0f;   // requested density (0: not used)

@@ -64,6 +64,14 @@ const char* toString(Encoding encoding) {
   return "unknown";
 }
 
+const char* toString(DirectionSampling sampling) {
+  switch (sampling) {
+    case DirectionSampling::Grid: return "grid";
+    case DirectionSampling::Nodes: return "nodes";
+  }
+  return "unknown";
+}
+
 const char* toString(PathRule rule) {
   switch (rule) {
     case PathRule::HighestEnergy: return "highest-energy";
@@ -423,8 +431,9 @@ void readMesh(SectionReader& r, FieldMesh& mesh) {
   r.arrayU32(mesh.indices, "mesh.indices");
 }
 
-// ENCD (version 2): how the coefficients are to be decoded, and the bake's choices that go with it.
-void readEncoding(SectionReader& r, Field& field) {
+// ENCD (version 2): how the coefficients are to be decoded, and the bake's choices that go with it;
+// version 3 appends the direction sampling (Grid before it).
+void readEncoding(SectionReader& r, Field& field, uint32_t version) {
   field.encoding = static_cast<Encoding>(r.u32("encoding"));
   field.tableSize = r.u32("encoding.tableSize");
   field.components = r.u32("encoding.components");
@@ -437,6 +446,8 @@ void readEncoding(SectionReader& r, Field& field) {
   s.pathRule = static_cast<PathRule>(r.u32("settings.pathRule"));
   s.maxBytesPerSample = r.f32("settings.maxBytesPerSample");
   r.arrayF32(field.basis, "basis");
+  s.directionSampling =
+      version >= 3 ? static_cast<DirectionSampling>(r.u32("settings.directionSampling")) : DirectionSampling::Grid;
 }
 
 void writeEncoding(ByteWriter& w, const Field& field) {
@@ -452,6 +463,7 @@ void writeEncoding(ByteWriter& w, const Field& field) {
   w.u32(static_cast<uint32_t>(s.pathRule));
   w.f32(s.maxBytesPerSample);
   w.arrayF32(field.basis);
+  w.u32(static_cast<uint32_t>(s.directionSampling));
 }
 
 void readAtlas(SectionReader& r, Field& field) {
@@ -524,6 +536,11 @@ Result<void> validateSettings(const Field& field) {
     return invalid("settings (encoding, table size, components, throughput) differ from the field's");
   if (s.pathRule != PathRule::HighestEnergy && s.pathRule != PathRule::FirstRefraction)
     return invalid("settings.pathRule " + std::to_string(static_cast<uint32_t>(s.pathRule)) + " is not a path rule");
+  if (s.directionSampling != DirectionSampling::Grid && s.directionSampling != DirectionSampling::Nodes)
+    return invalid("settings.directionSampling " + std::to_string(static_cast<uint32_t>(s.directionSampling)) +
+                   " is not a direction sampling");
+  if (s.directionSampling == DirectionSampling::Nodes && s.encoding == Encoding::Sh)
+    return invalid("settings.directionSampling is nodes, which needs a table or pca encoding");
   if (!std::isfinite(s.maxBytesPerSample) || s.maxBytesPerSample < 0.0f)
     return invalid("settings.maxBytesPerSample " + formatFloat(s.maxBytesPerSample) + " is not finite and >= 0");
   if (s.directionsTheta < 1 || s.directionsPhi < 1)
@@ -974,7 +991,7 @@ Result<Field> parseField(const uint8_t* data, size_t size, const std::string& na
         r.arrayU8(field.coefficientsU8, "u8 coefficients");
         r.arrayU16(field.coefficientsF16, "f16 coefficients");
         break;
-      default: readEncoding(r, field); break;
+      default: readEncoding(r, field, version); break;
     }
     if (r.failed()) return makeError(ErrorCode::CorruptData, r.message());
     if (r.consumed() != length)

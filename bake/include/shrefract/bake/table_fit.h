@@ -6,6 +6,10 @@
 // differences between neighbouring nodes: nodes that no direction reaches take the harmonic
 // blend of their neighbours, and the fit stays well conditioned at every N.
 //
+// With DirectionSampling::Nodes the bake traces the nodes' own directions (makeNodeGrid) and the
+// fit is the identity (TableFit::atNodes): every node holds an exact traced exit, never a blend of
+// exits from both sides of a jump, which is what the images measured better (docs/encodings.md).
+//
 // Pca: the per-sample tables of a whole field, as K weights of a basis learned from them (the
 // leading eigenvectors of their second-moment matrix, uncentred, so that the first function
 // carries the mean and K weights are the best rank-K least-squares approximation of the tables).
@@ -23,10 +27,22 @@ namespace shrefract::bake {
 // (solid angle per node). docs/encodings.md gives the measurement behind it.
 inline constexpr double kDefaultTableRegularization = 1e-2;
 
+// Grazing limit of a traced node direction: a node on the table's border (the horizon, z = 0) is
+// traced at this z (about 1.1 deg above the tangent plane), because a path must enter the surface.
+inline constexpr double kNodeMinZ = 0.02;
+
+// The N x N node directions of the hemi-octahedral table in node order (j * N + i), border nodes
+// lifted to kNodeMinZ; rows = columns = N, equal weights (2 pi / N^2: no fit reads them).
+DirectionGrid makeNodeGrid(uint32_t n);
+
 class TableFit {
  public:
   // Errors: n outside 2..kMaxTableSize, an empty grid, lambda not finite and > 0.
   static Result<TableFit> create(const DirectionGrid& grid, uint32_t n, double lambda = kDefaultTableRegularization);
+
+  // The identity fit of a node grid (makeNodeGrid(n)): values at the nodes are the table.
+  // Errors: n outside 2..kMaxTableSize.
+  static Result<TableFit> atNodes(uint32_t n);
 
   uint32_t tableSize() const { return n_; }
   uint32_t nodeCount() const { return n_ * n_; }
@@ -35,6 +51,7 @@ class TableFit {
 
  private:
   uint32_t n_ = 0;
+  bool identity_ = false;
   std::vector<uint32_t> gridNodes_;  // 4 per grid direction
   std::vector<float> gridWeights_;   // 4 per grid direction: solid angle * bilinear weight
   std::vector<float> inverse_;       // nodeCount^2: the inverse of the normal matrix, row-major
