@@ -127,12 +127,15 @@ Profile profileFor(ReportSize size, uint64_t samples) {
   }
   for (uint32_t order : orders) p.variants.push_back({"sh", fmt("L%u", order), withEncoding(sweep, Encoding::Sh, order, 0, 0)});
   {
-    BakeSettings s = withEncoding(sweep, Encoding::Sh, base.order, 0, 0);
+    // The path rule and throughput fields are SH at the paper's order (or the smoke bake's): the
+    // default Pca bake has no order, and these rows were SH order 0 when it became the default.
+    const uint32_t order = base.encoding == Encoding::Sh ? base.order : 8;
+    BakeSettings s = withEncoding(sweep, Encoding::Sh, order, 0, 0);
     s.pathRule = PathRule::FirstRefraction;
-    p.variants.push_back({"sh first-refraction", fmt("L%u", base.order), s});
+    p.variants.push_back({"sh first-refraction", fmt("L%u", order), s});
     s.pathRule = PathRule::HighestEnergy;
     s.throughput = true;
-    p.variants.push_back({"sh throughput", fmt("L%u", base.order), s});
+    p.variants.push_back({"sh throughput", fmt("L%u", order), s});
   }
   for (uint32_t n : tables) p.variants.push_back({"table", fmt("N%u", n), withEncoding(sweep, Encoding::Table, 0, n, 0)});
   for (uint32_t k : components)
