@@ -46,9 +46,9 @@ std::vector<FlagSpec> bakeFlags() {
        {2, double(bake::kMaxBakeTableSize)}},
       {"components", true, "pca: basis functions K = bytes per sample in u8 (default 324)", K::Integer,
        {1, double(kMaxComponents)}},
-      {"direction-sampling", true, "directions traced per sample: nodes (default for table and pca: the "
-                                   "table's own node directions, exact at every node) or grid (--directions, "
-                                   "fitted; the only one for sh)"},
+      {"direction-sampling", true, "directions traced per sample: nodes (default for pca: the tables' own "
+                                   "node directions, exact at every node; also for table) or grid (--directions, "
+                                   "fitted; default for table, the only one for sh)"},
       {"path-rule", true, "branch followed at every interface: highest-energy (default) or first-refraction"},
       {"throughput", false, "store the path's Fresnel throughput as a channel"},
       {"max-bytes-per-sample", true, "choose the encoding and its parameters with the lowest error within this "
@@ -173,11 +173,11 @@ int bakeCommand(int argc, char** argv) {
   s.components = components.value() ? static_cast<uint32_t>(*components.value()) : 324u;
   if ((order.value() || maxError.value()) && s.encoding != Encoding::Sh)
     return fail("shrefract bake: --order and --max-error apply to --encoding sh only", 2);
-  // Node sampling is the measured better one for tables (docs/encodings.md, "Sampling"); asking
-  // for a grid size asks for the grid.
+  // Node sampling is the measured better one for Pca's 16x16 tables, the grid fit for the coarser
+  // tables of `table` (docs/encodings.md, "Sampling"); asking for a grid size asks for the grid.
   const bool tabulated = s.encoding != Encoding::Sh;
-  const std::string sampling =
-      args.get("direction-sampling").value_or(tabulated && !dirs.value() && !maxBytes.value() ? "nodes" : "grid");
+  const bool nodesByDefault = s.encoding == Encoding::Pca && !dirs.value() && !maxBytes.value();
+  const std::string sampling = args.get("direction-sampling").value_or(nodesByDefault ? "nodes" : "grid");
   if (sampling == "nodes") s.directionSampling = DirectionSampling::Nodes;
   else if (sampling == "grid") s.directionSampling = DirectionSampling::Grid;
   else return fail("shrefract bake: --direction-sampling must be nodes or grid, got '" + sampling + "'", 2);

@@ -55,8 +55,9 @@ BakeSettings withEncoding(BakeSettings s, Encoding encoding, uint32_t order, uin
   s.order = encoding == Encoding::Sh ? order : 0;
   s.tableSize = tableSize;
   s.components = components;
-  // Tables are traced at their nodes, as the tool bakes them (docs/encodings.md, "Sampling").
-  s.directionSampling = encoding == Encoding::Sh ? DirectionSampling::Grid : DirectionSampling::Nodes;
+  // Pca tables are traced at their nodes, Table fields fitted to the grid, as the tool bakes them
+  // (docs/encodings.md, "Sampling").
+  s.directionSampling = encoding == Encoding::Pca ? DirectionSampling::Nodes : DirectionSampling::Grid;
   return s;
 }
 
