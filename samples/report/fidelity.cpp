@@ -127,6 +127,14 @@ Profile profileFor(ReportSize size, uint64_t samples) {
                                                                      grid.directionsPhi), grid});
   }
   for (uint32_t order : orders) p.variants.push_back({"sh", fmt("L%u", order), withEncoding(sweep, Encoding::Sh, order, 0, 0)});
+  // SH with the Lanczos window (`bake --window lanczos`): it damps the ringing that the jumps
+  // spread over the hemisphere, which made unwindowed SH lose on the cube as the order rose.
+  if (size != ReportSize::Smoke)
+    for (uint32_t order : orders) {
+      BakeSettings s = withEncoding(sweep, Encoding::Sh, order, 0, 0);
+      s.window = SmoothingWindow::Lanczos;
+      p.variants.push_back({"sh lanczos", fmt("L%u", order), s});
+    }
   {
     // The path rule and throughput fields are SH at the paper's order (or the smoke bake's): the
     // default Pca bake has no order, and these rows were SH order 0 when it became the default.
@@ -164,7 +172,7 @@ double median(std::vector<double> v) {
 
 std::string parametersOf(const BakeSettings& s) {
   switch (s.encoding) {
-    case Encoding::Sh: return fmt("L%u", s.order);
+    case Encoding::Sh: return fmt(s.window == SmoothingWindow::None ? "L%u" : "L%u %s", s.order, toString(s.window));
     case Encoding::Table: return fmt("N%u", s.tableSize);
     case Encoding::Pca: return fmt("K%u N%u", s.components, s.tableSize);
   }
