@@ -152,12 +152,6 @@ Profile profileFor(ReportSize size, uint64_t samples) {
   return p;
 }
 
-std::string sanitize(const std::string& s) {
-  std::string out;
-  for (char c : s) out += (std::isalnum(static_cast<unsigned char>(c)) || c == '-') ? c : '_';
-  return out;
-}
-
 std::string sceneTitle(const std::string& spec) {
   std::string t = spec.substr(0, spec.find('?'));
   const size_t slash = t.find_last_of('/');

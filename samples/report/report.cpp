@@ -20,6 +20,7 @@
 #include "cli/scene_source.h"
 #include "offscreen/offscreen.h"
 #include "report/fidelity.h"
+#include "report/flicker.h"
 #include "report/plot.h"
 #include "report/report_text.h"
 
@@ -148,12 +149,6 @@ void setErrors(ReportRow& row, const bake::ImageErrors& e) {
   row.p95Angle = e.p95AngleDegrees;
   row.maxAngle = e.maxAngleDegrees;
   row.pixels = e.pixels;
-}
-
-std::string sanitize(const std::string& s) {
-  std::string out;
-  for (char c : s) out += (std::isalnum(static_cast<unsigned char>(c)) || c == '-') ? c : '_';
-  return out;
 }
 
 double median(std::vector<double> v) {
@@ -523,6 +518,17 @@ Result<ReportResult> runReport(const ReportOptions& options) {
     session.context->releaseDeferred();
   }
 
+  std::vector<FlickerScene> flicker;
+  if (!options.fidelityOnly) {
+    FlickerOptions fl;
+    fl.size = options.size;
+    fl.outputDirectory = dir;
+    fl.threads = options.threads;
+    auto orbit = runFlicker(fl, session, *gpuEnvironment.value(), environment, result.files);
+    if (!orbit) return orbit.error();
+    flicker = std::move(orbit).value();
+  }
+
   FidelityOptions fo;
   fo.size = options.size;
   fo.scenes = options.scenes;
@@ -593,6 +599,7 @@ Result<ReportResult> runReport(const ReportOptions& options) {
       md += fmt("| %s | %s | %u | %" PRIu64 " | %" PRIu64 " of %" PRIu64 " | %.2f | %.2f | %.2f |\n", r.name.c_str(),
                 r.scene.c_str(), r.order, r.nonFinite, r.trapped, r.paths, r.meanAngle, r.p95Angle, r.psnr);
     md += "\n";
+    md += flickerMarkdown(flicker);
   }
   md += fidelity.value().markdown;
   const std::string mdPath = dir + "/report.md";

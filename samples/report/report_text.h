@@ -1,6 +1,7 @@
-// Small helpers the report's sections share: printf-style formatting and wall-clock seconds.
+// Small helpers the report's sections share: printf-style formatting, wall-clock seconds, file names.
 #pragma once
 
+#include <cctype>
 #include <chrono>
 #include <cstdarg>
 #include <cstdio>
@@ -19,6 +20,13 @@ __attribute__((format(printf, 1, 2))) inline std::string fmt(const char* f, ...)
   std::vsnprintf(buf, sizeof buf, f, args);
   va_end(args);
   return buf;
+}
+
+// A file name stem: letters, digits and '-' kept, everything else '_'.
+inline std::string sanitize(const std::string& s) {
+  std::string out;
+  for (char c : s) out += (std::isalnum(static_cast<unsigned char>(c)) || c == '-') ? c : '_';
+  return out;
 }
 
 }  // namespace shrefract::report

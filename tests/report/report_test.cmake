@@ -97,3 +97,18 @@ foreach(png fidelity_builtin_sphere_psnr_vs_bytes fidelity_builtin_sphere_psnr_v
   endif()
 endforeach()
 message("fidelity ok: ${nfield} field rows")
+
+# The temporal stability section: one measured row per orbited scene (a finite flicker for the
+# field and the reference and their ratio), and the frames it measured, as PNG sequences.
+if(NOT text MATCHES "## Temporal stability")
+  message(FATAL_ERROR "report.md has no temporal stability section")
+endif()
+if(NOT text MATCHES "\\| builtin:sphere[^|]* \\| 3 \\| 32x24 \\| [0-9]+ \\| [0-9]+\\.[0-9]+ \\| [0-9]+\\.[0-9]+ \\| [0-9]+\\.[0-9]+ \\|")
+  message(FATAL_ERROR "the temporal stability table has no measured sphere row")
+endif()
+foreach(frame field_00 field_02 reference_00 reference_02)
+  if(NOT EXISTS ${WORK_DIR}/report/flicker_builtin_sphere/${frame}.png)
+    message(FATAL_ERROR "missing flicker frame ${frame}.png")
+  endif()
+endforeach()
+message("temporal stability ok")
