@@ -127,7 +127,12 @@ Result<PcaBasis> fitPcaBasis(const std::vector<float>& tables, size_t samples, u
                                                                                               Eigen::Index(samples),
                                                                                               Eigen::Index(dim));
   Eigen::VectorXf columnScale(dim);
-  for (size_t i = 0; i < dim; ++i) columnScale[Eigen::Index(i)] = static_cast<float>(scale[i % channels]);
+  for (size_t i = 0; i < dim; ++i) {
+    const uint32_t node = static_cast<uint32_t>(i / channels);
+    const std::array<float, 3> d = hemiOctDirection(node % tableSize, node / tableSize, tableSize);
+    const double nodeWeight = std::sqrt(std::max(double(d[2]), kPcaMinNodeCosine));
+    columnScale[Eigen::Index(i)] = static_cast<float>(scale[i % channels] * nodeWeight);
+  }
   const Eigen::MatrixXf x = raw * columnScale.asDiagonal();
   Eigen::MatrixXd gram = (x.transpose() * x).cast<double>();
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(gram);
@@ -144,11 +149,11 @@ Result<PcaBasis> fitPcaBasis(const std::vector<float>& tables, size_t samples, u
   out.components = components;
   out.tableSize = tableSize;
   out.channels = channels;
-  out.channelScale.assign(scale.begin(), scale.end());
+  out.scale.assign(columnScale.data(), columnScale.data() + dim);
   out.basis.resize(size_t(components) * dim);
   for (uint32_t j = 0; j < components; ++j)
-    for (size_t i = 0; i < dim; ++i)  // undo the channel weights: decoded values are in the data's units
-      out.basis[size_t(j) * dim + i] = basis(Eigen::Index(i), Eigen::Index(j)) / static_cast<float>(scale[i % channels]);
+    for (size_t i = 0; i < dim; ++i)  // undo the weights: decoded values are in the data's units
+      out.basis[size_t(j) * dim + i] = basis(Eigen::Index(i), Eigen::Index(j)) / columnScale[Eigen::Index(i)];
   return out;
 }
 
@@ -156,15 +161,15 @@ std::vector<float> projectOnBasis(const std::vector<float>& tables, size_t sampl
   // The stored basis is in the data's units (B = D^-1 B_scaled), so the projection on the
   // orthonormal B_scaled of the weighted table D t is w = B_scaled^T D t = (D^2 B)^T t.
   const size_t dim = size_t(basis.tableSize) * basis.tableSize * basis.channels;
-  std::vector<double> scale2(basis.channels);
-  for (uint32_t c = 0; c < basis.channels; ++c) scale2[c] = double(basis.channelScale[c]) * double(basis.channelScale[c]);
+  std::vector<double> scale2(dim);
+  for (size_t i = 0; i < dim; ++i) scale2[i] = double(basis.scale[i]) * double(basis.scale[i]);
   std::vector<float> out(samples * basis.components, 0.0f);
   for (size_t s = 0; s < samples; ++s)
     for (uint32_t k = 0; k < basis.components; ++k) {
       double w = 0.0;
       const float* b = &basis.basis[k * dim];
       const float* t = &tables[s * dim];
-      for (size_t i = 0; i < dim; ++i) w += scale2[i % basis.channels] * double(b[i]) * double(t[i]);
+      for (size_t i = 0; i < dim; ++i) w += scale2[i] * double(b[i]) * double(t[i]);
       out[s * basis.components + k] = static_cast<float>(w);
     }
   return out;

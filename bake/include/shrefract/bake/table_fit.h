@@ -57,14 +57,22 @@ class TableFit {
   std::vector<float> inverse_;       // nodeCount^2: the inverse of the normal matrix, row-major
 };
 
-// Channel weights for the Pca fit: the decoded error that matters is angular, so x, y, z count
-// fully; tau and throughput are scaled to a comparable range (1 / their RMS, at most 1).
+// Weights of the Pca fit, D = diag(node weight * channel weight), the basis being the leading
+// eigenvectors of the weighted tables' second moments (stored unweighted, in the data's units).
+// Channels: the decoded error that matters is angular, so x, y, z count fully; tau and throughput
+// are scaled to a comparable range (1 / their RMS, at most 1). Nodes: sqrt(max(z, kPcaMinNodeCosine))
+// of the node's direction, so that the squared error is weighted by the cosine, as often as a view
+// direction is seen (a surface's projected area); directions near the horizon, which the paths
+// of faceted and nested glass make the hardest, then take fewer functions from the ones the
+// image sees (docs/encodings.md, "Pca").
+inline constexpr double kPcaMinNodeCosine = 0.01;
+
 struct PcaBasis {
   uint32_t components = 0;
   uint32_t tableSize = 0;
   uint32_t channels = 0;
   std::vector<float> basis;  // field.h layout: (k * N^2 + node) * channels + c
-  std::vector<float> channelScale;  // the channel weights D the basis was fitted with (see above)
+  std::vector<float> scale;  // N^2 * channels: the weights D the basis was fitted with (see above)
 };
 
 // tables: samples x (N^2 * channels), node-major as TableFit writes them. Returns the basis of
