@@ -333,7 +333,9 @@ void traceAndFit(const BakePlan& plan, const SampleEncoder& encoder, const BakeO
   constexpr size_t kChunk = 8;
   auto worker = [&]() {
     std::vector<float> values(size_t(nd) * channels);
-    uint64_t rays = 0, paths = 0, trapped = 0;
+    std::vector<glm::vec3> incidents(nd);
+    std::vector<PathResult> paths(nd);
+    uint64_t rays = 0, pathCount = 0, trapped = 0;
     double traceSeconds = 0.0, fitSeconds = 0.0;
     for (;;) {
       const size_t begin = next.fetch_add(kChunk);
@@ -345,12 +347,13 @@ void traceAndFit(const BakePlan& plan, const SampleEncoder& encoder, const BakeO
         const auto sampleStart = Clock::now();
         const SurfacePoint& point = atlas.samples[s];
         const LocalFrame frame = frameFromNormal(point.shadingNormal);
+        // The eye looks along -w: the incident ray travels toward the surface.
+        for (uint32_t d = 0; d < nd; ++d) incidents[d] = -localToWorld(frame, glm::vec3(grid.directions[d]));
+        tracer.traceFromSurface(point, incidents, traceSettings, paths);
         for (uint32_t d = 0; d < nd; ++d) {
-          // The eye looks along -w: the incident ray travels toward the surface.
-          const glm::vec3 incident = -localToWorld(frame, glm::vec3(grid.directions[d]));
-          const PathResult path = tracer.traceFromSurface(point, incident, traceSettings);
+          const PathResult& path = paths[d];
           rays += path.rays;
-          paths += 1;
+          pathCount += 1;
           trapped += path.trapped ? 1u : 0u;
           layout.store(path, &values[size_t(d) * channels]);
           if (gridSlot[k] != SIZE_MAX)
@@ -368,7 +371,7 @@ void traceAndFit(const BakePlan& plan, const SampleEncoder& encoder, const BakeO
           const glm::vec3 w(r * std::cos(phi), r * std::sin(phi), z);
           const PathResult path = tracer.traceFromSurface(point, -localToWorld(frame, w), traceSettings);
           rays += path.rays;
-          paths += 1;
+          pathCount += 1;
           float* slot = &part.heldOut[(k * held + h) * 6];
           for (int c = 0; c < 3; ++c) slot[c] = w[c], slot[3 + c] = path.exitDirection[c];
         }
@@ -381,7 +384,7 @@ void traceAndFit(const BakePlan& plan, const SampleEncoder& encoder, const BakeO
     }
     const std::lock_guard<std::mutex> lock(totalsMutex);
     part.rays += rays;
-    part.paths += paths;
+    part.paths += pathCount;
     part.trappedPaths += trapped;
     part.timings.threadTraceSeconds += traceSeconds;
     part.timings.threadFitSeconds += fitSeconds;

@@ -1,9 +1,15 @@
 // End-to-end bakes of built-in scenes at small sizes: valid fields, deterministic across thread
-// counts, the attenuation channel dropped when nothing absorbs, error falling with the SH order.
+// counts, the attenuation channel dropped when nothing absorbs, error falling with the SH order;
+// and the batch tracing the bake uses for every sample's directions, against single paths.
 #include <gtest/gtest.h>
 #include <shrefract/bake/bake.h>
+#include <shrefract/bake/fit.h>
+#include <shrefract/bake/layout.h>
+#include <shrefract/bake/tracer.h>
 
 #include <cmath>
+#include <cstring>
+#include <limits>
 
 namespace shrefract::bake {
 namespace {
@@ -180,6 +186,69 @@ TEST(Bake, RejectsBadSettings) {
   o.settings = small();
   o.settings.maxErrorDegrees = -1.0f;
   EXPECT_FALSE(bakeField(scene.value(), o).ok());
+}
+
+bool sameBits(const PathResult& a, const PathResult& b) {
+  const auto same = [](const auto& x, const auto& y) { return std::memcmp(&x, &y, sizeof x) == 0; };
+  return same(a.exitDirection, b.exitDirection) && same(a.opticalDepth, b.opticalDepth) && same(a.energy, b.energy) &&
+         a.interactions == b.interactions && a.rays == b.rays && a.labelConflicts == b.labelConflicts &&
+         a.trapped == b.trapped;
+}
+
+// The bake traces all directions of a sample in one call (several paths in flight, their hits
+// prefetched); the field may not depend on it. Every path of the batch must be the single call's,
+// bit for bit: nested and absorbing media (glass of water), re-entry (torus), a coarse sphere
+// (grazing shading-normal fallbacks), both path rules, a low cap, invalid directions among valid
+// ones, and points without a valid triangle or surface.
+TEST(BakeTracing, BatchOfDirectionsIsSinglePathsBitForBit) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const DirectionGrid grid = makeHemisphereGrid(8, 16);
+  for (const auto& [name, tessellation] : {std::pair{"glass-of-water", 1}, {"torus", 2}, {"sphere", 0}}) {
+    BuiltinSceneOptions so;
+    so.tessellation = tessellation;
+    const Result<Scene> scene = makeBuiltinScene(name, so);
+    ASSERT_TRUE(scene.ok()) << name;
+    auto tracer = Tracer::create(scene.value());
+    ASSERT_TRUE(tracer.ok()) << name;
+    LayoutOptions lo;
+    lo.sampleBudget = 150;
+    auto atlas = buildChartsLayout(scene.value(), lo);
+    ASSERT_TRUE(atlas.ok()) << name;
+    std::vector<SurfacePoint> points(atlas.value().samples.begin(), atlas.value().samples.begin() + 60);
+    SurfacePoint noTriangle = points[0], noSurface = points[1];
+    noTriangle.triangle = 0xFFFFFFFFu;  // falls back to the point's own normals
+    noSurface.surface = 1000;           // every path invalid
+    points.push_back(noTriangle);
+    points.push_back(noSurface);
+
+    TraceSettings capped;
+    capped.maxBounces = 2;
+    TraceSettings firstRefraction;
+    firstRefraction.pathRule = PathRule::FirstRefraction;
+    size_t paths = 0, mismatches = 0, longPaths = 0, trapped = 0;
+    for (const TraceSettings& settings : {TraceSettings{}, capped, firstRefraction}) {
+      for (size_t p = 0; p < points.size(); ++p) {
+        const LocalFrame frame = frameFromNormal(points[p].shadingNormal);
+        std::vector<glm::vec3> incidents;
+        for (const glm::dvec3& w : grid.directions) incidents.push_back(-localToWorld(frame, glm::vec3(w)));
+        incidents[p % incidents.size()] = glm::vec3(0.0f);
+        incidents[(p + 7) % incidents.size()] = glm::vec3(nan, 0.0f, 1.0f);
+        std::vector<PathResult> batch(incidents.size());
+        tracer.value()->traceFromSurface(points[p], incidents, settings, batch);
+        for (size_t i = 0; i < incidents.size(); ++i) {
+          const PathResult single = tracer.value()->traceFromSurface(points[p], incidents[i], settings);
+          mismatches += sameBits(single, batch[i]) ? 0 : 1;
+          longPaths += single.interactions >= 3 ? 1 : 0;
+          trapped += single.trapped ? 1 : 0;
+          ++paths;
+        }
+      }
+    }
+    EXPECT_EQ(mismatches, 0u) << name << ": of " << paths << " paths";
+    EXPECT_GT(longPaths, paths / 50) << name << ": paths of different lengths share the batch";
+    const size_t invalid = 3 * (2 * (points.size() - 1) + grid.directions.size());
+    EXPECT_GT(trapped, invalid + paths / 100) << name << ": beyond the invalid ones, some paths are capped";
+  }
 }
 
 }  // namespace

@@ -8,12 +8,15 @@
 #include <glm/vec3.hpp>
 
 #include <algorithm>
+#include <array>
+#include <cassert>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -44,6 +47,10 @@ constexpr double kGrazingCos = 1e-6;
 // Every outgoing ray leaves the triangle's plane at a cosine of at least this (2^-16): far above
 // the rounding of Embree's float plane test, so the new ray never starts "parallel" to its plane.
 constexpr double kMinLeaveCos = 0x1p-16;
+// Paths the batch traceFromSurface keeps in flight (followAll): from 1 to 4 the tracer's time
+// over a bare Embree loop on the bunny fell from 1.53 to 1.28; 8 and 16 were no better, 32 worse
+// (docs/performance.md, "Bake").
+constexpr size_t kPathsInFlight = 4;
 
 bool isFinite(glm::vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
@@ -91,8 +98,9 @@ Fresnel fresnel(double cosI, double eta) {
 }
 
 struct Branch {
-  glm::dvec3 direction{0.0, 0.0, 1.0};  // unit
-  double weight = 0.0;                  // Fresnel factor: R, or 1 - R
+  // Not yet unit nor kept off the plane: see finishedDirection.
+  glm::dvec3 direction{0.0, 0.0, 1.0};
+  double weight = 0.0;  // Fresnel factor: R, or 1 - R
 };
 
 // Both branches at one interface.
@@ -120,24 +128,24 @@ Split evaluate(glm::dvec3 d, glm::dvec3 n, double eta) {
 // lies in the other hemisphere than the geometric normal, or it would send a branch to the wrong
 // side of the triangle's plane (reflection behind it, refraction in front of it): then the
 // geometric normal is used for both branches, after lifting a grazing `d` to cosine kGrazingCos.
-// Finally each branch is kept kMinLeaveCos away from the plane, on its own side.
+// Each branch is then kept kMinLeaveCos away from the plane, on its own side (finishedDirection).
 Split splitAt(glm::dvec3 d, glm::dvec3 ngFacing, glm::dvec3 nsFacing, double eta) {
-  std::optional<Split> split;
   if (-glm::dot(d, nsFacing) >= kGrazingCos && glm::dot(nsFacing, ngFacing) > 0.0) {
-    split = evaluate(d, nsFacing, eta);
-    const bool consistent = glm::dot(split->reflected.direction, ngFacing) > 0.0 &&
-                            (!split->refracted || glm::dot(split->refracted->direction, ngFacing) < 0.0);
-    if (!consistent) split.reset();
+    const Split split = evaluate(d, nsFacing, eta);
+    const bool consistent = glm::dot(split.reflected.direction, ngFacing) > 0.0 &&
+                            (!split.refracted || glm::dot(split.refracted->direction, ngFacing) < 0.0);
+    if (consistent) return split;
   }
-  if (!split) {
-    split = evaluate(leavePlane(d, -ngFacing, kGrazingCos), ngFacing, eta);
-  }
-  const auto finish = [](glm::dvec3 v, glm::dvec3 side) {
-    return leavePlane(normalizeOr(v, side), side, kMinLeaveCos);
-  };
-  split->reflected.direction = finish(split->reflected.direction, ngFacing);
-  if (split->refracted) split->refracted->direction = finish(split->refracted->direction, -ngFacing);
-  return *split;
+  return evaluate(leavePlane(d, -ngFacing, kGrazingCos), ngFacing, eta);
+}
+
+// The unit direction of one branch of a split at a plane of facing normal ngFacing, at least
+// kMinLeaveCos off the plane on its own side. Done only for the branch a path takes (both in
+// traceTree), which saves a square root and three divisions per interface.
+glm::dvec3 finishedDirection(const Split& split, bool refract, glm::dvec3 ngFacing) {
+  const glm::dvec3 side = refract ? -ngFacing : ngFacing;
+  const glm::dvec3 v = refract ? split.refracted->direction : split.reflected.direction;
+  return leavePlane(normalizeOr(v, side), side, kMinLeaveCos);
 }
 
 // First error reported by Embree through the device's error callback.
@@ -165,12 +173,23 @@ void recordEmbreeError(void* user, RTCError code, const char* message) {
   }
 }
 
+// Everything a hit on one triangle reads, in one 96-byte record: looking a hit up through the
+// index buffer into the position and normal buffers was a chain of dependent cache misses, about
+// 40% of Tracer::traceFromSurface's own perf samples on the bunny (docs/performance.md, "Bake").
+struct TriangleData {
+  std::array<glm::vec3, 3> corners{};
+  std::array<glm::vec3, 3> normals{};  // the corners' vertex normals
+  glm::vec3 faceNormal{0.0f, 0.0f, 1.0f};  // unit, toward the outer medium (the winding's side)
+  float cornerMagnitude = 0.0f;  // largest |coordinate| of the corners
+  double sizeOffset = 0.0;       // kOffsetOfSize * (largest coordinate extent of the edges)
+};
+
 struct SurfaceData {
-  // Positions plus one padding element: Embree reads each vertex with a 16-byte load.
+  // Embree's buffers: positions plus one padding element (Embree reads each vertex with a 16-byte
+  // load), and indices.
   std::vector<glm::vec3> positions;
-  std::vector<glm::vec3> normals;
   std::vector<uint32_t> indices;
-  std::vector<glm::vec3> faceNormals;  // unit, toward the outer medium (the winding's side)
+  std::vector<TriangleData> triangles;
   uint32_t innerMedium = 1;
   uint32_t outerMedium = 0;
 };
@@ -188,6 +207,13 @@ struct Hit {
   uint32_t surface = 0;
   uint32_t triangle = 0;
   double offset = 0.0;  // distance new rays start off the plane
+};
+
+// What Embree reports of a hit (geomID RTC_INVALID_GEOMETRY_ID on a miss).
+struct RawHit {
+  unsigned geomID = RTC_INVALID_GEOMETRY_ID;
+  unsigned primID = 0;
+  float u = 0.0f, v = 0.0f;
 };
 
 // The state of a path between two interfaces.
@@ -224,10 +250,36 @@ PathResult resultOf(const PathState& state, bool trapped) {
   return result;
 }
 
+// Starts fetching a hit's triangle record (both of its cache lines) into the cache.
+void prefetch(const TriangleData* record) {
+  if (!record) return;
+  __builtin_prefetch(record);
+  __builtin_prefetch(reinterpret_cast<const char*>(record) + sizeof(TriangleData) - 1);
+}
+
 PathResult invalidInput() {
   PathResult result;
   result.trapped = true;
   return result;
+}
+
+TriangleData triangleData(const Surface& surface, size_t triangle) {
+  TriangleData t;
+  for (size_t k = 0; k < 3; ++k) {
+    const uint32_t vertex = surface.indices[3 * triangle + k];
+    t.corners[k] = surface.positions[vertex];
+    t.normals[k] = surface.normals[vertex];
+  }
+  const glm::dvec3 p0(t.corners[0]), p1(t.corners[1]), p2(t.corners[2]);
+  // Counter-clockwise seen from the outer side (the Surface contract), so this faces outward.
+  // A degenerate triangle (never reported by Embree) gets its mean vertex normal, or +z.
+  const glm::dvec3 normalSum = glm::dvec3(t.normals[0]) + glm::dvec3(t.normals[1]) + glm::dvec3(t.normals[2]);
+  const glm::dvec3 mean = normalizeOr(normalSum, glm::dvec3(0.0, 0.0, 1.0));
+  t.faceNormal = glm::vec3(normalizeOr(glm::cross(p1 - p0, p2 - p0), mean));
+  // Exact: the largest |coordinate| of floats is one of them.
+  t.cornerMagnitude = static_cast<float>(std::max({maxAbs(p0), maxAbs(p1), maxAbs(p2)}));
+  t.sizeOffset = kOffsetOfSize * std::max({maxAbs(p1 - p0), maxAbs(p2 - p1), maxAbs(p0 - p2)});
+  return t;
 }
 
 }  // namespace
@@ -255,25 +307,23 @@ struct Tracer::Impl {
     return errors->first;
   }
 
-  glm::dvec3 corner(const SurfaceData& s, uint32_t triangle, uint32_t k) const {
-    return glm::dvec3(s.positions[s.indices[3 * static_cast<size_t>(triangle) + k]]);
-  }
-
   // Distance new rays start off the plane at p; `triangle` may be out of range (then only p counts).
-  double offsetAt(uint32_t surface, uint32_t triangle, glm::dvec3 p) const {
-    double magnitude = std::max(maxAbs(p), minMagnitude);
-    double size = 0.0;
-    const SurfaceData& s = surfaces[surface];
-    if (triangle < s.faceNormals.size()) {
-      const glm::dvec3 c0 = corner(s, triangle, 0), c1 = corner(s, triangle, 1), c2 = corner(s, triangle, 2);
-      magnitude = std::max({magnitude, maxAbs(c0), maxAbs(c1), maxAbs(c2)});
-      size = std::max({maxAbs(c1 - c0), maxAbs(c2 - c1), maxAbs(c0 - c2)});
-    }
-    return kOffsetOfMagnitude * magnitude + kOffsetOfSize * size;
+  double offsetAt(const SurfaceData& s, uint32_t triangle, glm::dvec3 p) const {
+    const double magnitude = std::max(maxAbs(p), minMagnitude);
+    if (triangle >= s.triangles.size()) return kOffsetOfMagnitude * magnitude;
+    const TriangleData& t = s.triangles[triangle];
+    return kOffsetOfMagnitude * std::max(magnitude, static_cast<double>(t.cornerMagnitude)) + t.sizeOffset;
   }
 
   // Closest hit along the ray (origin, unit direction) with tnear = 0.
   std::optional<Hit> intersect(glm::vec3 origin, glm::dvec3 direction) const {
+    Hit hit;
+    if (!hitOf(query(origin, direction), hit)) return std::nullopt;
+    return hit;
+  }
+
+  // Embree's closest hit along the ray (origin, unit direction) with tnear = 0.
+  RawHit query(glm::vec3 origin, glm::dvec3 direction) const {
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
     const glm::vec3 dir(direction);
@@ -293,67 +343,81 @@ struct Tracer::Impl {
     query.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     query.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     rtcIntersect1(scene, &context, &query);
-    if (query.hit.geomID == RTC_INVALID_GEOMETRY_ID || query.hit.geomID >= surfaces.size()) {
-      return std::nullopt;
-    }
+    return {query.hit.geomID, query.hit.primID, query.hit.u, query.hit.v};
+  }
 
-    const SurfaceData& s = surfaces[query.hit.geomID];
-    const uint32_t triangle = query.hit.primID;
+  // The record a hit will read, or null on a miss.
+  const TriangleData* recordOf(const RawHit& raw) const {
+    if (raw.geomID == RTC_INVALID_GEOMETRY_ID || raw.geomID >= surfaces.size()) return nullptr;
+    const SurfaceData& s = surfaces[raw.geomID];
+    return raw.primID < s.triangles.size() ? &s.triangles[raw.primID] : nullptr;
+  }
+
+  // The hit Embree reported, computed in double from the stored triangle, into `hit` (false on a
+  // miss). Here and in land the result goes into the caller's object: returning it in a
+  // std::optional copied the Hit and then the Step on every ray.
+  bool hitOf(const RawHit& raw, Hit& hit) const {
+    if (!recordOf(raw)) return false;
+    const SurfaceData& s = surfaces[raw.geomID];
+    const uint32_t triangle = raw.primID;
     // Barycentrics clamped into the triangle (Embree's may stray by rounding).
-    double u = std::clamp(static_cast<double>(query.hit.u), 0.0, 1.0);
-    double v = std::clamp(static_cast<double>(query.hit.v), 0.0, 1.0);
+    double u = std::clamp(static_cast<double>(raw.u), 0.0, 1.0);
+    double v = std::clamp(static_cast<double>(raw.v), 0.0, 1.0);
     if (u + v > 1.0) {
       const double sum = u + v;
       u /= sum;
       v /= sum;
     }
     const double w = 1.0 - u - v;
-    const size_t base = 3 * static_cast<size_t>(triangle);
-    const uint32_t i0 = s.indices[base], i1 = s.indices[base + 1], i2 = s.indices[base + 2];
+    const TriangleData& t = s.triangles[triangle];
 
-    Hit hit;
-    hit.surface = query.hit.geomID;
+    hit.surface = raw.geomID;
     hit.triangle = triangle;
-    hit.position = w * glm::dvec3(s.positions[i0]) + u * glm::dvec3(s.positions[i1]) +
-                   v * glm::dvec3(s.positions[i2]);
-    hit.geometricNormal = glm::dvec3(s.faceNormals[triangle]);
-    hit.shadingNormal = normalizeOr(w * glm::dvec3(s.normals[i0]) + u * glm::dvec3(s.normals[i1]) +
-                                        v * glm::dvec3(s.normals[i2]),
+    hit.position = w * glm::dvec3(t.corners[0]) + u * glm::dvec3(t.corners[1]) + v * glm::dvec3(t.corners[2]);
+    hit.geometricNormal = glm::dvec3(t.faceNormal);
+    hit.shadingNormal = normalizeOr(w * glm::dvec3(t.normals[0]) + u * glm::dvec3(t.normals[1]) +
+                                        v * glm::dvec3(t.normals[2]),
                                     hit.geometricNormal);
-    hit.offset = offsetAt(hit.surface, triangle, hit.position);
-    return hit;
+    hit.offset = offsetAt(s, triangle, hit.position);
+    return true;
   }
 
-  // Traces the current segment of `state`. Returns the interface it ends on; or nothing when the
-  // path ends there (escaped, or stopped by the cap), with `result` set.
-  std::optional<Step> advance(PathState& state, uint32_t cap, PathResult& result) const {
+  // Traces the current segment of `state`. Returns true with the interface it ends on in `step`;
+  // false when the path ends there (escaped, or stopped by the cap), with `result` set.
+  bool advance(PathState& state, uint32_t cap, PathResult& result, Step& step) const {
     ++state.rays;
-    const std::optional<Hit> hit = intersect(state.origin, state.direction);
-    if (!hit) {
+    return land(state, query(state.origin, state.direction), cap, result, step);
+  }
+
+  // The second half of advance: the interface at the end of the segment Embree traced (`raw`).
+  bool land(PathState& state, const RawHit& raw, uint32_t cap, PathResult& result, Step& step) const {
+    Hit& hit = step.hit;
+    if (!hitOf(raw, hit)) {
       // Escaping from anything but the surrounding medium means an open or mislabelled mesh.
       if (state.medium != 0) ++state.labelConflicts;
       result = resultOf(state, /*trapped=*/false);
-      return std::nullopt;
+      return false;
     }
     // The side comes from the geometric normal; the media from the surface's labels, which win
     // over the medium the path believes it is in (overlapping or mislabelled volumes).
-    const SurfaceData& s = surfaces[hit->surface];
-    const bool front = glm::dot(state.direction, hit->geometricNormal) < 0.0;
-    Step step;
-    step.hit = *hit;
+    const SurfaceData& s = surfaces[hit.surface];
+    const bool front = glm::dot(state.direction, hit.geometricNormal) < 0.0;
     step.from = front ? s.outerMedium : s.innerMedium;
     step.to = front ? s.innerMedium : s.outerMedium;
     if (step.from != state.medium) ++state.labelConflicts;
-    state.opticalDepth += glm::distance(state.position, hit->position) * media[step.from].absorption;
+    // Adding length * 0 changes nothing: the square root is skipped in clear media.
+    if (const double absorption = media[step.from].absorption; absorption != 0.0) {
+      state.opticalDepth += glm::distance(state.position, hit.position) * absorption;
+    }
     if (state.interactions >= cap) {
       result = resultOf(state, /*trapped=*/true);
-      return std::nullopt;
+      return false;
     }
     ++state.interactions;
-    step.ngFacing = front ? hit->geometricNormal : -hit->geometricNormal;
-    const glm::dvec3 nsFacing = front ? hit->shadingNormal : -hit->shadingNormal;
+    step.ngFacing = front ? hit.geometricNormal : -hit.geometricNormal;
+    const glm::dvec3 nsFacing = front ? hit.shadingNormal : -hit.shadingNormal;
     step.split = splitAt(state.direction, step.ngFacing, nsFacing, media[step.from].ior / media[step.to].ior);
-    return step;
+    return true;
   }
 
   // Continues `state` along one branch of `step`.
@@ -362,7 +426,7 @@ struct Tracer::Impl {
     if (countWeight) state.energy *= branch.weight;
     state.medium = refract ? step.to : step.from;
     state.position = step.hit.position;
-    state.direction = branch.direction;
+    state.direction = finishedDirection(step.split, refract, step.ngFacing);
     const glm::dvec3 side = refract ? -step.ngFacing : step.ngFacing;
     state.origin = glm::vec3(step.hit.position + step.hit.offset * side);
   }
@@ -374,41 +438,37 @@ struct Tracer::Impl {
 
   PathResult follow(PathState state, const TraceSettings& settings) const {
     PathResult result;
-    while (const std::optional<Step> step = advance(state, settings.maxBounces, result)) {
-      take(state, *step, refractionWins(step->split, settings.pathRule), /*countWeight=*/true);
+    Step step;
+    while (advance(state, settings.maxBounces, result, step)) {
+      take(state, step, refractionWins(step.split, settings.pathRule), /*countWeight=*/true);
     }
     return result;
   }
 
   void tree(PathState state, uint32_t depth, std::vector<PathResult>& out) const {
     PathResult result;
-    const std::optional<Step> step = advance(state, depth, result);
-    if (!step) {
+    Step step;
+    if (!advance(state, depth, result, step)) {
       out.push_back(result);
       return;
     }
-    if (step->split.reflected.weight > 0.0) {
+    if (step.split.reflected.weight > 0.0) {
       PathState reflected = state;
-      take(reflected, *step, /*refract=*/false, /*countWeight=*/true);
+      take(reflected, step, /*refract=*/false, /*countWeight=*/true);
       tree(reflected, depth, out);
     }
-    if (step->split.refracted && step->split.refracted->weight > 0.0) {
-      take(state, *step, /*refract=*/true, /*countWeight=*/true);
+    if (step.split.refracted && step.split.refracted->weight > 0.0) {
+      take(state, step, /*refract=*/true, /*countWeight=*/true);
       tree(state, depth, out);
     }
   }
 
-  // The entry of traceFromSurface / traceTree: the ray arrives from the surface's outer side and
-  // refracts into its inner medium (reflects on total internal reflection). The entry's Fresnel
-  // factor is not counted in the energy.
-  std::optional<PathState> enter(const SurfacePoint& point, glm::vec3 incident) const {
-    if (point.surface >= surfaces.size() || !isFinite(incident) || !isFinite(point.position)) {
-      return std::nullopt;
-    }
-    if (!normalizable(glm::dvec3(incident))) return std::nullopt;
-    const glm::dvec3 d = glm::normalize(glm::dvec3(incident));
+  // The entry interface of traceFromSurface / traceTree at a caller's point, the same for every
+  // incident direction there; nothing for an invalid point.
+  std::optional<Hit> entryHit(const SurfacePoint& point) const {
+    if (point.surface >= surfaces.size() || !isFinite(point.position)) return std::nullopt;
     const SurfaceData& s = surfaces[point.surface];
-    const bool triangleValid = point.triangle < s.faceNormals.size();
+    const bool triangleValid = point.triangle < s.triangles.size();
 
     Hit hit;
     hit.surface = point.surface;
@@ -418,7 +478,7 @@ struct Tracer::Impl {
         isFinite(point.shadingNormal) ? glm::dvec3(point.shadingNormal) : glm::dvec3(0.0);
     glm::dvec3 geometric(0.0);
     if (triangleValid) {
-      geometric = glm::dvec3(s.faceNormals[point.triangle]);
+      geometric = glm::dvec3(s.triangles[point.triangle].faceNormal);
     } else if (isFinite(point.geometricNormal)) {
       geometric = glm::dvec3(point.geometricNormal);
     }
@@ -429,22 +489,79 @@ struct Tracer::Impl {
     if (triangleValid) {
       // Onto the triangle's plane, in double: a point interpolated in float may be several ulps off
       // it, which the self-intersection offset does not budget for.
-      const glm::dvec3 c0 = corner(s, point.triangle, 0);
+      const glm::dvec3 c0(s.triangles[point.triangle].corners[0]);
       hit.position -= glm::dot(hit.position - c0, hit.geometricNormal) * hit.geometricNormal;
     }
-    hit.offset = offsetAt(point.surface, point.triangle, hit.position);
+    hit.offset = offsetAt(s, point.triangle, hit.position);
+    return hit;
+  }
 
+  // The ray arrives at `entry` from the surface's outer side and refracts into its inner medium
+  // (reflects on total internal reflection). The entry's Fresnel factor is not counted in the
+  // energy. Nothing for an invalid incident direction.
+  std::optional<PathState> enter(const Hit& entry, glm::vec3 incident) const {
+    if (!isFinite(incident) || !normalizable(glm::dvec3(incident))) return std::nullopt;
+    const glm::dvec3 d = glm::normalize(glm::dvec3(incident));
+    const SurfaceData& s = surfaces[entry.surface];
     Step step;
-    step.hit = hit;
+    step.hit = entry;
     step.from = s.outerMedium;
     step.to = s.innerMedium;
-    step.ngFacing = hit.geometricNormal;
-    step.split = splitAt(d, hit.geometricNormal, hit.shadingNormal,
-                         media[step.from].ior / media[step.to].ior);
+    step.ngFacing = entry.geometricNormal;
+    step.split = splitAt(d, entry.geometricNormal, entry.shadingNormal, media[step.from].ior / media[step.to].ior);
 
     PathState state;
     take(state, step, /*refract=*/step.split.refracted.has_value(), /*countWeight=*/false);
     return state;
+  }
+
+  // The paths from `entry` along every incident direction, out[i] for incidents[i], as follow
+  // traces them one at a time, bit for bit. kPathsInFlight paths advance in turn: every segment's
+  // triangle record is prefetched as soon as Embree names it and read only after the other paths'
+  // queries, so its cache miss overlaps their tracing instead of stalling this path.
+  void followAll(const Hit& entry, std::span<const glm::vec3> incidents, const TraceSettings& settings,
+                 std::span<PathResult> out) const {
+    struct Lane {
+      PathState state;
+      size_t path = 0;
+      RawHit raw;
+    };
+    std::array<Lane, kPathsInFlight> lanes;
+    size_t next = 0;
+    // Puts the next path with a valid incident direction into `lane`; false when none is left.
+    const auto start = [&](Lane& lane) {
+      for (; next < incidents.size(); ++next) {
+        if (std::optional<PathState> state = enter(entry, incidents[next])) {
+          lane.state = *state;
+          lane.path = next++;
+          return true;
+        }
+        out[next] = invalidInput();
+      }
+      return false;
+    };
+    size_t active = 0;
+    while (active < lanes.size() && start(lanes[active])) ++active;
+    Step step;
+    while (active > 0) {
+      for (size_t k = 0; k < active; ++k) {
+        Lane& lane = lanes[k];
+        ++lane.state.rays;
+        lane.raw = query(lane.state.origin, lane.state.direction);
+        prefetch(recordOf(lane.raw));
+      }
+      for (size_t k = 0; k < active;) {
+        Lane& lane = lanes[k];
+        if (land(lane.state, lane.raw, settings.maxBounces, out[lane.path], step)) {
+          take(lane.state, step, refractionWins(step.split, settings.pathRule), /*countWeight=*/true);
+          ++k;
+        } else if (start(lane)) {
+          ++k;
+        } else {
+          lane = lanes[--active];  // the last lane, not yet landed in this round, takes its place
+        }
+      }
+    }
   }
 };
 
@@ -470,22 +587,11 @@ Result<std::unique_ptr<Tracer>> Tracer::create(const Scene& scene) {
     SurfaceData& out = impl->surfaces[i];
     out.positions = in.positions;
     out.positions.push_back(glm::vec3(0.0f));  // padding for Embree's 16-byte vertex loads
-    out.normals = in.normals;
     out.indices = in.indices;
     out.innerMedium = in.innerMedium;
     out.outerMedium = in.outerMedium;
-    const size_t triangles = in.indices.size() / 3;
-    out.faceNormals.resize(triangles);
-    for (size_t t = 0; t < triangles; ++t) {
-      const uint32_t a = in.indices[3 * t], b = in.indices[3 * t + 1], c = in.indices[3 * t + 2];
-      const glm::dvec3 p0(in.positions[a]), p1(in.positions[b]), p2(in.positions[c]);
-      // Counter-clockwise seen from the outer side (the Surface contract), so this faces outward.
-      // A degenerate triangle (never reported by Embree) gets its mean vertex normal, or +z.
-      const glm::dvec3 normalSum =
-          glm::dvec3(in.normals[a]) + glm::dvec3(in.normals[b]) + glm::dvec3(in.normals[c]);
-      const glm::dvec3 mean = normalizeOr(normalSum, glm::dvec3(0.0, 0.0, 1.0));
-      out.faceNormals[t] = glm::vec3(normalizeOr(glm::cross(p1 - p0, p2 - p0), mean));
-    }
+    out.triangles.resize(in.indices.size() / 3);
+    for (size_t t = 0; t < out.triangles.size(); ++t) out.triangles[t] = triangleData(in, t);
   }
 
   // No "threads=N": with TBB tasking, Embree turns it into a process-wide tbb::global_control.
@@ -525,14 +631,27 @@ Result<std::unique_ptr<Tracer>> Tracer::create(const Scene& scene) {
 
 PathResult Tracer::traceFromSurface(const SurfacePoint& point, glm::vec3 incident,
                                     const TraceSettings& settings) const {
-  const std::optional<PathState> state = impl_->enter(point, incident);
+  const std::optional<Hit> entry = impl_->entryHit(point);
+  const std::optional<PathState> state = entry ? impl_->enter(*entry, incident) : std::nullopt;
   if (!state) return invalidInput();
   return impl_->follow(*state, settings);
 }
 
+void Tracer::traceFromSurface(const SurfacePoint& point, std::span<const glm::vec3> incidents,
+                              const TraceSettings& settings, std::span<PathResult> out) const {
+  assert(out.size() == incidents.size());
+  incidents = incidents.first(std::min(incidents.size(), out.size()));
+  if (const std::optional<Hit> entry = impl_->entryHit(point)) {
+    impl_->followAll(*entry, incidents, settings, out);
+  } else {
+    std::fill(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(incidents.size()), invalidInput());
+  }
+}
+
 void Tracer::traceTree(const SurfacePoint& point, glm::vec3 incident, uint32_t depth,
                        std::vector<PathResult>& out) const {
-  const std::optional<PathState> state = impl_->enter(point, incident);
+  const std::optional<Hit> entry = impl_->entryHit(point);
+  const std::optional<PathState> state = entry ? impl_->enter(*entry, incident) : std::nullopt;
   if (!state) {
     out.push_back(invalidInput());
     return;
@@ -553,17 +672,17 @@ EyeRayResult Tracer::traceEyeRay(glm::vec3 origin, glm::vec3 direction,
   eye.medium = 0;
   PathResult unused;
   // The front interface is always evaluated (cap = 1) and not counted in the transmitted path.
-  const std::optional<Step> step = impl_->advance(eye, 1, unused);
-  if (!step) return result;
+  Step step;
+  if (!impl_->advance(eye, 1, unused, step)) return result;
 
   result.hit = true;
-  result.position = glm::vec3(step->hit.position);
-  result.shadingNormal = glm::vec3(step->split.normal);
-  result.surface = step->hit.surface;
-  result.triangle = step->hit.triangle;
-  result.frontFresnel = static_cast<float>(step->split.reflected.weight);
-  result.reflectedDirection = glm::vec3(step->split.reflected.direction);
-  if (!step->split.refracted) {
+  result.position = glm::vec3(step.hit.position);
+  result.shadingNormal = glm::vec3(step.split.normal);
+  result.surface = step.hit.surface;
+  result.triangle = step.hit.triangle;
+  result.frontFresnel = static_cast<float>(step.split.reflected.weight);
+  result.reflectedDirection = glm::vec3(finishedDirection(step.split, /*refract=*/false, step.ngFacing));
+  if (!step.split.refracted) {
     result.transmitted.energy = 0.0f;
     result.transmitted.exitDirection = result.reflectedDirection;
     result.transmitted.labelConflicts = eye.labelConflicts;
@@ -571,7 +690,7 @@ EyeRayResult Tracer::traceEyeRay(glm::vec3 origin, glm::vec3 direction,
   }
   PathState transmitted;
   transmitted.labelConflicts = eye.labelConflicts;
-  Impl::take(transmitted, *step, /*refract=*/true, /*countWeight=*/false);
+  Impl::take(transmitted, step, /*refract=*/true, /*countWeight=*/false);
   result.transmitted = impl_->follow(transmitted, settings);
   result.rays += result.transmitted.rays;
   return result;
