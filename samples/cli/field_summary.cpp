@@ -76,8 +76,9 @@ std::string fieldSummaryText(const Field& f, uint64_t fileBytes) {
                 st.paths, st.rays, st.trappedPaths, st.traceSeconds, st.raysPerSecond);
   out += format("bake: %.2f s wall, peak memory %s, file %s\n", st.bakeSeconds, bytesText(st.peakMemoryBytes).c_str(),
                 bytesText(fileBytes).c_str());
-  out += format("fit error (exit direction): grid RMS %.3f deg, max %.2f deg; held-out RMS %.3f deg, max %.2f deg\n",
-                static_cast<double>(st.fitRmsDegrees), static_cast<double>(st.fitMaxDegrees),
+  // At the traced directions: the grid's, or the nodes' (where only the Pca truncation errs).
+  out += format("fit error (exit direction): %s RMS %.3f deg, max %.2f deg; held-out RMS %.3f deg, max %.2f deg\n",
+                s.directionSampling == DirectionSampling::Nodes ? "nodes" : "grid", static_cast<double>(st.fitRmsDegrees), static_cast<double>(st.fitMaxDegrees),
                 static_cast<double>(st.heldOutRmsDegrees), static_cast<double>(st.heldOutMaxDegrees));
   out += format("quantization error: RMS %.4f deg, max %.3f deg\n", static_cast<double>(st.quantizationRmsDegrees),
                 static_cast<double>(st.quantizationMaxDegrees));
