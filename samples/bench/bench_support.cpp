@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <random>
 
@@ -84,6 +85,23 @@ bool parseQuantization(const std::string& text, Quantization& out) {
   if (text == "u8") out = Quantization::U8;
   else if (text == "f16") out = Quantization::F16;
   else return false;
+  return true;
+}
+
+bool parseCount(const char* text, uint32_t lo, uint32_t hi, uint32_t& out) {
+  if (!text || !*text) return false;
+  char* end = nullptr;
+  const unsigned long v = std::strtoul(text, &end, 10);
+  if (*end || text[0] == '-' || v < lo || v > hi) return false;
+  out = uint32_t(v);
+  return true;
+}
+
+bool parseSize(const char* text, uint32_t max, uint32_t& width, uint32_t& height) {
+  unsigned w = 0, h = 0;
+  char tail = 0;
+  if (!text || std::sscanf(text, "%ux%u%c", &w, &h, &tail) != 2 || w == 0 || h == 0 || w > max || h > max) return false;
+  width = w, height = h;
   return true;
 }
 

@@ -39,6 +39,12 @@ Field syntheticField(const SyntheticOptions& options);
 // Parses "u8" / "f16".
 bool parseQuantization(const std::string& text, Quantization& out);
 
+// The benchmarks' flag values. A whole decimal number in [lo, hi]; false for anything else ("12x",
+// "", "-1", a null pointer).
+bool parseCount(const char* text, uint32_t lo, uint32_t hi, uint32_t& out);
+// "WxH" with both in [1, max]; false for anything else (a trailing character included).
+bool parseSize(const char* text, uint32_t max, uint32_t& width, uint32_t& height);
+
 // The harness (validation off: benchmarks measure the driver, not the layer) and a context on it.
 // Returns null after printing "SKIPPED: no Vulkan device" when there is none, or the error.
 struct Gpu {

@@ -714,28 +714,18 @@ int main(int argc, char** argv) {
       usage(nullptr);
       return 0;
     } else if (a == "--size") {
-      const char* v = value();
-      unsigned w = 0, h = 0;
-      if (!v || std::sscanf(v, "%ux%u", &w, &h) != 2 || w == 0 || h == 0 || w > 8192 || h > 8192)
+      if (!parseSize(value(), 8192, options.synthetic.width, options.synthetic.height))
         return usage("--size expects WxH (1..8192)");
-      options.synthetic.width = w;
-      options.synthetic.height = h;
       options.sizeGiven = true;
     } else if (a == "--order") {
-      const char* v = value();
-      if (!v || std::atoi(v) < 0 || std::atoi(v) > 16) return usage("--order expects 0..16");
-      options.synthetic.order = static_cast<uint32_t>(std::atoi(v));
+      if (!parseCount(value(), 0, 16, options.synthetic.order)) return usage("--order expects 0..16");
     } else if (a == "--quant") {
       const char* v = value();
       if (!v || !parseQuantization(v, options.synthetic.quantization)) return usage("--quant expects u8 or f16");
     } else if (a == "--channels") {
-      const char* v = value();
-      if (!v || (std::atoi(v) != 3 && std::atoi(v) != 4)) return usage("--channels expects 3 or 4");
-      options.synthetic.channels = static_cast<uint32_t>(std::atoi(v));
+      if (!parseCount(value(), 3, 4, options.synthetic.channels)) return usage("--channels expects 3 or 4");
     } else if (a == "--reps") {
-      const char* v = value();
-      if (!v || std::atoi(v) < 1 || std::atoi(v) > 1000) return usage("--reps expects 1..1000");
-      options.reps = static_cast<uint32_t>(std::atoi(v));
+      if (!parseCount(value(), 1, 1000, options.reps)) return usage("--reps expects 1..1000");
     } else if (a == "--validation") {
       options.validation = true;
     } else if (a == "--profile") {

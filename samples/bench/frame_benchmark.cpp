@@ -469,16 +469,6 @@ int run(const Options& o) {
   return rc;
 }
 
-// Parses a whole decimal number in [lo, hi]; false for anything else ("12x", "", "-1").
-bool parseCount(const char* text, uint32_t lo, uint32_t hi, uint32_t& out) {
-  if (!text || !*text) return false;
-  char* end = nullptr;
-  const unsigned long v = std::strtoul(text, &end, 10);
-  if (*end || text[0] == '-' || v < lo || v > hi) return false;
-  out = uint32_t(v);
-  return true;
-}
-
 // Returns -1 when the arguments are good, else the exit code (2 after one line for bad ones).
 int parseArguments(int argc, char** argv, Options& o) {
   for (int i = 1; i < argc; ++i) {
@@ -487,11 +477,7 @@ int parseArguments(int argc, char** argv, Options& o) {
     auto takes = [&]() { return ++i, v ? std::string(v) : std::string(); };
     if (a == "--help" || a == "-h") return help();
     if (a == "--size") {
-      unsigned w = 0, h = 0;
-      char tail = 0;
-      if (std::sscanf(takes().c_str(), "%ux%u%c", &w, &h, &tail) != 2 || w == 0 || h == 0 || w > 8192 || h > 8192)
-        return usage("--size expects WxH (1..8192)");
-      o.width = w, o.height = h;
+      if (!parseSize(takes().c_str(), 8192, o.width, o.height)) return usage("--size expects WxH (1..8192)");
     } else if (a == "--frames") {
       if (!parseCount(takes().c_str(), 1, 10000, o.frames)) return usage("--frames expects 1..10000");
     } else if (a == "--instances") {

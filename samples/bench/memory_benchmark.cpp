@@ -146,12 +146,8 @@ int main(int argc, char** argv) {
       usage(nullptr);
       return 0;
     } else if (a == "--size") {
-      const char* v = value();
-      unsigned w = 0, h = 0;
-      if (!v || std::sscanf(v, "%ux%u", &w, &h) != 2 || w == 0 || h == 0 || w > 4096 || h > 4096)
+      if (!parseSize(value(), 4096, options.synthetic.width, options.synthetic.height))
         return usage("--size expects WxH (1..4096)");
-      options.synthetic.width = w;
-      options.synthetic.height = h;
     } else if (a == "--fill") {
       const char* v = value();
       const double f = v ? std::atof(v) : 0.0;

@@ -308,24 +308,15 @@ int main(int argc, char** argv) {
       usage(nullptr);
       return 0;
     } else if (a == "--size") {
-      const char* v = value();
-      unsigned w = 0, h = 0;
-      if (!v || std::sscanf(v, "%ux%u", &w, &h) != 2 || w == 0 || h == 0 || w > 8192 || h > 8192)
-        return usage("--size expects WxH (1..8192)");
-      options.width = w;
-      options.height = h;
+      if (!parseSize(value(), 8192, options.width, options.height)) return usage("--size expects WxH (1..8192)");
     } else if (a == "--frames") {
-      const char* v = value();
-      if (!v || std::atoi(v) < 1 || std::atoi(v) > 10000) return usage("--frames expects 1..10000");
-      options.frames = static_cast<uint32_t>(std::atoi(v));
+      if (!parseCount(value(), 1, 10000, options.frames)) return usage("--frames expects 1..10000");
     } else if (a == "--env") {
       const char* v = value();
       if (!v) return usage("--env expects builtin or a file");
       options.environment = v;
     } else if (a == "--threads") {
-      const char* v = value();
-      if (!v || std::atoi(v) < 1 || std::atoi(v) > 1024) return usage("--threads expects 1..1024");
-      options.threads = static_cast<uint32_t>(std::atoi(v));
+      if (!parseCount(value(), 1, 1024, options.threads)) return usage("--threads expects 1..1024");
     } else if (a == "--shading") {
       const std::string v = value() ? argv[i] : "";
       if (v == "field") options.shading = shrefract::ShadingMode::Field;

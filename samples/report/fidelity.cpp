@@ -61,6 +61,20 @@ BakeSettings withEncoding(BakeSettings s, Encoding encoding, uint32_t order, uin
   return s;
 }
 
+}  // namespace
+
+BakeSettings defaultFieldSettings() {
+  BakeSettings s;
+  s.encoding = Encoding::Pca;
+  s.order = 0;
+  s.tableSize = 16;
+  s.components = 324;
+  s.directionSampling = DirectionSampling::Nodes;
+  return s;
+}
+
+namespace {
+
 Profile profileFor(ReportSize size, uint64_t samples) {
   Profile p;
   BakeSettings base;  // the default bake: order 8, 32x64 directions, split layout, default budget
@@ -91,7 +105,7 @@ Profile profileFor(ReportSize size, uint64_t samples) {
       // paths, to keep the report within minutes on 2 cores; the default field itself is the
       // default bake (its spatial sampling costs it little: see the decomposition).
       p.scenes = {"builtin:sphere", "builtin:cube", "builtin:torus", "builtin:glass-of-water", kBunny};
-      base = withEncoding(base, Encoding::Pca, 0, 16, 324);  // the tool's default bake (docs/encodings.md)
+      base = defaultFieldSettings();
       sweep.directionsTheta = 16;
       sweep.directionsPhi = 32;
       sweep.sampleBudget = 5000;
@@ -104,7 +118,7 @@ Profile profileFor(ReportSize size, uint64_t samples) {
       p.height = 480;
       p.frames = 10;
       p.scenes = {"builtin:sphere", "builtin:cube", "builtin:torus", "builtin:glass-of-water", kBunny};
-      base = withEncoding(base, Encoding::Pca, 0, 16, 324);
+      base = defaultFieldSettings();
       orders = {2, 4, 8, 12, 16};
       tables = {8, 16, 32};
       components = {8, 32, 64};

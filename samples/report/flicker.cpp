@@ -12,6 +12,7 @@
 #include <numbers>
 
 #include "cli/scene_source.h"
+#include "report/fidelity.h"
 #include "report/report_text.h"
 
 namespace shrefract::report {
@@ -51,20 +52,6 @@ Camera orbitCamera(uint32_t t) {
   return c;
 }
 
-// The tool's default bake (Pca K=324 over 16x16 tables traced at their nodes, u8).
-BakeSettings defaultBake(const std::string& spec, uint64_t samples, uint32_t threads) {
-  BakeSettings s;
-  s.source = spec;
-  s.encoding = Encoding::Pca;
-  s.order = 0;
-  s.tableSize = 16;
-  s.components = 324;
-  s.directionSampling = DirectionSampling::Nodes;
-  s.sampleBudget = samples;
-  s.threads = threads;
-  return s;
-}
-
 Result<FlickerScene> orbitScene(const FlickerOptions& options, const OrbitProfile& p, const std::string& spec,
                                 offscreen::Session& session, const Environment& gpuEnvironment,
                                 const bake::Image& environment, std::vector<std::string>& files) {
@@ -74,7 +61,10 @@ Result<FlickerScene> orbitScene(const FlickerOptions& options, const OrbitProfil
   auto tracer = bake::Tracer::create(scene.value());
   if (!tracer) return makeError(tracer.error().code, spec + ": " + tracer.error().message);
   bake::BakeOptions bo;
-  bo.settings = defaultBake(spec, p.samples, options.threads);
+  bo.settings = defaultFieldSettings();
+  bo.settings.source = spec;
+  bo.settings.sampleBudget = p.samples;
+  bo.settings.threads = options.threads;
   bo.heldOutDirections = 0;
   auto field = bake::bakeField(scene.value(), bo);
   if (!field) return makeError(field.error().code, spec + ": bake: " + field.error().message);

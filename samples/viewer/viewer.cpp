@@ -289,24 +289,7 @@ Result<void> ensureInstances(Host& h, const ViewState& state, Object& shown, VkC
   return {};
 }
 
-void imageBarrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkPipelineStageFlags2 srcStage,
-                  VkAccessFlags2 srcAccess, VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess,
-                  VkImageLayout oldLayout, VkImageLayout newLayout) {
-  VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
-  b.srcStageMask = srcStage;
-  b.srcAccessMask = srcAccess;
-  b.dstStageMask = dstStage;
-  b.dstAccessMask = dstAccess;
-  b.oldLayout = oldLayout;
-  b.newLayout = newLayout;
-  b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.image = image;
-  b.subresourceRange = {aspect, 0, 1, 0, 1};
-  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-  dep.imageMemoryBarrierCount = 1;
-  dep.pImageMemoryBarriers = &b;
-  vkCmdPipelineBarrier2(cmd, &dep);
-}
+using harness::imageBarrier;
 
 struct FrameInputs {
   const Environment* environment = nullptr;

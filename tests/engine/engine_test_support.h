@@ -16,7 +16,8 @@
 
 namespace shrefract::testing {
 
-inline Result<std::unique_ptr<Context>> createContext(const harness::Harness& h) {
+// The harness's handles, lent to a Context; tests that need more set the rest before creating it.
+inline ContextCreateInfo contextInfo(const harness::Harness& h) {
   ContextCreateInfo info;
   info.instance = h.instance();
   info.physicalDevice = h.physicalDevice();
@@ -24,8 +25,10 @@ inline Result<std::unique_ptr<Context>> createContext(const harness::Harness& h)
   info.queueFamilyIndex = h.queueFamily();
   info.queue = h.queue();
   info.getInstanceProcAddr = vkGetInstanceProcAddr;
-  return Context::create(info);
+  return info;
 }
+
+inline Result<std::unique_ptr<Context>> createContext(const harness::Harness& h) { return Context::create(contextInfo(h)); }
 
 inline float halfToFloat(uint16_t h) {
   const int exponent = (h >> 10) & 0x1f;

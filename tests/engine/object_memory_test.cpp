@@ -53,12 +53,7 @@ VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL countingGetInstanceProcAddr(VkInstance 
 TEST(ObjectMemory, OneAllocationPerKindOfStorage) {
   auto h = testing::harnessOrSkip();
   ASSERT_TRUE(h);
-  ContextCreateInfo info;
-  info.instance = h->instance();
-  info.physicalDevice = h->physicalDevice();
-  info.device = h->device();
-  info.queueFamilyIndex = h->queueFamily();
-  info.queue = h->queue();
+  ContextCreateInfo info = testing::contextInfo(*h);
   info.getInstanceProcAddr = countingGetInstanceProcAddr;
   auto context = Context::create(info);
   ASSERT_TRUE(context.ok()) << context.error().message;

@@ -33,13 +33,7 @@ struct Slot {
 TEST(Soak, InstancesComeAndGoOverAThousandFrames) {
   auto h = testing::harnessOrSkip();
   ASSERT_TRUE(h);
-  ContextCreateInfo info;
-  info.instance = h->instance();
-  info.physicalDevice = h->physicalDevice();
-  info.device = h->device();
-  info.queueFamilyIndex = h->queueFamily();
-  info.queue = h->queue();
-  info.getInstanceProcAddr = vkGetInstanceProcAddr;
+  ContextCreateInfo info = testing::contextInfo(*h);
   info.framesInFlight = kInFlight;
   auto created = Context::create(info);
   ASSERT_TRUE(created.ok()) << created.error().message;

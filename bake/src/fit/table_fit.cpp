@@ -11,6 +11,17 @@
 
 namespace shrefract::bake {
 
+namespace {
+
+Result<void> checkTableSize(uint32_t n) {
+  if (n < 2 || n > kMaxTableSize)
+    return makeError(ErrorCode::InvalidArgument,
+                     "table size " + std::to_string(n) + " is outside 2.." + std::to_string(kMaxTableSize));
+  return {};
+}
+
+}  // namespace
+
 DirectionGrid makeNodeGrid(uint32_t n) {
   DirectionGrid g;
   g.rows = g.columns = n;
@@ -29,9 +40,7 @@ DirectionGrid makeNodeGrid(uint32_t n) {
 }
 
 Result<TableFit> TableFit::atNodes(uint32_t n) {
-  if (n < 2 || n > kMaxTableSize)
-    return makeError(ErrorCode::InvalidArgument,
-                     "table size " + std::to_string(n) + " is outside 2.." + std::to_string(kMaxTableSize));
+  if (auto ok = checkTableSize(n); !ok) return ok.error();
   TableFit fit;
   fit.n_ = n;
   fit.identity_ = true;
@@ -39,9 +48,7 @@ Result<TableFit> TableFit::atNodes(uint32_t n) {
 }
 
 Result<TableFit> TableFit::create(const DirectionGrid& grid, uint32_t n, double lambda) {
-  if (n < 2 || n > kMaxTableSize)
-    return makeError(ErrorCode::InvalidArgument,
-                     "table size " + std::to_string(n) + " is outside 2.." + std::to_string(kMaxTableSize));
+  if (auto ok = checkTableSize(n); !ok) return ok.error();
   if (grid.directions.empty()) return makeError(ErrorCode::InvalidArgument, "empty direction grid");
   if (!(lambda > 0.0) || !std::isfinite(lambda))
     return makeError(ErrorCode::InvalidArgument, "table regularization must be finite and > 0");

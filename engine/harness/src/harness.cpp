@@ -371,18 +371,16 @@ Result<std::vector<float>> Harness::readbackColor(const Image& img, VkImageLayou
   return out;
 }
 
-namespace {
-
-// `image` to `layout` with its contents dropped, after earlier `stages` work on it.
-void toAttachment(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkPipelineStageFlags2 srcStages,
-                  VkPipelineStageFlags2 stages, VkAccessFlags2 access, VkImageLayout layout) {
+void imageBarrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkPipelineStageFlags2 srcStage,
+                  VkAccessFlags2 srcAccess, VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess,
+                  VkImageLayout oldLayout, VkImageLayout newLayout) {
   VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
-  b.srcStageMask = srcStages;
-  b.srcAccessMask = access;
-  b.dstStageMask = stages;
-  b.dstAccessMask = access;
-  b.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-  b.newLayout = layout;
+  b.srcStageMask = srcStage;
+  b.srcAccessMask = srcAccess;
+  b.dstStageMask = dstStage;
+  b.dstAccessMask = dstAccess;
+  b.oldLayout = oldLayout;
+  b.newLayout = newLayout;
   b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
   b.image = image;
   b.subresourceRange = {aspect, 0, 1, 0, 1};
@@ -392,8 +390,6 @@ void toAttachment(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect,
   vkCmdPipelineBarrier2(cmd, &dep);
 }
 
-}  // namespace
-
 void beginRendering(VkCommandBuffer cmd, const Harness::Image& color, const Harness::Image& depth,
                     const Harness::Image* resolve) {
   const VkPipelineStageFlags2 colorStage = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT;
@@ -401,14 +397,16 @@ void beginRendering(VkCommandBuffer cmd, const Harness::Image& color, const Harn
   const VkPipelineStageFlags2 colorAfter = colorStage | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT;
   const VkPipelineStageFlags2 depthStages =
       VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
-  toAttachment(cmd, color.image, VK_IMAGE_ASPECT_COLOR_BIT, colorAfter, colorStage,
-               VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
-  if (resolve)
-    toAttachment(cmd, resolve->image, VK_IMAGE_ASPECT_COLOR_BIT, colorAfter, colorStage,
-                 VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
-  toAttachment(cmd, depth.image, VK_IMAGE_ASPECT_DEPTH_BIT, depthStages, depthStages,
-               VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-               VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+  // Every target goes from UNDEFINED: its contents are dropped (all are cleared).
+  const VkAccessFlags2 colorAccess = VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT;
+  const VkAccessFlags2 depthAccess =
+      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+  for (const Harness::Image* target : {&color, resolve})
+    if (target)
+      imageBarrier(cmd, target->image, VK_IMAGE_ASPECT_COLOR_BIT, colorAfter, colorAccess, colorStage, colorAccess,
+                   VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
+  imageBarrier(cmd, depth.image, VK_IMAGE_ASPECT_DEPTH_BIT, depthStages, depthAccess, depthStages, depthAccess,
+               VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
   const VkExtent2D extent{color.width, color.height};
   VkRenderingAttachmentInfo colorAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
   colorAttachment.imageView = color.view;

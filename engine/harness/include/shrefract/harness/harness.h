@@ -125,6 +125,12 @@ class Harness {
   std::shared_ptr<MessageLog> log_ = std::make_shared<MessageLog>();
 };
 
+// One image memory barrier on mip 0, layer 0 of `image` (the attachments and swapchain images of
+// the tools and tests have no more).
+void imageBarrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkPipelineStageFlags2 srcStage,
+                  VkAccessFlags2 srcAccess, VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess,
+                  VkImageLayout oldLayout, VkImageLayout newLayout);
+
 // A host's frame into its own targets, as the tools, benchmarks and tests record it: `color` and
 // `depth` (and `resolve`, the single-sample target of a multisampled `color`, averaged into at the
 // end of rendering) go to attachment layouts with their contents dropped (all are cleared),
