@@ -547,6 +547,17 @@ Result<double> candidateError(const BudgetCandidate& c, const BudgetProbe& p, co
     if (!pca) return pca.error();
     test = projectOnBasis(test, p.test.size(), pca.value());
     basis = std::move(pca.value().basis);
+    if (c.settings.quantization == Quantization::U8) {  // as finishBake: refined on the training weights
+      const std::vector<uint32_t> refined = chooseRefinedComponents(weights, p.train.size(), shape.components);
+      const size_t functionSize = size_t(shape.tableSize) * shape.tableSize * channels;
+      makeRefinementLayers(test, p.test.size(), shape.components, basis, functionSize, refined);
+      std::vector<float> coarse = test;
+      simulateU8(coarse, p.test.size(), strideOf(shape));
+      fillRefinementWeights(test, p.test.size(), shape.components, refined,
+                            [&](size_t s, uint32_t k) { return coarse[s * shape.components + k]; });
+      for (size_t s = 0; s < p.test.size(); ++s)  // the coarse layers as quantized; simulateU8 keeps them
+        for (uint32_t k : refined) test[s * shape.components + k] = coarse[s * shape.components + k];
+    }
   }
   if (c.settings.quantization == Quantization::U8) simulateU8(test, p.test.size(), strideOf(shape));
   double sum = 0.0, weight = 0.0;
@@ -779,19 +790,38 @@ std::vector<float> texelCoefficients(const SampleAtlas& atlas, const EncodingSha
   return out;
 }
 
+// The first texel of every sample (UINT64_MAX for a sample no texel holds).
+std::vector<uint64_t> firstTexels(const SampleAtlas& atlas) {
+  std::vector<uint64_t> texelOf(atlas.samples.size(), UINT64_MAX);
+  for (size_t t = 0; t < size_t(atlas.width) * atlas.height; ++t)
+    if (atlas.texelKinds[t] == kTexelSample && texelOf[atlas.texelSample[t]] == UINT64_MAX)
+      texelOf[atlas.texelSample[t]] = t;
+  return texelOf;
+}
+
+// A u8 Pca field's refinement layers (table_fit.h): quantizes the field once with them at zero,
+// fills them with what each refined layer lost, and quantizes again (each layer has its own
+// range, so the refined layers' codes do not change).
+Result<void> encodeWithRefinement(Field& field, const SampleAtlas& atlas, const EncodingShape& shape,
+                                  std::vector<float> coeffs, const std::vector<uint32_t>& refined) {
+  if (auto r = encodeCoefficients(field, texelCoefficients(atlas, shape, coeffs)); !r || refined.empty()) return r;
+  const std::vector<uint64_t> texelOf = firstTexels(atlas);
+  fillRefinementWeights(coeffs, atlas.samples.size(), shape.components, refined, [&](size_t s, uint32_t k) {
+    return texelOf[s] == UINT64_MAX ? coeffs[s * shape.components + k] : fieldCoefficient(field, k, texelOf[s], 0);
+  });
+  return encodeCoefficients(field, texelCoefficients(atlas, shape, coeffs));
+}
+
 // Quantization error: the decoded direction from quantized coefficients against the float
 // encoding, at every third grid direction of every 7th sample (deterministic subset).
 void measureQuantization(const Field& field, const SampleAtlas& atlas, const std::vector<float>& basis,
                          const std::vector<float>& coeffs, const DirectionGrid& grid, BakeStatistics& st) {
   const EncodingShape shape = field.shape();
-  const size_t sampleCount = atlas.samples.size(), texels = size_t(atlas.width) * atlas.height;
+  const size_t sampleCount = atlas.samples.size();
   double squares = 0.0, maxAngle = 0.0;
   uint64_t count = 0;
   std::vector<float> a(shape.channels), b(shape.channels);
-  std::vector<uint64_t> texelOf(sampleCount, UINT64_MAX);
-  for (size_t t = 0; t < texels; ++t)
-    if (atlas.texelKinds[t] == kTexelSample && texelOf[atlas.texelSample[t]] == UINT64_MAX)
-      texelOf[atlas.texelSample[t]] = t;
+  const std::vector<uint64_t> texelOf = firstTexels(atlas);
   for (size_t s = 0; s < sampleCount; s += 7) {
     if (texelOf[s] == UINT64_MAX) continue;
     for (size_t d = 0; d < grid.directions.size(); d += 3) {
@@ -874,6 +904,12 @@ Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
       sh::applyWindow(static_cast<int>(settings.order), weights.data(), &coeffs[s * stride],
                       static_cast<int>(plan.channels));
   }
+  std::vector<uint32_t> refined;
+  if (settings.encoding == Encoding::Pca && settings.quantization == Quantization::U8) {
+    refined = chooseRefinedComponents(coeffs, sampleCount, shape.components);
+    makeRefinementLayers(coeffs, sampleCount, shape.components, basis,
+                         size_t(shape.tableSize) * shape.tableSize * shape.channels, refined);
+  }
   std::vector<SampleError> errors(sampleCount);
   measureFit(shape, basis, coeffs, grid, g.checks, held, errors);
 
@@ -899,8 +935,7 @@ Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
     const auto rows = localFromWorldRows(p.position, frameFromNormal(p.shadingNormal));
     std::copy(rows.begin(), rows.end(), &field.frames[t * 12]);
   }
-  if (auto encoded = encodeCoefficients(field, texelCoefficients(atlas, shape, coeffs)); !encoded)
-    return encoded.error();
+  if (auto encoded = encodeWithRefinement(field, atlas, shape, coeffs, refined); !encoded) return encoded.error();
   measureQuantization(field, atlas, basis, coeffs, grid, field.statistics);
   field.media = plan.media;
   field.settings = settings;

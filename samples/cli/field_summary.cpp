@@ -1,5 +1,7 @@
 #include "cli/field_summary.h"
 
+#include <shrefract/bake/table_fit.h>
+
 #include <cinttypes>
 #include <cstdarg>
 #include <cstdio>
@@ -44,11 +46,20 @@ std::string bytesText(uint64_t b) {
 
 }  // namespace
 
+static size_t refinementLayers(const Field& f) {
+  if (f.encoding != Encoding::Pca) return 0;
+  return bake::refinedComponentsOf(f.basis, f.components, size_t(f.tableSize) * f.tableSize * f.channels).size();
+}
+
 static std::string encodingText(const Field& f) {
   switch (f.encoding) {
     case Encoding::Sh: return format("SH order %u (%u functions)", f.order, f.layerCount());
     case Encoding::Table: return format("table %ux%u (hemi-octahedral, bilinear)", f.tableSize, f.tableSize);
-    case Encoding::Pca: return format("pca %u components over %ux%u tables", f.components, f.tableSize, f.tableSize);
+    case Encoding::Pca: {
+      const size_t refined = refinementLayers(f);
+      const std::string layers = refined ? format(" (%zu of them u8 refinement layers)", refined) : std::string();
+      return format("pca %u components%s over %ux%u tables", f.components, layers.c_str(), f.tableSize, f.tableSize);
+    }
   }
   return "unknown encoding";
 }
@@ -102,10 +113,10 @@ std::string fieldSummaryJson(const Field& f, uint64_t fileBytes) {
                 kFieldFormatVersion, f.width, f.height, f.order, f.basisCount());
   out += format("\"channels\": %u, \"quantization\": \"%s\", \"file_bytes\": %" PRIu64 ", ", f.channels,
                 toString(f.quantization), fileBytes);
-  out += format("\"encoding\": \"%s\", \"table_size\": %u, \"components\": %u, \"throughput\": %s, "
-                "\"bytes_per_sample\": %u, \"path_rule\": \"%s\", \"direction_sampling\": \"%s\", ",
-                toString(f.encoding), f.tableSize, f.components, f.throughput ? "true" : "false", f.bytesPerSample(),
-                toString(s.pathRule), toString(s.directionSampling));
+  out += format("\"encoding\": \"%s\", \"table_size\": %u, \"components\": %u, \"refinement_layers\": %zu, "
+                "\"throughput\": %s, \"bytes_per_sample\": %u, \"path_rule\": \"%s\", \"direction_sampling\": \"%s\", ",
+                toString(f.encoding), f.tableSize, f.components, refinementLayers(f), f.throughput ? "true" : "false",
+                f.bytesPerSample(), toString(s.pathRule), toString(s.directionSampling));
   out += format("\"mesh\": {\"vertices\": %zu, \"triangles\": %zu}, \"media\": %s, ", f.mesh.positions.size() / 3,
                 f.mesh.indices.size() / 3, media.c_str());
   out += "\"settings\": {";

@@ -359,6 +359,90 @@ TEST(EncodingSampling, NodeSampledTableHoldsTheTracedExitAtEveryNode) {
   EXPECT_GT(mean(fitted), 1.0);
 }
 
+// --- u8 refinement layers of Pca (table_fit.h) --------------------------------------------------
+
+TEST(PcaRefinement, TheWidestComponentsAreRefinedInPlaceOfTheWeakest) {
+  constexpr size_t kSamples = 1000;
+  constexpr uint32_t kComponents = 6;
+  Random rng{7};
+  std::vector<float> weights(kSamples * kComponents);
+  for (size_t s = 0; s < kSamples; ++s) {
+    weights[s * kComponents + 0] = float(200.0 * rng.next() - 100.0);  // u8 rounding (200/255)^2/12 = 0.051
+    weights[s * kComponents + 1] = float(2.0 * rng.next() - 1.0);      // 5.1e-6
+    for (uint32_t k = 2; k < kComponents; ++k) weights[s * kComponents + k] = float(1e-4 * (rng.next() - 0.5));
+  }
+  // Dropping component 5, then 4, costs ~1e-9 each: both wide components are worth a layer; then
+  // component 2's rounding (~1e-14) is worth less than component 3's energy.
+  EXPECT_EQ(chooseRefinedComponents(weights, kSamples, kComponents), (std::vector<uint32_t>{0, 1}));
+  // With every component carrying as much as the widest, dropping one costs more than it saves.
+  std::vector<float> even(kSamples * kComponents);
+  for (float& w : even) w = float(200.0 * rng.next() - 100.0);
+  EXPECT_TRUE(chooseRefinedComponents(even, kSamples, kComponents).empty());
+  EXPECT_TRUE(chooseRefinedComponents(weights, kSamples, 1).empty());
+
+  constexpr size_t kFunction = 8;
+  std::vector<float> basis(kComponents * kFunction);
+  for (size_t i = 0; i < basis.size(); ++i) basis[i] = float(i) * 0.25f;
+  const std::vector<uint32_t> refined = {0, 1};
+  std::vector<float> w = weights;
+  makeRefinementLayers(w, kSamples, kComponents, basis, kFunction, refined);
+  EXPECT_EQ(refinedComponentsOf(basis, kComponents, kFunction), refined);
+  for (size_t s = 0; s < kSamples; ++s) EXPECT_EQ(w[s * kComponents + 4] + w[s * kComponents + 5], 0.0f);
+  // The coarse value of a component plus its refinement weight is the weight again.
+  auto coarse = [&](size_t s, uint32_t k) { return std::round(w[s * kComponents + k]); };
+  fillRefinementWeights(w, kSamples, kComponents, refined, coarse);
+  for (size_t s = 0; s < kSamples; ++s)
+    for (size_t i = 0; i < refined.size(); ++i) {
+      const uint32_t k = refined[i];
+      EXPECT_NEAR(coarse(s, k) + w[s * kComponents + 4 + i], weights[s * kComponents + k], 1e-5f);
+    }
+}
+
+// The same field without its refinement layers: the first K - M layers are a prefix of the
+// layer-major coefficients, quantized with the codes a u8 field of K - M components has.
+Field withoutRefinement(Field field, uint32_t refinements) {
+  const size_t functionSize = size_t(field.tableSize) * field.tableSize * field.channels;
+  field.components -= refinements;
+  field.settings.components = field.components;
+  field.coefficientsU8.resize(size_t(field.components) * field.texelCount());
+  field.scale.resize(field.components);
+  field.bias.resize(field.components);
+  field.basis.resize(size_t(field.components) * functionSize);
+  return field;
+}
+
+TEST(PcaRefinement, U8SphereDecodesCloseToTheFloatFunctions) {
+  const Scene scene = builtin("sphere", 3);
+  constexpr uint64_t kBudget = 700;
+  BakeSettings settings = atNodes(settingsFor(Encoding::Pca, 64));
+  settings.sampleBudget = kBudget;
+  const Field u8 = bake(scene, settings, "builtin:sphere");
+  ASSERT_TRUE(validateField(u8).ok());
+  const std::vector<uint32_t> refined =
+      refinedComponentsOf(u8.basis, u8.components, size_t(u8.tableSize) * u8.tableSize * u8.channels);
+  ASSERT_FALSE(refined.empty());
+  const uint32_t m = static_cast<uint32_t>(refined.size());
+  // The float functions: the same basis without refinement, in f16 (its rounding is 2^-11).
+  settings.components = 64 - m;
+  settings.quantization = Quantization::F16;
+  const Field f16 = bake(scene, settings, "builtin:sphere");
+  const Field plain = withoutRefinement(u8, m);
+  const auto plainValid = validateField(plain);
+  ASSERT_TRUE(plainValid.ok()) << plainValid.error().message;
+  std::vector<double> refinedErrors, plainErrors;
+  Random rng{11};
+  for (uint64_t texel : sampleTexels(u8, 7))
+    for (int i = 0; i < 16; ++i) {
+      const glm::dvec3 w = cosineDirection(rng, 0.05);
+      const glm::dvec3 reference = decodedExit(f16, texel, w);
+      refinedErrors.push_back(angleDegrees(decodedExit(u8, texel, w), reference));
+      plainErrors.push_back(angleDegrees(decodedExit(plain, texel, w), reference));
+    }
+  std::printf("sphere pca 64 u8, %u refinement layers: mean angle to the float functions %.4f deg, "
+              "without them %.4f deg (%zu)\n", m, mean(refinedErrors), mean(plainErrors), refinedErrors.size());
+  EXPECT_LT(mean(refinedErrors), 0.5 * mean(plainErrors));
+}
+
 // --- 2: nested media at oblique incidence ----------------------------------------------------------
 
 // A box centred at the origin with half extents h and flat normals (the built-in cube, scaled).

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <numbers>
 #include <string>
 
@@ -180,6 +181,73 @@ std::vector<float> projectOnBasis(const std::vector<float>& tables, size_t sampl
       out[s * basis.components + k] = static_cast<float>(w);
     }
   return out;
+}
+
+std::vector<uint32_t> chooseRefinedComponents(const std::vector<float>& weights, size_t samples, uint32_t components) {
+  if (samples == 0 || components < 2 || weights.size() != samples * components) return {};
+  std::vector<double> rounding(components), energy(components);
+  for (uint32_t k = 0; k < components; ++k) {
+    float lo = weights[k], hi = weights[k];
+    double squares = 0.0;
+    for (size_t s = 0; s < samples; ++s) {
+      const float w = weights[s * components + k];
+      lo = std::min(lo, w), hi = std::max(hi, w);
+      squares += double(w) * double(w);
+    }
+    const double step = (double(hi) - double(lo)) / 255.0;
+    rounding[k] = step * step / 12.0;
+    energy[k] = squares / double(samples);
+  }
+  std::vector<uint32_t> refined;
+  std::vector<bool> taken(components, false);
+  for (uint32_t last = components - 1; last > 0; --last) {  // `last`: the function a refinement replaces
+    uint32_t worst = last;
+    for (uint32_t k = 0; k < last; ++k)
+      if (!taken[k] && (worst == last || rounding[k] > rounding[worst])) worst = k;
+    // A refinement layer rounds the residual to 1/255 of the step, leaving rounding / 255^2.
+    const double gain = rounding[worst] * (1.0 - 1.0 / (255.0 * 255.0)), cost = energy[last] - rounding[last];
+    if (worst == last || taken[last] || !(gain > cost)) break;
+    taken[worst] = true;
+    refined.push_back(worst);
+  }
+  return refined;
+}
+
+void makeRefinementLayers(std::vector<float>& weights, size_t samples, uint32_t components, std::vector<float>& basis,
+                          size_t functionSize, const std::vector<uint32_t>& refined) {
+  const uint32_t first = components - static_cast<uint32_t>(refined.size());
+  for (size_t i = 0; i < refined.size(); ++i) {
+    const uint32_t layer = first + static_cast<uint32_t>(i);
+    std::copy_n(&basis[refined[i] * functionSize], functionSize, &basis[layer * functionSize]);
+    for (size_t s = 0; s < samples; ++s) weights[s * components + layer] = 0.0f;
+  }
+}
+
+void fillRefinementWeights(std::vector<float>& weights, size_t samples, uint32_t components,
+                           const std::vector<uint32_t>& refined,
+                           const std::function<float(size_t sample, uint32_t component)>& coarse) {
+  const uint32_t first = components - static_cast<uint32_t>(refined.size());
+  for (size_t s = 0; s < samples; ++s)
+    for (size_t i = 0; i < refined.size(); ++i) {
+      const uint32_t k = refined[i];
+      weights[s * components + first + i] = weights[s * components + k] - coarse(s, k);
+    }
+}
+
+std::vector<uint32_t> refinedComponentsOf(const std::vector<float>& basis, uint32_t components, size_t functionSize) {
+  if (functionSize == 0 || basis.size() != size_t(components) * functionSize) return {};
+  auto same = [&](uint32_t a, uint32_t b) {
+    return std::memcmp(&basis[a * functionSize], &basis[b * functionSize], functionSize * sizeof(float)) == 0;
+  };
+  std::vector<uint32_t> refined;  // collected from the last layer back
+  for (uint32_t layer = components; layer-- > 1;) {
+    uint32_t k = 0;
+    while (k < layer && !same(k, layer)) ++k;
+    if (k == layer) break;
+    refined.push_back(k);
+  }
+  std::reverse(refined.begin(), refined.end());
+  return refined;
 }
 
 }  // namespace shrefract::bake
