@@ -4,6 +4,7 @@
 #include <shrefract/bake/image_metrics.h>
 #include <shrefract/bake/layout.h>
 #include <shrefract/bake/reference_render.h>
+#include <shrefract/bake/shard.h>
 #include <shrefract/cpu_reference.h>
 
 #include <algorithm>
@@ -30,9 +31,8 @@ namespace {
 // section skips it (with a line in the report) when it is not there.
 constexpr const char* kBunny = "../shared/assets/bunny.glb";
 
-// One field setting. It is baked once in f16; its u8 row re-quantizes those coefficients with
-// encodeCoefficients, the bake's own last step (the f16 rounding before it moves a value by at
-// most 2^-11 of itself, far below a u8 step), so each pair costs one bake.
+// One field setting. It is traced once and finished twice, in f16 and in u8 (bakePair): the u8
+// row is the field `bake --quant u8` writes, refinement layers included (Pca), for one trace.
 struct Variant {
   std::string series;  // plot series without the quantization: "sh", "table", "pca", ...
   std::string label;   // point label: "L4", "N16", "K32"
@@ -187,21 +187,24 @@ std::string parametersOf(const BakeSettings& s) {
   return "?";
 }
 
-// The u8 twin of an f16 field (see Variant).
-Result<Field> requantizedToU8(const Field& f16) {
-  Field out = f16;
-  const uint64_t texels = f16.texelCount();
-  const uint32_t values = f16.valuesPerLayer();
-  std::vector<float> coefficients(size_t(f16.layerCount()) * texels * values);
-  for (uint32_t layer = 0; layer < f16.layerCount(); ++layer)
-    for (uint64_t t = 0; t < texels; ++t)
-      for (uint32_t v = 0; v < values; ++v)
-        coefficients[(size_t(layer) * texels + t) * values + v] = fieldCoefficient(f16, layer, t, v);
-  out.quantization = Quantization::U8;
-  out.settings.quantization = Quantization::U8;
-  if (auto r = encodeCoefficients(out, coefficients); !r) return r.error();
-  if (auto r = validateField(out); !r) return r.error();
-  return out;
+// The f16 field of a variant and its u8 twin from one trace (see Variant): the bake's part, finished
+// twice, as `bake --shard` and `merge` would (byte for byte the fields bakeField makes).
+struct BakedPair {
+  Field f16;
+  Result<Field> u8;
+};
+Result<BakedPair> bakePair(const bake::Scene& scene, const bake::BakeOptions& options) {
+  auto part = bake::bakePart(scene, options, bake::Shard{});
+  if (!part) return part.error();
+  bake::BakePart u8Part = part.value();
+  u8Part.settings.quantization = Quantization::U8;
+  std::vector<bake::BakePart> parts;
+  parts.push_back(std::move(part.value()));
+  auto f16 = bake::mergeParts(scene, std::move(parts));
+  if (!f16) return f16.error();
+  parts.clear();
+  parts.push_back(std::move(u8Part));
+  return BakedPair{std::move(f16.value()), bake::mergeParts(scene, std::move(parts))};
 }
 
 // A GPU render: the image at S x S samples per pixel (untimed), then `frames` timed frames at 1 spp
@@ -305,7 +308,7 @@ struct DefaultField {
   std::string error;
 };
 
-// Bakes one variant and measures its f16 and u8 rows. A failing bake, re-quantization, upload or
+// Bakes one variant and measures its f16 and u8 rows. A failing bake, upload or
 // GPU render makes error rows; only a failing comparison (a bug) is an error.
 Result<void> measureVariant(SceneContext& c, const Variant& v, FidelityScene& out, DefaultField* keep) {
   const BakeSettings& s = v.settings;
@@ -336,12 +339,12 @@ Result<void> measureVariant(SceneContext& c, const Variant& v, FidelityScene& ou
   bo.settings.source = c.spec;
   bo.settings.threads = c.options.threads;
   bo.heldOutDirections = 0;
-  auto baked = bake::bakeField(c.scene, bo);
+  auto baked = bakePair(c.scene, bo);
   if (!baked) {
     errorRows("bake failed: " + baked.error().message);
     return {};
   }
-  const Field& f16 = baked.value();
+  const Field& f16 = baked.value().f16;
   if (f16.encoding != s.encoding || f16.settings.pathRule != s.pathRule || f16.throughput != s.throughput ||
       f16.quantization != Quantization::F16) {
     errorRows(fmt("the bake returned a %s field (%s, throughput %s, %s) for a %s request (%s, throughput %s)",
@@ -349,7 +352,7 @@ Result<void> measureVariant(SceneContext& c, const Variant& v, FidelityScene& ou
                   toString(f16.quantization), toString(s.encoding), ruleName(s.pathRule), s.throughput ? "on" : "off"));
     return {};
   }
-  auto u8 = requantizedToU8(f16);
+  const Result<Field>& u8 = baked.value().u8;
   const auto& sameRule = c.exact.at({s.pathRule, s.throughput});
   for (Quantization q : {Quantization::F16, Quantization::U8}) {
     FidelityRow row = proto;
@@ -358,7 +361,7 @@ Result<void> measureVariant(SceneContext& c, const Variant& v, FidelityScene& ou
     row.bakeSeconds = f16.statistics.bakeSeconds;
     const bool isU8 = q == Quantization::U8;
     if (isU8 && !u8) {
-      row.error = "re-quantization to u8 failed: " + u8.error().message;
+      row.error = "u8 bake failed: " + u8.error().message;
       out.rows.push_back(row);
       continue;
     }
@@ -397,7 +400,7 @@ Result<void> measureVariant(SceneContext& c, const Variant& v, FidelityScene& ou
     out.rows.push_back(row);
     if (keep) (isU8 ? keep->gpuU8 : keep->gpuF16) = std::move(gpu).value();
   }
-  if (keep) keep->f16 = std::move(baked).value();
+  if (keep) keep->f16 = std::move(baked.value().f16);
   return {};
 }
 
@@ -639,8 +642,8 @@ std::string markdownOf(const Profile& p, const std::vector<FidelityScene>& scene
             p.treeDepth, width, height, s, s, width * s, height * s, s, s, p.environmentWidth, seconds);
   md += "Columns: *vs physical* is the PSNR against the physical reference; *vs exact* against the exact single-path "
         "render this row approximates (same path rule and throughput; for the exact rows, the same rule without "
-        "throughput; single interface: exact highest-energy). Fields are baked in f16; each u8 row re-quantizes "
-        "its f16 twin's coefficients (the bake's own last step), so the pair shares one bake. Bytes per sample "
+        "throughput; single interface: exact highest-energy). Each field setting is traced once and finished in "
+        "f16 and in u8, as `bake --shard` and `merge` would (a u8 Pca field has refinement layers). Bytes per sample "
         "count the coefficients only. GPU times are timestamps of one frame at 1 spp; CPU times are per 1-spp "
         "frame (the supersampled render's time divided by the samples per pixel).\n\n";
   for (const FidelityScene& sc : scenes) {

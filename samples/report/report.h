@@ -65,7 +65,7 @@ struct FidelityRow {
   uint64_t samples = 0;          // fields: distinct surface points traced (BakeStatistics::uniqueSamples)
   double psnrPhysical = 0.0;     // dB against the physical reference
   double psnrSameRule = 0.0;     // dB against the exact render of the same path rule (see fidelity.cpp)
-  double bakeSeconds = 0.0;      // fields: the bake (a u8 row re-quantized from its f16 twin: that bake's)
+  double bakeSeconds = 0.0;      // fields: the bake (a u8 row shares its f16 twin's trace: that bake's)
   double decompressionMs = 0.0;  // GPU timestamps, 1 spp, last timed frame
   double rasterMs = 0.0;
   double cpuMs = 0.0;            // CPU renderers: milliseconds per 1-spp frame (the 4x4 render / 16)
