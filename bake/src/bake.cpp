@@ -40,15 +40,23 @@ uint64_t peakResidentBytes() {
 }
 
 EncodingShape shapeOf(const BakeSettings& s, uint32_t channels) {
-  return {s.encoding, s.order, s.tableSize, s.components, channels};
+  return {s.encoding, s.order, s.tableSize, s.components, channels,
+          s.encoding != Encoding::Sh && s.directionSampling == DirectionSampling::Nodes};
 }
 size_t strideOf(const EncodingShape& shape) { return size_t(shape.layerCount()) * shape.valuesPerLayer(); }
 
-// The float (unquantized) encoding at local direction w: the engine's own sums (field.h), so the
-// bake measures exactly what the decoder will compute before quantization.
-void decodeFloat(const EncodingShape& shape, const std::vector<float>& basis, const float* coeffs, glm::vec3 w,
-                 float* out) {
-  evaluateCoefficients(shape, coeffs, basis.empty() ? nullptr : basis.data(), {w.x, w.y, w.z}, out);
+// The rows of M_s, as the field stores a sample's frame.
+std::array<float, 12> sampleRows(const SurfacePoint& p) {
+  return localFromWorldRows(p.position, frameFromNormal(p.shadingNormal));
+}
+
+// The float (unquantized) encoding at local direction w of the sample at `point`: the engine's
+// own sums (field.h), jump-aware as the decoder is, so the bake measures exactly what the
+// decoder will compute before quantization.
+void decodeFloat(const EncodingShape& shape, const std::vector<float>& basis, const float* coeffs,
+                 const SurfacePoint& point, glm::vec3 w, float* out) {
+  const std::array<float, 12> rows = sampleRows(point);
+  evaluateCoefficients(shape, coeffs, basis.empty() ? nullptr : basis.data(), {w.x, w.y, w.z}, out, rows.data());
 }
 
 // Angle in degrees between two directions; a zero-length reconstruction counts as 180 degrees.
@@ -403,21 +411,21 @@ void traceAndFit(const BakePlan& plan, const SampleEncoder& encoder, const BakeO
 
 // Fit and held-out errors of the float encoding (grid: every kGridCheckStride-th sample).
 void measureFit(const EncodingShape& shape, const std::vector<float>& basis, const std::vector<float>& coeffs,
-                const DirectionGrid& grid, const TracedChecks& checks, uint32_t held, std::vector<SampleError>& errors) {
+                const SampleAtlas& atlas, const DirectionGrid& grid, const TracedChecks& checks, uint32_t held, std::vector<SampleError>& errors) {
   const uint32_t nd = static_cast<uint32_t>(grid.directions.size());
   std::vector<float> out(shape.channels);
   for (size_t s = 0; s < errors.size(); ++s) {
     SampleError& err = errors[s];
     const float* c = &coeffs[s * strideOf(shape)];
     for (uint32_t d = 0; d < (s % kGridCheckStride == 0 ? nd : 0u); ++d) {
-      decodeFloat(shape, basis, c, glm::vec3(grid.directions[d]), out.data());
+      decodeFloat(shape, basis, c, atlas.samples[s], glm::vec3(grid.directions[d]), out.data());
       const double a = angleDegrees(glm::vec3(out[0], out[1], out[2]), checks.gridExits[s / kGridCheckStride * nd + d]);
       err.gridSquares += a * a;
       err.gridMax = std::max(err.gridMax, a);
       ++err.gridCount;
     }
     for (uint32_t h = 0; h < held; ++h) {
-      decodeFloat(shape, basis, c, checks.heldDirections[s * held + h], out.data());
+      decodeFloat(shape, basis, c, atlas.samples[s], checks.heldDirections[s * held + h], out.data());
       const double a = angleDegrees(glm::vec3(out[0], out[1], out[2]), checks.heldExits[s * held + h]);
       err.heldSquares += a * a;
       err.heldMax = std::max(err.heldMax, a);
@@ -529,8 +537,8 @@ BudgetProbe traceProbe(const SampleAtlas& atlas, const Tracer& tracer, const Dir
 
 // Mean angular error of one candidate on the probe's test samples, cosine-weighted (as often as a
 // view direction covers the screen), after quantization.
-Result<double> candidateError(const BudgetCandidate& c, const BudgetProbe& p, const DirectionGrid& grid,
-                              uint32_t channels) {
+Result<double> candidateError(const BudgetCandidate& c, const BudgetProbe& p, const SampleAtlas& atlas,
+                              const DirectionGrid& grid, uint32_t channels) {
   auto encoder = SampleEncoder::create(grid, c.settings, channels);
   if (!encoder) return encoder.error();
   const size_t nd = grid.directions.size(), fitStride = encoder->stride();
@@ -565,7 +573,7 @@ Result<double> candidateError(const BudgetCandidate& c, const BudgetProbe& p, co
   for (size_t t = 0; t < p.test.size(); ++t)
     for (uint32_t h = 0; h < BudgetProbe::kHeld; ++h) {
       const glm::vec3 w = p.heldDirs[t * BudgetProbe::kHeld + h];
-      decodeFloat(shape, basis, &test[t * strideOf(shape)], w, out.data());
+      decodeFloat(shape, basis, &test[t * strideOf(shape)], atlas.samples[p.test[t]], w, out.data());
       sum += double(w.z) * angleDegrees(glm::vec3(out[0], out[1], out[2]), p.heldExits[t * BudgetProbe::kHeld + h]);
       weight += double(w.z);
     }
@@ -585,7 +593,7 @@ Result<BakeSettings> selectForBudget(const SampleAtlas& atlas, const Tracer& tra
   const BudgetProbe probe = traceProbe(atlas, tracer, grid, s, channels, threads);
   const BudgetCandidate* best = nullptr;
   for (BudgetCandidate& c : candidates) {
-    auto error = candidateError(c, probe, grid, channels);
+    auto error = candidateError(c, probe, atlas, grid, channels);
     if (!error) {  // e.g. too few directions for an SH order: not a candidate
       if (note) note("max-bytes-per-sample: " + candidateLabel(c.settings) + " skipped: " + error.error().message);
       continue;
@@ -826,7 +834,7 @@ void measureQuantization(const Field& field, const SampleAtlas& atlas, const std
     if (texelOf[s] == UINT64_MAX) continue;
     for (size_t d = 0; d < grid.directions.size(); d += 3) {
       const glm::vec3 w(grid.directions[d]);
-      decodeFloat(shape, basis, &coeffs[s * strideOf(shape)], w, a.data());
+      decodeFloat(shape, basis, &coeffs[s * strideOf(shape)], atlas.samples[s], w, a.data());
       evaluateSample(field, texelOf[s], {w.x, w.y, w.z}, b.data());
       const double angle = angleDegrees(glm::vec3(a[0], a[1], a[2]), glm::vec3(b[0], b[1], b[2]));
       squares += angle * angle;
@@ -911,7 +919,7 @@ Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
                          size_t(shape.tableSize) * shape.tableSize * shape.channels, refined);
   }
   std::vector<SampleError> errors(sampleCount);
-  measureFit(shape, basis, coeffs, grid, g.checks, held, errors);
+  measureFit(shape, basis, coeffs, atlas, grid, g.checks, held, errors);
 
   Field field;
   field.width = atlas.width;
@@ -931,8 +939,7 @@ Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
   field.frames.assign(texels * 12, 0.0f);
   for (size_t t = 0; t < texels; ++t) {
     if (atlas.texelKinds[t] != kTexelSample) continue;
-    const SurfacePoint& p = atlas.samples[atlas.texelSample[t]];
-    const auto rows = localFromWorldRows(p.position, frameFromNormal(p.shadingNormal));
+    const auto rows = sampleRows(atlas.samples[atlas.texelSample[t]]);
     std::copy(rows.begin(), rows.end(), &field.frames[t * 12]);
   }
   if (auto encoded = encodeWithRefinement(field, atlas, shape, coeffs, refined); !encoded) return encoded.error();

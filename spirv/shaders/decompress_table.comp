@@ -1,10 +1,11 @@
 #version 460
 // Decompression in data space of the Table and Pca encodings (shrefract/field.h): for every
 // sample, the eye in the sample's frame (as in decompress.comp) falls in a cell of the
-// hemi-octahedral grid (shrefract/hemi_oct.glsl), and each channel c is
-//   Table: sum over the cell's 4 nodes n of weight_n * a_n,c(s);
-//   Pca:   sum over the K components k of a_k(s) * sum over the 4 nodes of weight_n * B_k(n, c);
-// the sample's texel gets their distortion texel (decompress_common.glsl). Empty texels keep the
+// hemi-octahedral grid (shrefract/hemi_oct.glsl), whose 4 corners n hold, for each channel c,
+//   Table: a_n,c(s);
+//   Pca:   the sum over the K components k of a_k(s) * B_k(n, c);
+// blended bilinearly, or jump-aware where the corners disagree (interpolateCorners below); the
+// sample's texel gets the result's distortion texel (decompress_common.glsl). Empty texels keep the
 // zero the image was created with; the gutter pass fills gutter texels. Mirrored by
 // engine/src/field/field_decode.cpp (evaluateSample), which cpu_reference.cpp (decodeTexel) uses.
 //
@@ -20,6 +21,7 @@ layout(constant_id = kSpecEncoding) const uint ENCODING = kEncodingTable;  // kE
 // N: nodes per side of the grid (Table: of the coefficients; Pca: of the basis functions).
 layout(constant_id = kSpecTableSize) const uint TABLE_SIZE = 8u;
 layout(constant_id = kSpecComponents) const uint COMPONENTS = 1u;  // Pca: K
+layout(constant_id = kSpecJumpAware) const bool JUMP_AWARE = false;  // the corners blended jump-aware
 layout(local_size_x = kDecompressLocalSize) in;
 
 const uint NODES = TABLE_SIZE * TABLE_SIZE;
@@ -38,22 +40,74 @@ float coefficient(uint s, uint layer, uint v) {
   return sb.y + sb.x * float((fetchWord(e >> 2u) >> (8u * (e & 3u))) & 0xffu);
 }
 
+// The exit of a path that goes straight through, in object space, for the local direction w toward
+// the eye (field_decode.cpp straightThrough).
+vec3 straightThrough(uint s, vec3 w) {
+  float l = sqrt(w.x * w.x + w.y * w.y + w.z * w.z);
+  if (!(l > 0.0)) return vec3(0.0);
+  vec3 r0 = frames[3u * s].xyz, r1 = frames[3u * s + 1u].xyz, r2 = frames[3u * s + 2u].xyz;
+  return vec3(-(w.x * r0.x + w.y * r1.x + w.z * r2.x) / l, -(w.x * r0.y + w.y * r1.y + w.z * r2.y) / l,
+              -(w.x * r0.z + w.y * r1.z + w.z * r2.z) / l);
+}
+
+// Jump-aware interpolation of the cell's corners v (field_decode.cpp interpolateCorners, which
+// explains it; constants in gpu_layout.h), in the same float operations.
+void interpolateCorners(uint s, HemiOctBilinear b, vec3 w, float v[4][5], inout float sum[5]) {
+  for (int j = 0; j < 4; ++j)
+    for (int c = 0; c < CHANNELS; ++c) sum[c] += b.weight[j] * v[j][c];
+  if (!JUMP_AWARE || TABLE_SIZE < kJumpMinTableSize) return;
+  vec3 eye = straightThrough(s, w);
+  vec3 e[4];
+  for (int j = 0; j < 4; ++j) {
+    uint node = b.node[j];
+    vec3 d = straightThrough(s, hemiOctDirection(node % TABLE_SIZE, node / TABLE_SIZE, TABLE_SIZE));
+    e[j] = vec3(v[j][0] + (eye.x - d.x), v[j][1] + (eye.y - d.y), v[j][2] + (eye.z - d.z));
+  }
+  int m = 0;
+  for (int j = 1; j < 4; ++j)
+    if (b.weight[j] > b.weight[m]) m = j;
+  float lm = sqrt(e[m].x * e[m].x + e[m].y * e[m].y + e[m].z * e[m].z);
+  float kept[4];
+  float total = 0.0, discounted = 0.0;
+  for (int j = 0; j < 4; ++j) {
+    float lj = sqrt(e[j].x * e[j].x + e[j].y * e[j].y + e[j].z * e[j].z);
+    float dotJ = e[j].x * e[m].x + e[j].y * e[m].y + e[j].z * e[m].z;
+    float cosine = lj * lm > kMinDirectionLength2 ? dotJ / (lj * lm) : 1.0;
+    float keep = clamp((cosine - kJumpCosineNone) / (kJumpCosineFull - kJumpCosineNone), 0.0, 1.0);
+    kept[j] = b.weight[j] * keep;
+    total += kept[j];
+    discounted += b.weight[j] - kept[j];
+  }
+  float blend = min(1.0, kJumpBlendGain * discounted);
+  if (!(blend > 0.0) || !(total > 0.0)) return;
+  for (int c = 0; c < CHANNELS; ++c) {
+    float estimate = 0.0;
+    for (int j = 0; j < 4; ++j) estimate += kept[j] * (c < 3 ? e[j][c] : v[j][c]);
+    sum[c] += blend * (estimate / total - sum[c]);
+  }
+}
+
 void main() {
   uint s = invocationIndex();
   if (s >= pc.size.w) return;
-  HemiOctBilinear b = hemiOctBilinear(eyeInFrame(s, vec4(pc.eyeObject.xyz, 1.0)), TABLE_SIZE);
-  float sum[5] = float[5](0.0, 0.0, 0.0, 0.0, 0.0);
+  vec3 w = eyeInFrame(s, vec4(pc.eyeObject.xyz, 1.0));
+  HemiOctBilinear b = hemiOctBilinear(w, TABLE_SIZE);
+  float v[4][5];
+  for (int j = 0; j < 4; ++j)
+    for (int c = 0; c < 5; ++c) v[j][c] = 0.0;
   if (ENCODING == kEncodingTable) {
     for (int j = 0; j < 4; ++j)
-      for (int c = 0; c < CHANNELS; ++c) sum[c] += b.weight[j] * coefficient(s, b.node[j], uint(c));
-  } else {
+      for (int c = 0; c < CHANNELS; ++c) v[j][c] = coefficient(s, b.node[j], uint(c));
+  } else {  // each corner sums over k in ascending order, as the CPU decoder does
     for (uint k = 0u; k < COMPONENTS; ++k) {
       float a = coefficient(s, k, 0u);
       for (int j = 0; j < 4; ++j) {
         uint first = (k * NODES + b.node[j]) * uint(CHANNELS);
-        for (int c = 0; c < CHANNELS; ++c) sum[c] += a * b.weight[j] * basis[first + uint(c)];
+        for (int c = 0; c < CHANNELS; ++c) v[j][c] += a * basis[first + uint(c)];
       }
     }
   }
+  float sum[5] = float[5](0.0, 0.0, 0.0, 0.0, 0.0);
+  interpolateCorners(s, b, w, v, sum);
   storeSample(s, distortionTexel(vec3(sum[0], sum[1], sum[2]), sum[3], sum[4]));
 }

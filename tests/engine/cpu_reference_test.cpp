@@ -5,7 +5,10 @@
 #include <gtest/gtest.h>
 #include <shrefract/cpu_reference.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <vector>
 
@@ -88,15 +91,17 @@ TEST(CpuReference, ZeroSumHasNoDirection) {
 }
 
 // A 1x1 atlas holding one sample with the identity frame at the origin (w = eye), of a Table or
-// Pca encoding on a 2x2 grid (nodes (0,0), (1,0), (0,1), (1,1) at u, v in {0, 1}), U8. `values`
+// Pca encoding on a 2x2 grid (nodes (0,0), (1,0), (0,1), (1,1) at u, v in {0, 1}; or N x N), U8. `values`
 // are the coefficients in encodeCoefficients' order (Table: node-major, every channel; Pca: one
 // weight per component). With a single texel every value has zero range and decodes exactly.
 Field gridField(Encoding encoding, uint32_t channels, bool throughput, const std::vector<float>& values,
-                const std::vector<float>& basis = {}) {
+                const std::vector<float>& basis = {}, uint32_t tableSize = 2,
+                DirectionSampling sampling = DirectionSampling::Grid) {
   Field f;
   f.width = f.height = 1;
   f.encoding = encoding;
-  f.tableSize = 2;
+  f.tableSize = tableSize;
+  f.settings.directionSampling = sampling;
   f.components = encoding == Encoding::Pca ? static_cast<uint32_t>(values.size()) : 0;
   f.channels = channels;
   f.throughput = throughput;
@@ -160,6 +165,51 @@ TEST(CpuReference, PcaSumsWeightedBasisFunctions) {
   EXPECT_NEAR(d[0], 0.5f / len2, 1e-6f);
   EXPECT_NEAR(d[1], -0.5f / len2, 1e-6f);
   EXPECT_NEAR(d[2], 2.0f / len2, 1e-6f);
+}
+
+// A node-sampled 16x16 table holding the straight-through exit (a slab's: the view ray's own
+// direction, -w with the identity frame) at every node but one, which points the other way.
+// Wherever that node is a corner of the eye's cell with at least a quarter of the weight but not
+// the most, jump-aware interpolation leaves it out and the other corners' estimates are all
+// exactly -w; plain bilinear interpolation (the same values, grid-fitted) blends it in.
+TEST(CpuReference, JumpAwareCornersLeaveOutANodeAcrossAJump) {
+  constexpr uint32_t n = 16, wrong = 8 * n + 8;
+  std::vector<float> nodes;
+  for (uint32_t k = 0; k < n * n; ++k) {
+    const std::array<float, 3> d = hemiOctDirection(k % n, k / n, n);
+    for (int c = 0; c < 3; ++c) nodes.push_back(k == wrong ? d[size_t(c)] : -d[size_t(c)]);
+  }
+  const Field jumpAware = gridField(Encoding::Table, 3, false, nodes, {}, n, DirectionSampling::Nodes);
+  const Field bilinear = gridField(Encoding::Table, 3, false, nodes, {}, n, DirectionSampling::Grid);
+  ASSERT_TRUE(jumpAware.shape().jumpAware);
+  ASSERT_FALSE(bilinear.shape().jumpAware);
+  double worstJumpAware = 0.0, leastBilinear = 180.0;
+  int checked = 0;
+  for (float tx = 0.05f; tx < 1.0f; tx += 0.1f)
+    for (float ty = 0.05f; ty < 1.0f; ty += 0.1f) {
+      // In the cell whose lower corner is the wrong node: its weight (1 - tx)(1 - ty).
+      const float wWrong = (1.0f - tx) * (1.0f - ty);
+      const float wMax = std::max({wWrong, tx * (1.0f - ty), (1.0f - tx) * ty, tx * ty});
+      if (wWrong < 0.26f || wWrong > wMax - 0.02f) continue;
+      const float a = 2.0f * (8.0f + tx) / float(n - 1) - 1.0f, b = 2.0f * (8.0f + ty) / float(n - 1) - 1.0f;
+      const float px = 0.5f * (a + b), py = 0.5f * (a - b), pz = 1.0f - std::fabs(px) - std::fabs(py);
+      const float len = std::sqrt(px * px + py * py + pz * pz);
+      const float w[3] = {px / len, py / len, pz / len};
+      auto angle = [&](const reference::Vec4& d) {
+        const double x = d[0], y = d[1], z = d[2];
+        const double dot = -(x * double(w[0]) + y * double(w[1]) + z * double(w[2]));
+        return std::acos(std::clamp(dot / std::sqrt(x * x + y * y + z * z), -1.0, 1.0)) * 180.0 / std::numbers::pi;
+      };
+      const reference::Vec3 eye{3.0f * w[0], 3.0f * w[1], 3.0f * w[2]};
+      worstJumpAware = std::max(worstJumpAware, angle(reference::decodeTexel(jumpAware, 0, eye)));
+      leastBilinear = std::min(leastBilinear, angle(reference::decodeTexel(bilinear, 0, eye)));
+      ++checked;
+    }
+  std::printf("%d eyes: jump-aware within %.4f deg of the straight path, bilinear at least %.1f deg off\n", checked,
+              worstJumpAware, leastBilinear);
+  EXPECT_GE(checked, 10);
+  EXPECT_LT(worstJumpAware, 0.05);  // binary16 rounding of the stored direction
+  EXPECT_GT(leastBilinear, 3.0);  // measured 5.9 deg: the same check fails without the jump-aware rule
 }
 
 TEST(CpuReference, GutterRulesAndEmptyTexels) {

@@ -147,6 +147,36 @@ TEST_F(DecompressionEncodings, TableAndPcaMatchCpuReference) {
       }
 }
 
+// Jump-aware corners (field_decode.cpp interpolateCorners): node-sampled tables of N >= 12 whose
+// every fifth node points the other way. The CPU decode must differ from the plain bilinear one
+// (the same coefficients read as grid-fitted) at many samples, so the GPU's agreement covers it.
+TEST_F(DecompressionEncodings, JumpAwareCornersMatchCpuReference) {
+  uint32_t seed = 400;
+  for (Encoding encoding : {Encoding::Table, Encoding::Pca})
+    for (Quantization q : {Quantization::U8, Quantization::F16})
+      for (const ChannelLayout& layout : {kLayouts[1], kLayouts[3]}) {
+        SyntheticFieldOptions o;
+        o.encoding = encoding;
+        o.quantization = q;
+        o.channels = layout.channels;
+        o.throughput = layout.throughput;
+        o.tableSize = q == Quantization::U8 ? 16 : 12;  // 12: gpu_layout.h kJumpMinTableSize
+        o.components = 7;
+        o.emptyAndGutters = true;
+        o.nodeSampled = o.jumps = true;
+        o.seed = ++seed;
+        SCOPED_TRACE(describe(o));
+        Field plain = testing::makeSyntheticField(o);
+        ASSERT_TRUE(plain.shape().jumpAware);
+        plain.settings.directionSampling = DirectionSampling::Grid;
+        const reference::Vec3 eye{kEyes[0][0], kEyes[0][1], kEyes[0][2]};
+        const reference::DistortionImage jumpAware = reference::decompress(testing::makeSyntheticField(o), eye);
+        const reference::DistortionImage bilinear = reference::decompress(plain, eye);
+        EXPECT_GT(testing::countChanged(jumpAware.rgba, bilinear.rgba), 50u) << "no corner was discounted";
+        ASSERT_NO_FATAL_FAILURE(check(o));
+      }
+}
+
 TEST_F(DecompressionEncodings, ShWithThroughputMatchesCpuReference) {
   uint32_t seed = 200;
   // Order 20 with 5 channels reads its scale/bias table from the storage buffer (gpu_layout.h).

@@ -39,6 +39,10 @@ struct SyntheticFieldOptions {
   float constantThroughput = -1.0f;
   Quantization quantization = Quantization::U8;
   bool emptyAndGutters = false;  // last column empty, last row gutters
+  // Table, Pca: traced at the nodes (settings.directionSampling), so decoded jump-aware
+  // (EncodingShape::jumpAware); `jumps`: every fifth node's direction points the other way.
+  bool nodeSampled = false;
+  bool jumps = false;
   uint32_t seed = 1;
   float radius = 1.0f;
   std::array<float, 3> center{0.0f, 0.0f, 0.0f};
@@ -145,7 +149,8 @@ inline std::vector<float> syntheticTableCoefficients(const SyntheticFieldOptions
       for (uint32_t c = 0; c < o.channels; ++c) {
         const uint32_t role = syntheticRole(o, c);
         const float n = noise.at(node, role, x, y);
-        float value = role < 3 ? 3.0f * directions[size_t(t) * 3 + role] + 0.6f * n
+        const float flip = o.jumps && node % 5 == 2 ? -1.0f : 1.0f;
+        float value = role < 3 ? flip * 3.0f * directions[size_t(t) * 3 + role] + 0.6f * n
                       : role == 3 ? 2.0f + 0.5f * std::sin(0.2f * x) + 0.3f * n
                       : o.constantThroughput >= 0.0f ? o.constantThroughput
                                                      : 0.7f + 0.45f * n;
@@ -169,8 +174,9 @@ inline std::vector<float> syntheticPcaCoefficients(const SyntheticFieldOptions& 
       for (uint32_t c = 0; c < o.channels; ++c) {
         const uint32_t role = syntheticRole(o, c);
         const float r = basisNoise.amplitude[(size_t(k) * nodes + n) * 5 + role];
+        const float axis = o.jumps && n % 5 == 2 ? -1.0f : 1.0f;
         float value = k == 0 ? (role < 3 ? 0.3f * r : role == 3 ? 2.0f + 0.3f * r : 0.7f + 0.2f * r)
-                      : k < 4 ? (role == k - 1 ? 1.0f : 0.0f) + 0.2f * r
+                      : k < 4 ? (role == k - 1 ? axis : 0.0f) + 0.2f * r
                               : 0.5f * r;
         if (role == 4 && o.constantThroughput >= 0.0f) value = k == 0 ? o.constantThroughput : 0.0f;
         f.basis[(size_t(k) * nodes + n) * o.channels + c] = value;
@@ -207,6 +213,7 @@ inline Field makeSyntheticField(const SyntheticFieldOptions& o) {
   f.settings.throughput = f.throughput;
   f.settings.quantization = o.quantization;
   f.settings.source = "synthetic";
+  if (o.nodeSampled) f.settings.directionSampling = DirectionSampling::Nodes;
   f.media.push_back(FieldMedium{"air", 1.0f, 0.0f, {1.0f, 1.0f, 1.0f}});
   f.media.push_back(FieldMedium{"glass", o.frontIor, syntheticHasTau(o) ? 0.5f : 0.0f, {1.0f, 1.0f, 1.0f}});
 

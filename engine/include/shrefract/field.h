@@ -184,6 +184,9 @@ struct EncodingShape {
   uint32_t tableSize = 0;   // Table, Pca
   uint32_t components = 0;  // Pca
   uint32_t channels = 3;
+  // Table, Pca traced at their nodes (DirectionSampling::Nodes): the corners of a cell are blended
+  // jump-aware (docs/encodings.md, "Jumps"), since node values are exact exits on either side.
+  bool jumpAware = false;
   // Layers (coefficients per sample and stored value): Sh (L+1)^2, Table N^2, Pca K.
   uint32_t layerCount() const {
     return encoding == Encoding::Sh ? (order + 1) * (order + 1)
@@ -225,7 +228,10 @@ struct Field {
   BakeSettings settings;
   BakeStatistics statistics;
 
-  EncodingShape shape() const { return {encoding, order, tableSize, components, channels}; }
+  EncodingShape shape() const {
+    return {encoding, order, tableSize, components, channels,
+            encoding != Encoding::Sh && settings.directionSampling == DirectionSampling::Nodes};
+  }
   uint32_t layerCount() const { return shape().layerCount(); }
   uint32_t basisCount() const { return layerCount(); }  // the name of SH-era callers
   uint32_t valuesPerLayer() const { return shape().valuesPerLayer(); }
@@ -244,12 +250,18 @@ struct Field {
 // Object::createFromField sets as ObjectShading::tint (docs/scenes.md, "Colour model").
 std::array<float, 3> frontMediumColor(const Field& field);
 
+// Decoded channels at most: x, y, z, tau, throughput.
+inline constexpr uint32_t kMaxFieldChannels = 5;
+
 // The linear sum of an encoding at a local direction, in out[0..channels), before normalization,
 // from one sample's coefficients a[layer * valuesPerLayer + value] (floats: dequantized, or a
 // bake's fit before quantization) and, for Pca, the basis (field.h layout; nullptr otherwise).
 // z is clamped to >= 0 (the engine does the same). The one implementation of the three sums.
+// Table and Pca with shape.jumpAware and the sample's frame (frameRows: the 12 floats of M_s, as
+// `frames` holds them) blend the cell's corners across jumps of the exit direction as the engine
+// does (docs/encodings.md, "Jumps"); otherwise plainly bilinearly. SH ignores the frame.
 void evaluateCoefficients(const EncodingShape& shape, const float* coefficients, const float* basis,
-                          const std::array<float, 3>& localDirection, float* out);
+                          const std::array<float, 3>& localDirection, float* out, const float* frameRows = nullptr);
 
 // Decoded channels at a local direction of one sample (texel of kind kTexelSample): its dequantized
 // coefficients through evaluateCoefficients. `order` below an SH field's order sums its first

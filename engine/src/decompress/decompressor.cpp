@@ -35,6 +35,7 @@ struct DecompressVariant {
   Quantization quantization = Quantization::U8;
   bool scaleBiasStorage = false;  // Sh
   bool coefficientsStorage = false;
+  bool jumpAware = false;  // Table, Pca
   auto operator<=>(const DecompressVariant&) const = default;
 };
 
@@ -66,7 +67,7 @@ struct DecompressorImpl {
   Result<VkPipeline> variant(const DecompressVariant& v);
   Result<VkPipeline> variant(const FieldResources& f) {
     return variant(DecompressVariant{f.encoding, f.order, f.tableSize, f.components, f.channels, f.throughput,
-                                     f.quantization, f.scaleBiasStorage, f.coefficientsStorage});
+                                     f.quantization, f.scaleBiasStorage, f.coefficientsStorage, f.jumpAware});
   }
 
   Result<VkPipeline> createPipeline(VkShaderModule module, const VkSpecializationInfo* specialization) {
@@ -149,8 +150,8 @@ Result<VkPipeline> DecompressorImpl::variant(const DecompressVariant& v) {
   // specialization constant is 32 bits wide.)
   auto flag = [](bool b) { return b ? uint32_t(VK_TRUE) : uint32_t(VK_FALSE); };
   // { SH_ORDER, CHANNELS, QUANTIZATION, SCALE_BIAS_STORAGE, COEFFICIENTS_STORAGE, THROUGHPUT,
-  //   ENCODING, TABLE_SIZE, COMPONENTS }
-  const std::array<uint32_t, 9> values{v.order,
+  //   ENCODING, TABLE_SIZE, COMPONENTS, JUMP_AWARE }
+  const std::array<uint32_t, 10> values{v.order,
                                        v.channels,
                                        static_cast<uint32_t>(v.quantization),
                                        flag(v.scaleBiasStorage),
@@ -158,12 +159,13 @@ Result<VkPipeline> DecompressorImpl::variant(const DecompressVariant& v) {
                                        flag(v.throughput),
                                        static_cast<uint32_t>(v.encoding),
                                        v.tableSize,
-                                       v.components};
-  const std::array<uint32_t, 9> ids{gpu::kSpecShOrder,          gpu::kSpecChannels,    gpu::kSpecQuantization,
+                                       v.components,
+                                       flag(v.jumpAware)};
+  const std::array<uint32_t, 10> ids{gpu::kSpecShOrder,          gpu::kSpecChannels,    gpu::kSpecQuantization,
                                     gpu::kSpecScaleBiasStorage, gpu::kSpecCoefficientsStorage,
                                     gpu::kSpecThroughput,       gpu::kSpecEncoding,    gpu::kSpecTableSize,
-                                    gpu::kSpecComponents};
-  std::array<VkSpecializationMapEntry, 9> entries{};
+                                    gpu::kSpecComponents,       gpu::kSpecJumpAware};
+  std::array<VkSpecializationMapEntry, 10> entries{};
   for (uint32_t i = 0; i < entries.size(); ++i) entries[i] = {ids[i], i * uint32_t(sizeof(uint32_t)), sizeof(uint32_t)};
   const VkSpecializationInfo specialization{static_cast<uint32_t>(entries.size()), entries.data(), sizeof(values),
                                             values.data()};

@@ -3,6 +3,7 @@
 // these operations (spirv/shaders), the bake measures its fits with them and the CPU reference
 // (cpu_reference.cpp) builds on evaluateSample.
 #include <shrefract/field.h>
+#include <shrefract/gpu_layout.h>
 #include <shrefract/sh.h>
 
 #include <algorithm>
@@ -41,8 +42,66 @@ HemiOctBilinear hemiOctBilinear(float x, float y, float z, uint32_t n) {
   return b;
 }
 
+namespace {
+
+// The exit of a path that goes straight through (a slab's): the view ray's own direction of travel,
+// in object space, for the local direction w toward the eye (rows: M_s as field.frames stores it).
+std::array<float, 3> straightThrough(const float* rows, float x, float y, float z) {
+  const float l = std::sqrt(x * x + y * y + z * z);
+  std::array<float, 3> d{};
+  if (!(l > 0.0f)) return d;
+  for (int c = 0; c < 3; ++c) d[size_t(c)] = -(x * rows[c] + y * rows[4 + c] + z * rows[8 + c]) / l;
+  return d;
+}
+
+// Jump-aware interpolation of a cell's four corners (docs/encodings.md, "Jumps"). Bilinear
+// interpolation across a jump of the exit direction makes a direction no path takes. Each corner
+// estimates the exit at w as its own exit moved by the change of the straight-through direction
+// from its node to w; a corner whose estimate is far from the dominant corner's (largest weight)
+// is discounted (fully beyond acos(kJumpCosineNone), linearly in the cosine from
+// acos(kJumpCosineFull)), and the estimates of the others are blended. Where no corner is
+// discounted this is plain bilinear interpolation; between the two the results are blended by
+// min(1, kJumpBlendGain x the discounted weight), so the decode stays continuous except where
+// the dominant corner changes across a jump. Mirrored by decompress_table.comp.
+void interpolateCorners(const HemiOctBilinear& b, uint32_t n, const float (*v)[kMaxFieldChannels], uint32_t channels,
+                        const float* rows, const std::array<float, 3>& w, float* out) {
+  for (int j = 0; j < 4; ++j)
+    for (uint32_t c = 0; c < channels; ++c) out[c] += b.weight[j] * v[j][c];
+  if (!rows || n < gpu::kJumpMinTableSize) return;
+  const std::array<float, 3> eye = straightThrough(rows, w[0], w[1], w[2]);
+  float e[4][3];
+  for (int j = 0; j < 4; ++j) {
+    const std::array<float, 3> d = hemiOctDirection(b.node[j] % n, b.node[j] / n, n);
+    const std::array<float, 3> node = straightThrough(rows, d[0], d[1], d[2]);
+    for (int c = 0; c < 3; ++c) e[j][c] = v[j][c] + (eye[size_t(c)] - node[size_t(c)]);
+  }
+  int m = 0;
+  for (int j = 1; j < 4; ++j)
+    if (b.weight[j] > b.weight[m]) m = j;
+  const float lm = std::sqrt(e[m][0] * e[m][0] + e[m][1] * e[m][1] + e[m][2] * e[m][2]);
+  float kept[4], sum = 0.0f, discounted = 0.0f;
+  for (int j = 0; j < 4; ++j) {
+    const float lj = std::sqrt(e[j][0] * e[j][0] + e[j][1] * e[j][1] + e[j][2] * e[j][2]);
+    const float dot = e[j][0] * e[m][0] + e[j][1] * e[m][1] + e[j][2] * e[m][2];
+    const float cosine = lj * lm > gpu::kMinDirectionLength2 ? dot / (lj * lm) : 1.0f;
+    const float keep = std::clamp((cosine - gpu::kJumpCosineNone) / (gpu::kJumpCosineFull - gpu::kJumpCosineNone), 0.0f, 1.0f);
+    kept[j] = b.weight[j] * keep;
+    sum += kept[j];
+    discounted += b.weight[j] - kept[j];
+  }
+  const float blend = std::min(1.0f, gpu::kJumpBlendGain * discounted);
+  if (!(blend > 0.0f) || !(sum > 0.0f)) return;
+  for (uint32_t c = 0; c < channels; ++c) {
+    float estimate = 0.0f;
+    for (int j = 0; j < 4; ++j) estimate += kept[j] * (c < 3 ? e[j][c] : v[j][c]);
+    out[c] += blend * (estimate / sum - out[c]);
+  }
+}
+
+}  // namespace
+
 void evaluateCoefficients(const EncodingShape& shape, const float* a, const float* basis,
-                          const std::array<float, 3>& w, float* out) {
+                          const std::array<float, 3>& w, float* out, const float* frameRows) {
   const uint32_t channels = shape.channels;
   std::fill(out, out + channels, 0.0f);
   const float z = std::max(w[2], 0.0f);
@@ -57,18 +116,19 @@ void evaluateCoefficients(const EncodingShape& shape, const float* a, const floa
   }
   const uint32_t n = shape.tableSize;
   const HemiOctBilinear b = hemiOctBilinear(w[0], w[1], z, n);
+  float corners[4][kMaxFieldChannels] = {};
   if (shape.encoding == Encoding::Table) {
     for (int j = 0; j < 4; ++j)
-      for (uint32_t c = 0; c < channels; ++c) out[c] += b.weight[j] * a[size_t(b.node[j]) * channels + c];
-    return;
+      for (uint32_t c = 0; c < channels; ++c) corners[j][c] = a[size_t(b.node[j]) * channels + c];
+  } else {  // Pca: the weights times the basis functions at the cell's four nodes
+    const size_t nodes = size_t(n) * n;
+    for (int j = 0; j < 4; ++j)
+      for (uint32_t k = 0; k < shape.components; ++k) {
+        const float* f = &basis[(k * nodes + b.node[j]) * channels];
+        for (uint32_t c = 0; c < channels; ++c) corners[j][c] += a[k] * f[c];
+      }
   }
-  // Pca: the weights times the basis functions, each a table blended at the same four nodes.
-  const size_t nodes = size_t(n) * n;
-  for (uint32_t k = 0; k < shape.components; ++k)
-    for (int j = 0; j < 4; ++j) {
-      const float* f = &basis[(k * nodes + b.node[j]) * channels];
-      for (uint32_t c = 0; c < channels; ++c) out[c] += a[k] * b.weight[j] * f[c];
-    }
+  interpolateCorners(b, n, corners, channels, shape.jumpAware ? frameRows : nullptr, {w[0], w[1], z}, out);
 }
 
 void evaluateSample(const Field& field, uint64_t texel, const std::array<float, 3>& w, float* out, uint32_t order) {
@@ -79,7 +139,7 @@ void evaluateSample(const Field& field, uint64_t texel, const std::array<float, 
   a.resize(size_t(layers) * values);
   for (uint32_t i = 0; i < layers; ++i)
     for (uint32_t v = 0; v < values; ++v) a[size_t(i) * values + v] = fieldCoefficient(field, i, texel, v);
-  evaluateCoefficients(shape, a.data(), field.basis.data(), w, out);
+  evaluateCoefficients(shape, a.data(), field.basis.data(), w, out, &field.frames[texel * 12]);
 }
 
 }  // namespace shrefract

@@ -372,6 +372,7 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   f.order = f.bakedOrder = field.order;
   f.tableSize = field.tableSize;
   f.components = field.components;
+  f.jumpAware = field.shape().jumpAware;
   f.channels = field.channels;
   f.throughput = field.throughput;
   f.quantization = field.quantization;

@@ -25,6 +25,7 @@ struct FieldResources {
   uint32_t bakedOrder = 0;           // Sh: the order stored
   uint32_t tableSize = 0;            // Table, Pca
   uint32_t components = 0;           // Pca
+  bool jumpAware = false;            // Table, Pca: EncodingShape::jumpAware
   uint32_t channels = 4;
   bool throughput = false;           // the last channel is the throughput (raster: tint.a)
   Quantization quantization = Quantization::U8;

@@ -90,7 +90,8 @@ SHR_CONST(kBindingBasis, 8u)
 // quantization, and where the Sh scale/bias table is read from (false: the uniform buffer, when it
 // fits in kMaxUniformScaleBiasBytes, orders up to 21 with 3 or 4 channels and 17 with 5; true: the
 // storage buffer). kSpecThroughput: the last channel is the throughput. kSpecEncoding, kSpecTableSize
-// and kSpecComponents select what decompress_table.comp decodes (Table: N; Pca: N and K).
+// and kSpecComponents select what decompress_table.comp decodes (Table: N; Pca: N and K);
+// kSpecJumpAware: it blends the cell's corners jump-aware (field.h EncodingShape::jumpAware).
 SHR_CONST(kSpecShOrder, 0u)
 SHR_CONST(kSpecChannels, 1u)
 SHR_CONST(kSpecQuantization, 2u)
@@ -100,6 +101,7 @@ SHR_CONST(kSpecThroughput, 5u)
 SHR_CONST(kSpecEncoding, 6u)
 SHR_CONST(kSpecTableSize, 7u)
 SHR_CONST(kSpecComponents, 8u)
+SHR_CONST(kSpecJumpAware, 9u)
 // Largest scale/bias table read as a uniform buffer: the maxUniformBufferRange every device offers,
 // so that the choice (and the code path) is the same on every device.
 SHR_CONST(kMaxUniformScaleBiasBytes, 16384u)
@@ -130,6 +132,24 @@ SHR_CONST(kMaxDispatchGroupsX, 32768u)
 SHR_CONSTF(kMinDirectionLength2, 1e-20f)
 // Optical depth is clamped to the finite range of the RGBA16F distortion image.
 SHR_CONSTF(kMaxOpticalDepth, 65504.0f)
+
+// Jump-aware interpolation of the Table and Pca cells (decompress_table.comp, field_decode.cpp
+// interpolateCorners, docs/encodings.md "Jumps"): a corner whose estimate of the exit is more than
+// acos(kJumpCosineNone) = 45 deg from the dominant corner's is left out, one within
+// acos(kJumpCosineFull) = 25 deg kept, linearly in the cosine between; the result replaces the
+// bilinear one by min(1, kJumpBlendGain x the weight left out). Measured on the built-in scenes
+// (docs/encodings.md): hard thresholds of 30 or 40 deg and a 30..50 deg ramp did as well.
+SHR_CONSTF(kJumpCosineFull, 0.906307787f)
+SHR_CONSTF(kJumpCosineNone, 0.707106781f)
+SHR_CONSTF(kJumpBlendGain, 4.0f)
+// ... for tables traced at their nodes (DirectionSampling::Nodes: node values are exact exits on
+// either side of a jump, where a fit blurs a jump into a ramp whose corners disagree without a
+// side to choose; measured: fitted Pca tables decoded jump-aware erred more, 5.8 to 6.8 deg mean
+// on the cube in tests/bake/encoding_test.cpp) of at least this many nodes a side. A corner's estimate moves the exit by the
+// change of the straight-through direction across the cell, so a field constant in the view
+// direction has estimates as far apart as the cell's corners: at N = 12 a cell spans under about
+// 17 deg, inside kJumpCosineFull; coarser cells span as much as the jumps they would have to find.
+SHR_CONST(kJumpMinTableSize, 12u)
 
 // Filtered environment lookups (environment.glsl environmentLevel, docs/antialiasing.md): the
 // level is log2(footprint / texel angle) + this bias. The level whose texels are as wide as the

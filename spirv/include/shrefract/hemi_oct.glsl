@@ -33,4 +33,14 @@ HemiOctBilinear hemiOctBilinear(vec3 w, uint n) {
   return b;
 }
 
+// The unit direction of node (i, j) of an n x n grid (field.h hemiOctDirection).
+vec3 hemiOctDirection(uint i, uint j, uint n) {
+  float a = 2.0 * float(i) / float(n - 1u) - 1.0;  // p.x + p.y
+  float b = 2.0 * float(j) / float(n - 1u) - 1.0;  // p.x - p.y
+  float px = 0.5 * (a + b), py = 0.5 * (a - b);
+  float pz = max(0.0, 1.0 - abs(px) - abs(py));
+  float len = sqrt(px * px + py * py + pz * pz);
+  return vec3(px / len, py / len, pz / len);
+}
+
 #endif  // SHREFRACT_HEMI_OCT_GLSL
