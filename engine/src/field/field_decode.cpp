@@ -61,8 +61,8 @@ std::array<float, 3> straightThrough(const float* rows, float x, float y, float 
 // is discounted (fully beyond acos(kJumpCosineNone), linearly in the cosine from
 // acos(kJumpCosineFull)), and the estimates of the others are blended. Where no corner is
 // discounted this is plain bilinear interpolation; between the two the results are blended by
-// min(1, kJumpBlendGain x the discounted weight), so the decode stays continuous except where
-// the dominant corner changes across a jump. Mirrored by decompress_table.comp.
+// min(1, kJumpBlendGain x the discounted weight), steeply, so the decode stays continuous except
+// where the dominant corner changes across a jump. Mirrored by decompress_table.comp.
 void interpolateCorners(const HemiOctBilinear& b, uint32_t n, const float (*v)[kMaxFieldChannels], uint32_t channels,
                         const float* rows, const std::array<float, 3>& w, float* out) {
   for (int j = 0; j < 4; ++j)
