@@ -196,6 +196,30 @@ TEST_F(SceneCli, DefaultBakeTracesTheTableNodesAndAGridSizeAsksForTheGrid) {
   EXPECT_NE(text.out.find("directions the 16x16 table nodes"), std::string::npos) << text.out;
 }
 
+// A u8 Pca bake gives its widest components refinement layers (table_fit.h) and says how many;
+// an f16 bake has none. 100 samples leave the trailing components of K = 64 nearly empty (the
+// rank is at most the sample count), so the bake refines: 22 layers measured.
+TEST_F(SceneCli, InfoCountsTheRefinementLayersOfAU8PcaField) {
+  const std::vector<std::string> bake{"bake", "builtin:sphere?tessellation=1", "--samples", "100", "--components", "64"};
+  auto bakeAndInfo = [&](std::vector<std::string> args, const std::string& out) {
+    args.insert(args.end(), {"-o", out});
+    const ToolRun baked = run(".", args);
+    EXPECT_EQ(baked.exit, 0) << baked.err;
+    return run(".", {"info", out, "--json"});
+  };
+  const ToolRun u8 = bakeAndInfo(bake, "u8.shrf");
+  ASSERT_EQ(u8.exit, 0) << u8.err;
+  const size_t at = u8.out.find("\"refinement_layers\": ");
+  ASSERT_NE(at, std::string::npos) << u8.out;
+  EXPECT_GT(std::stoul(u8.out.substr(at + 21)), 0u) << u8.out;
+  EXPECT_NE(run(".", {"info", "u8.shrf"}).out.find("of them u8 refinement layers"), std::string::npos);
+  std::vector<std::string> f16 = bake;
+  f16.insert(f16.end(), {"--quant", "f16"});
+  const ToolRun half = bakeAndInfo(f16, "f16.shrf");
+  ASSERT_EQ(half.exit, 0) << half.err;
+  EXPECT_NE(half.out.find("\"refinement_layers\": 0,"), std::string::npos) << half.out;
+}
+
 TEST_F(SceneCli, CameraErrorsExit2WithOneLineAndKeepAnExistingOutput) {
   std::ofstream(dir_ / "out.png") << "an earlier image";
   const std::vector<std::string> base = {"render", "builtin:sphere", "--tessellation", "1", "--size", "16x12",
