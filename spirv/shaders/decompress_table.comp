@@ -63,28 +63,34 @@ void interpolateCorners(uint s, HemiOctBilinear b, vec3 w, float v[4][5], inout 
     vec3 d = straightThrough(s, hemiOctDirection(node % TABLE_SIZE, node / TABLE_SIZE, TABLE_SIZE));
     e[j] = vec3(v[j][0] + (eye.x - d.x), v[j][1] + (eye.y - d.y), v[j][2] + (eye.z - d.z));
   }
-  int m = 0;
-  for (int j = 1; j < 4; ++j)
-    if (b.weight[j] > b.weight[m]) m = j;
-  float lm = sqrt(e[m].x * e[m].x + e[m].y * e[m].y + e[m].z * e[m].z);
-  float kept[4];
-  float total = 0.0, discounted = 0.0;
-  for (int j = 0; j < 4; ++j) {
-    float lj = sqrt(e[j].x * e[j].x + e[j].y * e[j].y + e[j].z * e[j].z);
-    float dotJ = e[j].x * e[m].x + e[j].y * e[m].y + e[j].z * e[m].z;
-    float cosine = lj * lm > kMinDirectionLength2 ? dotJ / (lj * lm) : 1.0;
-    float keep = clamp((cosine - kJumpCosineNone) / (kJumpCosineFull - kJumpCosineNone), 0.0, 1.0);
-    kept[j] = b.weight[j] * keep;
-    total += kept[j];
-    discounted += b.weight[j] - kept[j];
+  // Each corner m in turn as the reference side, weighted by w_m^p.
+  float len[4];
+  float estimate[5] = float[5](0.0, 0.0, 0.0, 0.0, 0.0);
+  float dominance = 0.0, discounted = 0.0;
+  for (int j = 0; j < 4; ++j) len[j] = sqrt(e[j].x * e[j].x + e[j].y * e[j].y + e[j].z * e[j].z);
+  for (int m = 0; m < 4; ++m) {
+    float pm = pow(b.weight[m], kJumpDominancePower);
+    if (!(pm > 0.0)) continue;
+    float kept[4];
+    float total = 0.0;
+    for (int j = 0; j < 4; ++j) {
+      float dotJ = e[j].x * e[m].x + e[j].y * e[m].y + e[j].z * e[m].z;
+      float cosine = len[j] * len[m] > kMinDirectionLength2 ? dotJ / (len[j] * len[m]) : 1.0;
+      float keep = clamp((cosine - kJumpCosineNone) / (kJumpCosineFull - kJumpCosineNone), 0.0, 1.0);
+      kept[j] = b.weight[j] * keep;
+      total += kept[j];
+      discounted += pm * (b.weight[j] - kept[j]);
+    }
+    for (int c = 0; c < CHANNELS; ++c) {
+      float side = 0.0;
+      for (int j = 0; j < 4; ++j) side += kept[j] * (c < 3 ? e[j][c] : v[j][c]);
+      estimate[c] += pm * side / total;
+    }
+    dominance += pm;
   }
-  float blend = min(1.0, kJumpBlendGain * discounted);
-  if (!(blend > 0.0) || !(total > 0.0)) return;
-  for (int c = 0; c < CHANNELS; ++c) {
-    float estimate = 0.0;
-    for (int j = 0; j < 4; ++j) estimate += kept[j] * (c < 3 ? e[j][c] : v[j][c]);
-    sum[c] += blend * (estimate / total - sum[c]);
-  }
+  float blend = min(1.0, kJumpBlendGain * discounted / dominance);
+  if (!(blend > 0.0)) return;
+  for (int c = 0; c < CHANNELS; ++c) sum[c] += blend * (estimate[c] / dominance - sum[c]);
 }
 
 void main() {

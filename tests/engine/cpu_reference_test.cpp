@@ -168,46 +168,56 @@ TEST(CpuReference, PcaSumsWeightedBasisFunctions) {
 }
 
 // A node-sampled 16x16 table holding the straight-through exit (a slab's: the view ray's own
-// direction, -w with the identity frame) at every node but one, which points the other way.
-// Wherever that node is a corner of the eye's cell with at least a quarter of the weight but not
-// the most, jump-aware interpolation leaves it out and the other corners' estimates are all
-// exactly -w; plain bilinear interpolation (the same values, grid-fitted) blends it in.
+// direction, -w with the identity frame) at every node but one, which points the other way (+d,
+// its node's direction d). In the cell whose corner it is, every other corner estimates exactly
+// -w and leaves it out, it leaves them out and estimates d + (-w) - (-d) = 2d - w. The views are
+// averaged with weights w_m^p (p = 4, gpu_layout.h kJumpDominancePower) and, with at least a
+// quarter of the weight left out, replace the bilinear result: the decode is -w + 2 pi d with pi
+// the odd corner's share w_odd^4 / sum w_m^4. Plain bilinear interpolation (the same values,
+// grid-fitted) blends the odd node in instead.
 TEST(CpuReference, JumpAwareCornersLeaveOutANodeAcrossAJump) {
-  constexpr uint32_t n = 16, wrong = 8 * n + 8;
+  constexpr uint32_t n = 16, odd = 8 * n + 8;
+  constexpr double kPower = 4.0;  // gpu_layout.h kJumpDominancePower
   std::vector<float> nodes;
   for (uint32_t k = 0; k < n * n; ++k) {
     const std::array<float, 3> d = hemiOctDirection(k % n, k / n, n);
-    for (int c = 0; c < 3; ++c) nodes.push_back(k == wrong ? d[size_t(c)] : -d[size_t(c)]);
+    for (int c = 0; c < 3; ++c) nodes.push_back(k == odd ? d[size_t(c)] : -d[size_t(c)]);
   }
+  const std::array<float, 3> d = hemiOctDirection(odd % n, odd / n, n);
   const Field jumpAware = gridField(Encoding::Table, 3, false, nodes, {}, n, DirectionSampling::Nodes);
   const Field bilinear = gridField(Encoding::Table, 3, false, nodes, {}, n, DirectionSampling::Grid);
   ASSERT_TRUE(jumpAware.shape().jumpAware);
   ASSERT_FALSE(bilinear.shape().jumpAware);
+  auto angle = [](const reference::Vec4& a, const std::array<double, 3>& b) {
+    const double x = a[0], y = a[1], z = a[2];
+    const double dot = x * b[0] + y * b[1] + z * b[2];
+    const double lb = std::sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+    return std::acos(std::clamp(dot / (std::sqrt(x * x + y * y + z * z) * lb), -1.0, 1.0)) * 180.0 / std::numbers::pi;
+  };
   double worstJumpAware = 0.0, leastBilinear = 180.0;
   int checked = 0;
-  for (float tx = 0.05f; tx < 1.0f; tx += 0.1f)
-    for (float ty = 0.05f; ty < 1.0f; ty += 0.1f) {
-      // In the cell whose lower corner is the wrong node: its weight (1 - tx)(1 - ty).
-      const float wWrong = (1.0f - tx) * (1.0f - ty);
-      const float wMax = std::max({wWrong, tx * (1.0f - ty), (1.0f - tx) * ty, tx * ty});
-      if (wWrong < 0.26f || wWrong > wMax - 0.02f) continue;
-      const float a = 2.0f * (8.0f + tx) / float(n - 1) - 1.0f, b = 2.0f * (8.0f + ty) / float(n - 1) - 1.0f;
-      const float px = 0.5f * (a + b), py = 0.5f * (a - b), pz = 1.0f - std::fabs(px) - std::fabs(py);
-      const float len = std::sqrt(px * px + py * py + pz * pz);
-      const float w[3] = {px / len, py / len, pz / len};
-      auto angle = [&](const reference::Vec4& d) {
-        const double x = d[0], y = d[1], z = d[2];
-        const double dot = -(x * double(w[0]) + y * double(w[1]) + z * double(w[2]));
-        return std::acos(std::clamp(dot / std::sqrt(x * x + y * y + z * z), -1.0, 1.0)) * 180.0 / std::numbers::pi;
-      };
-      const reference::Vec3 eye{3.0f * w[0], 3.0f * w[1], 3.0f * w[2]};
-      worstJumpAware = std::max(worstJumpAware, angle(reference::decodeTexel(jumpAware, 0, eye)));
-      leastBilinear = std::min(leastBilinear, angle(reference::decodeTexel(bilinear, 0, eye)));
+  for (double tx = 0.05; tx < 1.0; tx += 0.1)
+    for (double ty = 0.05; ty < 1.0; ty += 0.1) {
+      // In the cell whose lower corner is the odd node.
+      const double weights[4] = {(1 - tx) * (1 - ty), tx * (1 - ty), (1 - tx) * ty, tx * ty};
+      if (weights[0] < 0.26) continue;
+      double total = 0.0;
+      for (double wm : weights) total += std::pow(wm, kPower);
+      const double share = std::pow(weights[0], kPower) / total;
+      const double a = 2.0 * (8.0 + tx) / double(n - 1) - 1.0, b = 2.0 * (8.0 + ty) / double(n - 1) - 1.0;
+      const double px = 0.5 * (a + b), py = 0.5 * (a - b), pz = 1.0 - std::fabs(px) - std::fabs(py);
+      const double len = std::sqrt(px * px + py * py + pz * pz);
+      const std::array<double, 3> w{px / len, py / len, pz / len};
+      std::array<double, 3> expected{}, straight{};
+      for (size_t c = 0; c < 3; ++c) expected[c] = -w[c] + 2.0 * share * double(d[c]), straight[c] = -w[c];
+      const reference::Vec3 eye{float(3.0 * w[0]), float(3.0 * w[1]), float(3.0 * w[2])};
+      worstJumpAware = std::max(worstJumpAware, angle(reference::decodeTexel(jumpAware, 0, eye), expected));
+      leastBilinear = std::min(leastBilinear, angle(reference::decodeTexel(bilinear, 0, eye), straight));
       ++checked;
     }
-  std::printf("%d eyes: jump-aware within %.4f deg of the straight path, bilinear at least %.1f deg off\n", checked,
-              worstJumpAware, leastBilinear);
-  EXPECT_GE(checked, 10);
+  std::printf("%d eyes: jump-aware within %.4f deg of the closed form, bilinear at least %.1f deg off the straight "
+              "path\n", checked, worstJumpAware, leastBilinear);
+  EXPECT_GE(checked, 20);
   EXPECT_LT(worstJumpAware, 0.05);  // binary16 rounding of the stored direction
   EXPECT_GT(leastBilinear, 3.0);  // measured 5.9 deg: the same check fails without the jump-aware rule
 }

@@ -57,12 +57,13 @@ std::array<float, 3> straightThrough(const float* rows, float x, float y, float 
 // Jump-aware interpolation of a cell's four corners (docs/encodings.md, "Jumps"). Bilinear
 // interpolation across a jump of the exit direction makes a direction no path takes. Each corner
 // estimates the exit at w as its own exit moved by the change of the straight-through direction
-// from its node to w; a corner whose estimate is far from the dominant corner's (largest weight)
-// is discounted (fully beyond acos(kJumpCosineNone), linearly in the cosine from
-// acos(kJumpCosineFull)), and the estimates of the others are blended. Where no corner is
-// discounted this is plain bilinear interpolation; between the two the results are blended by
-// min(1, kJumpBlendGain x the discounted weight), steeply, so the decode stays continuous except
-// where the dominant corner changes across a jump. Mirrored by decompress_table.comp.
+// from its node to w; seen from a corner m, a corner whose estimate is far from m's is discounted
+// (fully beyond acos(kJumpCosineNone), linearly in the cosine from acos(kJumpCosineFull)) and the
+// estimates of the others are blended. The four views are averaged with weights w_m^p, which
+// picks the side of the jump holding most of the weight, steeply but without a step (a step
+// flickers as the eye moves). Where no corner is discounted this is plain bilinear
+// interpolation; between the two the results are blended by min(1, kJumpBlendGain x the
+// discounted weight), so the decode is continuous everywhere. Mirrored by decompress_table.comp.
 void interpolateCorners(const HemiOctBilinear& b, uint32_t n, const float (*v)[kMaxFieldChannels], uint32_t channels,
                         const float* rows, const std::array<float, 3>& w, float* out) {
   for (int j = 0; j < 4; ++j)
@@ -75,27 +76,33 @@ void interpolateCorners(const HemiOctBilinear& b, uint32_t n, const float (*v)[k
     const std::array<float, 3> node = straightThrough(rows, d[0], d[1], d[2]);
     for (int c = 0; c < 3; ++c) e[j][c] = v[j][c] + (eye[size_t(c)] - node[size_t(c)]);
   }
-  int m = 0;
-  for (int j = 1; j < 4; ++j)
-    if (b.weight[j] > b.weight[m]) m = j;
-  const float lm = std::sqrt(e[m][0] * e[m][0] + e[m][1] * e[m][1] + e[m][2] * e[m][2]);
-  float kept[4], sum = 0.0f, discounted = 0.0f;
-  for (int j = 0; j < 4; ++j) {
-    const float lj = std::sqrt(e[j][0] * e[j][0] + e[j][1] * e[j][1] + e[j][2] * e[j][2]);
-    const float dot = e[j][0] * e[m][0] + e[j][1] * e[m][1] + e[j][2] * e[m][2];
-    const float cosine = lj * lm > gpu::kMinDirectionLength2 ? dot / (lj * lm) : 1.0f;
-    const float keep = std::clamp((cosine - gpu::kJumpCosineNone) / (gpu::kJumpCosineFull - gpu::kJumpCosineNone), 0.0f, 1.0f);
-    kept[j] = b.weight[j] * keep;
-    sum += kept[j];
-    discounted += b.weight[j] - kept[j];
+  // Each corner m in turn as the reference side: its agreeing corners' blended estimate, weighted
+  // by w_m^p (p = kJumpDominancePower), so the side with the most weight wins without a step.
+  float length[4], estimate[kMaxFieldChannels] = {}, dominance = 0.0f, discounted = 0.0f;
+  for (int j = 0; j < 4; ++j) length[j] = std::sqrt(e[j][0] * e[j][0] + e[j][1] * e[j][1] + e[j][2] * e[j][2]);
+  for (int m = 0; m < 4; ++m) {
+    const float pm = std::pow(b.weight[m], gpu::kJumpDominancePower);
+    if (!(pm > 0.0f)) continue;
+    float kept[4], sum = 0.0f;
+    for (int j = 0; j < 4; ++j) {
+      const float dot = e[j][0] * e[m][0] + e[j][1] * e[m][1] + e[j][2] * e[m][2];
+      const float cosine = length[j] * length[m] > gpu::kMinDirectionLength2 ? dot / (length[j] * length[m]) : 1.0f;
+      const float keep =
+          std::clamp((cosine - gpu::kJumpCosineNone) / (gpu::kJumpCosineFull - gpu::kJumpCosineNone), 0.0f, 1.0f);
+      kept[j] = b.weight[j] * keep;
+      sum += kept[j];
+      discounted += pm * (b.weight[j] - kept[j]);
+    }
+    for (uint32_t c = 0; c < channels; ++c) {
+      float side = 0.0f;
+      for (int j = 0; j < 4; ++j) side += kept[j] * (c < 3 ? e[j][c] : v[j][c]);
+      estimate[c] += pm * side / sum;  // sum >= w_m > 0
+    }
+    dominance += pm;
   }
-  const float blend = std::min(1.0f, gpu::kJumpBlendGain * discounted);
-  if (!(blend > 0.0f) || !(sum > 0.0f)) return;
-  for (uint32_t c = 0; c < channels; ++c) {
-    float estimate = 0.0f;
-    for (int j = 0; j < 4; ++j) estimate += kept[j] * (c < 3 ? e[j][c] : v[j][c]);
-    out[c] += blend * (estimate / sum - out[c]);
-  }
+  const float blend = std::min(1.0f, gpu::kJumpBlendGain * discounted / dominance);
+  if (!(blend > 0.0f)) return;
+  for (uint32_t c = 0; c < channels; ++c) out[c] += blend * (estimate[c] / dominance - out[c]);
 }
 
 }  // namespace

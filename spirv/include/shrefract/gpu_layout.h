@@ -143,6 +143,12 @@ SHR_CONSTF(kMaxOpticalDepth, 65504.0f)
 SHR_CONSTF(kJumpCosineFull, 0.906307787f)
 SHR_CONSTF(kJumpCosineNone, 0.707106781f)
 SHR_CONSTF(kJumpBlendGain, 16.0f)
+// The side of a jump is chosen by weighting each corner's view of the cell by its bilinear
+// weight to this power: a soft argmax. Steeper is sharper and flickers more as the eye moves
+// (docs/encodings.md "Jumps": probe PSNR on the cube 20.30, 20.63, 20.93, 21.05 dB for powers
+// 2, 4, 6, 12 and 21.31 for a hard argmax; orbit flicker on the torus 1.56, -, 1.65, - and 1.72
+// times the reference's, 1.50 for plain bilinear).
+SHR_CONSTF(kJumpDominancePower, 4.0f)
 // ... for tables traced at their nodes (DirectionSampling::Nodes: node values are exact exits on
 // either side of a jump, where a fit blurs a jump into a ramp whose corners disagree without a
 // side to choose; measured: fitted Pca tables decoded jump-aware erred more, 5.8 to 6.8 deg mean
