@@ -701,13 +701,13 @@ class BudgetScene {
 // Measured (mean angle against the exact path, degrees; all u8, 16 x 32 directions):
 //   sphere  sh 2, 4, 8: 5.443, 4.678, 4.243   table 4, 6, 9: 6.621, 4.985, 3.990
 //           pca 16, 64, 256: 4.384, 3.973, 3.803
-//           nodes: table 4, 6, 9: 23.55, 9.174, 4.226   pca 16, 64, 256: 4.391, 3.868, 3.585 (decoded
+//           nodes: table 4, 6, 9: 23.55, 9.174, 4.226   pca 16, 64, 256: 4.241, 3.772, 3.530 (decoded
 //           jump-aware, as node-sampled tables of N >= 12 are; plain bilinear: 4.023, 3.686, 3.533)
 //   cube    sh 2, 4, 8: 20.78, 12.89, 9.085   table 4, 6, 9: 15.41, 12.61, 8.980
 //           pca 16, 64, 256: 12.61, 6.245, 5.755
-//           nodes: table 4, 6, 9: 45.91, 20.27, 11.19   pca 16, 64, 256: 12.32, 5.714, 4.940 (jump-aware;
+//           nodes: table 4, 6, 9: 45.91, 20.27, 11.19   pca 16, 64, 256: 12.23, 5.534, 4.763 (jump-aware;
 //           plain bilinear: 12.56, 6.084, 5.433)
-// The smallest steps are sphere pca 64 -> 256 (4.3 %, nodes 7.3 %): the Pca functions are weighted
+// The smallest steps are sphere pca 64 -> 256 (4.3 %, nodes 6.4 %): the Pca functions are weighted
 // by the cosine of their nodes' directions and these errors by the cosine too, so small K already
 // does well. Bound: every step lowers the error by 4 % or more.
 // (The errors are large because the directions reach the horizon, where the highest-energy rule
