@@ -782,20 +782,18 @@ Gathered gatherParts(std::vector<BakePart>& parts, size_t stride, uint32_t nd, u
   return g;
 }
 
-// Coefficients per texel, layer-major (Field's indexing), from coefficients per sample.
-std::vector<float> texelCoefficients(const SampleAtlas& atlas, const EncodingShape& shape,
-                                     const std::vector<float>& coeffs) {
-  const size_t texels = size_t(atlas.width) * atlas.height, stride = strideOf(shape);
-  const uint32_t layers = shape.layerCount(), values = shape.valuesPerLayer();
-  std::vector<float> out(size_t(layers) * texels * values, 0.0f);
-  for (size_t t = 0; t < texels; ++t) {
-    if (atlas.texelKinds[t] != kTexelSample) continue;
-    const uint32_t s = atlas.texelSample[t];
-    for (uint32_t i = 0; i < layers; ++i)
-      for (uint32_t v = 0; v < values; ++v)
-        out[(size_t(i) * texels + t) * values + v] = coeffs[size_t(s) * stride + size_t(i) * values + v];
-  }
-  return out;
+// encodeCoefficients straight from the per-sample fits (coeffs: stride floats a sample, layer i's
+// values at i * valuesPerLayer): texels of kind kTexelSample read their sample's, the rest are
+// zeros. No texel-ordered float copy of the atlas, which was the bake's largest allocation.
+Result<void> encodeSamples(Field& field, const SampleAtlas& atlas, const EncodingShape& shape,
+                           const std::vector<float>& coeffs) {
+  const size_t stride = strideOf(shape);
+  return encodeCoefficients(
+      field,
+      [&](uint64_t t) -> const float* {
+        return atlas.texelKinds[t] == kTexelSample ? coeffs.data() + size_t(atlas.texelSample[t]) * stride : nullptr;
+      },
+      shape.valuesPerLayer());
 }
 
 // The first texel of every sample (UINT64_MAX for a sample no texel holds).
@@ -811,13 +809,15 @@ std::vector<uint64_t> firstTexels(const SampleAtlas& atlas) {
 // fills them with what each refined layer lost, and quantizes again (each layer has its own
 // range, so the refined layers' codes do not change).
 Result<void> encodeWithRefinement(Field& field, const SampleAtlas& atlas, const EncodingShape& shape,
-                                  std::vector<float> coeffs, const std::vector<uint32_t>& refined) {
-  if (auto r = encodeCoefficients(field, texelCoefficients(atlas, shape, coeffs)); !r || refined.empty()) return r;
+                                  const std::vector<float>& fitted, const std::vector<uint32_t>& refined) {
+  if (auto r = encodeSamples(field, atlas, shape, fitted); !r || refined.empty()) return r;
+  // The weights are filled into a copy: the statistics that follow compare the field with the fit.
+  std::vector<float> coeffs = fitted;
   const std::vector<uint64_t> texelOf = firstTexels(atlas);
   fillRefinementWeights(coeffs, atlas.samples.size(), shape.components, refined, [&](size_t s, uint32_t k) {
     return texelOf[s] == UINT64_MAX ? coeffs[s * shape.components + k] : fieldCoefficient(field, k, texelOf[s], 0);
   });
-  return encodeCoefficients(field, texelCoefficients(atlas, shape, coeffs));
+  return encodeSamples(field, atlas, shape, coeffs);
 }
 
 // Quantization error: the decoded direction from quantized coefficients against the float

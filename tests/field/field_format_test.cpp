@@ -684,6 +684,54 @@ TEST(EncodeCoefficients, SwitchingQuantizationClearsTheOtherArrays) {
   EXPECT_TRUE(validateField(f).ok());
 }
 
+// The per-texel form (what the bake uses: texels share per-sample data, empty texels read as
+// nullptr) encodes the same bytes as the array form of the same coefficients; layers are read
+// layerStride floats apart, with padding after each texel's layers that must not be read.
+TEST(EncodeCoefficients, PerTexelFormMatchesTheArrayForm) {
+  for (Quantization q : {Quantization::U8, Quantization::F16}) {
+    Field byArray = makeField({3, q});
+    Field byTexel = byArray;
+    const uint64_t texels = byArray.texelCount(), values = 3, stride = kLayers * values + 2;
+    // Per texel: texel t's layer i at [t * stride + i * values]; the two padding floats are huge,
+    // so reading them would break the u8 ranges. Texels that are not samples are all zeros.
+    std::vector<float> perTexel(texels * stride, 1e30f);
+    std::vector<float> array(kLayers * texels * values, 0.0f);
+    const std::vector<float> v = syntheticCoefficients(3);
+    for (uint64_t t = 0; t < texels; ++t) {
+      if (byArray.texelKinds[t] != kTexelSample) continue;
+      for (uint32_t i = 0; i < kLayers; ++i)
+        for (uint64_t c = 0; c < values; ++c) {
+          // Positive values only, so the empty texels' zeros set each u8 range's lower end.
+          const float x = std::fabs(v[(i * texels + t) * values + c]) + 0.125f;
+          perTexel[t * stride + i * values + c] = x;
+          array[(i * texels + t) * values + c] = x;
+        }
+    }
+    ASSERT_TRUE(encodeCoefficients(byArray, array).ok());
+    const Result<void> r = encodeCoefficients(
+        byTexel,
+        [&](uint64_t t) -> const float* {
+          return byTexel.texelKinds[t] == kTexelSample ? perTexel.data() + t * stride : nullptr;
+        },
+        values);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_EQ(byTexel.coefficientsU8, byArray.coefficientsU8);
+    EXPECT_EQ(byTexel.coefficientsF16, byArray.coefficientsF16);
+    EXPECT_EQ(byTexel.scale, byArray.scale);
+    EXPECT_EQ(byTexel.bias, byArray.bias);
+    if (q == Quantization::U8) {
+      EXPECT_EQ(byTexel.bias[1], 0.0f);  // the empty texels' zeros count
+    }
+    EXPECT_EQ(serializeField(byTexel), serializeField(byArray));
+  }
+  // A stride below the values per layer would read the next layer's values: refused.
+  Field f = makeField({3, Quantization::U8});
+  const std::vector<float> zeros(kLayers * 3, 0.0f);
+  const Result<void> r = encodeCoefficients(f, [&](uint64_t) { return zeros.data(); }, 2);
+  ASSERT_FALSE(r.ok());
+  EXPECT_TRUE(contains(r.error().message, "layer stride 2")) << r.error().message;
+}
+
 TEST(FieldEnums, ToString) {
   EXPECT_STREQ(toString(SampleLayout::Split), "split");
   EXPECT_STREQ(toString(SampleLayout::Charts), "charts");

@@ -22,6 +22,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -279,6 +280,14 @@ float fieldCoefficient(const Field& field, uint32_t layer, uint64_t texel, uint3
 // scale 0 and decodes exactly to its bias. Errors (InvalidArgument): sizes that disagree, a value
 // that is not finite or beyond kMaxCoefficientMagnitude (F16: beyond the binary16 range).
 Result<void> encodeCoefficients(Field& field, const std::vector<float>& coefficients);
+
+// The same encoding, the coefficients read per texel instead of from one texel-ordered array:
+// texelValues(t) points at texel t's value v of layer i at [i * layerStride + v], or is nullptr
+// for a texel whose coefficients are all zero (empty texels; they count in the u8 ranges as zeros,
+// as in the array form). A baker whose texels share per-sample data encodes straight from it, with
+// no float copy of the whole atlas (the bake's largest allocation); the bytes are the same.
+Result<void> encodeCoefficients(Field& field, const std::function<const float*(uint64_t texel)>& texelValues,
+                                uint64_t layerStride);
 
 // Structural validation: sizes agree, values finite, indices and texel references in range,
 // UVs in [0,1], frames zero exactly for empty texels and within kMaxFrameMagnitude, order <= 32,

@@ -740,7 +740,10 @@ float fieldCoefficient(const Field& field, uint32_t layer, uint64_t texel, uint3
   return field.bias[table] + field.scale[table] * (static_cast<float>(field.coefficientsU8[index]) / 255.0f);
 }
 
-Result<void> encodeCoefficients(Field& field, const std::vector<float>& coefficients) {
+namespace {
+
+// What encodeCoefficients needs of the field before it reads a coefficient.
+Result<void> checkEncodable(const Field& field) {
   if (auto r = validateEncoding(field); !r)
     return makeError(ErrorCode::InvalidArgument, "encodeCoefficients: " + r.error().message);
   if (field.width > kMaxAtlasSize || field.height > kMaxAtlasSize)
@@ -750,18 +753,45 @@ Result<void> encodeCoefficients(Field& field, const std::vector<float>& coeffici
   if (field.quantization != Quantization::U8 && field.quantization != Quantization::F16)
     return makeError(ErrorCode::InvalidArgument, "encodeCoefficients: unknown quantization " +
                                                      std::to_string(static_cast<uint32_t>(field.quantization)));
+  return {};
+}
+
+}  // namespace
+
+Result<void> encodeCoefficients(Field& field, const std::vector<float>& coefficients) {
+  if (auto r = checkEncodable(field); !r) return r;
+  const uint64_t values = field.valuesPerLayer(), perLayer = field.texelCount() * values;
+  const uint64_t count = perLayer * field.layerCount();
+  if (coefficients.size() != count)
+    return makeError(ErrorCode::InvalidArgument, "encodeCoefficients: " + std::to_string(coefficients.size()) +
+                                                     " coefficients, expected " + std::to_string(count) +
+                                                     " (layers x texels x values)");
+  const float* data = coefficients.data();
+  return encodeCoefficients(field, [data, values](uint64_t t) { return data + t * values; }, perLayer);
+}
+
+Result<void> encodeCoefficients(Field& field, const std::function<const float*(uint64_t texel)>& texelValues,
+                                uint64_t layerStride) {
+  if (auto r = checkEncodable(field); !r) return r;
   const uint64_t texels = field.texelCount();
   const uint32_t layers = field.layerCount();
   // "channels" below are the stored values per layer (Pca: one weight).
   const uint32_t channels = field.valuesPerLayer();
   const uint64_t perLayer = texels * channels;
   const uint64_t count = perLayer * layers;
-  if (coefficients.size() != count)
-    return makeError(ErrorCode::InvalidArgument, "encodeCoefficients: " + std::to_string(coefficients.size()) +
-                                                     " coefficients, expected " + std::to_string(count) +
-                                                     " (layers x texels x values)");
-  for (size_t i = 0; i < coefficients.size(); ++i) {
-    const float v = coefficients[i];
+  if (layerStride < channels)
+    return makeError(ErrorCode::InvalidArgument, "encodeCoefficients: layer stride " + std::to_string(layerStride) +
+                                                     " is below the " + std::to_string(channels) + " values per layer");
+  std::vector<const float*> rows(texels);
+  for (uint64_t t = 0; t < texels; ++t) rows[t] = texelValues(t);
+  // Coefficient i in the quantized arrays' order (layers x texels x values).
+  const auto coefficient = [&](uint64_t i) {
+    const uint64_t layer = i / perLayer, inLayer = i % perLayer;
+    const float* row = rows[inLayer / channels];
+    return row ? row[layer * layerStride + inLayer % channels] : 0.0f;
+  };
+  for (size_t i = 0; i < count; ++i) {
+    const float v = coefficient(i);
     if (!std::isfinite(v))
       return makeError(ErrorCode::InvalidArgument, "encodeCoefficients: coefficient " + std::to_string(i) + " (layer " +
                                                        std::to_string(i / perLayer) + ", channel " +
@@ -779,8 +809,8 @@ Result<void> encodeCoefficients(Field& field, const std::vector<float>& coeffici
   }
 
   if (field.quantization == Quantization::F16) {
-    std::vector<uint16_t> out(coefficients.size());
-    for (size_t i = 0; i < coefficients.size(); ++i) out[i] = floatToHalf(coefficients[i]);
+    std::vector<uint16_t> out(count);
+    for (size_t i = 0; i < count; ++i) out[i] = floatToHalf(coefficient(i));
     field.coefficientsF16 = std::move(out);
     field.coefficientsU8.clear();
     field.scale.clear();
@@ -795,10 +825,10 @@ Result<void> encodeCoefficients(Field& field, const std::vector<float>& coeffici
   for (uint32_t layer = 0; layer < layers; ++layer) {
     for (uint32_t c = 0; c < channels; ++c) {
       float lo = std::numeric_limits<float>::max(), hi = std::numeric_limits<float>::lowest();
-      const float* v = coefficients.data() + layer * perLayer + c;
       for (uint64_t t = 0; t < texels; ++t) {
-        lo = std::min(lo, v[t * channels]);
-        hi = std::max(hi, v[t * channels]);
+        const float v = coefficient(layer * perLayer + t * channels + c);
+        lo = std::min(lo, v);
+        hi = std::max(hi, v);
       }
       const float range = static_cast<float>(static_cast<double>(hi) - static_cast<double>(lo));
       if (!std::isfinite(range) || !std::isfinite(lo + range))
@@ -809,14 +839,14 @@ Result<void> encodeCoefficients(Field& field, const std::vector<float>& coeffici
       bias[size_t(layer) * channels + c] = lo;
     }
   }
-  std::vector<uint8_t> out(coefficients.size());
-  for (size_t i = 0; i < coefficients.size(); ++i) {
+  std::vector<uint8_t> out(count);
+  for (size_t i = 0; i < count; ++i) {
     const size_t table = (i / perLayer) * channels + i % channels;
     if (scale[table] == 0.0f) {
       out[i] = 0;
       continue;
     }
-    const double t = (static_cast<double>(coefficients[i]) - static_cast<double>(bias[table])) /
+    const double t = (static_cast<double>(coefficient(i)) - static_cast<double>(bias[table])) /
                      static_cast<double>(scale[table]) * 255.0;
     out[i] = static_cast<uint8_t>(std::clamp(std::floor(t + 0.5), 0.0, 255.0));
   }
