@@ -25,6 +25,7 @@ Field syntheticField(const SyntheticOptions& o) {
   f.settings.tableSize = f.tableSize;
   f.settings.components = f.components;
   f.settings.throughput = f.throughput;
+  f.settings.directionSampling = sh ? DirectionSampling::Grid : o.directionSampling;
   f.settings.quantization = o.quantization;
   f.settings.source = "synthetic";
   f.media.push_back(FieldMedium{"air", 1.0f, 0.0f, {1.0f, 1.0f, 1.0f}});

@@ -33,6 +33,8 @@ struct SyntheticOptions {
   uint32_t tableSize = 0;    // Table, Pca: nodes per side N
   uint32_t components = 0;   // Pca: K
   bool throughput = false;
+  // Nodes: decoded jump-aware, as the tool's default Pca bake is (field.h EncodingShape::jumpAware).
+  DirectionSampling directionSampling = DirectionSampling::Grid;
 };
 Field syntheticField(const SyntheticOptions& options);
 

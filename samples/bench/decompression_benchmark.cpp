@@ -267,18 +267,21 @@ struct EncodingCase {
   uint32_t order, tableSize, components, channels;
   bool throughput;
   Quantization quantization;
+  DirectionSampling sampling = DirectionSampling::Grid;
 };
 // At 324 bytes per sample the bake's budget candidates (bake.cpp budgetCandidates) are, with 4
 // channels: SH order 8, Table 9x9 and Pca K = 324 in u8, SH order 5 and Table 6x6 in f16 (288
 // bytes); with the throughput as a fifth channel: SH order 7 and Table 8x8 in u8 (320 bytes).
 // Pca K = 64 shows how the Pca cost scales with K; SH order 8 and Table 9x9 with 5 channels show
-// what the throughput channel alone costs at the same order or table.
-constexpr std::array<EncodingCase, 11> kEncodingCases{{
+// what the throughput channel alone costs at the same order or table. "nodes" is the tool's default
+// bake (Pca traced at its table nodes), whose cells are decoded jump-aware (docs/encodings.md).
+constexpr std::array<EncodingCase, 12> kEncodingCases{{
     {"sh L=8 (paper)", Encoding::Sh, 8, 0, 0, 4, false, Quantization::U8},
     {"sh L=5", Encoding::Sh, 5, 0, 0, 4, false, Quantization::F16},
     {"table 9x9", Encoding::Table, 0, 9, 0, 4, false, Quantization::U8},
     {"table 6x6", Encoding::Table, 0, 6, 0, 4, false, Quantization::F16},
     {"pca K=324 N=16", Encoding::Pca, 0, 16, 324, 4, false, Quantization::U8},
+    {"pca K=324 N=16 nodes", Encoding::Pca, 0, 16, 324, 4, false, Quantization::U8, DirectionSampling::Nodes},
     {"pca K=64 N=16", Encoding::Pca, 0, 16, 64, 4, false, Quantization::U8},
     {"sh L=8 +throughput", Encoding::Sh, 8, 0, 0, 5, true, Quantization::U8},
     {"sh L=7 +throughput", Encoding::Sh, 7, 0, 0, 5, true, Quantization::U8},
@@ -348,6 +351,7 @@ int runEncodings(const Options& options) {
     o.channels = c.channels;
     o.throughput = c.throughput;
     o.quantization = c.quantization;
+    o.directionSampling = c.sampling;
     Entry e{c, nullptr};
     {
       const Field field = syntheticField(o);
