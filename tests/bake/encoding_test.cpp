@@ -359,6 +359,74 @@ TEST(EncodingSampling, NodeSampledTableHoldsTheTracedExitAtEveryNode) {
   EXPECT_GT(mean(fitted), 1.0);
 }
 
+// --- the Pca basis of large tables (table_fit.cpp: subspace iteration above 1024 values) -------
+
+// Orthonormalizes the columns of a (rows x cols, column-major) in place (modified Gram-Schmidt).
+void orthonormalizeColumns(std::vector<double>& a, size_t rows, size_t cols) {
+  for (size_t j = 0; j < cols; ++j) {
+    double* v = &a[j * rows];
+    for (size_t p = 0; p < j; ++p) {
+      const double* u = &a[p * rows];
+      double dot = 0.0;
+      for (size_t i = 0; i < rows; ++i) dot += u[i] * v[i];
+      for (size_t i = 0; i < rows; ++i) v[i] -= dot * u[i];
+    }
+    double norm = 0.0;
+    for (size_t i = 0; i < rows; ++i) norm += v[i] * v[i];
+    for (size_t i = 0; i < rows; ++i) v[i] /= std::sqrt(norm);
+  }
+}
+
+// Tables of a known spectrum: in the basis's weighted space (values times the weights D it
+// reports) they are C diag(a) U^T with C and U orthonormal, so the best K functions leave exactly
+// the sum of a_j^2 beyond K. 19x19 tables of 3 channels are 1083 values, above the size where the
+// exact solver is used; the spectrum decays slowly (a_j = 0.95^j), so the block must converge.
+TEST(PcaBasis, LargeTablesKeepTheOptimalEnergy) {
+  constexpr uint32_t kN = 19, kChannels = 3, kComponents = 40;
+  constexpr size_t kDim = size_t(kN) * kN * kChannels, kSamples = 300, kRank = 150;
+  Random rng{11};
+  std::vector<float> weights;
+  // D depends only on the nodes (and on tau's RMS, absent here): take it from any fit.
+  std::vector<float> probe(kSamples * kDim);
+  for (float& v : probe) v = float(rng.next());
+  auto first = fitPcaBasis(probe, kSamples, kN, kChannels, 4, weights);
+  ASSERT_TRUE(first.ok()) << first.error().message;
+  const std::vector<float> d = first.value().scale;
+
+  std::vector<double> u(kDim * kRank), c(kSamples * kRank), a(kRank);
+  for (double& v : u) v = rng.next() - 0.5;
+  for (double& v : c) v = rng.next() - 0.5;
+  orthonormalizeColumns(u, kDim, kRank);
+  orthonormalizeColumns(c, kSamples, kRank);
+  double optimal = 0.0, total = 0.0;
+  for (size_t j = 0; j < kRank; ++j) {
+    a[j] = 100.0 * std::pow(0.95, double(j));
+    total += a[j] * a[j];
+    if (j >= kComponents) optimal += a[j] * a[j];
+  }
+  std::vector<double> x(kSamples * kDim, 0.0);  // weighted tables, sample-major
+  for (size_t s = 0; s < kSamples; ++s)
+    for (size_t j = 0; j < kRank; ++j)
+      for (size_t i = 0; i < kDim; ++i) x[s * kDim + i] += c[j * kSamples + s] * a[j] * u[j * kDim + i];
+  std::vector<float> tables(kSamples * kDim);
+  for (size_t k = 0; k < tables.size(); ++k) tables[k] = float(x[k] / double(d[k % kDim]));
+
+  auto fitted = fitPcaBasis(tables, kSamples, kN, kChannels, kComponents, weights);
+  ASSERT_TRUE(fitted.ok()) << fitted.error().message;
+  const PcaBasis& basis = fitted.value();
+  double residual = 0.0;
+  for (size_t s = 0; s < kSamples; ++s)
+    for (size_t i = 0; i < kDim; ++i) {
+      double r = x[s * kDim + i];
+      for (size_t k = 0; k < kComponents; ++k)
+        r -= double(weights[s * kComponents + k]) * double(basis.basis[k * kDim + i]) * double(d[i]);
+      residual += r * r;
+    }
+  // float tables and basis: about 1e-7 of the total energy on top of the optimum.
+  EXPECT_LE(residual, optimal * 1.01 + total * 1e-6) << "optimal " << optimal << " of " << total;
+  EXPECT_GE(residual, optimal * 0.99 - total * 1e-6);
+}
+
 // --- u8 refinement layers of Pca (table_fit.h) --------------------------------------------------
 
 TEST(PcaRefinement, TheWidestComponentsAreRefinedInPlaceOfTheWeakest) {
