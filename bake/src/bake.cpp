@@ -7,6 +7,8 @@
 #include <shrefract/bake/tracer.h>
 #include <shrefract/sh.h>
 
+#include "splitmix.h"
+
 #include <sys/resource.h>
 
 #include <algorithm>
@@ -67,13 +69,7 @@ double angleDegrees(glm::vec3 a, glm::vec3 b) {
   return std::acos(c) * (180.0 / 3.14159265358979323846);
 }
 
-// SplitMix64: deterministic per-sample random directions for the held-out check.
-uint64_t splitmix(uint64_t& state) {
-  uint64_t z = (state += 0x9e3779b97f4a7c15ull);
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-  return z ^ (z >> 31);
-}
+// Deterministic per-sample random directions for the held-out check (splitmix.h).
 float unitFloat(uint64_t& state) { return static_cast<float>(splitmix(state) >> 40) * (1.0f / 16777216.0f); }
 
 // A view direction distributed as often as it covers the screen (cosine-weighted over the

@@ -1,6 +1,8 @@
 #include <shrefract/bake/table_fit.h>
 #include <shrefract/field.h>
 
+#include "splitmix.h"
+
 #include <Eigen/Dense>
 
 #include <algorithm>
@@ -47,12 +49,9 @@ Result<Eigen::MatrixXd> leadingEigenvectors(const Eigen::MatrixXd& gram, Eigen::
   const Eigen::Index block = std::min(n, k + kEigenOversampling);
   if (n <= kExactEigenDim || 2 * block >= n) return exactLeadingEigenvectors(gram, k);
   Eigen::MatrixXd q(n, block);
-  uint64_t state = 0x9E3779B97F4A7C15ull;
+  uint64_t state = 0;
   for (Eigen::Index j = 0; j < block; ++j)
-    for (Eigen::Index i = 0; i < n; ++i) {
-      state = state * 6364136223846793005ull + 1442695040888963407ull;
-      q(i, j) = double(state >> 11) * 0x1p-53 - 0.5;
-    }
+    for (Eigen::Index i = 0; i < n; ++i) q(i, j) = double(splitmix(state) >> 11) * 0x1p-53 - 0.5;
   for (int it = 0; it < kEigenPowerIterations; ++it) {
     const Eigen::HouseholderQR<Eigen::MatrixXd> qr(gram.selfadjointView<Eigen::Lower>() * q);
     q = qr.householderQ() * Eigen::MatrixXd::Identity(n, block);

@@ -784,33 +784,32 @@ Result<void> encodeCoefficients(Field& field, const std::function<const float*(u
                                                      " is below the " + std::to_string(channels) + " values per layer");
   std::vector<const float*> rows(texels);
   for (uint64_t t = 0; t < texels; ++t) rows[t] = texelValues(t);
-  // Coefficient i in the quantized arrays' order (layers x texels x values).
-  const auto coefficient = [&](uint64_t i) {
-    const uint64_t layer = i / perLayer, inLayer = i % perLayer;
-    const float* row = rows[inLayer / channels];
-    return row ? row[layer * layerStride + inLayer % channels] : 0.0f;
+  const auto value = [&](uint32_t layer, uint64_t t, uint32_t c) {
+    return rows[t] ? rows[t][layer * layerStride + c] : 0.0f;
   };
-  for (size_t i = 0; i < count; ++i) {
-    const float v = coefficient(i);
-    if (!std::isfinite(v))
-      return makeError(ErrorCode::InvalidArgument, "encodeCoefficients: coefficient " + std::to_string(i) + " (layer " +
-                                                       std::to_string(i / perLayer) + ", channel " +
-                                                       std::to_string(i % channels) + ") is not finite");
-    if (!(std::fabs(v) <= kMaxCoefficientMagnitude))
-      return makeError(ErrorCode::InvalidArgument,
-                       "encodeCoefficients: coefficient " + std::to_string(i) + " (layer " + std::to_string(i / perLayer) +
-                           ", channel " + std::to_string(i % channels) + ") = " + formatFloat(v) + " is beyond +-" +
-                           formatFloat(kMaxCoefficientMagnitude));
-    if (field.quantization == Quantization::F16 && !(std::fabs(v) < kHalfOverflow))
-      return makeError(ErrorCode::InvalidArgument,
-                       "encodeCoefficients: coefficient " + std::to_string(i) + " (layer " + std::to_string(i / perLayer) +
-                           ", channel " + std::to_string(i % channels) + ") = " + formatFloat(v) +
-                           " is beyond the half-float range (|v| < 65520)");
-  }
+  // Every loop below visits the coefficients in the quantized arrays' order (layers x texels x
+  // values); i is the index there.
+  for (size_t i = 0, layer = 0; layer < layers; ++layer)
+    for (uint64_t t = 0; t < texels; ++t)
+      for (uint32_t c = 0; c < channels; ++c, ++i) {
+        const float v = value(uint32_t(layer), t, c);
+        const auto refuse = [&](const std::string& why) {
+          return makeError(ErrorCode::InvalidArgument, "encodeCoefficients: coefficient " + std::to_string(i) +
+                                                           " (layer " + std::to_string(layer) + ", channel " +
+                                                           std::to_string(c) + ")" + why);
+        };
+        if (!std::isfinite(v)) return refuse(" is not finite");
+        if (!(std::fabs(v) <= kMaxCoefficientMagnitude))
+          return refuse(" = " + formatFloat(v) + " is beyond +-" + formatFloat(kMaxCoefficientMagnitude));
+        if (field.quantization == Quantization::F16 && !(std::fabs(v) < kHalfOverflow))
+          return refuse(" = " + formatFloat(v) + " is beyond the half-float range (|v| < 65520)");
+      }
 
   if (field.quantization == Quantization::F16) {
     std::vector<uint16_t> out(count);
-    for (size_t i = 0; i < count; ++i) out[i] = floatToHalf(coefficient(i));
+    for (size_t i = 0, layer = 0; layer < layers; ++layer)
+      for (uint64_t t = 0; t < texels; ++t)
+        for (uint32_t c = 0; c < channels; ++c) out[i++] = floatToHalf(value(uint32_t(layer), t, c));
     field.coefficientsF16 = std::move(out);
     field.coefficientsU8.clear();
     field.scale.clear();
@@ -826,7 +825,7 @@ Result<void> encodeCoefficients(Field& field, const std::function<const float*(u
     for (uint32_t c = 0; c < channels; ++c) {
       float lo = std::numeric_limits<float>::max(), hi = std::numeric_limits<float>::lowest();
       for (uint64_t t = 0; t < texels; ++t) {
-        const float v = coefficient(layer * perLayer + t * channels + c);
+        const float v = value(layer, t, c);
         lo = std::min(lo, v);
         hi = std::max(hi, v);
       }
@@ -840,16 +839,18 @@ Result<void> encodeCoefficients(Field& field, const std::function<const float*(u
     }
   }
   std::vector<uint8_t> out(count);
-  for (size_t i = 0; i < count; ++i) {
-    const size_t table = (i / perLayer) * channels + i % channels;
-    if (scale[table] == 0.0f) {
-      out[i] = 0;
-      continue;
-    }
-    const double t = (static_cast<double>(coefficient(i)) - static_cast<double>(bias[table])) /
-                     static_cast<double>(scale[table]) * 255.0;
-    out[i] = static_cast<uint8_t>(std::clamp(std::floor(t + 0.5), 0.0, 255.0));
-  }
+  for (size_t i = 0, layer = 0; layer < layers; ++layer)
+    for (uint64_t t = 0; t < texels; ++t)
+      for (uint32_t c = 0; c < channels; ++c, ++i) {
+        const size_t table = layer * channels + c;
+        if (scale[table] == 0.0f) {
+          out[i] = 0;
+          continue;
+        }
+        const double level = (static_cast<double>(value(uint32_t(layer), t, c)) - static_cast<double>(bias[table])) /
+                             static_cast<double>(scale[table]) * 255.0;
+        out[i] = static_cast<uint8_t>(std::clamp(std::floor(level + 0.5), 0.0, 255.0));
+      }
   field.coefficientsU8 = std::move(out);
   field.scale = std::move(scale);
   field.bias = std::move(bias);
