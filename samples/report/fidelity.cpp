@@ -70,6 +70,7 @@ BakeSettings defaultFieldSettings() {
   s.tableSize = 16;
   s.components = 324;
   s.directionSampling = DirectionSampling::Nodes;
+  s.layout = SampleLayout::Charts;  // the tool's default (docs/sample-layouts.md, "Choosing a layout")
   return s;
 }
 
@@ -77,7 +78,7 @@ namespace {
 
 Profile profileFor(ReportSize size, uint64_t samples) {
   Profile p;
-  BakeSettings base;  // the default bake: order 8, 32x64 directions, split layout, default budget
+  BakeSettings base;  // the library default: order 8, 32x64 directions, split layout, default budget
   BakeSettings sweep = base;
   std::vector<uint32_t> orders, tables, components;
   uint32_t pcaTable = 16;

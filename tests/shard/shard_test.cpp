@@ -111,13 +111,13 @@ void expectSameField(const fs::path& expected, const fs::path& actual) {
                              << a.size();
 }
 
-// Small bakes (8x16 directions): the sphere's 642 samples in the default encoding (Pca, with
-// spatial smoothing: both global steps) and in SH with a window and the throughput channel, in
-// u8; the glass of water (absorbing: 4 channels) in the charts layout, Table in f16.
+// Small bakes (8x16 directions): the sphere's 642 samples (split layout) in the default encoding
+// (Pca, with spatial smoothing: both global steps) and in SH with a window and the throughput
+// channel, in u8; the glass of water (absorbing: 4 channels) in the charts layout, Table in f16.
 const std::vector<std::vector<std::string>> kBakes = {
-    {"builtin:sphere", "--samples", "1500", "--directions", "8x16", "--threads", "2", "--components", "24",
+    {"builtin:sphere", "--layout", "split", "--samples", "1500", "--directions", "8x16", "--threads", "2", "--components", "24",
      "--table-size", "6", "--spatial", "3"},
-    {"builtin:sphere", "--samples", "1500", "--directions", "8x16", "--threads", "2", "--order", "3", "--window",
+    {"builtin:sphere", "--layout", "split", "--samples", "1500", "--directions", "8x16", "--threads", "2", "--order", "3", "--window",
      "hann", "--spatial", "5", "--throughput"},
     {"builtin:glass-of-water", "--layout", "charts", "--samples", "800", "--directions", "8x16", "--threads", "2", "--encoding", "table",
      "--table-size", "4", "--quant", "f16"},
