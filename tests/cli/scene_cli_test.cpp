@@ -174,8 +174,9 @@ TEST_F(SceneCli, ExactModeOfAFieldWorksFromAnotherDirectoryAndWithScene) {
   EXPECT_TRUE(fs::exists(dir_ / "b/z.png"));
 }
 
-// The default bake (Pca) traces the table's nodes; asking for a grid size asks for grid sampling;
-// the field file and `info` say which (docs/encodings.md, "Sampling").
+// The default bake (Pca, charts layout) traces the table's nodes; asking for a grid size asks for
+// grid sampling; the field file and `info` say which (docs/encodings.md, "Sampling";
+// docs/sample-layouts.md, "Choosing a layout").
 TEST_F(SceneCli, DefaultBakeTracesTheTableNodesAndAGridSizeAsksForTheGrid) {
   const std::vector<std::string> base{"bake", "builtin:sphere?tessellation=1", "--samples", "100", "--components", "8"};
   auto bakeAndInfo = [&](std::vector<std::string> args, const std::string& out) {
@@ -187,6 +188,7 @@ TEST_F(SceneCli, DefaultBakeTracesTheTableNodesAndAGridSizeAsksForTheGrid) {
   const ToolRun nodes = bakeAndInfo(base, "nodes.shrf");
   ASSERT_EQ(nodes.exit, 0) << nodes.err;
   EXPECT_NE(nodes.out.find("\"direction_sampling\": \"nodes\""), std::string::npos) << nodes.out;
+  EXPECT_NE(nodes.out.find("\"layout\": \"charts\""), std::string::npos) << nodes.out;
   std::vector<std::string> gridArgs = base;
   gridArgs.insert(gridArgs.end(), {"--directions", "8x16"});
   const ToolRun grid = bakeAndInfo(gridArgs, "grid.shrf");
