@@ -2,7 +2,7 @@
 // spirv/include/shrefract/environment.glsl (directionFootprint, environmentLevel) evaluated by a
 // compute shader for known and random screen derivatives, and cpu_reference's mirror of both. A
 // known derivative gives a known level: a direction turning through 8 texel angles across the
-// pixel reads level 2 (log2 8 and the bias of -1, gpu_layout.h kEnvironmentLevelBias). Also the CPU mirror of the level chain the upload builds (environmentLevels).
+// pixel reads level 2.5 (log2 8 and the bias of -0.5, gpu_layout.h kEnvironmentLevelBias). Also the CPU mirror of the level chain the upload builds (environmentLevels).
 #include <gtest/gtest.h>
 #include <shrefract/cpu_reference.h>
 #include <shrefract/environment.h>
@@ -52,22 +52,24 @@ TEST(EnvironmentLevel, GpuMatchesCpuAndKnownLevels) {
     cases.push_back(c);
     expected.push_back(e);
   };
-  // A direction turning through 8 texels across the pixel in x: level 2; in y, the same.
-  add(makeCase({chordFor(8.0f * texel), 0, 0}, {0, 0, 0}, texel, 8.0f), {8.0f * texel, 2.0f});
-  add(makeCase({0, 0, 0}, {0, chordFor(8.0f * texel), 0}, texel, 8.0f), {8.0f * texel, 2.0f});
-  // The larger of the two axes decides (isotropic): 2 texels in x, 32 in y -> level 4.
-  add(makeCase({0, chordFor(2.0f * texel), 0}, {0, 0, chordFor(32.0f * texel)}, texel, 8.0f), {32.0f * texel, 4.0f});
-  // Two texels, half a texel, or no change at all: level 0.
-  add(makeCase({chordFor(2.0f * texel), 0, 0}, {0, 0, 0}, texel, 8.0f), {2.0f * texel, 0.0f});
+  // A direction turning through 8 texels across the pixel in x: level 2.5; in y, the same.
+  add(makeCase({chordFor(8.0f * texel), 0, 0}, {0, 0, 0}, texel, 8.0f), {8.0f * texel, 2.5f});
+  add(makeCase({0, 0, 0}, {0, chordFor(8.0f * texel), 0}, texel, 8.0f), {8.0f * texel, 2.5f});
+  // The larger of the two axes decides (isotropic): 2 texels in x, 32 in y -> level 4.5.
+  add(makeCase({0, chordFor(2.0f * texel), 0}, {0, 0, chordFor(32.0f * texel)}, texel, 8.0f), {32.0f * texel, 4.5f});
+  // Two texels: level 0.5; one texel and a half, half a texel, or no change at all: level 0.
+  add(makeCase({chordFor(2.0f * texel), 0, 0}, {0, 0, 0}, texel, 8.0f), {2.0f * texel, 0.5f});
+  add(makeCase({chordFor(1.4f * texel), 0, 0}, {0, 0, 0}, texel, 8.0f), {1.4f * texel, 0.0f});
   add(makeCase({chordFor(0.5f * texel), 0, 0}, {0, 0, 0}, texel, 8.0f), {0.5f * texel, 0.0f});
   add(makeCase({0, 0, 0}, {0, 0, 0}, texel, 8.0f), {0.0f, 0.0f});
-  // Opposite directions across the pixel (chord 2 and beyond): a half turn, 128 texels, level 6 ...
-  add(makeCase({0, 2.5f, 0}, {0, 0, 0}, texel, 8.0f), {std::numbers::pi_v<float>, 6.0f});
+  // Opposite directions across the pixel (chord 2 and beyond): a half turn, 128 texels, level 6.5 ...
+  add(makeCase({0, 2.5f, 0}, {0, 0, 0}, texel, 8.0f), {std::numbers::pi_v<float>, 6.5f});
   // ... clamped to the last level of a shorter chain.
   add(makeCase({0, 2.0f, 0}, {0, 0, 0}, texel, 5.0f), {std::numbers::pi_v<float>, 5.0f});
-  // A cube map of 64 texels a face: 12 texels -> log2(12) - 1.
+  // A cube map of 64 texels a face: 12 texels -> log2(12) - 0.5.
   const float cubeTexel = reference::cubeTexelAngle(64.0f);
-  add(makeCase({chordFor(12.0f * cubeTexel), 0, 0}, {0, 0, 0}, cubeTexel, 6.0f), {12.0f * cubeTexel, std::log2(6.0f)});
+  add(makeCase({chordFor(12.0f * cubeTexel), 0, 0}, {0, 0, 0}, cubeTexel, 6.0f),
+      {12.0f * cubeTexel, std::log2(12.0f) - 0.5f});
   std::mt19937 rng(13);
   std::uniform_real_distribution<float> component(-0.3f, 0.3f);
   for (int i = 0; i < 1000; ++i)
@@ -142,10 +144,11 @@ TEST(EnvironmentLevel, CpuChainIsTheBlitsBoxes) {
   const float texel = reference::latLongTexelAngle(8.0f);
   EXPECT_EQ(reference::sampleLatLong(env, d, 0.0f)[0], reference::sampleLatLong(env, d)[0]);
   EXPECT_NEAR(reference::sampleLatLong(env, d, 1000.0f)[0], levels[2][0], 1e-6f);  // the last level
-  const float l1 = reference::sampleLatLong(env, d, 4.0f * texel)[0];  // level 1
-  const float l2 = reference::sampleLatLong(env, d, 8.0f * texel)[0];  // level 2
+  // Level L is read at a footprint of 2^(L + 0.5) texels (the bias of -0.5).
+  const float l1 = reference::sampleLatLong(env, d, std::sqrt(8.0f) * texel)[0];   // level 1
+  const float l2 = reference::sampleLatLong(env, d, std::sqrt(32.0f) * texel)[0];  // level 2
   EXPECT_NE(l1, l2);
-  EXPECT_NEAR(reference::sampleLatLong(env, d, std::sqrt(32.0f) * texel)[0], 0.5f * (l1 + l2), 1e-5f);
+  EXPECT_NEAR(reference::sampleLatLong(env, d, 4.0f * texel)[0], 0.5f * (l1 + l2), 1e-5f);
 }
 
 }  // namespace

@@ -161,9 +161,9 @@ SHR_CONST(kJumpMinTableSize, 12u)
 // Filtered environment lookups (environment.glsl environmentLevel, docs/antialiasing.md): the
 // level is log2(footprint / texel angle) + this bias. The level whose texels are as wide as the
 // footprint, read bilinearly, blurs over a tent about twice the footprint (its own box, then the
-// bilinear tap); one level finer leaves about the pixel's own footprint, as supersampling does.
-// Measured against the 4x4 references in docs/antialiasing.md.
-SHR_CONSTF(kEnvironmentLevelBias, -1.0f)
+// bilinear tap); a whole level finer is sharper than the pixel's 4x4 average; half a level finer
+// measured best at one sample per pixel (docs/antialiasing.md, "Level bias").
+SHR_CONSTF(kEnvironmentLevelBias, -0.5f)
 
 // Texel roles as stored in the kinds buffer (the values of field.h's kTexel* constants).
 SHR_CONST(kGpuTexelEmpty, 0u)
