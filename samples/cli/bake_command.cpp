@@ -146,7 +146,7 @@ int bakeCommand(int argc, char** argv) {
     s.directionsPhi = (*dirs.value())[1];
   }
   // Charts by default: at the default budget the split layout's per-triangle lattices are coarse
-  // (n = 1 to 3 on the built-in scenes and the bunny) and flicker more (docs/sample-layouts.md).
+  // (n = 1 to 7 on the built-in scenes and the bunny) and flicker more (docs/sample-layouts.md).
   const std::string layout = args.get("layout").value_or("charts");
   if (layout == "split") s.layout = SampleLayout::Split;
   else if (layout == "charts") s.layout = SampleLayout::Charts;

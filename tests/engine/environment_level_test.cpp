@@ -57,7 +57,7 @@ TEST(EnvironmentLevel, GpuMatchesCpuAndKnownLevels) {
   add(makeCase({0, 0, 0}, {0, chordFor(8.0f * texel), 0}, texel, 8.0f), {8.0f * texel, 2.5f});
   // The larger of the two axes decides (isotropic): 2 texels in x, 32 in y -> level 4.5.
   add(makeCase({0, chordFor(2.0f * texel), 0}, {0, 0, chordFor(32.0f * texel)}, texel, 8.0f), {32.0f * texel, 4.5f});
-  // Two texels: level 0.5; one texel and a half, half a texel, or no change at all: level 0.
+  // Two texels: level 0.5; 1.4 texels (log2 1.4 < 0.5), half a texel, or no change at all: level 0.
   add(makeCase({chordFor(2.0f * texel), 0, 0}, {0, 0, 0}, texel, 8.0f), {2.0f * texel, 0.5f});
   add(makeCase({chordFor(1.4f * texel), 0, 0}, {0, 0, 0}, texel, 8.0f), {1.4f * texel, 0.0f});
   add(makeCase({chordFor(0.5f * texel), 0, 0}, {0, 0, 0}, texel, 8.0f), {0.5f * texel, 0.0f});
