@@ -54,10 +54,16 @@ glm::mat4 directionFromClip(const Camera& camera, uint32_t width, uint32_t heigh
   return glm::inverse(proj * view);
 }
 
-// The (unnormalized) ray through the centre of pixel (x, y) of a width x height image, as pixelRay.
-glm::vec3 rayThrough(const glm::mat4& dirFromClip, uint32_t width, uint32_t height, uint32_t x, uint32_t y) {
-  const glm::vec2 ndc((float(x) + 0.5f) / float(width) * 2.0f - 1.0f, (float(y) + 0.5f) / float(height) * 2.0f - 1.0f);
+// The (unnormalized) ray through the point (x, y) of a width x height image, in pixels with pixel
+// centres at whole numbers.
+glm::vec3 rayAt(const glm::mat4& dirFromClip, uint32_t width, uint32_t height, float x, float y) {
+  const glm::vec2 ndc((x + 0.5f) / float(width) * 2.0f - 1.0f, (y + 0.5f) / float(height) * 2.0f - 1.0f);
   return glm::vec3(dirFromClip * glm::vec4(ndc, 1.0f, 1.0f));
+}
+
+// The ray through the centre of pixel (x, y), as pixelRay.
+glm::vec3 rayThrough(const glm::mat4& dirFromClip, uint32_t width, uint32_t height, uint32_t x, uint32_t y) {
+  return rayAt(dirFromClip, width, height, float(x), float(y));
 }
 
 Result<void> checkSize(const char* who, uint32_t width, uint32_t height, uint32_t samplesPerAxis) {
@@ -305,41 +311,87 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
     return sample;
   };
 
-  out.rays = forEachRow(o.height, threadCount(o.threads), start, o.progress, [&](uint32_t y, uint64_t& rays) {
-    Traced self, nx, ny;
+  // Filtered, one sub-sample with two neighbours half a cell away in x and in y, toward its quad
+  // neighbours in the sub-sample grid (x ^ 1, y ^ 1), traced in full (3x the rays). On an axis
+  // where the neighbour went the same way (hit the same surface with lookups of the same keys),
+  // twice the difference of a lookup's direction is its derivative across a cell: the engine's fine
+  // derivatives, measured inside the cell. Where it went another way (a silhouette, another
+  // highest-energy branch, another number of interfaces) a path discontinuity lies between the two
+  // points, which no footprint blurs: for one at distance t, uniform in [0, 1/2], the box filter
+  // over the cell sees the neighbour's side over 1/2 - t of it, 1/4 on average, so the neighbour's
+  // colour enters with that weight (the least-squares estimate of the cell's mean from the two).
+  constexpr float kNeighbourOffset = 0.5f;
+  constexpr float kAcrossDiscontinuity = 0.25f;
+  struct Neighbourhood {
+    Traced self, x, y;
     std::vector<glm::vec3> dirs, dirsX, dirsY;
     std::vector<uint32_t> keys, keysX, keysY;
-    std::vector<float> footprints;
-    auto ray = [&](uint32_t bx, uint32_t by) { return glm::normalize(rayThrough(dirFromClip, bigWidth, bigHeight, bx, by)); };
+    std::vector<float> footprints, borrowed;
+  };
+  auto sameWay = [&](const Traced& a, const std::vector<uint32_t>& keysA, const Traced& b,
+                     const std::vector<uint32_t>& keysB) {
+    return a.hit.hit == b.hit.hit && (!a.hit.hit || a.hit.surface == b.hit.surface) && keysA == keysB;
+  };
+  auto ray = [&](float bx, float by) { return glm::normalize(rayAt(dirFromClip, bigWidth, bigHeight, bx, by)); };
+  auto filteredSample = [&](uint32_t bx, uint32_t by, Neighbourhood& n, uint64_t& rays) {
+    const float towardX = (bx & 1u) ? -kNeighbourOffset : kNeighbourOffset;
+    const float towardY = (by & 1u) ? -kNeighbourOffset : kNeighbourOffset;
+    const glm::vec3 d = ray(float(bx), float(by));
+    const glm::vec3 dx = ray(float(bx) + towardX, float(by)), dy = ray(float(bx), float(by) + towardY);
+    trace(d, n.self, rays);
+    trace(dx, n.x, rays);
+    trace(dy, n.y, rays);
+    lookups(d, n.self, n.dirs, n.keys);
+    lookups(dx, n.x, n.dirsX, n.keysX);
+    lookups(dy, n.y, n.dirsY, n.keysY);
+    // Per lookup: a derivative where the neighbour's lookup of that index has the same key (the
+    // front reflection stays continuous where the transmitted path jumps).
+    auto derivative = [&](const Traced& t, const std::vector<glm::vec3>& dirs, const std::vector<uint32_t>& keys,
+                          size_t k, float offset) {
+      const bool same = t.hit.hit && t.hit.surface == n.self.hit.surface && dirs.size() == n.dirs.size() &&
+                        keys[k] == n.keys[k];
+      return same ? (dirs[k] - n.dirs[k]) / offset : glm::vec3(0.0f);
+    };
+    n.footprints.clear();
+    for (size_t k = 0; k < n.dirs.size(); ++k) {
+      const glm::vec3 ddx = derivative(n.x, n.dirsX, n.keysX, k, towardX);
+      const glm::vec3 ddy = derivative(n.y, n.dirsY, n.keysY, k, towardY);
+      n.footprints.push_back(reference::directionFootprint({ddx.x, ddx.y, ddx.z}, {ddy.x, ddy.y, ddy.z}));
+    }
+    Sample sample = shade(d, n.self, n.dirs, n.footprints);
+    // A neighbour across a discontinuity is shaded with this sub-sample's footprint for each
+    // lookup of the same key (nearby, the same pixel-scale spread), sharp for the others.
+    auto across = [&](glm::vec3 dn, const Traced& t, const std::vector<glm::vec3>& dirs,
+                      const std::vector<uint32_t>& keys, glm::vec3 own) {
+      n.borrowed.assign(dirs.size(), 0.0f);
+      for (size_t k = 0; k < dirs.size() && k < n.keys.size(); ++k)
+        if (keys[k] == n.keys[k]) n.borrowed[k] = n.footprints[k];
+      return kAcrossDiscontinuity * (shade(dn, t, dirs, n.borrowed).color - own);
+    };
+    const glm::vec3 own = sample.color;
+    glm::vec3 blended = own;
+    if (!sameWay(n.self, n.keys, n.x, n.keysX)) blended += across(dx, n.x, n.dirsX, n.keysX, own);
+    if (!sameWay(n.self, n.keys, n.y, n.keysY)) blended += across(dy, n.y, n.dirsY, n.keysY, own);
+    sample.color = blended;
+    return sample;
+  };
+
+  out.rays = forEachRow(o.height, threadCount(o.threads), start, o.progress, [&](uint32_t y, uint64_t& rays) {
+    Neighbourhood n;
     for (uint32_t x = 0; x < o.width; ++x) {
       PixelAccumulator pixel;
       for (uint32_t j = 0; j < s; ++j)
         for (uint32_t i = 0; i < s; ++i) {
           const uint32_t bx = x * s + i, by = y * s + j;
-          const glm::vec3 d = ray(bx, by);
-          trace(d, self, rays);
-          lookups(d, self, dirs, keys);
-          footprints.clear();
-          if (o.filtered && self.hit.hit) {
-            // The engine's fine derivatives on the sub-sample grid: the quad neighbours in x and y,
-            // traced in full. A lookup whose neighbour hit another surface, took a different tree
-            // or met another number of interfaces has no derivative on that axis (a path's
-            // discontinuity is not a footprint: the 4x4 reference sees two sharp images there).
-            const glm::vec3 dx = ray(bx ^ 1u, by), dy = ray(bx, by ^ 1u);
-            trace(dx, nx, rays);
-            trace(dy, ny, rays);
-            lookups(dx, nx, dirsX, keysX);
-            lookups(dy, ny, dirsY, keysY);
-            const bool sameX = nx.hit.hit && nx.hit.surface == self.hit.surface && dirsX.size() == dirs.size();
-            const bool sameY = ny.hit.hit && ny.hit.surface == self.hit.surface && dirsY.size() == dirs.size();
-            const float sx = (bx & 1u) ? 1.0f : -1.0f, sy = (by & 1u) ? 1.0f : -1.0f;
-            for (size_t k = 0; k < dirs.size(); ++k) {
-              const glm::vec3 ddx = sameX && keysX[k] == keys[k] ? sx * (dirs[k] - dirsX[k]) : glm::vec3(0.0f);
-              const glm::vec3 ddy = sameY && keysY[k] == keys[k] ? sy * (dirs[k] - dirsY[k]) : glm::vec3(0.0f);
-              footprints.push_back(reference::directionFootprint({ddx.x, ddx.y, ddx.z}, {ddy.x, ddy.y, ddy.z}));
-            }
+          if (o.filtered) {
+            pixel.add(filteredSample(bx, by, n, rays));
+            continue;
           }
-          pixel.add(shade(d, self, dirs, footprints));
+          const glm::vec3 d = ray(float(bx), float(by));
+          trace(d, n.self, rays);
+          lookups(d, n.self, n.dirs, n.keys);
+          n.footprints.clear();
+          pixel.add(shade(d, n.self, n.dirs, n.footprints));
         }
       pixel.store(out, size_t(y) * o.width + x, s * s);
     }

@@ -73,10 +73,13 @@ struct ReferenceOptions {
   uint32_t threads = 0;            // 0: all hardware threads
   // Look the environment up as the engine does (docs/antialiasing.md): its level chain
   // (reference::environmentLevels), at the level of each lookup's footprint, from the directions
-  // of the sub-sample's quad neighbours in the sub-sample grid (x ^ 1, y ^ 1), traced as well
-  // (3x the rays). A neighbour that hits another surface, misses, or (FullTree) has another number
-  // of leaves gives no derivative on that axis. The background stays at level 0. False: level 0
-  // everywhere (bake::sampleLatLong), as the physical reference is rendered.
+  // of two neighbours half a sub-sample cell away toward its quad neighbours in the sub-sample grid
+  // (x ^ 1, y ^ 1), traced as well (3x the rays). A neighbour that hits another surface, misses,
+  // or went another way (another number of interfaces or leaves) gives no derivative on that axis:
+  // a path discontinuity lies between them, and the neighbour's colour is blended in with weight
+  // 1/4, the mean fraction of the cell beyond such a discontinuity. The background stays at
+  // level 0 away from the object. False: level 0 everywhere (bake::sampleLatLong), as the physical
+  // reference is rendered.
   bool filtered = false;
   // Called from the calling thread, between the rows it renders, at most every 100 ms, and once
   // at the end. May be empty.
