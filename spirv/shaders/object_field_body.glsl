@@ -32,10 +32,10 @@ void main() {
   // Looked up, and measured, in world space.
   vec3 exitWorld = rotateByQuaternion(pc.worldFromObjectRotation, exitDirection);
   vec3 reflectedWorld = rotateByQuaternion(pc.worldFromObjectRotation, reflect(v, n));
-  // Footprints before any branch that is not uniform (fine derivatives of the quad's lanes): a
-  // direction that diverges fast across the pixel reads a blurrier level instead of sparkling.
-  float exitFootprint = pixelFootprint(exitWorld);
-  float reflectedFootprint = pixelFootprint(reflectedWorld);
+  // Derivatives before any branch that is not uniform (fine derivatives of the quad's lanes): a
+  // direction that diverges fast across the pixel reads blurrier levels instead of sparkling.
+  vec3 exitDx = dFdxFine(exitWorld), exitDy = dFdyFine(exitWorld);
+  vec3 reflectedDx = dFdxFine(reflectedWorld), reflectedDy = dFdyFine(reflectedWorld);
   if (uint(pc.medium.w) == kModeFieldExitDirection) {  // the measured quantity itself
     outColor = vec4(exitWorld, d.w);
     return;
@@ -45,8 +45,8 @@ void main() {
   // filtered length is the throughput, blended as the direction is. Others store unit lengths,
   // which bilinear filtering shortens between diverging texels: they must not be scaled.
   if (pc.tint.a > 0.5) transmittance *= min(sqrt(len2), 1.0);
-  vec3 color = (1.0 - fresnel) * transmittance * pc.tint.rgb * lookupEnvironment(exitWorld, exitFootprint);
+  vec3 color = (1.0 - fresnel) * transmittance * pc.tint.rgb * lookupEnvironmentOverPixel(exitWorld, exitDx, exitDy);
   if (pc.medium.z > 0.5)
-    color += fresnel * lookupEnvironment(reflectedWorld, reflectedFootprint);
+    color += fresnel * lookupEnvironmentOverPixel(reflectedWorld, reflectedDx, reflectedDy);
   outColor = vec4(color * pc.eyeObject.w, 1.0);
 }

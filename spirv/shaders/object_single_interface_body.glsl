@@ -30,10 +30,10 @@ void main() {
   vec4 q = pc.worldFromObjectRotation;
   vec3 refractedWorld = rotateByQuaternion(q, refracted);
   vec3 reflectedWorld = rotateByQuaternion(q, reflected);
-  // Footprints in uniform control flow (fine derivatives): filtered lookups, see the field shader.
-  float refractedFootprint = pixelFootprint(refractedWorld);
-  float reflectedFootprint = pixelFootprint(reflectedWorld);
-  vec3 color = (1.0 - fresnel) * lookupEnvironment(refractedWorld, refractedFootprint) * pc.tint.rgb;
-  if (pc.medium.z > 0.5) color += fresnel * lookupEnvironment(reflectedWorld, reflectedFootprint);
+  // Derivatives in uniform control flow (fine): filtered lookups, see the field shader.
+  vec3 refractedDx = dFdxFine(refractedWorld), refractedDy = dFdyFine(refractedWorld);
+  vec3 reflectedDx = dFdxFine(reflectedWorld), reflectedDy = dFdyFine(reflectedWorld);
+  vec3 color = (1.0 - fresnel) * lookupEnvironmentOverPixel(refractedWorld, refractedDx, refractedDy) * pc.tint.rgb;
+  if (pc.medium.z > 0.5) color += fresnel * lookupEnvironmentOverPixel(reflectedWorld, reflectedDx, reflectedDy);
   outColor = vec4(color * pc.eyeObject.w, 1.0);
 }

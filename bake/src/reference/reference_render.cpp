@@ -82,6 +82,11 @@ Result<void> checkSize(const char* who, uint32_t width, uint32_t height, uint32_
   return {};
 }
 
+// Screen derivatives of a lookup direction across a (sub-)pixel; zero: none (level 0).
+struct Derivatives {
+  glm::vec3 dx{0.0f}, dy{0.0f};
+};
+
 // One sub-sample of a supersampled renderer.
 struct Sample {
   glm::vec3 color{0.0f};
@@ -212,10 +217,11 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
     levels = reference::environmentLevels(filteredEnv);
     filteredEnv.levels = &levels;
   }
-  // Level 0 (bake::sampleLatLong) unless filtered with a footprint.
-  auto lookup = [&](glm::vec3 dir, float footprint) {
+  // Level 0 (bake::sampleLatLong) unless filtered: then averaged over the pixel as the engine does.
+  auto lookup = [&](glm::vec3 dir, const Derivatives& dd) {
     if (!o.filtered) return sampleLatLong(env, dir);
-    const reference::Vec3 c = reference::sampleLatLong(filteredEnv, {dir.x, dir.y, dir.z}, footprint);
+    const reference::Vec3 c = reference::sampleLatLongOverPixel(filteredEnv, {dir.x, dir.y, dir.z},
+                                                                 {dd.dx.x, dd.dx.y, dd.dx.z}, {dd.dy.x, dd.dy.y, dd.dy.z});
     return glm::vec3(c[0], c[1], c[2]);
   };
 
@@ -266,16 +272,16 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
     }
   };
 
-  // One sub-sample: the eye ray along d, traced as `t`; footprints[i] (filtered) for lookup i.
+  // One sub-sample: the eye ray along d, traced as `t`; derivatives[i] (filtered) for lookup i.
   auto shade = [&](glm::vec3 d, const Traced& t, const std::vector<glm::vec3>& dirs,
-                   const std::vector<float>& footprints) {
+                   const std::vector<Derivatives>& derivatives) {
     Sample sample;
     const EyeRayResult& hit = t.hit;
     if (!hit.hit) {
       sample.color = sampleLatLong(env, d) * o.exposure;
       return sample;
     }
-    auto footprint = [&](size_t i) { return i < footprints.size() ? footprints[i] : 0.0f; };
+    auto derivativesOf = [&](size_t i) { return i < derivatives.size() ? derivatives[i] : Derivatives{}; };
     sample.hit = true;
     const Surface& surface = scene.surfaces[hit.surface];
     const float eta = scene.media[surface.outerMedium].ior / scene.media[surface.innerMedium].ior;
@@ -286,17 +292,17 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
     if (o.mode == ReferenceMode::SingleInterface) {
       f = fresnelDielectric(cosI, eta);
       sample.direction = dirs[1];
-      transmitted = lookup(sample.direction, footprint(1));
+      transmitted = lookup(sample.direction, derivativesOf(1));
     } else if (o.mode == ReferenceMode::Exact) {
       const PathResult& path = hit.transmitted;
       sample.direction = path.exitDirection;
-      transmitted = lookup(path.exitDirection, footprint(1)) * std::exp(-path.opticalDepth * o.absorptionScale);
+      transmitted = lookup(path.exitDirection, derivativesOf(1)) * std::exp(-path.opticalDepth * o.absorptionScale);
       if (o.throughput) transmitted *= path.energy;
     } else {
       glm::vec3 sum(0.0f), dirSum(0.0f);
       for (size_t i = 0; i < t.leaves.size(); ++i) {
         const PathResult& leaf = t.leaves[i];
-        sum += leaf.energy * lookup(leaf.exitDirection, footprint(i + 1)) *
+        sum += leaf.energy * lookup(leaf.exitDirection, derivativesOf(i + 1)) *
                std::exp(-leaf.opticalDepth * o.absorptionScale);
         dirSum += leaf.energy * leaf.exitDirection;
       }
@@ -306,7 +312,7 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
     // One colour model in every mode (docs/scenes.md): the colour of the medium behind the front
     // surface tints all the light transmitted through it.
     glm::vec3 color = (1.0f - f) * transmitted * scene.media[surface.innerMedium].color;
-    if (o.reflection) color += f * lookup(hit.reflectedDirection, footprint(0));
+    if (o.reflection) color += f * lookup(hit.reflectedDirection, derivativesOf(0));
     sample.color = color * o.exposure;
     return sample;
   };
@@ -326,7 +332,7 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
     Traced self, x, y;
     std::vector<glm::vec3> dirs, dirsX, dirsY;
     std::vector<uint32_t> keys, keysX, keysY;
-    std::vector<float> footprints, borrowed;
+    std::vector<Derivatives> derivatives, borrowed;
   };
   auto sameWay = [&](const Traced& a, const std::vector<uint32_t>& keysA, const Traced& b,
                      const std::vector<uint32_t>& keysB) {
@@ -352,20 +358,17 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
                         keys[k] == n.keys[k];
       return same ? (dirs[k] - n.dirs[k]) / offset : glm::vec3(0.0f);
     };
-    n.footprints.clear();
-    for (size_t k = 0; k < n.dirs.size(); ++k) {
-      const glm::vec3 ddx = derivative(n.x, n.dirsX, n.keysX, k, towardX);
-      const glm::vec3 ddy = derivative(n.y, n.dirsY, n.keysY, k, towardY);
-      n.footprints.push_back(reference::directionFootprint({ddx.x, ddx.y, ddx.z}, {ddy.x, ddy.y, ddy.z}));
-    }
-    Sample sample = shade(d, n.self, n.dirs, n.footprints);
-    // A neighbour across a discontinuity is shaded with this sub-sample's footprint for each
+    n.derivatives.clear();
+    for (size_t k = 0; k < n.dirs.size(); ++k)
+      n.derivatives.push_back({derivative(n.x, n.dirsX, n.keysX, k, towardX), derivative(n.y, n.dirsY, n.keysY, k, towardY)});
+    Sample sample = shade(d, n.self, n.dirs, n.derivatives);
+    // A neighbour across a discontinuity is shaded with this sub-sample's derivatives for each
     // lookup of the same key (nearby, the same pixel-scale spread), sharp for the others.
     auto across = [&](glm::vec3 dn, const Traced& t, const std::vector<glm::vec3>& dirs,
                       const std::vector<uint32_t>& keys, glm::vec3 own) {
-      n.borrowed.assign(dirs.size(), 0.0f);
+      n.borrowed.assign(dirs.size(), Derivatives{});
       for (size_t k = 0; k < dirs.size() && k < n.keys.size(); ++k)
-        if (keys[k] == n.keys[k]) n.borrowed[k] = n.footprints[k];
+        if (keys[k] == n.keys[k]) n.borrowed[k] = n.derivatives[k];
       return kAcrossDiscontinuity * (shade(dn, t, dirs, n.borrowed).color - own);
     };
     const glm::vec3 own = sample.color;
@@ -390,8 +393,8 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
           const glm::vec3 d = ray(float(bx), float(by));
           trace(d, n.self, rays);
           lookups(d, n.self, n.dirs, n.keys);
-          n.footprints.clear();
-          pixel.add(shade(d, n.self, n.dirs, n.footprints));
+          n.derivatives.clear();
+          pixel.add(shade(d, n.self, n.dirs, n.derivatives));
         }
       pixel.store(out, size_t(y) * o.width + x, s * s);
     }
@@ -617,10 +620,10 @@ Result<ReferenceImage> renderDistortion(const FieldMesh& mesh, const reference::
     }
     // reference::render's per-sample operations, through its own functions.
     const reference::SurfacePoint point = reference::surfacePointAt(mesh, bestTriangle, *best);
-    const reference::LookupFootprints footprints =
-        reference::pixelFootprints(object, bestTriangle, o.camera, bigWidth, bigHeight, bx, by);
+    const reference::LookupDerivatives derivatives =
+        reference::pixelDerivatives(object, bestTriangle, o.camera, bigWidth, bigHeight, bx, by);
     const reference::Vec3 c =
-        reference::shadeField(distortion, latLong, point, o.camera.eye, o.shading, o.exposure, Transform{}, footprints);
+        reference::shadeField(distortion, latLong, point, o.camera.eye, o.shading, o.exposure, Transform{}, derivatives);
     sample.color = glm::vec3(c[0], c[1], c[2]);
     sample.hit = true;
     const reference::Vec3 dir = reference::shadedExitDirection(distortion, point, o.camera.eye);

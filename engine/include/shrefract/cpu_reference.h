@@ -84,7 +84,7 @@ std::vector<std::vector<float>> environmentLevels(const LatLongImage& environmen
 // 2 asin(min(max(|ddx|, |ddy|) / 2, 1)) ...
 float directionFootprint(const Vec3& ddx, const Vec3& ddy);
 // ... and the level for it, clamp(log2(max(footprint, 1e-30) / texelAngle) + kEnvironmentLevelBias,
-// 0, maxLevel) (gpu_layout.h: -1).
+// 0, maxLevel) (gpu_layout.h: 0).
 float environmentLevel(float footprint, float texelAngle, float maxLevel);
 // Radians per level 0 texel: 2 pi / width (lat-long, at the equator), pi / (2 faceSize) (cube).
 float latLongTexelAngle(float width);
@@ -95,6 +95,13 @@ float cubeTexelAngle(float faceSize);
 // linear between them, as the engine's sampler does with its explicit level; level 0 alone when
 // footprint is 0 or environment.levels is null. Precondition: the image is not empty.
 Vec3 sampleLatLong(const LatLongImage& environment, const Vec3& direction, float footprint = 0.0f);
+
+// The environment averaged over the pixel, as environment_select.glsl lookupEnvironmentOverPixel
+// (same float operations): for `direction` with screen derivatives ddx, ddy, the mean of
+// gpu::kEnvironmentTapsPerAxis^2 sampleLatLong taps at direction + a ddx + b ddy (a, b the cell
+// centres of (-1/2, 1/2)), each with directionFootprint(ddx / n, ddy / n); a tap that cancels to
+// zero reads `direction`. Zero derivatives: sampleLatLong(environment, direction) once.
+Vec3 sampleLatLongOverPixel(const LatLongImage& environment, const Vec3& direction, const Vec3& ddx, const Vec3& ddy);
 
 // World direction of the centre of texel (i, j) of cube face `face` (0..5: +X, -X, +Y, -Y, +Z,
 // -Z), not normalized; see CubeEnvironmentDesc.
@@ -108,10 +115,11 @@ struct SurfacePoint {
   float frontIor = 0.0f;  // n_inside / n_outside; 0: shading.ior
 };
 
-// Footprints (radians, directionFootprint) of a fragment's two environment lookups; zero reads level 0.
-struct LookupFootprints {
-  float exit = 0.0f;       // the exit (refracted) direction
-  float reflected = 0.0f;  // the front reflection
+// Screen derivatives (fine, as the GPU's) of a fragment's two lookup directions, for
+// sampleLatLongOverPixel; zero reads level 0 once.
+struct LookupDerivatives {
+  Vec3 exitDx{}, exitDy{};            // the exit (refracted) direction
+  Vec3 reflectedDx{}, reflectedDy{};  // the front reflection
 };
 
 // ShadingMode::Field for one fragment (see renderer.h), before the colour attachment's format
@@ -120,11 +128,11 @@ struct LookupFootprints {
 // does for an object whose field has a throughput channel (ObjectPushConstants.tint.a).
 // `point` and `eye` are in the object's space; the exit and reflection directions are turned to
 // world space with worldFromObject's rotation before the lookups, and the optical depth scaled by
-// its scale, as the object pass does. `footprints` filter the two lookups (sampleLatLong); render()
-// computes them as the GPU's fine derivatives do (pixelFootprints).
+// its scale, as the object pass does. `derivatives` filter the two lookups (sampleLatLongOverPixel);
+// render() computes them as the GPU's fine derivatives do (pixelDerivatives).
 Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environment, const SurfacePoint& point,
                 const Vec3& eye, const ObjectShading& shading, float exposure = 1.0f,
-                const Transform& worldFromObject = Transform{}, const LookupFootprints& footprints = {});
+                const Transform& worldFromObject = Transform{}, const LookupDerivatives& derivatives = {});
 
 // One object for render(): its mesh (positions, normals, uvs, frontIor, indices as in FieldMesh)
 // and its decompressed image. Pointers must stay valid during render().
@@ -163,19 +171,18 @@ SurfacePoint surfacePointAt(const FieldMesh& mesh, uint32_t first, const Triangl
 // the view direction where it vanishes.
 Vec3 shadedExitDirection(const DistortionImage& distortion, const SurfacePoint& point, const Vec3& eye);
 
-// The footprints the object pass computes for pixel (x, y) where the visible surface is triangle
+// The derivatives the object pass computes for pixel (x, y) where the visible surface is triangle
 // `first / 3` of object.mesh: the world exit and reflection directions shaded at the centres of the
 // pixel, of its 2x2 quad's neighbour in x (x ^ 1) and in y (y ^ 1), all on the plane of that
-// triangle (its attributes extrapolated beyond its edges, as the GPU's helper lanes do), and
-// directionFootprint of the fine derivatives (odd minus even column, odd minus even row).
-// `eye` is the world eye position.
-LookupFootprints pixelFootprints(const RenderObject& object, uint32_t first, const Camera& camera, uint32_t width,
-                                 uint32_t height, uint32_t x, uint32_t y);
+// triangle (its attributes extrapolated beyond its edges, as the GPU's helper lanes do), and their
+// fine derivatives (odd minus even column, odd minus even row).
+LookupDerivatives pixelDerivatives(const RenderObject& object, uint32_t first, const Camera& camera, uint32_t width,
+                                   uint32_t height, uint32_t x, uint32_t y);
 
 // The background pass and Field-mode objects, ray cast per pixel centre (each object in its own
 // space: the ray brought into it by the inverse of worldFromObject): the nearest front-facing
 // triangle (counter-clockwise seen from the eye, as the GPU culls) with its perspective-correct
-// barycentric attributes, shaded with shadeField and pixelFootprints' filtered lookups (the chain
+// barycentric attributes, shaded with shadeField and pixelDerivatives' filtered lookups (the chain
 // built with environmentLevels when environment.levels is null); the environment's level 0 in the
 // ray's direction where no triangle is hit, as the background pass reads it. Near and far planes are ignored (scenes in tests sit well inside them).
 RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImage& environment, const Camera& camera,

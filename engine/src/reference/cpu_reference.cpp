@@ -166,6 +166,21 @@ Vec3 sampleLatLong(const LatLongImage& env, const Vec3& direction, float footpri
   return fromGlm(c);
 }
 
+Vec3 sampleLatLongOverPixel(const LatLongImage& env, const Vec3& direction, const Vec3& ddx, const Vec3& ddy) {
+  const glm::vec3 dir = toGlm(direction), dx = toGlm(ddx), dy = toGlm(ddy);
+  if (dx == glm::vec3(0.0f) && dy == glm::vec3(0.0f)) return sampleLatLong(env, direction, 0.0f);
+  const float n = float(gpu::kEnvironmentTapsPerAxis);
+  const float footprint = directionFootprint(fromGlm(dx / n), fromGlm(dy / n));
+  glm::vec3 sum(0.0f);
+  for (uint32_t j = 0; j < gpu::kEnvironmentTapsPerAxis; ++j)
+    for (uint32_t i = 0; i < gpu::kEnvironmentTapsPerAxis; ++i) {
+      const float a = (float(i) + 0.5f) / n - 0.5f, b = (float(j) + 0.5f) / n - 0.5f;
+      const glm::vec3 tap = dir + a * dx + b * dy;
+      sum += toGlm(sampleLatLong(env, fromGlm(glm::dot(tap, tap) > 1e-12f ? tap : dir), footprint));
+    }
+  return fromGlm(sum / (n * n));
+}
+
 Vec3 cubeTexelDirection(uint32_t face, uint32_t i, uint32_t j, uint32_t faceSize) {
   const float a = 2.0f * (float(i) + 0.5f) / float(faceSize) - 1.0f;
   const float b = 2.0f * (float(j) + 0.5f) / float(faceSize) - 1.0f;
@@ -213,16 +228,17 @@ FieldFragment fieldFragment(const DistortionImage& distortion, const SurfacePoin
 
 Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environment, const SurfacePoint& point,
                 const Vec3& eyeArray, const ObjectShading& shading, float exposure, const Transform& worldFromObject,
-                const LookupFootprints& footprints) {
+                const LookupDerivatives& derivatives) {
   const FieldFragment f = fieldFragment(distortion, point, eyeArray, worldFromObject);
   const float ior = point.frontIor > 0.0f ? point.frontIor : shading.ior;
   const float fresnel = fresnelDielectric(f.cosI, 1.0f / ior);
   float transmittance = std::exp(-std::max(f.d[3], 0.0f) * (shading.absorptionScale * worldFromObject.scale));
   if (distortion.throughput) transmittance *= std::min(std::sqrt(f.len2), 1.0f);
   glm::vec3 color = (1.0f - fresnel) * transmittance * toGlm(shading.tint) *
-                    toGlm(sampleLatLong(environment, fromGlm(f.exitWorld), footprints.exit));
+                    toGlm(sampleLatLongOverPixel(environment, fromGlm(f.exitWorld), derivatives.exitDx, derivatives.exitDy));
   if (shading.reflection)
-    color += fresnel * toGlm(sampleLatLong(environment, fromGlm(f.reflectedWorld), footprints.reflected));
+    color += fresnel * toGlm(sampleLatLongOverPixel(environment, fromGlm(f.reflectedWorld), derivatives.reflectedDx,
+                                                          derivatives.reflectedDy));
   return fromGlm(color * exposure);
 }
 
@@ -285,8 +301,8 @@ SurfacePoint surfacePointAt(const FieldMesh& mesh, uint32_t first, const Triangl
   return point;
 }
 
-LookupFootprints pixelFootprints(const RenderObject& object, uint32_t first, const Camera& camera, uint32_t width,
-                                 uint32_t height, uint32_t x, uint32_t y) {
+LookupDerivatives pixelDerivatives(const RenderObject& object, uint32_t first, const Camera& camera, uint32_t width,
+                                   uint32_t height, uint32_t x, uint32_t y) {
   const FieldMesh& mesh = *object.mesh;
   const Transform& placed = object.worldFromObject;
   const Vec3 eyeObject = inverseTransformPoint(placed, camera.eye);
@@ -315,11 +331,12 @@ LookupFootprints pixelFootprints(const RenderObject& object, uint32_t first, con
   const FieldFragment nx = fragmentAt(x ^ 1u, y), ny = fragmentAt(x, y ^ 1u);
   // Fine derivatives: odd column minus even column, odd row minus even row.
   const float sx = (x & 1u) ? 1.0f : -1.0f, sy = (y & 1u) ? 1.0f : -1.0f;
-  auto footprint = [&](const glm::vec3& a, const glm::vec3& bx, const glm::vec3& by) {
-    return directionFootprint(fromGlm(sx * (a - bx)), fromGlm(sy * (a - by)));
-  };
-  return {footprint(self.exitWorld, nx.exitWorld, ny.exitWorld),
-          footprint(self.reflectedWorld, nx.reflectedWorld, ny.reflectedWorld)};
+  LookupDerivatives out;
+  out.exitDx = fromGlm(sx * (self.exitWorld - nx.exitWorld));
+  out.exitDy = fromGlm(sy * (self.exitWorld - ny.exitWorld));
+  out.reflectedDx = fromGlm(sx * (self.reflectedWorld - nx.reflectedWorld));
+  out.reflectedDy = fromGlm(sy * (self.reflectedWorld - ny.reflectedWorld));
+  return out;
 }
 
 Vec3 shadedExitDirection(const DistortionImage& distortion, const SurfacePoint& point, const Vec3& eye) {
@@ -382,9 +399,9 @@ RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImag
       const RenderObject& object = objects[size_t(bestObject)];
       const SurfacePoint point = surfacePointAt(*object.mesh, bestTriangle, *best);
       const Vec3& eye = objectEyes[size_t(bestObject)];
-      const LookupFootprints footprints = pixelFootprints(object, bestTriangle, camera, width, height, px, py);
+      const LookupDerivatives derivatives = pixelDerivatives(object, bestTriangle, camera, width, height, px, py);
       const Vec3 c = shadeField(*object.distortion, filtered, point, eye, object.shading, exposure,
-                                object.worldFromObject, footprints);
+                                object.worldFromObject, derivatives);
       for (int k = 0; k < 3; ++k) out[k] = c[size_t(k)];
       image.object[size_t(py) * width + px] = bestObject;
       const Vec3 dir = rotateDirection(object.worldFromObject, shadedExitDirection(*object.distortion, point, eye));

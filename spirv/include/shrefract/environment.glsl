@@ -22,7 +22,8 @@ vec2 latLongUv(vec3 dir) {
 
 // Angle (radians) spanned across the pixel by a unit direction with screen derivatives ddx, ddy:
 // the larger chord, converted to its arc (a chord of 2 is a half turn). Isotropic on purpose: one
-// level for both axes (textureLod), the blur of the longer axis, so that nothing aliases.
+// level for both axes (textureLod), the blur of the longer axis, so that nothing aliases; the
+// taps of lookupEnvironmentOverPixel (environment_select.glsl) follow each axis.
 float directionFootprint(vec3 ddx, vec3 ddy) {
   float chord = max(length(ddx), length(ddy));
   return 2.0 * asin(min(0.5 * chord, 1.0));
@@ -30,7 +31,7 @@ float directionFootprint(vec3 ddx, vec3 ddy) {
 
 // The level for a footprint of `footprint` radians, for a level 0 texel of `texelAngle` radians:
 // the level whose texels span it, plus kEnvironmentLevelBias (gpu_layout.h), clamped to
-// [0, maxLevel]; a footprint below two texels (or zero) is level 0.
+// [0, maxLevel]; a footprint below one texel (or zero) is level 0.
 float environmentLevel(float footprint, float texelAngle, float maxLevel) {
   return clamp(log2(max(footprint, 1e-30) / texelAngle) + kEnvironmentLevelBias, 0.0, maxLevel);
 }

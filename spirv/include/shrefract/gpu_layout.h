@@ -159,11 +159,18 @@ SHR_CONSTF(kJumpDominancePower, 4.0f)
 SHR_CONST(kJumpMinTableSize, 12u)
 
 // Filtered environment lookups (environment.glsl environmentLevel, docs/antialiasing.md): the
-// level is log2(footprint / texel angle) + this bias. The level whose texels are as wide as the
-// footprint, read bilinearly, blurs over a tent about twice the footprint (its own box, then the
-// bilinear tap); a whole level finer is sharper than the pixel's 4x4 average; half a level finer
-// measured best at one sample per pixel (docs/antialiasing.md, "Level bias").
-SHR_CONSTF(kEnvironmentLevelBias, -0.5f)
+// level is log2(footprint / texel angle) + this bias, for each tap's share of the footprint (below).
+// The level whose texels are as wide as the footprint, read bilinearly, blurs over a tent about
+// twice the footprint (its own box, then the bilinear tap). With one tap per lookup half a level
+// finer measured best; with 2x2 taps, each reading the level of its own cell, none (the field's
+// own noise on the cube and the glass of water wants the blur; docs/antialiasing.md, "Taps").
+SHR_CONSTF(kEnvironmentLevelBias, 0.0f)
+// A filtered lookup averages this many taps per axis over the parallelogram its direction sweeps
+// across the pixel (environment_select.glsl lookupEnvironmentOverPixel), each at the level of its
+// own share of the footprint: closer to the pixel's box than one tap of the level chain, whose
+// support is about twice the footprint (bright, small sources spread over too many pixels), and
+// anisotropic where the direction sweeps along one axis (docs/antialiasing.md, "Taps").
+SHR_CONST(kEnvironmentTapsPerAxis, 2u)
 
 // Texel roles as stored in the kinds buffer (the values of field.h's kTexel* constants).
 SHR_CONST(kGpuTexelEmpty, 0u)

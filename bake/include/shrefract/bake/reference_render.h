@@ -72,8 +72,8 @@ struct ReferenceOptions {
   uint32_t samplesPerAxis = 1;     // S: S x S stratified samples per pixel (see the top), 1..kMaxSamplesPerAxis
   uint32_t threads = 0;            // 0: all hardware threads
   // Look the environment up as the engine does (docs/antialiasing.md): its level chain
-  // (reference::environmentLevels), at the level of each lookup's footprint, from the directions
-  // of two neighbours half a sub-sample cell away toward its quad neighbours in the sub-sample grid
+  // (reference::environmentLevels), averaged over the pixel (reference::sampleLatLongOverPixel)
+  // with each lookup direction's derivatives taken from the directions of two neighbours half a sub-sample cell away toward its quad neighbours in the sub-sample grid
   // (x ^ 1, y ^ 1), traced as well (3x the rays). A neighbour that hits another surface, misses,
   // or went another way (another number of interfaces or leaves) gives no derivative on that axis:
   // a path discontinuity lies between them, and the neighbour's colour is blended in with weight
@@ -160,7 +160,7 @@ struct DistortionRenderOptions {
 // The engine's raster pass on the CPU for one field object: per sub-sample, the same operations
 // as reference::render (the nearest front-facing triangle of `mesh` in double precision, its
 // perspective-correct attributes, reference::shadeField with `distortion` and the filtered lookups
-// of reference::pixelFootprints for the sub-sample grid; the environment's level 0 where no
+// of reference::pixelDerivatives for the sub-sample grid; the environment's level 0 where no
 // triangle is hit), but only the triangles whose screen bounds cover the sample are tested, so
 // it runs on big meshes. `rays` counts sub-samples. Per-pixel results equal reference::render's
 // at S = 1 (reference_test checks it). Errors as renderReference's, and a distortion image whose
