@@ -259,6 +259,26 @@ bool nearSilhouette(const ReferenceImage& image, uint32_t x, uint32_t y) {
   return false;
 }
 
+// The view `o` rendered three ways: 4x4 supersampled, and at one sample per pixel with level 0
+// lookups and with ReferenceOptions::filtered.
+struct FilterRenders {
+  ReferenceImage super, plain, filtered;
+};
+
+FilterRenders renderFilterTriple(const SphereSetup& s, ReferenceOptions o) {
+  FilterRenders out;
+  o.samplesPerAxis = 4;
+  auto super = renderReference(*s.tracer, s.scene, s.env, o);
+  o.samplesPerAxis = 1;
+  auto plain = renderReference(*s.tracer, s.scene, s.env, o);
+  o.filtered = true;
+  auto filtered = renderReference(*s.tracer, s.scene, s.env, o);
+  EXPECT_TRUE(super.ok() && plain.ok() && filtered.ok());
+  if (super.ok() && plain.ok() && filtered.ok())
+    out = {std::move(super).value(), std::move(plain).value(), std::move(filtered).value()};
+  return out;
+}
+
 // ReferenceOptions::filtered: at one sample per pixel, in front of fine stripes (which level 0
 // lookups alias), the engine's filtered lookups bring the exact and full-tree renders closer to
 // their own 4x4 render than level 0 lookups do; background pixels away from the silhouette
@@ -280,16 +300,11 @@ TEST(ReferenceRender, FilteredLookupsApproachTheSupersampledRender) {
     ReferenceOptions o = sphereView(64, 48);
     o.mode = mode;
     o.treeDepth = 4;
-    o.samplesPerAxis = 4;
-    auto super = renderReference(*s.tracer, s.scene, s.env, o);
-    o.samplesPerAxis = 1;
-    auto plain = renderReference(*s.tracer, s.scene, s.env, o);
-    o.filtered = true;
-    auto filtered = renderReference(*s.tracer, s.scene, s.env, o);
-    ASSERT_TRUE(super.ok() && plain.ok() && filtered.ok());
-    for (float v : filtered.value().color.rgba) ASSERT_TRUE(std::isfinite(v));
-    auto a = compareImages(plain.value().color, super.value().color, super.value().mask, {}, {});
-    auto b = compareImages(filtered.value().color, super.value().color, super.value().mask, {}, {});
+    const FilterRenders r = renderFilterTriple(s, o);
+    ASSERT_FALSE(r.super.color.rgba.empty() || r.plain.color.rgba.empty() || r.filtered.color.rgba.empty());
+    for (float v : r.filtered.color.rgba) ASSERT_TRUE(std::isfinite(v));
+    auto a = compareImages(r.plain.color, r.super.color, r.super.mask, {}, {});
+    auto b = compareImages(r.filtered.color, r.super.color, r.super.mask, {}, {});
     ASSERT_TRUE(a.ok() && b.ok());
     std::printf("%s, 1 spp against 4x4: level 0 %.2f dB, filtered %.2f dB (%llu object pixels)\n",
                 mode == ReferenceMode::Exact ? "exact" : "full tree", a.value().psnr, b.value().psnr,
@@ -300,11 +315,11 @@ TEST(ReferenceRender, FilteredLookupsApproachTheSupersampledRender) {
     // keep their level 0 colour; next to it they take in the object across the discontinuity.
     for (uint32_t y = 0; y < o.height; ++y)
       for (uint32_t x = 0; x < o.width; ++x) {
-        if (nearSilhouette(super.value(), x, y)) continue;
+        if (nearSilhouette(r.super, x, y)) continue;
         const size_t p = size_t(y) * o.width + x;
-        if (plain.value().coverage[p] > 0.0f) continue;
+        if (r.plain.coverage[p] > 0.0f) continue;
         for (size_t c = 0; c < 3; ++c)
-          ASSERT_EQ(filtered.value().color.rgba[p * 4 + c], plain.value().color.rgba[p * 4 + c]) << "pixel " << p;
+          ASSERT_EQ(r.filtered.color.rgba[p * 4 + c], r.plain.color.rgba[p * 4 + c]) << "pixel " << p;
       }
   }
 }
@@ -320,24 +335,19 @@ TEST(ReferenceRender, FilteredSilhouettesBlendTowardTheirCoverage) {
   SphereSetup s = sphere(4);
   s.env.rgba.assign(size_t(s.env.width) * s.env.height * 4, 0.9f);
   s.scene.media[s.scene.surfaces[0].innerMedium].color = glm::vec3(0.1f, 0.3f, 1.0f);
-  ReferenceOptions o = sphereView(64, 48);
-  o.samplesPerAxis = 4;
-  auto super = renderReference(*s.tracer, s.scene, s.env, o);
-  o.samplesPerAxis = 1;
-  auto plain = renderReference(*s.tracer, s.scene, s.env, o);
-  o.filtered = true;
-  auto filtered = renderReference(*s.tracer, s.scene, s.env, o);
-  ASSERT_TRUE(super.ok() && plain.ok() && filtered.ok());
+  const ReferenceOptions o = sphereView(64, 48);
+  const FilterRenders r = renderFilterTriple(s, o);
+  ASSERT_FALSE(r.super.color.rgba.empty() || r.plain.color.rgba.empty() || r.filtered.color.rgba.empty());
   double plainError = 0.0, filteredError = 0.0;
   uint32_t edge = 0;
   for (size_t p = 0; p < size_t(o.width) * o.height; ++p) {
-    const float coverage = super.value().coverage[p];
+    const float coverage = r.super.coverage[p];
     if (coverage == 0.0f || coverage == 1.0f) continue;
     ++edge;
     for (size_t c = 0; c < 3; ++c) {
-      const double want = super.value().color.rgba[p * 4 + c];
-      plainError += std::pow(double(plain.value().color.rgba[p * 4 + c]) - want, 2.0);
-      filteredError += std::pow(double(filtered.value().color.rgba[p * 4 + c]) - want, 2.0);
+      const double want = r.super.color.rgba[p * 4 + c];
+      plainError += std::pow(double(r.plain.color.rgba[p * 4 + c]) - want, 2.0);
+      filteredError += std::pow(double(r.filtered.color.rgba[p * 4 + c]) - want, 2.0);
     }
   }
   std::printf("silhouette pixels: %u, squared error filtered / plain %.3f\n", edge, filteredError / plainError);
