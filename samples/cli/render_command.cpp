@@ -49,7 +49,7 @@ std::vector<FlagSpec> renderFlags() {
       {"throughput", false, "exact mode: weight the transmitted light by the path's Fresnel throughput"},
       {"tree-depth", true, "full-tree mode: depth of the Fresnel tree (default 8)", K::Integer, {1, 16}},
       {"filtered", false, "exact and full-tree modes: read the environment at the level of each lookup's pixel "
-                          "footprint, as the engine does, and blend across path discontinuities (docs/antialiasing.md; 3x "
+                          "footprint, as the engine does, and blend across path discontinuities (docs/antialiasing.md; 5x "
                           "the rays)"},
       {"spp", true, "samples per pixel N, a perfect square: sqrt(N) x sqrt(N) stratified samples, averaged "
                     "(default 1; every mode)", K::Integer, {1, 64}},

@@ -2,6 +2,7 @@
 #include <shrefract/cpu_reference.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -317,65 +318,87 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
     return sample;
   };
 
-  // Filtered, one sub-sample with two neighbours half a cell away in x and in y, toward its quad
-  // neighbours in the sub-sample grid (x ^ 1, y ^ 1), traced in full (3x the rays). On an axis
-  // where the neighbour went the same way (hit the same surface with lookups of the same keys),
-  // twice the difference of a lookup's direction is its derivative across a cell: the engine's fine
-  // derivatives, measured inside the cell. Where it went another way (a silhouette, another
-  // highest-energy branch, another number of interfaces) a path discontinuity lies between the two
-  // points, which no footprint blurs: for one at distance t, uniform in [0, 1/2], the box filter
-  // over the cell sees the neighbour's side over 1/2 - t of it, 1/4 on average, so the neighbour's
-  // colour enters with that weight (the least-squares estimate of the cell's mean from the two).
-  constexpr float kNeighbourOffset = 0.5f;
+  // Filtered, one sub-sample and four probes at the midpoints of its cell's edges, half a cell
+  // away along +-x and +-y, each traced in full (5x the rays): a discontinuity on either side of
+  // the sample is seen (one probe per axis, toward the quad neighbour, missed half of them).
+  // Per lookup and axis, the derivative is the central difference where both probes went the same
+  // way for that lookup (same surface, same key), the one-sided difference where one did: the
+  // engine's fine derivatives, measured inside the cell. Where neither did, a discontinuity lies
+  // inside the cell; the difference to a probe with as many lookups (the exact path's exit beyond
+  // it, a tree of the same size) stays the derivative, so the lookup spreads over the directions
+  // the cell sees, as the engine's quad derivatives do, where a point lookup would sparkle.
+  // A probe that went another way (a silhouette, another highest-energy branch, another number of
+  // interfaces) has a discontinuity between it and the sample, at distance t uniform in [0, 1/2]:
+  // the box filter over the cell sees the probe's side over 1/2 - t of that axis, 1/4 on average,
+  // so the probe's colour enters with that share; the two axes combine as independent (the
+  // sample keeps (1 - c_x / 4)(1 - c_y / 4) for c probes across per axis).
+  constexpr float kProbeOffset = 0.5f;
   constexpr float kAcrossDiscontinuity = 0.25f;
-  struct Neighbourhood {
-    Traced self, x, y;
-    std::vector<glm::vec3> dirs, dirsX, dirsY;
-    std::vector<uint32_t> keys, keysX, keysY;
-    std::vector<Derivatives> derivatives, borrowed;
+  struct Probe {
+    glm::vec3 d{0.0f};
+    Traced t;
+    std::vector<glm::vec3> dirs;
+    std::vector<uint32_t> keys;
   };
-  auto sameWay = [&](const Traced& a, const std::vector<uint32_t>& keysA, const Traced& b,
-                     const std::vector<uint32_t>& keysB) {
-    return a.hit.hit == b.hit.hit && (!a.hit.hit || a.hit.surface == b.hit.surface) && keysA == keysB;
+  struct Neighbourhood {
+    Probe self;
+    std::array<Probe, 4> around;  // +x, -x, +y, -y
+    std::vector<Derivatives> derivatives;
+  };
+  auto sameWay = [&](const Probe& a, const Probe& b) {
+    return a.t.hit.hit == b.t.hit.hit && (!a.t.hit.hit || a.t.hit.surface == b.t.hit.surface) && a.keys == b.keys;
   };
   auto ray = [&](float bx, float by) { return glm::normalize(rayAt(dirFromClip, bigWidth, bigHeight, bx, by)); };
+  auto probeAt = [&](float bx, float by, Probe& p, uint64_t& rays) {
+    p.d = ray(bx, by);
+    trace(p.d, p.t, rays);
+    lookups(p.d, p.t, p.dirs, p.keys);
+  };
+  // Lookup i's derivative along one axis from the probes half a cell before and after the sample.
+  auto axisDerivative = [&](const Probe& self, const Probe& after, const Probe& before, size_t i) {
+    auto same = [&](const Probe& p) {
+      return p.t.hit.hit && p.t.hit.surface == self.t.hit.surface && p.dirs.size() == self.dirs.size() &&
+             p.keys[i] == self.keys[i];
+    };
+    const bool a = same(after), b = same(before);
+    if (a && b) return (after.dirs[i] - before.dirs[i]) / (2.0f * kProbeOffset);
+    auto alike = [&](const Probe& p) { return p.dirs.size() == self.dirs.size(); };
+    if (a || (!b && alike(after))) return (after.dirs[i] - self.dirs[i]) / kProbeOffset;
+    if (b || alike(before)) return (self.dirs[i] - before.dirs[i]) / kProbeOffset;
+    return glm::vec3(0.0f);
+  };
+  // The sample's colour with the probes across a discontinuity blended in, each shaded with this
+  // sample's footprints (the same pixel-scale spread; level 0 would sparkle) where their lookups
+  // correspond: all of them in a probe with as many lookups, else those of the same key.
+  auto blendAcross = [&](const Neighbourhood& n, glm::vec3 own) {
+    float acrossX = 0.0f, acrossY = 0.0f;
+    glm::vec3 acrossSum(0.0f);
+    for (size_t k = 0; k < n.around.size(); ++k) {
+      const Probe& p = n.around[k];
+      if (sameWay(n.self, p)) continue;
+      (k < 2 ? acrossX : acrossY) += 1.0f;
+      std::vector<Derivatives> footprints(p.dirs.size());
+      for (size_t i = 0; i < p.dirs.size() && i < n.self.dirs.size(); ++i)
+        if (p.dirs.size() == n.self.dirs.size() || p.keys[i] == n.self.keys[i]) footprints[i] = n.derivatives[i];
+      acrossSum += shade(p.d, p.t, p.dirs, footprints).color;
+    }
+    if (acrossX + acrossY == 0.0f) return own;
+    const float keep = (1.0f - kAcrossDiscontinuity * acrossX) * (1.0f - kAcrossDiscontinuity * acrossY);
+    return keep * own + (1.0f - keep) / (acrossX + acrossY) * acrossSum;
+  };
   auto filteredSample = [&](uint32_t bx, uint32_t by, Neighbourhood& n, uint64_t& rays) {
-    const float towardX = (bx & 1u) ? -kNeighbourOffset : kNeighbourOffset;
-    const float towardY = (by & 1u) ? -kNeighbourOffset : kNeighbourOffset;
-    const glm::vec3 d = ray(float(bx), float(by));
-    const glm::vec3 dx = ray(float(bx) + towardX, float(by)), dy = ray(float(bx), float(by) + towardY);
-    trace(d, n.self, rays);
-    trace(dx, n.x, rays);
-    trace(dy, n.y, rays);
-    lookups(d, n.self, n.dirs, n.keys);
-    lookups(dx, n.x, n.dirsX, n.keysX);
-    lookups(dy, n.y, n.dirsY, n.keysY);
-    // Per lookup: a derivative where the neighbour's lookup of that index has the same key (the
-    // front reflection stays continuous where the transmitted path jumps).
-    auto derivative = [&](const Traced& t, const std::vector<glm::vec3>& dirs, const std::vector<uint32_t>& keys,
-                          size_t k, float offset) {
-      const bool same = t.hit.hit && t.hit.surface == n.self.hit.surface && dirs.size() == n.dirs.size() &&
-                        keys[k] == n.keys[k];
-      return same ? (dirs[k] - n.dirs[k]) / offset : glm::vec3(0.0f);
-    };
+    const float x = float(bx), y = float(by), h = kProbeOffset;
+    probeAt(x, y, n.self, rays);
+    probeAt(x + h, y, n.around[0], rays);
+    probeAt(x - h, y, n.around[1], rays);
+    probeAt(x, y + h, n.around[2], rays);
+    probeAt(x, y - h, n.around[3], rays);
     n.derivatives.clear();
-    for (size_t k = 0; k < n.dirs.size(); ++k)
-      n.derivatives.push_back({derivative(n.x, n.dirsX, n.keysX, k, towardX), derivative(n.y, n.dirsY, n.keysY, k, towardY)});
-    Sample sample = shade(d, n.self, n.dirs, n.derivatives);
-    // A neighbour across a discontinuity is shaded with this sub-sample's derivatives for each
-    // lookup of the same key (nearby, the same pixel-scale spread), sharp for the others.
-    auto across = [&](glm::vec3 dn, const Traced& t, const std::vector<glm::vec3>& dirs,
-                      const std::vector<uint32_t>& keys, glm::vec3 own) {
-      n.borrowed.assign(dirs.size(), Derivatives{});
-      for (size_t k = 0; k < dirs.size() && k < n.keys.size(); ++k)
-        if (keys[k] == n.keys[k]) n.borrowed[k] = n.derivatives[k];
-      return kAcrossDiscontinuity * (shade(dn, t, dirs, n.borrowed).color - own);
-    };
-    const glm::vec3 own = sample.color;
-    glm::vec3 blended = own;
-    if (!sameWay(n.self, n.keys, n.x, n.keysX)) blended += across(dx, n.x, n.dirsX, n.keysX, own);
-    if (!sameWay(n.self, n.keys, n.y, n.keysY)) blended += across(dy, n.y, n.dirsY, n.keysY, own);
-    sample.color = blended;
+    for (size_t i = 0; i < n.self.dirs.size(); ++i)
+      n.derivatives.push_back({axisDerivative(n.self, n.around[0], n.around[1], i),
+                               axisDerivative(n.self, n.around[2], n.around[3], i)});
+    Sample sample = shade(n.self.d, n.self.t, n.self.dirs, n.derivatives);
+    sample.color = blendAcross(n, sample.color);
     return sample;
   };
 
@@ -390,11 +413,9 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
             pixel.add(filteredSample(bx, by, n, rays));
             continue;
           }
-          const glm::vec3 d = ray(float(bx), float(by));
-          trace(d, n.self, rays);
-          lookups(d, n.self, n.dirs, n.keys);
+          probeAt(float(bx), float(by), n.self, rays);
           n.derivatives.clear();
-          pixel.add(shade(d, n.self, n.dirs, n.derivatives));
+          pixel.add(shade(n.self.d, n.self.t, n.self.dirs, n.derivatives));
         }
       pixel.store(out, size_t(y) * o.width + x, s * s);
     }
