@@ -177,6 +177,7 @@ Result<bake::Image> renderFrame(Session& session, const Environment& environment
   rci.depthFormat = depthFormat;
   rci.exposure = settings.exposure;
   rci.frustumCulling = settings.skipWork;
+  rci.environmentTapsPerAxis = settings.environmentTapsPerAxis;
   auto renderer = Renderer::create(*session.context, rci);
   if (!renderer) return renderer.error();
   std::unique_ptr<Decompressor> decompressor;

@@ -51,6 +51,9 @@ std::vector<FlagSpec> renderFlags() {
       {"filtered", false, "exact and full-tree modes: read the environment at the level of each lookup's pixel "
                           "footprint, as the engine does, and blend across path discontinuities (docs/antialiasing.md; 5x "
                           "the rays)"},
+      {"env-taps", true, "taps per axis of each filtered environment lookup (default 2; 1 is one trilinear lookup, "
+                         "cheaper and blurrier): GPU modes, and exact and full-tree with --filtered "
+                         "(docs/antialiasing.md)", K::Integer, {1, 4}},
       {"spp", true, "samples per pixel N, a perfect square: sqrt(N) x sqrt(N) stratified samples, averaged "
                     "(default 1; every mode)", K::Integer, {1, 64}},
       {"threads", true, "CPU modes: worker threads (default: all cores)", K::Integer, {1, 1024}},
@@ -98,7 +101,7 @@ struct Request {
   float fov = 40.0f;
   std::optional<std::array<uint32_t, 2>> size;
   std::optional<float> exposure, absorption;
-  uint32_t samplesPerAxis = 1, frames = 1;
+  uint32_t samplesPerAxis = 1, frames = 1, environmentTaps = 2;
   std::optional<uint32_t> maxBounces, treeDepth, threads;
   int device = -1;
   PathRule pathRule = PathRule::HighestEnergy;
@@ -135,6 +138,8 @@ Result<void> checkApplicability(const Args& args, const Request& r) {
                  " applies to --mode exact only");
   if (!cpu && args.has("filtered"))
     return usage("shrefract render: --filtered applies to --mode exact and full-tree only (the GPU modes always filter)");
+  if (cpu && !args.has("filtered") && args.has("env-taps"))
+    return usage("shrefract render: --env-taps applies to --mode exact and full-tree with --filtered only");
   if (r.scene && r.mode == "sh")
     return usage("shrefract render: " + r.input + " is a scene and --mode sh needs a refraction field; bake one "
                  "(shrefract bake " + r.input + " -o FIELD.shrf) and render FIELD.shrf, or use --mode "
@@ -181,6 +186,7 @@ Result<Request> readRequest(const Args& args) {
   r.treeDepth = narrow<uint32_t>(args.integer("tree-depth").value());
   r.threads = narrow<uint32_t>(args.integer("threads").value());
   r.device = narrow<int>(args.integer("device").value()).value_or(-1);
+  r.environmentTaps = narrow<uint32_t>(args.integer("env-taps").value()).value_or(r.environmentTaps);
   auto spa = samplesPerAxisOf(args);
   if (!spa) return spa.error();
   r.samplesPerAxis = spa.value();
@@ -303,6 +309,7 @@ int renderCpu(const Args& args, const Request& r, const Inputs& in, const Camera
   ro.pathRule = r.pathRule;
   ro.throughput = args.has("throughput");
   ro.filtered = args.has("filtered");
+  ro.environmentTapsPerAxis = r.environmentTaps;
   ro.samplesPerAxis = r.samplesPerAxis;
   Progress progress("render " + r.mode, stderr);
   ro.progress = [&](const bake::ReferenceProgress& p) {
@@ -315,11 +322,11 @@ int renderCpu(const Args& args, const Request& r, const Inputs& in, const Camera
   const auto& result = image.value();
   if (args.has("json"))
     std::printf("{\"output\": %s, \"scene\": %s, \"mode\": %s, \"width\": %u, \"height\": %u, "
-                "\"spp\": %u, \"path_rule\": %s, \"throughput\": %s, \"filtered\": %s, \"rays\": %llu, "
-                "\"cpu_seconds\": %.4f}\n",
+                "\"spp\": %u, \"path_rule\": %s, \"throughput\": %s, \"filtered\": %s, \"env_taps\": %u, "
+                "\"rays\": %llu, \"cpu_seconds\": %.4f}\n",
                 jsonString(r.output).c_str(), jsonString(r.input).c_str(), jsonString(r.mode).c_str(), ro.width,
                 ro.height, r.samplesPerAxis * r.samplesPerAxis, jsonString(toString(r.pathRule)).c_str(),
-                ro.throughput ? "true" : "false", ro.filtered ? "true" : "false",
+                ro.throughput ? "true" : "false", ro.filtered ? "true" : "false", ro.environmentTapsPerAxis,
                 static_cast<unsigned long long>(result.rays), result.seconds);
   else
     std::printf("rendered %s (%ux%u, %u spp, %s, CPU) in %.2f s, %.3g rays (%.3g rays/s) -> %s\n", r.input.c_str(),
@@ -342,10 +349,11 @@ void printGpuSummary(const Args& args, const Request& r, const Inputs& in, const
     return;
   }
   std::printf("{\"output\": %s, \"scene\": %s, \"mode\": %s, \"environment\": %s, \"width\": %u, "
-              "\"height\": %u, \"spp\": %u, \"device\": %s, \"frames\": %zu, ",
+              "\"height\": %u, \"spp\": %u, \"env_taps\": %u, \"device\": %s, \"frames\": %zu, ",
               jsonString(r.output).c_str(), jsonString(r.input).c_str(), jsonString(r.mode).c_str(),
               jsonString(args.has("cube-env") ? "cube" : "lat-long").c_str(), frame.width, frame.height,
-              r.samplesPerAxis * r.samplesPerAxis, jsonString(deviceName).c_str(), timings.wallMs.size());
+              r.samplesPerAxis * r.samplesPerAxis, frame.environmentTapsPerAxis, jsonString(deviceName).c_str(),
+              timings.wallMs.size());
   if (in.field)
     std::printf("\"field\": {\"order\": %u, \"width\": %u, \"height\": %u, \"quantization\": %s, "
                 "\"triangles\": %zu}, ",
@@ -400,6 +408,7 @@ int renderGpu(const Args& args, const Request& r, const Inputs& in, const Camera
   frame.mode = r.mode == "sh" ? ShadingMode::Field : ShadingMode::SingleInterface;
   frame.frames = r.frames;
   frame.samplesPerAxis = r.samplesPerAxis;
+  frame.environmentTapsPerAxis = r.environmentTaps;
   std::vector<Object*> drawList;
   for (auto& o : objects) drawList.push_back(o.get());
   offscreen::FrameTimings timings;

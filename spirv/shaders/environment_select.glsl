@@ -19,19 +19,24 @@ layout(set = 0, binding = kBindingEnvironment) uniform sampler2D environmentMap;
 vec3 lookupEnvironment(vec3 dir, float footprint) { return sampleEnvironment(environmentMap, dir, footprint); }
 #endif
 
+// Taps per axis of lookupEnvironmentOverPixel, chosen per renderer (RendererCreateInfo).
+layout(constant_id = kSpecEnvironmentTaps) const uint ENVIRONMENT_TAPS = kEnvironmentTapsPerAxis;
+
 // The environment averaged over the pixel for a direction `dir` with screen derivatives ddx, ddy
 // (fine: each 2x2 quad's own row and column differences, which the CPU reference mirrors by
-// shading the quad neighbours; take them in uniform control flow): kEnvironmentTapsPerAxis^2 taps
-// at the centres of the cells of the parallelogram dir + a ddx + b ddy, a and b in (-1/2, 1/2),
-// each read at the level of one cell's footprint. A tap that cancels to zero (derivatives as long
-// as a half turn) reads dir. Zero derivatives read level 0 once.
+// shading the quad neighbours; take them in uniform control flow): ENVIRONMENT_TAPS^2 taps at the
+// centres of the cells of the parallelogram dir + a ddx + b ddy, a and b in (-1/2, 1/2), each read
+// at the level of one cell's footprint (one tap: the whole footprint, kOneTapFootprintScale
+// finer). A tap that cancels to zero (derivatives as long as a half turn) reads dir. Zero
+// derivatives read level 0 once.
 vec3 lookupEnvironmentOverPixel(vec3 dir, vec3 ddx, vec3 ddy) {
   if (ddx == vec3(0.0) && ddy == vec3(0.0)) return lookupEnvironment(dir, 0.0);
-  float n = float(kEnvironmentTapsPerAxis);
+  float n = float(ENVIRONMENT_TAPS);
   float footprint = directionFootprint(ddx / n, ddy / n);
+  if (ENVIRONMENT_TAPS == 1u) return lookupEnvironment(dir, footprint * kOneTapFootprintScale);
   vec3 sum = vec3(0.0);
-  for (uint j = 0u; j < kEnvironmentTapsPerAxis; ++j) {
-    for (uint i = 0u; i < kEnvironmentTapsPerAxis; ++i) {
+  for (uint j = 0u; j < ENVIRONMENT_TAPS; ++j) {
+    for (uint i = 0u; i < ENVIRONMENT_TAPS; ++i) {
       float a = (float(i) + 0.5) / n - 0.5, b = (float(j) + 0.5) / n - 0.5;
       vec3 tap = dir + a * ddx + b * ddy;
       sum += lookupEnvironment(dot(tap, tap) > 1e-12 ? tap : dir, footprint);

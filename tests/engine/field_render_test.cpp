@@ -199,7 +199,11 @@ TEST_F(FieldRender, TwoObjectsMatchCpuReference) {
 // a fine stripe pattern must be read at the level the footprint calls for. The GPU matches the CPU
 // mirror (environmentLevels, pixelDerivatives) on every object pixel but a few at silhouettes, and
 // differs visibly from level 0 lookups (what it did before), so that a broken chain, level or
-// derivative shows. Planted once: the CPU mirror with zero footprints fails the first check.
+// derivative shows; so for every tap count a renderer can be created with
+// (RendererCreateInfo::environmentTapsPerAxis: 2, the default, then 1 and 4), whose images differ
+// from each other. Counts outside 1..4 are refused. Planted once each: the CPU mirror with zero
+// footprints fails the first check; pipelines created without the tap count's specialization
+// (always 2 taps) fail it at 1 tap.
 TEST_F(FieldRender, FilteredLookupsMatchCpuMirror) {
   bake::Image env;  // 512 x 256, 8-texel stripes in u and v: aliases where a pixel spans several
   env.width = 512;
@@ -234,33 +238,56 @@ TEST_F(FieldRender, FilteredLookupsMatchCpuMirror) {
   frame.camera.eye = {0.2f, 0.6f, 4.0f};
   frame.camera.verticalFovDegrees = 45.0f;
   frame.mode = ShadingMode::Field;
-  auto gpu = offscreen::renderFrame(*session, *gpuEnv.value(), {object.value().get()}, frame);
-  ASSERT_TRUE(gpu.ok()) << gpu.error().message;
 
   const reference::DistortionImage distortion = reference::decompress(field, frame.camera.eye);
   const std::vector<reference::RenderObject> cpuObjects{{&field.mesh, &distortion, object.value()->shading}};
-  const reference::LatLongImage cpuEnv{env.width, env.height, env.rgba.data()};
-  const reference::RenderedImage cpu = reference::render(cpuObjects, cpuEnv, frame.camera, frame.width, frame.height);
   const std::vector<std::vector<float>> noChain;  // an empty chain: every lookup at level 0
   const reference::LatLongImage levelZeroEnv{env.width, env.height, env.rgba.data(), &noChain};
   const reference::RenderedImage levelZero =
       reference::render(cpuObjects, levelZeroEnv, frame.camera, frame.width, frame.height);
   // Tighter than kFieldTolerance's fraction: on the objects only silhouettes may differ.
   constexpr float kObjectFailFraction = 0.002f;
-  bake::Image diff;
-  const Comparison mirror = compare(gpu.value(), cpu.rgba, kFieldTolerance, &cpu.object, &diff);
-  const Comparison unfiltered = compare(gpu.value(), levelZero.rgba, kFieldTolerance, &cpu.object);
-  std::printf("filtered lookups: %u of %u object pixels outside tolerance against the CPU mirror (max |diff| "
-              "%.4f), %u against level 0 lookups (max |diff| %.4f)\n",
-              mirror.failed, mirror.pixels, double(mirror.maxDiff), unfiltered.failed, double(unfiltered.maxDiff));
-  EXPECT_GT(mirror.pixels, 3000u) << "the object must cover a good part of the image";
-  const bool pass = float(mirror.failed) <= kObjectFailFraction * float(mirror.pixels);
-  EXPECT_TRUE(pass) << mirror.failed << " of " << mirror.pixels << " object pixels outside tolerance";
-  EXPECT_GT(unfiltered.failed, mirror.pixels / 10) << "the filtered levels must change what the glass shows";
-  if (!pass || std::getenv("SHREFRACT_WRITE_TEST_IMAGES")) {
-    writeForInspection("filtered_gpu.png", gpu.value());
-    writeForInspection("filtered_cpu.png", bake::Image{cpu.width, cpu.height, cpu.rgba});
-    writeForInspection("filtered_diff_x10.png", diff);
+  std::vector<bake::Image> gpuImages;
+  for (uint32_t taps : {2u, 1u, 4u}) {
+    frame.environmentTapsPerAxis = taps;
+    auto gpu = offscreen::renderFrame(*session, *gpuEnv.value(), {object.value().get()}, frame);
+    ASSERT_TRUE(gpu.ok()) << gpu.error().message;
+    reference::LatLongImage cpuEnv{env.width, env.height, env.rgba.data()};
+    cpuEnv.tapsPerAxis = taps;
+    const reference::RenderedImage cpu = reference::render(cpuObjects, cpuEnv, frame.camera, frame.width, frame.height);
+    bake::Image diff;
+    const Comparison mirror = compare(gpu.value(), cpu.rgba, kFieldTolerance, &cpu.object, &diff);
+    const Comparison unfiltered = compare(gpu.value(), levelZero.rgba, kFieldTolerance, &cpu.object);
+    std::printf("filtered lookups, %u tap(s) per axis: %u of %u object pixels outside tolerance against the CPU "
+                "mirror (max |diff| %.4f), %u against level 0 lookups (max |diff| %.4f)\n",
+                taps, mirror.failed, mirror.pixels, double(mirror.maxDiff), unfiltered.failed,
+                double(unfiltered.maxDiff));
+    EXPECT_GT(mirror.pixels, 3000u) << "the object must cover a good part of the image";
+    const bool pass = float(mirror.failed) <= kObjectFailFraction * float(mirror.pixels);
+    EXPECT_TRUE(pass) << mirror.failed << " of " << mirror.pixels << " object pixels outside tolerance, " << taps
+                      << " tap(s) per axis";
+    EXPECT_GT(unfiltered.failed, mirror.pixels / 10) << "the filtered levels must change what the glass shows";
+    if (!pass || std::getenv("SHREFRACT_WRITE_TEST_IMAGES")) {
+      const std::string suffix = "_taps" + std::to_string(taps) + ".png";
+      writeForInspection("filtered_gpu" + suffix, gpu.value());
+      writeForInspection("filtered_cpu" + suffix, bake::Image{cpu.width, cpu.height, cpu.rgba});
+      writeForInspection("filtered_diff_x10" + suffix, diff);
+    }
+    gpuImages.push_back(std::move(gpu).value());
+  }
+  // The tap count reaches the shader: each image differs from the default's.
+  for (size_t i = 1; i < gpuImages.size(); ++i) {
+    const Comparison other = compare(gpuImages[i], gpuImages[0].rgba, kFieldTolerance, nullptr);
+    std::printf("GPU image %zu against 2 taps per axis: %u of %u pixels outside tolerance\n", i, other.failed,
+                other.pixels);
+    EXPECT_GT(other.failed, 100u) << "image " << i << " must differ from the default tap count's";
+  }
+  for (uint32_t taps : {0u, 5u}) {
+    frame.environmentTapsPerAxis = taps;
+    auto refused = offscreen::renderFrame(*session, *gpuEnv.value(), {object.value().get()}, frame);
+    ASSERT_FALSE(refused.ok()) << taps << " taps per axis must be refused";
+    EXPECT_EQ(refused.error().code, ErrorCode::InvalidArgument);
+    EXPECT_NE(refused.error().message.find("environmentTapsPerAxis"), std::string::npos) << refused.error().message;
   }
 }
 

@@ -1,5 +1,6 @@
 # `shrefract render` supersampling and path flags: --spp (a perfect square 1..64, every mode),
-# --path-rule and --throughput (exact mode), --filtered (exact and full-tree). Range and usage errors exit 2 with one line naming the
+# --path-rule and --throughput (exact mode), --filtered (exact and full-tree), --env-taps (GPU
+# modes, and CPU modes with --filtered). Range and usage errors exit 2 with one line naming the
 # flag and write nothing; good values render (CPU modes always; the GPU case skips without a
 # device, printing "SKIPPED: no Vulkan device"). Inputs: SHREFRACT (the tool), WORK_DIR.
 file(REMOVE_RECURSE ${WORK_DIR})
@@ -34,14 +35,18 @@ expect_usage_error(--path-rule 16x12 --mode exact --path-rule sideways)
 expect_usage_error(--path-rule 16x12 --mode single-interface --path-rule first-refraction)
 expect_usage_error(--throughput 16x12 --mode full-tree --throughput)
 expect_usage_error(--filtered 16x12 --mode single-interface --filtered)
+expect_usage_error(--env-taps 16x12 --env-taps 0)
+expect_usage_error(--env-taps 16x12 --env-taps 5)
+expect_usage_error(--env-taps 16x12 --env-taps two)
+expect_usage_error(--env-taps 16x12 --mode exact --env-taps 1)
 
 # CPU modes: always available.
-execute_process(COMMAND ${SHREFRACT} ${base} --size 16x12 --mode exact --spp 4 --path-rule first-refraction --throughput --filtered --json
+execute_process(COMMAND ${SHREFRACT} ${base} --size 16x12 --mode exact --spp 4 --path-rule first-refraction --throughput --filtered --env-taps 1 --json
                 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT rc EQUAL 0 OR NOT EXISTS ${WORK_DIR}/out.png)
   message(FATAL_ERROR "exact render with --spp 4 failed (${rc}): ${err}")
 endif()
-foreach(field "\"spp\": 4" "\"path_rule\": \"first-refraction\"" "\"throughput\": true" "\"filtered\": true")
+foreach(field "\"spp\": 4" "\"path_rule\": \"first-refraction\"" "\"throughput\": true" "\"filtered\": true" "\"env_taps\": 1")
   if(NOT out MATCHES "${field}")
     message(FATAL_ERROR "the JSON summary lacks ${field}: ${out}")
   endif()
@@ -54,7 +59,7 @@ endif()
 file(REMOVE ${WORK_DIR}/out.png)
 
 # A GPU mode.
-execute_process(COMMAND ${SHREFRACT} ${base} --size 16x12 --spp 16 --json RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+execute_process(COMMAND ${SHREFRACT} ${base} --size 16x12 --spp 16 --env-taps 3 --json RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT rc EQUAL 0)
   if(rc EQUAL 3)  # the tool's exit status for "no Vulkan device" (samples/cli/commands.h)
     if(REQUIRE_GPU)
@@ -65,7 +70,9 @@ if(NOT rc EQUAL 0)
   endif()
   message(FATAL_ERROR "single-interface render with --spp 16 failed (${rc}): ${err}")
 endif()
-if(NOT out MATCHES "\"spp\": 16")
-  message(FATAL_ERROR "the JSON summary lacks \"spp\": 16: ${out}")
-endif()
+foreach(field "\"spp\": 16" "\"env_taps\": 3")
+  if(NOT out MATCHES "${field}")
+    message(FATAL_ERROR "the JSON summary lacks ${field}: ${out}")
+  endif()
+endforeach()
 message("render flags ok")

@@ -201,6 +201,9 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
   if (auto r = checkSize("reference render", o.width, o.height, o.samplesPerAxis); !r) return r.error();
   if (env.width == 0 || env.rgba.size() != size_t(env.width) * env.height * 4)
     return makeError(ErrorCode::InvalidArgument, "reference render: empty environment");
+  if (o.environmentTapsPerAxis < 1 || o.environmentTapsPerAxis > 4)
+    return makeError(ErrorCode::InvalidArgument, "reference render: environmentTapsPerAxis " +
+                                                     std::to_string(o.environmentTapsPerAxis) + " is outside 1..4");
   const auto start = Clock::now();
   ReferenceImage out = emptyImage(o.width, o.height);
   const uint32_t s = o.samplesPerAxis;
@@ -217,6 +220,7 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
   if (o.filtered) {
     levels = reference::environmentLevels(filteredEnv);
     filteredEnv.levels = &levels;
+    filteredEnv.tapsPerAxis = o.environmentTapsPerAxis;
   }
   // Level 0 (bake::sampleLatLong) unless filtered: then averaged over the pixel as the engine does.
   auto lookup = [&](glm::vec3 dir, const Derivatives& dd) {

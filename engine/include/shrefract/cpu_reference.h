@@ -70,6 +70,9 @@ struct LatLongImage {
   // Levels 1.. of its chain (environmentLevels). Null or empty: every lookup reads level 0 (render()
   // builds the chain itself when it is null; an empty chain keeps it unfiltered).
   const std::vector<std::vector<float>>* levels = nullptr;
+  // Taps per axis of sampleLatLongOverPixel, as RendererCreateInfo::environmentTapsPerAxis
+  // (clamped to 1..gpu::kMaxEnvironmentTapsPerAxis).
+  uint32_t tapsPerAxis = 2;
 };
 
 // Levels 1 .. environmentLevelCount(width, height) - 1 of the chain the engine builds at upload
@@ -97,10 +100,11 @@ float cubeTexelAngle(float faceSize);
 Vec3 sampleLatLong(const LatLongImage& environment, const Vec3& direction, float footprint = 0.0f);
 
 // The environment averaged over the pixel, as environment_select.glsl lookupEnvironmentOverPixel
-// (same float operations): for `direction` with screen derivatives ddx, ddy, the mean of
-// gpu::kEnvironmentTapsPerAxis^2 sampleLatLong taps at direction + a ddx + b ddy (a, b the cell
-// centres of (-1/2, 1/2)), each with directionFootprint(ddx / n, ddy / n); a tap that cancels to
-// zero reads `direction`. Zero derivatives: sampleLatLong(environment, direction) once.
+// (same float operations): for `direction` with screen derivatives ddx, ddy, the mean of n^2
+// sampleLatLong taps (n = environment.tapsPerAxis) at direction + a ddx + b ddy (a, b the cell
+// centres of (-1/2, 1/2)), each with directionFootprint(ddx / n, ddy / n), one tap with that
+// footprint times gpu::kOneTapFootprintScale; a tap that cancels to zero reads `direction`. Zero
+// derivatives: sampleLatLong(environment, direction) once.
 Vec3 sampleLatLongOverPixel(const LatLongImage& environment, const Vec3& direction, const Vec3& ddx, const Vec3& ddy);
 
 // World direction of the centre of texel (i, j) of cube face `face` (0..5: +X, -X, +Y, -Y, +Z,

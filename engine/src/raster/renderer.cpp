@@ -77,6 +77,10 @@ Result<VkPipeline> createGraphicsPipeline(ContextImpl& c, const RendererCreateIn
   stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
   stages[1].module = frag.value();
   stages[1].pName = "main";
+  // Every fragment shader gets the tap count; those without the constant (the background) ignore it.
+  const VkSpecializationMapEntry tapsEntry{gpu::kSpecEnvironmentTaps, 0, sizeof(uint32_t)};
+  const VkSpecializationInfo specialization{1, &tapsEntry, sizeof(uint32_t), &info.environmentTapsPerAxis};
+  stages[1].pSpecializationInfo = &specialization;
 
   VkVertexInputBindingDescription binding{0, kVertexFloats * sizeof(float), VK_VERTEX_INPUT_RATE_VERTEX};
   std::array<VkVertexInputAttributeDescription, 4> attributes{{
@@ -258,6 +262,10 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, const Rende
   if (!(supported & info.sampleCount) || (info.sampleCount & (info.sampleCount - 1)) != 0)
     return makeError(ErrorCode::Unsupported, "Renderer::create: the device does not support " +
                                                  std::to_string(info.sampleCount) + " samples per pixel");
+  if (info.environmentTapsPerAxis < 1 || info.environmentTapsPerAxis > gpu::kMaxEnvironmentTapsPerAxis)
+    return makeError(ErrorCode::InvalidArgument, "Renderer::create: environmentTapsPerAxis " +
+                                                     std::to_string(info.environmentTapsPerAxis) + " is outside 1.." +
+                                                     std::to_string(gpu::kMaxEnvironmentTapsPerAxis));
   auto impl = std::make_unique<RendererImpl>();
   impl->context = &c;
   impl->info = info;

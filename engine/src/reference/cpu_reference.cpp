@@ -166,14 +166,18 @@ Vec3 sampleLatLong(const LatLongImage& env, const Vec3& direction, float footpri
   return fromGlm(c);
 }
 
+static_assert(LatLongImage{}.tapsPerAxis == gpu::kEnvironmentTapsPerAxis, "the CPU default is the engine's");
+
 Vec3 sampleLatLongOverPixel(const LatLongImage& env, const Vec3& direction, const Vec3& ddx, const Vec3& ddy) {
   const glm::vec3 dir = toGlm(direction), dx = toGlm(ddx), dy = toGlm(ddy);
   if (dx == glm::vec3(0.0f) && dy == glm::vec3(0.0f)) return sampleLatLong(env, direction, 0.0f);
-  const float n = float(gpu::kEnvironmentTapsPerAxis);
+  const uint32_t taps = std::clamp(env.tapsPerAxis, 1u, gpu::kMaxEnvironmentTapsPerAxis);
+  const float n = float(taps);
   const float footprint = directionFootprint(fromGlm(dx / n), fromGlm(dy / n));
+  if (taps == 1) return sampleLatLong(env, direction, footprint * gpu::kOneTapFootprintScale);
   glm::vec3 sum(0.0f);
-  for (uint32_t j = 0; j < gpu::kEnvironmentTapsPerAxis; ++j)
-    for (uint32_t i = 0; i < gpu::kEnvironmentTapsPerAxis; ++i) {
+  for (uint32_t j = 0; j < taps; ++j)
+    for (uint32_t i = 0; i < taps; ++i) {
       const float a = (float(i) + 0.5f) / n - 0.5f, b = (float(j) + 0.5f) / n - 0.5f;
       const glm::vec3 tap = dir + a * dx + b * dy;
       sum += toGlm(sampleLatLong(env, fromGlm(glm::dot(tap, tap) > 1e-12f ? tap : dir), footprint));

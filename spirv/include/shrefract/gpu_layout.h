@@ -102,6 +102,9 @@ SHR_CONST(kSpecEncoding, 6u)
 SHR_CONST(kSpecTableSize, 7u)
 SHR_CONST(kSpecComponents, 8u)
 SHR_CONST(kSpecJumpAware, 9u)
+// The object pass's fragment shaders: taps per axis of a filtered environment lookup
+// (RendererCreateInfo::environmentTapsPerAxis; default kEnvironmentTapsPerAxis).
+SHR_CONST(kSpecEnvironmentTaps, 10u)
 // Largest scale/bias table read as a uniform buffer: the maxUniformBufferRange every device offers,
 // so that the choice (and the code path) is the same on every device.
 SHR_CONST(kMaxUniformScaleBiasBytes, 16384u)
@@ -170,7 +173,13 @@ SHR_CONSTF(kEnvironmentLevelBias, 0.0f)
 // own share of the footprint: closer to the pixel's box than one tap of the level chain, whose
 // support is about twice the footprint (bright, small sources spread over too many pixels), and
 // anisotropic where the direction sweeps along one axis (docs/antialiasing.md, "Taps").
+// The default; a host picks 1 to kMaxEnvironmentTapsPerAxis per renderer (RendererCreateInfo).
 SHR_CONST(kEnvironmentTapsPerAxis, 2u)
+SHR_CONST(kMaxEnvironmentTapsPerAxis, 4u)
+// One tap per axis reads the footprint scaled by this (a level bias of -0.5): one trilinear
+// lookup spreads over about twice the footprint, and half a level finer measured best for it
+// (docs/antialiasing.md, "Level bias"; with more taps each reads its own cell's level, unscaled).
+SHR_CONSTF(kOneTapFootprintScale, 0.70710678f)
 
 // Texel roles as stored in the kinds buffer (the values of field.h's kTexel* constants).
 SHR_CONST(kGpuTexelEmpty, 0u)

@@ -73,14 +73,16 @@ struct ReferenceOptions {
   uint32_t threads = 0;            // 0: all hardware threads
   // Look the environment up as the engine does (docs/antialiasing.md): its level chain
   // (reference::environmentLevels), averaged over the pixel (reference::sampleLatLongOverPixel)
-  // with each lookup direction's derivatives taken from the directions of two neighbours half a sub-sample cell away toward its quad neighbours in the sub-sample grid
-  // (x ^ 1, y ^ 1), traced as well (3x the rays). A neighbour that hits another surface, misses,
-  // or went another way (another number of interfaces or leaves) gives no derivative on that axis:
-  // a path discontinuity lies between them, and the neighbour's colour is blended in with weight
-  // 1/4, the mean fraction of the cell beyond such a discontinuity. The background stays at
-  // level 0 away from the object. False: level 0 everywhere (bake::sampleLatLong), as the physical
-  // reference is rendered.
+  // with each lookup direction's derivatives taken from four probes half a sub-sample cell away
+  // (+-x, +-y), traced as well (5x the rays). A probe that hits another surface, misses, or went
+  // another way (another number of interfaces or leaves) gives no derivative on its side: a path
+  // discontinuity lies between them, and the probe's colour is blended in with the mean share of
+  // the cell beyond such a discontinuity (1/4 per axis). The background stays at level 0 away
+  // from the object. False: level 0 everywhere (bake::sampleLatLong), as the physical reference
+  // is rendered.
   bool filtered = false;
+  // filtered: taps per axis of each lookup, as RendererCreateInfo::environmentTapsPerAxis (1..4).
+  uint32_t environmentTapsPerAxis = 2;
   // Called from the calling thread, between the rows it renders, at most every 100 ms, and once
   // at the end. May be empty.
   std::function<void(const ReferenceProgress&)> progress;
