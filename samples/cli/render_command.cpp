@@ -51,8 +51,8 @@ std::vector<FlagSpec> renderFlags() {
       {"filtered", false, "exact and full-tree modes: read the environment at the level of each lookup's pixel "
                           "footprint, as the engine does, and blend across path discontinuities (docs/antialiasing.md; 5x "
                           "the rays)"},
-      {"env-taps", true, "taps per axis of each filtered environment lookup (default 2; 1 is one trilinear lookup, "
-                         "cheaper and blurrier): GPU modes, and exact and full-tree with --filtered "
+      {"env-taps", true, "taps per axis of each filtered environment lookup (1 is one trilinear lookup, cheaper "
+                         "and blurrier): GPU modes (default 2), and exact and full-tree with --filtered (default 4) "
                          "(docs/antialiasing.md)", K::Integer, {1, 4}},
       {"spp", true, "samples per pixel N, a perfect square: sqrt(N) x sqrt(N) stratified samples, averaged "
                     "(default 1; every mode)", K::Integer, {1, 64}},
@@ -101,7 +101,8 @@ struct Request {
   float fov = 40.0f;
   std::optional<std::array<uint32_t, 2>> size;
   std::optional<float> exposure, absorption;
-  uint32_t samplesPerAxis = 1, frames = 1, environmentTaps = 2;
+  uint32_t samplesPerAxis = 1, frames = 1;
+  std::optional<uint32_t> environmentTaps;  // --env-taps; each mode has its own default
   std::optional<uint32_t> maxBounces, treeDepth, threads;
   int device = -1;
   PathRule pathRule = PathRule::HighestEnergy;
@@ -186,7 +187,7 @@ Result<Request> readRequest(const Args& args) {
   r.treeDepth = narrow<uint32_t>(args.integer("tree-depth").value());
   r.threads = narrow<uint32_t>(args.integer("threads").value());
   r.device = narrow<int>(args.integer("device").value()).value_or(-1);
-  r.environmentTaps = narrow<uint32_t>(args.integer("env-taps").value()).value_or(r.environmentTaps);
+  r.environmentTaps = narrow<uint32_t>(args.integer("env-taps").value());
   auto spa = samplesPerAxisOf(args);
   if (!spa) return spa.error();
   r.samplesPerAxis = spa.value();
@@ -309,7 +310,7 @@ int renderCpu(const Args& args, const Request& r, const Inputs& in, const Camera
   ro.pathRule = r.pathRule;
   ro.throughput = args.has("throughput");
   ro.filtered = args.has("filtered");
-  ro.environmentTapsPerAxis = r.environmentTaps;
+  ro.environmentTapsPerAxis = r.environmentTaps.value_or(ro.environmentTapsPerAxis);
   ro.samplesPerAxis = r.samplesPerAxis;
   Progress progress("render " + r.mode, stderr);
   ro.progress = [&](const bake::ReferenceProgress& p) {
@@ -408,7 +409,7 @@ int renderGpu(const Args& args, const Request& r, const Inputs& in, const Camera
   frame.mode = r.mode == "sh" ? ShadingMode::Field : ShadingMode::SingleInterface;
   frame.frames = r.frames;
   frame.samplesPerAxis = r.samplesPerAxis;
-  frame.environmentTapsPerAxis = r.environmentTaps;
+  frame.environmentTapsPerAxis = r.environmentTaps.value_or(frame.environmentTapsPerAxis);
   std::vector<Object*> drawList;
   for (auto& o : objects) drawList.push_back(o.get());
   offscreen::FrameTimings timings;

@@ -389,6 +389,28 @@ TEST(ReferenceRender, FilteredSilhouettesBlendTowardTheirCoverage) {
   }
 }
 
+// ReferenceOptions::environmentTapsPerAxis: 1..4 as the engine's renderer; others are refused
+// rather than clamped, and the count changes what a filtered render reads. Planted once: the option
+// not passed to the lookups (the default count always) fails the last check.
+TEST(ReferenceRender, FilteredTapCountIsCheckedAndUsed) {
+  const SphereSetup s = sphere(3);
+  ReferenceOptions o = sphereView(32, 24);
+  o.filtered = true;
+  for (uint32_t taps : {0u, 5u}) {
+    o.environmentTapsPerAxis = taps;
+    auto refused = renderReference(*s.tracer, s.scene, s.env, o);
+    ASSERT_FALSE(refused.ok()) << taps;
+    EXPECT_EQ(refused.error().code, ErrorCode::InvalidArgument);
+    EXPECT_NE(refused.error().message.find("environmentTapsPerAxis"), std::string::npos);
+  }
+  o.environmentTapsPerAxis = 1;
+  auto one = renderReference(*s.tracer, s.scene, s.env, o);
+  o.environmentTapsPerAxis = 4;
+  auto four = renderReference(*s.tracer, s.scene, s.env, o);
+  ASSERT_TRUE(one.ok() && four.ok());
+  EXPECT_NE(one.value().color.rgba, four.value().color.rgba) << "the tap count must reach the lookups";
+}
+
 TEST(ReferenceRender, FirstRefractionAgreesWithHighestEnergyBelowHalfReflectance) {
   const SphereSetup s = sphere(5);
   ReferenceOptions o = sphereView(256, 256);
