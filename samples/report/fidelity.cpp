@@ -15,6 +15,7 @@
 #include <cstdarg>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -276,16 +277,18 @@ Result<void> writeOut(SceneContext& c, const std::string& name, const bake::Imag
   return {};
 }
 
-Result<bake::ReferenceImage> cpuRender(const SceneContext& c, bake::ReferenceOptions ro, const std::string& what) {
+// samplesPerAxis 0: the profile's.
+Result<bake::ReferenceImage> cpuRender(const SceneContext& c, bake::ReferenceOptions ro, const std::string& what,
+                                       uint32_t samplesPerAxis = 0) {
   ro.width = c.width;
   ro.height = c.height;
   ro.camera = c.camera;
-  ro.samplesPerAxis = c.profile.samplesPerAxis;
+  ro.samplesPerAxis = samplesPerAxis ? samplesPerAxis : c.profile.samplesPerAxis;
   ro.threads = c.options.threads;
   auto image = bake::renderReference(c.tracer, c.scene, c.environment, ro);
   if (!image) return makeError(image.error().code, c.spec + ": " + what + ": " + image.error().message);
   std::fprintf(stderr, "report: fidelity: %s: %s (CPU, %ux%u spp): %.2f s\n", c.spec.c_str(), what.c_str(),
-               c.profile.samplesPerAxis, c.profile.samplesPerAxis, image.value().seconds);
+               ro.samplesPerAxis, ro.samplesPerAxis, image.value().seconds);
   return image;
 }
 
@@ -483,6 +486,38 @@ Result<void> decompose(SceneContext& c, const DefaultField& def, FidelityScene& 
   return {};
 }
 
+// Every mode at one sample per pixel with filtered lookups against itself supersampled, both
+// against the physical reference: the default field (the GPU's 1-spp render kept by
+// measureVariant), the exact highest-energy path and the full tree (CPU, ReferenceOptions::filtered).
+Result<void> measureAntialiasing(SceneContext& c, const DefaultField& def, FidelityScene& out) {
+  auto entry = [&](const std::string& mode, const bake::Image& one, const bake::Image* supersampled) -> Result<void> {
+    auto a = psnrOf(c, one, c.physical.color);
+    if (!a) return a.error();
+    double b = std::numeric_limits<double>::infinity();
+    if (supersampled) {
+      auto r = psnrOf(c, *supersampled, c.physical.color);
+      if (!r) return r.error();
+      b = r.value();
+    }
+    out.antialiasing.push_back({mode, a.value(), b});
+    return {};
+  };
+  if (def.gpuU8)
+    if (auto r = entry("default field u8 (GPU)", def.gpuU8->image1spp, &def.gpuU8->image); !r) return r;
+  bake::ReferenceOptions ro;
+  ro.filtered = true;
+  ro.mode = bake::ReferenceMode::Exact;
+  auto exact = cpuRender(c, ro, "exact highest-energy, filtered", 1);
+  if (!exact) return exact.error();
+  if (auto r = entry("exact highest-energy (CPU)", exact.value().color, &c.exact.at({PathRule::HighestEnergy, false}).color); !r)
+    return r;
+  ro.mode = bake::ReferenceMode::FullTree;
+  ro.treeDepth = c.profile.treeDepth;
+  auto tree = cpuRender(c, ro, "full tree, filtered", 1);
+  if (!tree) return tree.error();
+  return entry(fmt("full tree depth %u (CPU)", c.profile.treeDepth), tree.value().color, nullptr);
+}
+
 Result<FidelityScene> measureScene(SceneContext& c) {
   const auto start = Clock::now();
   FidelityScene out;
@@ -565,6 +600,7 @@ Result<FidelityScene> measureScene(SceneContext& c) {
   }
   std::optional<bake::Image> texels;
   if (auto r = decompose(c, def, out, texels); !r) return r.error();
+  if (auto r = measureAntialiasing(c, def, out); !r) return r.error();
 
   // Side by side: physical | exact highest-energy | exact at the texels | u8 field | heat map.
   {
@@ -699,6 +735,16 @@ std::string markdownOf(const Profile& p, const std::vector<FidelityScene>& scene
       md += fmt("\nExact paths at the sample texels: %" PRIu64 " sample texels, %" PRIu64
                 " whose surface point the tracer did not find where the frame puts it.\n",
                 sc.sampleTexels, sc.unmatchedTexels);
+    if (!sc.antialiasing.empty()) {
+      md += fmt("\nAnti-aliasing: each mode at 1 sample per pixel with filtered lookups (the CPU modes with "
+                "ReferenceOptions::filtered: 4 probes, 4x4 taps) and at %ux%u, both against the physical reference "
+                "(target: within 2 dB; the full tree at %ux%u is the reference itself).\n\n",
+                s, s, s, s);
+      md += fmt("| mode | 1 spp filtered dB | %ux%u dB | apart dB |\n|---|---|---|---|\n", s, s);
+      for (const FidelityAntialiasing& a : sc.antialiasing)
+        md += fmt("| %s | %.2f | %s | %s |\n", a.mode.c_str(), a.psnrOneSample, number(a.psnrSupersampled).c_str(),
+                  number(a.psnrSupersampled - a.psnrOneSample).c_str());
+    }
     const std::string name = "fidelity_" + sanitize(sceneTitle(sc.scene));
     md += "\n![error vs bytes per sample](" + name + "_psnr_vs_bytes.png)\n";
     md += "![error vs frame time](" + name + "_psnr_vs_frame_time.png)\n\n";

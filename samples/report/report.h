@@ -81,6 +81,14 @@ struct FidelityStep {
   std::string error;
 };
 
+// One mode at one sample per pixel with filtered lookups, and the same mode supersampled, each
+// against the physical reference (the anti-aliasing target: within 2 dB of each other).
+struct FidelityAntialiasing {
+  std::string mode;              // "default field u8 (GPU)", "exact highest-energy (CPU)", ...
+  double psnrOneSample = 0.0;    // 1 spp, filtered
+  double psnrSupersampled = 0.0; // S x S; infinity for the full tree, which is the reference
+};
+
 struct FidelityScene {
   std::string scene;
   std::string skipped;  // non-empty: why the scene was left out (e.g. a missing asset)
@@ -88,6 +96,7 @@ struct FidelityScene {
   uint32_t samplesPerAxis = 0;
   std::vector<FidelityRow> rows;
   std::vector<FidelityStep> decomposition;
+  std::vector<FidelityAntialiasing> antialiasing;
   uint64_t unmatchedTexels = 0, sampleTexels = 0;  // exact-at-texels: surface points not found
   double seconds = 0.0;
 };
