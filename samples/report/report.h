@@ -82,11 +82,14 @@ struct FidelityStep {
 };
 
 // One mode at one sample per pixel with filtered lookups, and the same mode supersampled, each
-// against the physical reference (the anti-aliasing target: within 2 dB of each other).
+// against the physical reference (the anti-aliasing target: within 2 dB of each other), and
+// against a denser one (the full tree at 2S x 2S), which shares no sample positions with the
+// S x S renders and gives the full tree's own row a finite figure.
 struct FidelityAntialiasing {
   std::string mode;              // "default field u8 (GPU)", "exact highest-energy (CPU)", ...
   double psnrOneSample = 0.0;    // 1 spp, filtered
   double psnrSupersampled = 0.0; // S x S; infinity for the full tree, which is the reference
+  double denseOneSample = 0.0, denseSupersampled = 0.0;  // the same against the 2S x 2S full tree
 };
 
 struct FidelityScene {
@@ -97,6 +100,7 @@ struct FidelityScene {
   std::vector<FidelityRow> rows;
   std::vector<FidelityStep> decomposition;
   std::vector<FidelityAntialiasing> antialiasing;
+  uint32_t denseSamplesPerAxis = 0;  // of the antialiasing table's denser reference
   uint64_t unmatchedTexels = 0, sampleTexels = 0;  // exact-at-texels: surface points not found
   double seconds = 0.0;
 };
