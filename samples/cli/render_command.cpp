@@ -323,11 +323,12 @@ int renderCpu(const Args& args, const Request& r, const Inputs& in, const Camera
   const auto& result = image.value();
   if (args.has("json"))
     std::printf("{\"output\": %s, \"scene\": %s, \"mode\": %s, \"width\": %u, \"height\": %u, "
-                "\"spp\": %u, \"path_rule\": %s, \"throughput\": %s, \"filtered\": %s, \"env_taps\": %u, "
+                "\"spp\": %u, \"path_rule\": %s, \"throughput\": %s, \"filtered\": %s, \"env_taps\": %s, "
                 "\"rays\": %llu, \"cpu_seconds\": %.4f}\n",
                 jsonString(r.output).c_str(), jsonString(r.input).c_str(), jsonString(r.mode).c_str(), ro.width,
                 ro.height, r.samplesPerAxis * r.samplesPerAxis, jsonString(toString(r.pathRule)).c_str(),
-                ro.throughput ? "true" : "false", ro.filtered ? "true" : "false", ro.environmentTapsPerAxis,
+                ro.throughput ? "true" : "false", ro.filtered ? "true" : "false",
+                ro.filtered ? std::to_string(ro.environmentTapsPerAxis).c_str() : "null",  // unfiltered: no taps
                 static_cast<unsigned long long>(result.rays), result.seconds);
   else
     std::printf("rendered %s (%ux%u, %u spp, %s, CPU) in %.2f s, %.3g rays (%.3g rays/s) -> %s\n", r.input.c_str(),
