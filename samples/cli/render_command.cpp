@@ -53,7 +53,7 @@ std::vector<FlagSpec> renderFlags() {
                           "the rays)"},
       {"env-taps", true, "taps per axis of each filtered environment lookup (1 is one trilinear lookup, cheaper "
                          "and blurrier): GPU modes (default 2), and exact and full-tree with --filtered (default 4) "
-                         "(docs/antialiasing.md)", K::Integer, {1, 4}},
+                         "(docs/antialiasing.md)", K::Integer, {1, kMaxEnvironmentTapsPerAxis}},
       {"spp", true, "samples per pixel N, a perfect square: sqrt(N) x sqrt(N) stratified samples, averaged "
                     "(default 1; every mode)", K::Integer, {1, 64}},
       {"threads", true, "CPU modes: worker threads (default: all cores)", K::Integer, {1, 1024}},

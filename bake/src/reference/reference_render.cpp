@@ -201,9 +201,10 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
   if (auto r = checkSize("reference render", o.width, o.height, o.samplesPerAxis); !r) return r.error();
   if (env.width == 0 || env.rgba.size() != size_t(env.width) * env.height * 4)
     return makeError(ErrorCode::InvalidArgument, "reference render: empty environment");
-  if (o.environmentTapsPerAxis < 1 || o.environmentTapsPerAxis > 4)
+  if (o.environmentTapsPerAxis < 1 || o.environmentTapsPerAxis > kMaxEnvironmentTapsPerAxis)
     return makeError(ErrorCode::InvalidArgument, "reference render: environmentTapsPerAxis " +
-                                                     std::to_string(o.environmentTapsPerAxis) + " is outside 1..4");
+                                                     std::to_string(o.environmentTapsPerAxis) + " is outside 1.." +
+                                                     std::to_string(kMaxEnvironmentTapsPerAxis));
   const auto start = Clock::now();
   ReferenceImage out = emptyImage(o.width, o.height);
   const uint32_t s = o.samplesPerAxis;
@@ -348,6 +349,7 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
     Probe self;
     std::array<Probe, 4> around;  // +x, -x, +y, -y
     std::vector<Derivatives> derivatives;
+    std::vector<Derivatives> footprints;  // scratch: a probe's, in blendAcross
   };
   auto sameWay = [&](const Probe& a, const Probe& b) {
     return a.t.hit.hit == b.t.hit.hit && (!a.t.hit.hit || a.t.hit.surface == b.t.hit.surface) && a.keys == b.keys;
@@ -374,17 +376,17 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
   // The sample's colour with the probes across a discontinuity blended in, each shaded with this
   // sample's footprints (the same pixel-scale spread; level 0 would sparkle) where their lookups
   // correspond: all of them in a probe with as many lookups, else those of the same key.
-  auto blendAcross = [&](const Neighbourhood& n, glm::vec3 own) {
+  auto blendAcross = [&](Neighbourhood& n, glm::vec3 own) {
     float acrossX = 0.0f, acrossY = 0.0f;
     glm::vec3 acrossSum(0.0f);
     for (size_t k = 0; k < n.around.size(); ++k) {
       const Probe& p = n.around[k];
       if (sameWay(n.self, p)) continue;
       (k < 2 ? acrossX : acrossY) += 1.0f;
-      std::vector<Derivatives> footprints(p.dirs.size());
+      n.footprints.assign(p.dirs.size(), Derivatives{});
       for (size_t i = 0; i < p.dirs.size() && i < n.self.dirs.size(); ++i)
-        if (p.dirs.size() == n.self.dirs.size() || p.keys[i] == n.self.keys[i]) footprints[i] = n.derivatives[i];
-      acrossSum += shade(p.d, p.t, p.dirs, footprints).color;
+        if (p.dirs.size() == n.self.dirs.size() || p.keys[i] == n.self.keys[i]) n.footprints[i] = n.derivatives[i];
+      acrossSum += shade(p.d, p.t, p.dirs, n.footprints).color;
     }
     if (acrossX + acrossY == 0.0f) return own;
     const float keep = (1.0f - kAcrossDiscontinuity * acrossX) * (1.0f - kAcrossDiscontinuity * acrossY);

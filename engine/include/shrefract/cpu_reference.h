@@ -71,8 +71,8 @@ struct LatLongImage {
   // builds the chain itself when it is null; an empty chain keeps it unfiltered).
   const std::vector<std::vector<float>>* levels = nullptr;
   // Taps per axis of sampleLatLongOverPixel, as RendererCreateInfo::environmentTapsPerAxis
-  // (clamped to 1..gpu::kMaxEnvironmentTapsPerAxis).
-  uint32_t tapsPerAxis = 2;
+  // (clamped to 1..kMaxEnvironmentTapsPerAxis).
+  uint32_t tapsPerAxis = RendererCreateInfo{}.environmentTapsPerAxis;
 };
 
 // Levels 1 .. environmentLevelCount(width, height) - 1 of the chain the engine builds at upload

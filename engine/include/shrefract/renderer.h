@@ -71,6 +71,10 @@ enum class ShadingMode : uint32_t {
   FieldExitDirection = 2,
 };
 
+// The range of RendererCreateInfo::environmentTapsPerAxis (and of the CPU mirror's and the CPU
+// references' tap counts, which follow it).
+inline constexpr uint32_t kMaxEnvironmentTapsPerAxis = 4;
+
 struct RendererCreateInfo {
   VkFormat colorFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
   VkFormat depthFormat = VK_FORMAT_D32_SFLOAT;  // VK_FORMAT_UNDEFINED: no depth attachment

@@ -254,6 +254,10 @@ gpu::ObjectPushConstants objectPushConstants(const Object& object, const glm::ma
 
 }  // namespace
 
+static_assert(kMaxEnvironmentTapsPerAxis == gpu::kMaxEnvironmentTapsPerAxis &&
+                  RendererCreateInfo{}.environmentTapsPerAxis == gpu::kEnvironmentTapsPerAxis,
+              "the public tap range and default are the shaders'");
+
 Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, const RendererCreateInfo& info) {
   ContextImpl& c = ContextAccess::impl(context);
   const VkPhysicalDeviceLimits& limits = c.properties.limits;
@@ -262,10 +266,10 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, const Rende
   if (!(supported & info.sampleCount) || (info.sampleCount & (info.sampleCount - 1)) != 0)
     return makeError(ErrorCode::Unsupported, "Renderer::create: the device does not support " +
                                                  std::to_string(info.sampleCount) + " samples per pixel");
-  if (info.environmentTapsPerAxis < 1 || info.environmentTapsPerAxis > gpu::kMaxEnvironmentTapsPerAxis)
+  if (info.environmentTapsPerAxis < 1 || info.environmentTapsPerAxis > kMaxEnvironmentTapsPerAxis)
     return makeError(ErrorCode::InvalidArgument, "Renderer::create: environmentTapsPerAxis " +
                                                      std::to_string(info.environmentTapsPerAxis) + " is outside 1.." +
-                                                     std::to_string(gpu::kMaxEnvironmentTapsPerAxis));
+                                                     std::to_string(kMaxEnvironmentTapsPerAxis));
   auto impl = std::make_unique<RendererImpl>();
   impl->context = &c;
   impl->info = info;

@@ -166,12 +166,10 @@ Vec3 sampleLatLong(const LatLongImage& env, const Vec3& direction, float footpri
   return fromGlm(c);
 }
 
-static_assert(LatLongImage{}.tapsPerAxis == gpu::kEnvironmentTapsPerAxis, "the CPU default is the engine's");
-
 Vec3 sampleLatLongOverPixel(const LatLongImage& env, const Vec3& direction, const Vec3& ddx, const Vec3& ddy) {
   const glm::vec3 dir = toGlm(direction), dx = toGlm(ddx), dy = toGlm(ddy);
   if (dx == glm::vec3(0.0f) && dy == glm::vec3(0.0f)) return sampleLatLong(env, direction, 0.0f);
-  const uint32_t taps = std::clamp(env.tapsPerAxis, 1u, gpu::kMaxEnvironmentTapsPerAxis);
+  const uint32_t taps = std::clamp(env.tapsPerAxis, 1u, kMaxEnvironmentTapsPerAxis);
   const float n = float(taps);
   const float footprint = directionFootprint(fromGlm(dx / n), fromGlm(dy / n));
   if (taps == 1) return sampleLatLong(env, direction, footprint * gpu::kOneTapFootprintScale);

@@ -70,7 +70,7 @@ struct FrameSettings {
   // the whole pass). true: what a host gets by default: the Decompressor leaves out objects whose
   // eye has not changed and objects outside the view (Decompressor's camera overload).
   bool skipWork = false;
-  uint32_t environmentTapsPerAxis = 2;  // RendererCreateInfo::environmentTapsPerAxis
+  uint32_t environmentTapsPerAxis = RendererCreateInfo{}.environmentTapsPerAxis;
 };
 
 // GPU timestamps of the last frame and host wall time of every frame.
