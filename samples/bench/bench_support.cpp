@@ -89,6 +89,16 @@ bool parseQuantization(const std::string& text, Quantization& out) {
   return true;
 }
 
+std::string encodingLabel(const Field& f) {
+  const std::string n = std::to_string(f.tableSize);
+  std::string label = f.encoding == Encoding::Sh      ? "sh L=" + std::to_string(f.order)
+                      : f.encoding == Encoding::Table ? "table " + n + "x" + n
+                                                      : "pca K=" + std::to_string(f.components) + " N=" + n;
+  if (f.shape().jumpAware) label += " nodes";
+  if (f.throughput) label += " +throughput";
+  return label;
+}
+
 bool parseCount(const char* text, uint32_t lo, uint32_t hi, uint32_t& out) {
   if (!text || !*text) return false;
   char* end = nullptr;

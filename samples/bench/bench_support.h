@@ -38,6 +38,10 @@ struct SyntheticOptions {
 };
 Field syntheticField(const SyntheticOptions& options);
 
+// A field's encoding as the benchmarks' tables name it: "sh L=8", "table 9x9", "pca K=324 N=16",
+// with " nodes" where the cells are decoded jump-aware and " +throughput" with that channel.
+std::string encodingLabel(const Field& field);
+
 // Parses "u8" / "f16".
 bool parseQuantization(const std::string& text, Quantization& out);
 

@@ -6,7 +6,7 @@
 //
 //   shrefract_frame_benchmark [FIELD.shrf ...] [--instances N] [--size WxH] [--frames N] [--cube-env]
 //                             [--shading field|exit-direction|single-interface]
-//                             [--format rgba16f|rgba8|rgba32f] [--validation]
+//                             [--format rgba16f|rgba8|rgba32f] [--env-taps N[,N...]] [--validation]
 //
 // Scenes: each FIELD.shrf (read with readField), or without one a synthetic field (bench_support:
 // order 8, u8, 4 channels, a 256x256 atlas of samples on a flat square). The environment is
@@ -24,7 +24,10 @@
 // is the frame rate a host sees, not one frame's latency); CPU is the process CPU time per frame,
 // which on a software device (lavapipe) is the work itself whatever else competes for the cores.
 // GPU timestamps (where the queue has them) split each frame into decompression and raster;
-// medians over the frames. Exit code 0 with "SKIPPED:" when there is no Vulkan device; 2 with one
+// medians over the frames. --env-taps runs every series once per tap count of the filtered
+// environment lookups (RendererCreateInfo::environmentTapsPerAxis, default the engine's) and prints
+// each count's raster time against the first count's, measured in the same run: the cost of the
+// filtering on this device (docs/antialiasing.md, "Cost"). Exit code 0 with "SKIPPED:" when there is no Vulkan device; 2 with one
 // line for bad arguments or a FIELD.shrf that does not exist.
 #include <shrefract/decompressor.h>
 #include <shrefract/environment.h>
@@ -59,6 +62,7 @@ struct Options {
   bool cube = false;
   ShadingMode shading = ShadingMode::Field;
   VkFormat colorFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
+  std::vector<uint32_t> environmentTaps{RendererCreateInfo{}.environmentTapsPerAxis};
   bool validation = false;
 };
 
@@ -71,7 +75,7 @@ int usage(const std::string& message) {
 int help() {
   std::printf("usage: shrefract_frame_benchmark [FIELD.shrf ...] [--instances N] [--size WxH] [--frames N]\n"
               "                                 [--cube-env] [--shading field|exit-direction|single-interface]\n"
-              "                                 [--format rgba16f|rgba8|rgba32f] [--validation]\n");
+              "                                 [--format rgba16f|rgba8|rgba32f] [--env-taps N[,N...]] [--validation]\n");
   return 0;
 }
 
@@ -383,30 +387,64 @@ std::vector<Named> seriesOf(const Scene& scene, uint32_t instances) {
   return series;
 }
 
-int benchmarkScene(Gpu& gpu, Frames& frames, const Environment& environment, Scene& scene, const Options& o) {
-  auto placed = placeInstances(*gpu.context, scene, o.instances);
-  if (!placed) return fail(scene.name + ": " + placed.error().message);
-  auto renderer = Renderer::create(*gpu.context, RendererCreateInfo{o.colorFormat, VK_FORMAT_D32_SFLOAT});
-  auto decompressor = Decompressor::create(*gpu.context);
-  if (!renderer || !decompressor)
-    return fail((!renderer ? renderer.error() : decompressor.error()).message);
-  if (auto prepared = decompressor.value()->prepare(*scene.objects[0]); !prepared)
-    return fail(prepared.error().message);
-  const Field& f = scene.field;
-  std::printf("field: %s, order %u, %s, %u channels, %ux%u atlas, %zu triangles; %s\n", scene.name.c_str(), f.order,
-              toString(f.quantization), f.channels, f.width, f.height, f.mesh.indices.size() / 3,
-              instancesLabel(o.instances).c_str());
-  const Pass pass{*renderer.value(), *decompressor.value(), environment, o.shading};
+// Every series of the scene rendered by a renderer with `taps` taps per axis; prints each series and
+// the same-run ratios between them.
+Result<std::vector<Named>> runTapCount(Gpu& gpu, Frames& frames, Decompressor& decompressor,
+                                       const Environment& environment, const Scene& scene, const Options& o,
+                                       uint32_t taps) {
+  RendererCreateInfo info{o.colorFormat, VK_FORMAT_D32_SFLOAT};
+  info.environmentTapsPerAxis = taps;
+  auto renderer = Renderer::create(*gpu.context, info);
+  if (!renderer) return renderer.error();
+  if (o.environmentTaps.size() > 1) std::printf("environment taps per axis: %u\n", taps);
+  const Pass pass{*renderer.value(), decompressor, environment, o.shading};
   const bool timestamps = frames.timers[0]->available();
   std::vector<Named> series = seriesOf(scene, o.instances);
   for (Named& n : series) {
     auto r = runSeries(frames, *gpu.context, pass, scene.camera, n.objects, n.moving, o.frames);
-    if (!r) return fail(r.error().message);
+    if (!r) return r.error();
     n.result = r.value();
     printSeries(n.name.c_str(), n.result, timestamps);
   }
   const SeriesResult* moving1 = series.size() == 3 ? &series[1].result : nullptr;
   printRatios(series.front().result, moving1, series.back().result, o.instances, timestamps);
+  vkDeviceWaitIdle(gpu.harness->device());  // the renderer is destroyed on return
+  return series;
+}
+
+// What each further tap count costs against the first, series by series: the raster pass's GPU
+// time where the queue has timestamps (the decompression does not depend on the taps), else wall.
+void printTapRatios(const Options& o, const std::vector<std::vector<Named>>& byCount, bool timestamps) {
+  std::printf("environment taps, ratios to %u taps per axis (same run, %s):\n", o.environmentTaps[0],
+              timestamps ? "GPU raster" : "wall");
+  for (size_t k = 1; k < byCount.size(); ++k)
+    for (size_t s = 0; s < byCount[k].size(); ++s) {
+      const SeriesResult& a = byCount[0][s].result;
+      const SeriesResult& b = byCount[k][s].result;
+      const double before = timestamps ? a.rasterMs : a.wallMs, after = timestamps ? b.rasterMs : b.wallMs;
+      std::printf("  %u / %u taps, %-28s %8.3f -> %8.3f ms  %.2fx\n", o.environmentTaps[k], o.environmentTaps[0],
+                  byCount[k][s].name.c_str(), before, after, after / before);
+    }
+}
+
+int benchmarkScene(Gpu& gpu, Frames& frames, const Environment& environment, Scene& scene, const Options& o) {
+  auto placed = placeInstances(*gpu.context, scene, o.instances);
+  if (!placed) return fail(scene.name + ": " + placed.error().message);
+  auto decompressor = Decompressor::create(*gpu.context);
+  if (!decompressor) return fail(decompressor.error().message);
+  if (auto prepared = decompressor.value()->prepare(*scene.objects[0]); !prepared)
+    return fail(prepared.error().message);
+  const Field& f = scene.field;
+  std::printf("field: %s, %s, %s, %u channels, %ux%u atlas, %zu triangles; %s\n", scene.name.c_str(),
+              encodingLabel(f).c_str(), toString(f.quantization), f.channels, f.width, f.height, f.mesh.indices.size() / 3,
+              instancesLabel(o.instances).c_str());
+  std::vector<std::vector<Named>> byCount;
+  for (uint32_t taps : o.environmentTaps) {
+    auto series = runTapCount(gpu, frames, *decompressor.value(), environment, scene, o, taps);
+    if (!series) return fail(series.error().message);
+    byCount.push_back(std::move(series).value());
+  }
+  if (byCount.size() > 1) printTapRatios(o, byCount, frames.timers[0]->available());
   vkDeviceWaitIdle(gpu.harness->device());
   return 0;
 }
@@ -469,6 +507,21 @@ int run(const Options& o) {
   return rc;
 }
 
+// "2" or "1,2,4": each count within the renderer's range; false (counts untouched) otherwise.
+bool parseTapCounts(const std::string& text, std::vector<uint32_t>& counts) {
+  std::vector<uint32_t> parsed;
+  size_t begin = 0;
+  while (begin <= text.size()) {
+    const size_t end = std::min(text.find(',', begin), text.size());
+    uint32_t n = 0;
+    if (!parseCount(text.substr(begin, end - begin).c_str(), 1, kMaxEnvironmentTapsPerAxis, n)) return false;
+    parsed.push_back(n);
+    begin = end + 1;
+  }
+  counts = std::move(parsed);
+  return true;
+}
+
 // Returns -1 when the arguments are good, else the exit code (2 after one line for bad ones).
 int parseArguments(int argc, char** argv, Options& o) {
   for (int i = 1; i < argc; ++i) {
@@ -494,6 +547,9 @@ int parseArguments(int argc, char** argv, Options& o) {
       else if (s == "rgba8") o.colorFormat = VK_FORMAT_R8G8B8A8_UNORM;
       else if (s == "rgba32f") o.colorFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
       else return usage("--format expects rgba16f, rgba8 or rgba32f");
+    } else if (a == "--env-taps") {
+      if (!parseTapCounts(takes(), o.environmentTaps))
+        return usage("--env-taps expects counts 1.." + std::to_string(kMaxEnvironmentTapsPerAxis) + ", comma-separated");
     } else if (a == "--cube-env") {
       o.cube = true;
     } else if (a == "--validation") {
