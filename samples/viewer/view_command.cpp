@@ -30,6 +30,8 @@ std::vector<FlagSpec> viewFlags() {
       {"exposure", true, "linear scale applied before display (default 1)", K::Real, {0, kUnbounded, true}},
       {"absorption", true, "initial absorption scale k in exp(-tau * k) (default 1: the media as defined)", K::Real, {0, kUnbounded}},
       {"order", true, "initial SH order (default: the baked order)", K::Integer, {0, 32}},
+      {"env-taps", true, "initial taps per axis of each filtered environment lookup (default 2; T cycles)",
+       K::Integer, {1, kMaxEnvironmentTapsPerAxis}},
       {"mode", true, "initial shading: field (default for fields) or single-interface (default for scenes)"},
       {"frames", true, "render this many frames, then exit (default: until the window closes)", K::Integer, {1, 1e8}},
       {"screenshot", true, "write the last frame to this .png or .exr at exit"},
@@ -93,13 +95,15 @@ int viewCommand(int argc, char** argv) {
   auto exposure = args.number("exposure");
   auto absorption = args.number("absorption");
   auto order = args.integer("order");
+  auto taps = args.integer("env-taps");
   auto ior = args.number("ior");
   auto tess = args.integer("tessellation");
   auto frames = args.integer("frames");
   auto device = args.integer("device");
   for (const Error* e : {size.ok() ? nullptr : &size.error(), fov.ok() ? nullptr : &fov.error(),
                          exposure.ok() ? nullptr : &exposure.error(), absorption.ok() ? nullptr : &absorption.error(),
-                         order.ok() ? nullptr : &order.error(), ior.ok() ? nullptr : &ior.error(),
+                         order.ok() ? nullptr : &order.error(), taps.ok() ? nullptr : &taps.error(),
+                         ior.ok() ? nullptr : &ior.error(),
                          tess.ok() ? nullptr : &tess.error(), frames.ok() ? nullptr : &frames.error(),
                          device.ok() ? nullptr : &device.error()})
     if (e) return fail(e->message, 2);
@@ -114,6 +118,7 @@ int viewCommand(int argc, char** argv) {
   if (exposure.value()) options.exposure = static_cast<float>(*exposure.value());
   if (absorption.value()) options.absorption = static_cast<float>(*absorption.value());
   if (order.value()) options.order = static_cast<uint32_t>(*order.value());
+  if (taps.value()) options.environmentTaps = static_cast<uint32_t>(*taps.value());
   if (frames.value()) options.frames = static_cast<uint32_t>(*frames.value());
   if (args.has("no-vsync")) options.vsync = false;
   if (auto shot = args.get("screenshot")) {

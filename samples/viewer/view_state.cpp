@@ -16,6 +16,7 @@ std::optional<Action> actionForCharacter(char c) {
     case 'm': return Action::ToggleMode;
     case 'f': return Action::ToggleField;
     case 'i': return Action::ToggleInstances;
+    case 't': return Action::NextEnvironmentTaps;
     case 'r': return Action::ResetCamera;
     case 'h': return Action::Help;
     case 'q': return Action::Quit;
@@ -31,6 +32,7 @@ const char* keyHelp() {
          "       M    mode: field <-> single-interface (fields only)\n"
          "       F    show the other field (split <-> charts; with two fields)\n"
          "       I    one instance of the field <-> three, placed side by side (fields only)\n"
+         "       T    taps per axis of each environment lookup: 1 (one trilinear lookup), 2 (default), 3, 4\n"
          "       R    reset the camera    H  this help    Esc Q  quit\n";
 }
 
@@ -69,6 +71,9 @@ bool apply(ViewState& s, Action action) {
     case Action::ToggleInstances:
       if (!s.hasFields()) return false;
       s.instances = s.instances == 1 ? ViewState::kInstances : 1;
+      return true;
+    case Action::NextEnvironmentTaps:
+      s.environmentTaps = s.environmentTaps % kMaxEnvironmentTapsPerAxis + 1;
       return true;
     case Action::ResetCamera:
       s.resetCamera = true;
@@ -114,7 +119,7 @@ std::string title(const ViewState& s, const std::vector<std::string>& environmen
       std::snprintf(buffer, sizeof(buffer), " | GPU raster %.3f ms", rasterMs);
     timings += buffer;
   }
-  return "shrefract view | " + what + " | env " + env + timings;
+  return "shrefract view | " + what + " | env " + env + " | taps " + std::to_string(s.environmentTaps) + timings;
 }
 
 }  // namespace shrefract::viewer

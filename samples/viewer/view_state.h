@@ -22,6 +22,7 @@ enum class Action {
   ToggleMode,       // M      field <-> single-interface (fields only)
   ToggleField,      // F      show the other field (split <-> charts) when two are loaded
   ToggleInstances,  // I      one instance of the shown field <-> kInstances, placed side by side
+  NextEnvironmentTaps,  // T  taps per axis of the filtered environment lookups, 1 -> 2 -> ... -> max -> 1
   ResetCamera,      // R
   Help,             // H      print the key list on stdout
   Quit,             // Esc Q
@@ -50,6 +51,8 @@ struct ViewState {
   bool quit = false;
   bool resetCamera = false;       // consumed by the frame loop
   uint32_t instances = 1;         // instances of the shown field drawn (Object::createInstance)
+  // RendererCreateInfo::environmentTapsPerAxis: the frame loop rebuilds the renderer when it changes.
+  uint32_t environmentTaps = RendererCreateInfo{}.environmentTapsPerAxis;
 
   static constexpr uint32_t kInstances = 3;
   static constexpr float kMinAbsorption = 1.0f / 64.0f;  // smallest non-zero step

@@ -447,11 +447,13 @@ int runViewer(const ViewerOptions& options) {
   rci.colorFormat = kColorFormat;
   rci.depthFormat = kDepthFormat;
   rci.exposure = options.exposure;
+  rci.environmentTapsPerAxis = options.environmentTaps;
   auto renderer = Renderer::create(context, rci);
   if (!renderer) return fail(renderer.error().message);
   h.renderer = std::move(renderer).value();
 
   ViewState state;
+  state.environmentTaps = options.environmentTaps;
   state.environmentCount = options.environments.size();
   state.absorption = options.absorption;
   Camera initialCamera;
@@ -530,6 +532,16 @@ int runViewer(const ViewerOptions& options) {
     if (state.resetCamera) {
       orbit.reset();
       state.resetCamera = false;
+    }
+    // T: the tap count is a specialization constant of the renderer's pipelines, so a new count is
+    // a new renderer; the frames in flight may still use the old one's pipelines (a key press is
+    // rare enough to wait for them).
+    if (state.environmentTaps != rci.environmentTapsPerAxis) {
+      vkDeviceWaitIdle(hr.device());
+      rci.environmentTapsPerAxis = state.environmentTaps;
+      auto rebuilt = Renderer::create(context, rci);
+      if (!rebuilt) return fail(rebuilt.error().message);
+      h.renderer = std::move(rebuilt).value();
     }
 
     // A minimized window has no area to present to: wait for it to come back.

@@ -32,6 +32,7 @@ struct ViewerOptions {
   float absorption = 1.0f;
   std::optional<uint32_t> order;       // initial SH order (default: the baked order)
   ShadingMode mode = ShadingMode::Field;
+  uint32_t environmentTaps = RendererCreateInfo{}.environmentTapsPerAxis;  // initial; T cycles
 
   uint32_t frames = 0;                 // 0: until the window closes; else exit after that many
   std::string screenshot;              // PNG/EXR of the last frame, written at exit ("" none)

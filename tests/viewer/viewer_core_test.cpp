@@ -173,6 +173,22 @@ TEST(ViewState, EnvironmentsCycleAndScenesStaySingleInterface) {
   EXPECT_NE(title(scene, {"builtin"}, 1.0, -1.0, 0.5).find("scene | single-interface"), std::string::npos);
 }
 
+TEST(ViewState, TapsCycleThroughTheRendererRange) {
+  ViewState s;
+  EXPECT_EQ(s.environmentTaps, RendererCreateInfo{}.environmentTapsPerAxis);
+  EXPECT_EQ(actionForCharacter('t'), Action::NextEnvironmentTaps);
+  std::vector<uint32_t> seen;
+  for (uint32_t i = 0; i < kMaxEnvironmentTapsPerAxis; ++i) {
+    EXPECT_TRUE(apply(s, Action::NextEnvironmentTaps));
+    seen.push_back(s.environmentTaps);
+    EXPECT_GE(s.environmentTaps, 1u);
+    EXPECT_LE(s.environmentTaps, kMaxEnvironmentTapsPerAxis);
+  }
+  // Every count once, back at the start (default 2: 3, 4, 1, 2).
+  EXPECT_EQ(seen, (std::vector<uint32_t>{3, 4, 1, 2}));
+  EXPECT_NE(title(s, {"builtin"}, -1.0, -1.0, -1.0).find("taps 2"), std::string::npos);
+}
+
 TEST(ViewState, KeysMapToActionsAndTitleShowsTimings) {
   EXPECT_EQ(actionForCharacter('['), Action::OrderDown);
   EXPECT_EQ(actionForCharacter(']'), Action::OrderUp);

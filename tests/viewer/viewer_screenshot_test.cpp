@@ -143,9 +143,11 @@ class ViewerTest : public ::testing::Test {
   }
 
   // The frame the viewer shows first for `field`: its default camera (the mesh bounds framed with a
-  // 40 degree field of view), drawn in `mode` (or only the background when `withObject` is false).
+  // 40 degree field of view), drawn in `mode` (or only the background when `withObject` is false)
+  // with `taps` taps per axis of each environment lookup.
   static bake::Image reference(const Field& field, const bake::Image& environment, ShadingMode mode, float absorption,
-                               uint32_t width, uint32_t height, bool withObject = true) {
+                               uint32_t width, uint32_t height, bool withObject = true,
+                               uint32_t taps = RendererCreateInfo{}.environmentTapsPerAxis) {
     auto env = offscreen::uploadEnvironment(*session_, environment);
     EXPECT_TRUE(env.ok());
     auto object = offscreen::uploadField(*session_, field);
@@ -159,6 +161,7 @@ class ViewerTest : public ::testing::Test {
     offscreen::meshBounds(field.mesh, lo, hi);
     frame.camera = offscreen::frameBounds(lo, hi, 40.0f);
     frame.mode = mode;
+    frame.environmentTapsPerAxis = taps;
     std::vector<Object*> objects;
     if (withObject) objects.push_back(object.value().get());
     auto image = offscreen::renderFrame(*session_, *env.value(), objects, frame);
@@ -243,6 +246,33 @@ TEST_F(ViewerTest, KeysChangeOrderFieldAbsorptionEnvironmentAndMode) {
   EXPECT_GT(fractionDifferent(expected, absorbing, kSameImageTolerance), 0.01);
 }
 
+TEST_F(ViewerTest, TapsKeyAndFlagSetTheEnvironmentTaps) {
+  // T, one press per frame: 2 -> 3 -> 4 -> 1 taps per axis, each press a new renderer while earlier
+  // frames may still be in flight; the last frames draw with one tap, as --env-taps 1 does.
+  const uint32_t width = 160, height = 120;
+  const CommandResult keys = view(shellQuote(at("tiny.shrf")) + " --keys ttt --frames 5 --screenshot " +
+                                  shellQuote(at("taps_keys.png")) + " --size 160x120");
+  expectCleanRun(keys);
+  EXPECT_NE(keys.output.find("taps 1"), std::string::npos) << keys.output;
+  const CommandResult flag = view(shellQuote(at("tiny.shrf")) + " --env-taps 1 --frames 2 --screenshot " +
+                                  shellQuote(at("taps_flag.png")) + " --size 160x120");
+  expectCleanRun(flag);
+  EXPECT_NE(flag.output.find("taps 1"), std::string::npos) << flag.output;
+  auto byKeys = bake::loadImage(at("taps_keys.png"));
+  auto byFlag = bake::loadImage(at("taps_flag.png"));
+  ASSERT_TRUE(byKeys.ok() && byFlag.ok());
+  const Field field = readOrFail("tiny.shrf");
+  const bake::Image env = bake::proceduralEnvironment(1024);
+  const bake::Image one = reference(field, env, ShadingMode::Field, 1.0f, width, height, true, 1);
+  const bake::Image two = reference(field, env, ShadingMode::Field, 1.0f, width, height, true, 2);
+  const double oneVsTwo = fractionDifferent(one, two, kSameImageTolerance);
+  std::printf("one tap against two: %.4f of the pixels differ by more than %.2f\n", oneVsTwo,
+              double(kSameImageTolerance));
+  ASSERT_GT(oneVsTwo, 2 * kSameImageOutliers) << "the tap counts draw alike here: the test would not see the key";
+  EXPECT_LE(fractionDifferent(byKeys.value(), one, kSameImageTolerance), kSameImageOutliers);
+  EXPECT_LE(fractionDifferent(byFlag.value(), one, kSameImageTolerance), kSameImageOutliers);
+}
+
 TEST_F(ViewerTest, LowerOrdersAreUploadedAtRunTime) {
   // Down to order 0 and back up, one key per frame: each change builds a new engine object in the
   // frame's own command buffer while older frames may still use the previous one.
@@ -322,6 +352,9 @@ TEST_F(ViewerTest, ErrorsAreOneLineWithNonZeroExit) {
   EXPECT_EQ(r.exitCode, 1) << r.output;
   EXPECT_EQ(nonEmptyLines(r.output), 1) << r.output;
   EXPECT_NE(r.output.find("missing.shrf"), std::string::npos) << r.output;
+  r = runCommand(tool() + " view " + shellQuote(at("tiny.shrf")) + " --env-taps 5");
+  EXPECT_EQ(r.exitCode, 2) << r.output;
+  EXPECT_NE(r.output.find("--env-taps"), std::string::npos) << r.output;
   r = runCommand(tool() + " view " + shellQuote(at("tiny.shrf")) + " --keys x");
   EXPECT_EQ(r.exitCode, 2) << r.output;
   EXPECT_EQ(nonEmptyLines(r.output), 1) << r.output;
