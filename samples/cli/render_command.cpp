@@ -54,6 +54,9 @@ std::vector<FlagSpec> renderFlags() {
       {"env-taps", true, "taps per axis of each filtered environment lookup (1 is one trilinear lookup, cheaper "
                          "and blurrier): GPU modes (default 2), and exact and full-tree with --filtered (default 4) "
                          "(docs/antialiasing.md)", K::Integer, {1, kMaxEnvironmentTapsPerAxis}},
+      {"env-level-bias", true, "exact and full-tree with --filtered: levels added to each tap's (default -1: each "
+                               "tap blurs over its own cell; 0 with --env-taps 2 mirrors the engine)", K::Real,
+       {-double(bake::kMaxEnvironmentLevelBias), double(bake::kMaxEnvironmentLevelBias)}},
       {"spp", true, "samples per pixel N, a perfect square: sqrt(N) x sqrt(N) stratified samples, averaged "
                     "(default 1; every mode)", K::Integer, {1, 64}},
       {"threads", true, "CPU modes: worker threads (default: all cores)", K::Integer, {1, 1024}},
@@ -73,6 +76,13 @@ std::vector<FlagSpec> renderFlags() {
 int fail(const Error& e, int code = 1) {
   std::fprintf(stderr, "%s\n", e.message.c_str());
   return e.code == ErrorCode::NoDevice ? kExitNoDevice : code;
+}
+
+// A finite float as JSON ("%g").
+std::string jsonNumber(float value) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof(buffer), "%g", static_cast<double>(value));
+  return buffer;
 }
 
 std::string jsonString(const std::string& text) {
@@ -103,6 +113,7 @@ struct Request {
   std::optional<float> exposure, absorption;
   uint32_t samplesPerAxis = 1, frames = 1;
   std::optional<uint32_t> environmentTaps;  // --env-taps; each mode has its own default
+  std::optional<float> environmentLevelBias;  // --env-level-bias (CPU references only)
   std::optional<uint32_t> maxBounces, treeDepth, threads;
   int device = -1;
   PathRule pathRule = PathRule::HighestEnergy;
@@ -141,6 +152,8 @@ Result<void> checkApplicability(const Args& args, const Request& r) {
     return usage("shrefract render: --filtered applies to --mode exact and full-tree only (the GPU modes always filter)");
   if (cpu && !args.has("filtered") && args.has("env-taps"))
     return usage("shrefract render: --env-taps applies to --mode exact and full-tree with --filtered only");
+  if (args.has("env-level-bias") && !(cpu && args.has("filtered")))
+    return usage("shrefract render: --env-level-bias applies to --mode exact and full-tree with --filtered only");
   if (r.scene && r.mode == "sh")
     return usage("shrefract render: " + r.input + " is a scene and --mode sh needs a refraction field; bake one "
                  "(shrefract bake " + r.input + " -o FIELD.shrf) and render FIELD.shrf, or use --mode "
@@ -188,6 +201,7 @@ Result<Request> readRequest(const Args& args) {
   r.threads = narrow<uint32_t>(args.integer("threads").value());
   r.device = narrow<int>(args.integer("device").value()).value_or(-1);
   r.environmentTaps = narrow<uint32_t>(args.integer("env-taps").value());
+  if (auto v = args.number("env-level-bias").value()) r.environmentLevelBias = static_cast<float>(*v);
   auto spa = samplesPerAxisOf(args);
   if (!spa) return spa.error();
   r.samplesPerAxis = spa.value();
@@ -311,6 +325,7 @@ int renderCpu(const Args& args, const Request& r, const Inputs& in, const Camera
   ro.throughput = args.has("throughput");
   ro.filtered = args.has("filtered");
   ro.environmentTapsPerAxis = r.environmentTaps.value_or(ro.environmentTapsPerAxis);
+  ro.environmentLevelBias = r.environmentLevelBias.value_or(ro.environmentLevelBias);
   ro.samplesPerAxis = r.samplesPerAxis;
   Progress progress("render " + r.mode, stderr);
   ro.progress = [&](const bake::ReferenceProgress& p) {
@@ -324,11 +339,12 @@ int renderCpu(const Args& args, const Request& r, const Inputs& in, const Camera
   if (args.has("json"))
     std::printf("{\"output\": %s, \"scene\": %s, \"mode\": %s, \"width\": %u, \"height\": %u, "
                 "\"spp\": %u, \"path_rule\": %s, \"throughput\": %s, \"filtered\": %s, \"env_taps\": %s, "
-                "\"rays\": %llu, \"cpu_seconds\": %.4f}\n",
+                "\"env_level_bias\": %s, \"rays\": %llu, \"cpu_seconds\": %.4f}\n",
                 jsonString(r.output).c_str(), jsonString(r.input).c_str(), jsonString(r.mode).c_str(), ro.width,
                 ro.height, r.samplesPerAxis * r.samplesPerAxis, jsonString(toString(r.pathRule)).c_str(),
                 ro.throughput ? "true" : "false", ro.filtered ? "true" : "false",
                 ro.filtered ? std::to_string(ro.environmentTapsPerAxis).c_str() : "null",  // unfiltered: no taps
+                ro.filtered ? jsonNumber(ro.environmentLevelBias).c_str() : "null",
                 static_cast<unsigned long long>(result.rays), result.seconds);
   else
     std::printf("rendered %s (%ux%u, %u spp, %s, CPU) in %.2f s, %.3g rays (%.3g rays/s) -> %s\n", r.input.c_str(),

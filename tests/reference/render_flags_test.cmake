@@ -1,8 +1,8 @@
 # `shrefract render` supersampling and path flags: --spp (a perfect square 1..64, every mode),
 # --path-rule and --throughput (exact mode), --filtered (exact and full-tree), --env-taps (GPU
-# modes, and CPU modes with --filtered). Range and usage errors exit 2 with one line naming the
-# flag and write nothing; good values render (CPU modes always; the GPU case skips without a
-# device, printing "SKIPPED: no Vulkan device"). Inputs: SHREFRACT (the tool), WORK_DIR.
+# modes, and CPU modes with --filtered), --env-level-bias (CPU modes with --filtered). Range and
+# usage errors exit 2 with one line naming the flag and write nothing; good values render (CPU
+# modes always; the GPU case skips without a device, printing "SKIPPED: no Vulkan device"). Inputs: SHREFRACT (the tool), WORK_DIR.
 file(REMOVE_RECURSE ${WORK_DIR})
 file(MAKE_DIRECTORY ${WORK_DIR})
 set(base render builtin:sphere --tessellation 1 -o ${WORK_DIR}/out.png)
@@ -39,14 +39,20 @@ expect_usage_error(--env-taps 16x12 --env-taps 0)
 expect_usage_error(--env-taps 16x12 --env-taps 5)
 expect_usage_error(--env-taps 16x12 --env-taps two)
 expect_usage_error(--env-taps 16x12 --mode exact --env-taps 1)
+expect_usage_error(--env-level-bias 16x12 --mode exact --filtered --env-level-bias 5)
+expect_usage_error(--env-level-bias 16x12 --mode exact --filtered --env-level-bias -4.5)
+expect_usage_error(--env-level-bias 16x12 --mode exact --filtered --env-level-bias nan)
+expect_usage_error(--env-level-bias 16x12 --mode exact --env-level-bias -1)
+expect_usage_error(--env-level-bias 16x12 --env-level-bias -1)
 
 # CPU modes: always available.
-execute_process(COMMAND ${SHREFRACT} ${base} --size 16x12 --mode exact --spp 4 --path-rule first-refraction --throughput --filtered --env-taps 1 --json
+execute_process(COMMAND ${SHREFRACT} ${base} --size 16x12 --mode exact --spp 4 --path-rule first-refraction --throughput --filtered --env-taps 1 --env-level-bias -0.5 --json
                 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT rc EQUAL 0 OR NOT EXISTS ${WORK_DIR}/out.png)
   message(FATAL_ERROR "exact render with --spp 4 failed (${rc}): ${err}")
 endif()
-foreach(field "\"spp\": 4" "\"path_rule\": \"first-refraction\"" "\"throughput\": true" "\"filtered\": true" "\"env_taps\": 1")
+foreach(field "\"spp\": 4" "\"path_rule\": \"first-refraction\"" "\"throughput\": true" "\"filtered\": true" "\"env_taps\": 1"
+              "\"env_level_bias\": -0.5")
   if(NOT out MATCHES "${field}")
     message(FATAL_ERROR "the JSON summary lacks ${field}: ${out}")
   endif()

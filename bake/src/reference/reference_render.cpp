@@ -205,6 +205,9 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
     return makeError(ErrorCode::InvalidArgument, "reference render: environmentTapsPerAxis " +
                                                      std::to_string(o.environmentTapsPerAxis) + " is outside 1.." +
                                                      std::to_string(kMaxEnvironmentTapsPerAxis));
+  if (!(std::abs(o.environmentLevelBias) <= kMaxEnvironmentLevelBias))
+    return makeError(ErrorCode::InvalidArgument, "reference render: environmentLevelBias " +
+                                                     std::to_string(o.environmentLevelBias) + " is outside -4..4");
   const auto start = Clock::now();
   ReferenceImage out = emptyImage(o.width, o.height);
   const uint32_t s = o.samplesPerAxis;
@@ -222,6 +225,7 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
     levels = reference::environmentLevels(filteredEnv);
     filteredEnv.levels = &levels;
     filteredEnv.tapsPerAxis = o.environmentTapsPerAxis;
+    filteredEnv.levelBias = o.environmentLevelBias;
   }
   // Level 0 (bake::sampleLatLong) unless filtered: then averaged over the pixel as the engine does.
   auto lookup = [&](glm::vec3 dir, const Derivatives& dd) {

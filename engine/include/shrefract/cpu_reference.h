@@ -73,6 +73,10 @@ struct LatLongImage {
   // Taps per axis of sampleLatLongOverPixel, as RendererCreateInfo::environmentTapsPerAxis
   // (clamped to 1..kMaxEnvironmentTapsPerAxis).
   uint32_t tapsPerAxis = RendererCreateInfo{}.environmentTapsPerAxis;
+  // Levels added to every filtered lookup's (sampleLatLong with a footprint), on top of
+  // kEnvironmentLevelBias: 0 mirrors the engine's shaders; the CPU references choose their own
+  // (bake::ReferenceOptions::environmentLevelBias).
+  float levelBias = 0.0f;
 };
 
 // Levels 1 .. environmentLevelCount(width, height) - 1 of the chain the engine builds at upload

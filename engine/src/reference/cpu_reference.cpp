@@ -151,7 +151,9 @@ Vec3 sampleLatLong(const LatLongImage& env, const Vec3& direction, float footpri
     sampleLatLongBilinear(env.rgba, env.width, env.height, direction[0], direction[1], direction[2], out);
     return {out[0], out[1], out[2]};
   }
-  const float level = environmentLevel(footprint, latLongTexelAngle(float(env.width)), float(env.levels->size()));
+  // A footprint 2^b times as wide reads b levels coarser; with no bias the engine's float operations.
+  const float biased = env.levelBias == 0.0f ? footprint : footprint * std::exp2(env.levelBias);
+  const float level = environmentLevel(biased, latLongTexelAngle(float(env.width)), float(env.levels->size()));
   const uint32_t l0 = static_cast<uint32_t>(level);
   const float frac = level - float(l0);
   auto sampleLevel = [&](uint32_t l) {

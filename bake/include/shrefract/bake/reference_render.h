@@ -45,6 +45,8 @@ enum class ReferenceMode { Exact, FullTree, SingleInterface };
 
 // Largest samplesPerAxis of every renderer here (64 samples per pixel).
 inline constexpr uint32_t kMaxSamplesPerAxis = 8;
+// The range of ReferenceOptions::environmentLevelBias: -kMax..kMax levels.
+inline constexpr float kMaxEnvironmentLevelBias = 4.0f;
 
 struct ReferenceProgress {
   uint32_t rowsDone = 0;
@@ -84,8 +86,15 @@ struct ReferenceOptions {
   // filtered: taps per axis of each lookup, as RendererCreateInfo::environmentTapsPerAxis (1..4).
   // 4, not the engine's default 2: offline the 16 lookups per direction cost little (the torus's
   // exact render 1.25x the time) and read the footprint of a fast-turning path closer to the
-  // pixel's box (exact 1 spp torus 29.60 -> 30.41 dB; docs/antialiasing.md). 2 mirrors the engine.
+  // pixel's box (exact 1 spp torus 29.60 -> 30.41 dB; docs/antialiasing.md). 2, with
+  // environmentLevelBias 0, mirrors the engine.
   uint32_t environmentTapsPerAxis = 4;
+  // filtered: levels added to each tap's (reference::LatLongImage::levelBias), in [-4, 4]. -1, not
+  // the engine's 0: a trilinear tap blurs over about twice its cell's footprint, so at bias 0 the
+  // 4x4 taps spread a pixel over about 1.5 pixels' worth of directions, which a small bright source
+  // (the sun) turns into a halo of saturated pixels; one level finer keeps each tap to its cell and
+  // the pixel to its box (docs/antialiasing.md, "Level bias of the references").
+  float environmentLevelBias = -1.0f;
   // Called from the calling thread, between the rows it renders, at most every 100 ms, and once
   // at the end. May be empty.
   std::function<void(const ReferenceProgress&)> progress;
