@@ -31,6 +31,9 @@ const uint VALUES = ENCODING == kEncodingTable ? uint(CHANNELS) : 1u;
 
 layout(std430, set = 0, binding = kBindingScaleBiasStorage) readonly buffer ScaleBias { vec2 scaleBias[]; };
 layout(std430, set = 0, binding = kBindingBasis) readonly buffer Basis { float basis[]; };
+// The same buffer read a whole node at a time where a node holds 4 channels (the tool's default
+// field): one 16-byte load in place of four 4-byte ones, the sums unchanged.
+layout(std430, set = 0, binding = kBindingBasis) readonly buffer Basis4 { vec4 basis4[]; };
 
 // The dequantized value v of layer `layer` of sample s (U8: bias + (scale / 255) * q).
 float coefficient(uint s, uint layer, uint v) {
@@ -108,8 +111,13 @@ void main() {
     for (uint k = 0u; k < COMPONENTS; ++k) {
       float a = coefficient(s, k, 0u);
       for (int j = 0; j < 4; ++j) {
-        uint first = (k * NODES + b.node[j]) * uint(CHANNELS);
-        for (int c = 0; c < CHANNELS; ++c) v[j][c] += a * basis[first + uint(c)];
+        uint node = k * NODES + b.node[j];
+        if (CHANNELS == 4) {
+          vec4 n4 = basis4[node];
+          for (int c = 0; c < 4; ++c) v[j][c] += a * n4[c];
+        } else {
+          for (int c = 0; c < CHANNELS; ++c) v[j][c] += a * basis[node * uint(CHANNELS) + uint(c)];
+        }
       }
     }
   }
