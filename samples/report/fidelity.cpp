@@ -747,10 +747,12 @@ std::string markdownOf(const Profile& p, const std::vector<FidelityScene>& scene
                 sc.sampleTexels, sc.unmatchedTexels);
     if (!sc.antialiasing.empty()) {
       const uint32_t dense = sc.denseSamplesPerAxis;
+      const bake::ReferenceOptions cpu;  // the CPU modes' filtering, as measured
       md += fmt("\nAnti-aliasing: each mode at 1 sample per pixel with filtered lookups (the CPU modes with "
-                "ReferenceOptions::filtered: 4 probes, 4x4 taps) and at %ux%u, against the physical reference "
-                "(target: within 2 dB; the full tree at %ux%u is that reference itself) and against the full tree at "
-                "%ux%u, which shares no sample positions with the %ux%u renders.\n\n",
+                "ReferenceOptions::filtered: 4 probes, %ux%u taps at level bias %g) and at %ux%u, against the physical "
+                "reference (target: within 2 dB; the full tree at %ux%u is that reference itself) and against the full "
+                "tree at %ux%u, which shares no sample positions with the %ux%u renders.\n\n",
+                cpu.environmentTapsPerAxis, cpu.environmentTapsPerAxis, static_cast<double>(cpu.environmentLevelBias),
                 s, s, s, s, dense, dense, s, s);
       md += fmt("| mode | 1 spp filtered dB | %ux%u dB | apart dB | vs %ux%u: 1 spp filtered dB | %ux%u dB | apart dB "
                 "|\n|---|---|---|---|---|---|---|\n",
