@@ -27,7 +27,8 @@
 // medians over the frames. --env-taps runs every series once per tap count of the filtered
 // environment lookups (RendererCreateInfo::environmentTapsPerAxis, default the engine's) and prints
 // each count's raster time against the first count's, measured in the same run: the cost of the
-// filtering on this device (docs/antialiasing.md, "Cost"). Exit code 0 with "SKIPPED:" when there is no Vulkan device; 2 with one
+// filtering on this device (docs/antialiasing.md, "Cost"). Exit code 0 with "SKIPPED:" when there
+// is no Vulkan device; 2 with one
 // line for bad arguments or a FIELD.shrf that does not exist.
 #include <shrefract/decompressor.h>
 #include <shrefract/environment.h>

@@ -207,7 +207,8 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
                                                      std::to_string(kMaxEnvironmentTapsPerAxis));
   if (!(std::abs(o.environmentLevelBias) <= kMaxEnvironmentLevelBias))
     return makeError(ErrorCode::InvalidArgument, "reference render: environmentLevelBias " +
-                                                     std::to_string(o.environmentLevelBias) + " is outside -4..4");
+                                                     std::to_string(o.environmentLevelBias) + " is outside +-" +
+                                                     std::to_string(kMaxEnvironmentLevelBias));
   const auto start = Clock::now();
   ReferenceImage out = emptyImage(o.width, o.height);
   const uint32_t s = o.samplesPerAxis;

@@ -92,7 +92,8 @@ std::vector<std::vector<float>> environmentLevels(const LatLongImage& environmen
 float directionFootprint(const Vec3& ddx, const Vec3& ddy);
 // ... and the level for it, clamp(log2(max(footprint, 1e-30) / texelAngle) + kEnvironmentLevelBias,
 // 0, maxLevel) (gpu_layout.h: 0).
-float environmentLevel(float footprint, float texelAngle, float maxLevel);
+// extraBias (LatLongImage::levelBias) is added to the bias before the clamp; 0 is the shaders'.
+float environmentLevel(float footprint, float texelAngle, float maxLevel, float extraBias = 0.0f);
 // Radians per level 0 texel: 2 pi / width (lat-long, at the equator), pi / (2 faceSize) (cube).
 float latLongTexelAngle(float width);
 float cubeTexelAngle(float faceSize);

@@ -138,8 +138,9 @@ float directionFootprint(const Vec3& ddx, const Vec3& ddy) {
   return 2.0f * std::asin(std::min(0.5f * chord, 1.0f));
 }
 
-float environmentLevel(float footprint, float texelAngle, float maxLevel) {
-  return std::clamp(std::log2(std::max(footprint, 1e-30f) / texelAngle) + gpu::kEnvironmentLevelBias, 0.0f, maxLevel);
+float environmentLevel(float footprint, float texelAngle, float maxLevel, float extraBias) {
+  return std::clamp(std::log2(std::max(footprint, 1e-30f) / texelAngle) + (gpu::kEnvironmentLevelBias + extraBias), 0.0f,
+                    maxLevel);
 }
 
 float latLongTexelAngle(float width) { return 2.0f * std::numbers::pi_v<float> / width; }
@@ -151,9 +152,8 @@ Vec3 sampleLatLong(const LatLongImage& env, const Vec3& direction, float footpri
     sampleLatLongBilinear(env.rgba, env.width, env.height, direction[0], direction[1], direction[2], out);
     return {out[0], out[1], out[2]};
   }
-  // A footprint 2^b times as wide reads b levels coarser; with no bias the engine's float operations.
-  const float biased = env.levelBias == 0.0f ? footprint : footprint * std::exp2(env.levelBias);
-  const float level = environmentLevel(biased, latLongTexelAngle(float(env.width)), float(env.levels->size()));
+  const float level =
+      environmentLevel(footprint, latLongTexelAngle(float(env.width)), float(env.levels->size()), env.levelBias);
   const uint32_t l0 = static_cast<uint32_t>(level);
   const float frac = level - float(l0);
   auto sampleLevel = [&](uint32_t l) {
