@@ -1,10 +1,12 @@
 #include <shrefract/bake/bake.h>
 #include <shrefract/bake/fit.h>
+#include <shrefract/bake/jump_distance.h>
 #include <shrefract/bake/layout.h>
 #include <shrefract/bake/sample_frame.h>
 #include <shrefract/bake/shard.h>
 #include <shrefract/bake/table_fit.h>
 #include <shrefract/bake/tracer.h>
+#include <shrefract/gpu_layout.h>
 #include <shrefract/sh.h>
 
 #include "splitmix.h"
@@ -41,9 +43,15 @@ uint64_t peakResidentBytes() {
   return static_cast<uint64_t>(usage.ru_maxrss) * 1024u;  // Linux reports kilobytes
 }
 
+// The jump distance channel where the decode is jump-aware (field.h BakeSettings::jumpDistance).
+bool storesJumpDistance(const BakeSettings& s) {
+  return s.jumpDistance && s.encoding != Encoding::Sh && s.directionSampling == DirectionSampling::Nodes &&
+         s.tableSize >= gpu::kJumpMinTableSize;
+}
+
 EncodingShape shapeOf(const BakeSettings& s, uint32_t channels) {
   return {s.encoding, s.order, s.tableSize, s.components, channels,
-          s.encoding != Encoding::Sh && s.directionSampling == DirectionSampling::Nodes};
+          s.encoding != Encoding::Sh && s.directionSampling == DirectionSampling::Nodes, storesJumpDistance(s)};
 }
 size_t strideOf(const EncodingShape& shape) { return size_t(shape.layerCount()) * shape.valuesPerLayer(); }
 
@@ -311,6 +319,23 @@ struct BakePlan {
 // Traces every grid direction of the shard's samples (threads), fits each sample with `encoder`,
 // and records what the checks need: part.coefficients, heldOut, gridExits, the counters and the
 // thread times. Local sample k is sample shard.index + k * shard.count.
+// The jump distance channel of one sample (jump_distance.h): the nodes as traced, bisections traced
+// at the same point. Stored in grid cells times kJumpDistanceScale / (N - 1) (gpu_layout.h).
+void storeJumpDistances(const Tracer& tracer, const SurfacePoint& point, const LocalFrame& frame, uint32_t n,
+                        const std::vector<glm::vec3>& incidents, const std::vector<PathResult>& paths,
+                        const TraceSettings& ts, uint32_t channels, float* values, uint64_t& rays) {
+  std::vector<TracedView> nodes(paths.size());
+  for (size_t d = 0; d < paths.size(); ++d) nodes[d] = {paths[d].exitDirection, incidents[d]};
+  const std::vector<float> cells = jumpDistances(n, nodes, [&](float x, float y) {
+    const glm::vec3 incident = -localToWorld(frame, glm::vec3(nodeDirection(x, y, n)));
+    const PathResult path = tracer.traceFromSurface(point, incident, ts);
+    rays += path.rays;
+    return TracedView{path.exitDirection, incident};
+  });
+  const float unit = gpu::kJumpDistanceScale / float(n - 1);
+  for (size_t d = 0; d < cells.size(); ++d) values[d * channels + channels - 1] = cells[d] * unit;
+}
+
 void traceAndFit(const BakePlan& plan, const SampleEncoder& encoder, const BakeOptions& options, Shard shard,
                  Clock::time_point start, BakePart& part) {
   const SampleAtlas& atlas = plan.atlas;
@@ -328,7 +353,7 @@ void traceAndFit(const BakePlan& plan, const SampleEncoder& encoder, const BakeO
   part.heldOut.assign(count * held * 6, 0.0f);
   part.gridExits.assign(slots * nd * 3, 0.0f);
   const TraceSettings traceSettings = traceSettingsOf(plan.settings);
-  const ChannelLayout layout = ChannelLayout::of(channels, plan.settings.throughput);
+  const ChannelLayout layout = ChannelLayout::of(channels - (plan.settings.jumpDistance ? 1u : 0u), plan.settings.throughput);
   const Tracer& tracer = *plan.tracer;
 
   std::atomic<size_t> next{0};
@@ -364,6 +389,9 @@ void traceAndFit(const BakePlan& plan, const SampleEncoder& encoder, const BakeO
             for (int c = 0; c < 3; ++c) part.gridExits[(gridSlot[k] * nd + d) * 3 + size_t(c)] = path.exitDirection[c];
         }
         const auto fitStart = Clock::now();
+        if (plan.settings.jumpDistance)
+          storeJumpDistances(tracer, point, frame, plan.settings.tableSize, incidents, paths, traceSettings, channels,
+                             values.data(), rays);
         encoder.fit(values.data(), &part.coefficients[k * stride]);
         const auto heldOutStart = Clock::now();
         uint64_t rng = 0x5348524546ull ^ (s * 0x9e3779b97f4a7c15ull);
@@ -711,6 +739,8 @@ Result<BakePlan> planBake(const Scene& scene, const BakeOptions& options, bool c
     // The budget's candidates are measured on grid fits; a chosen SH field can only be a grid one.
     if (settings.encoding == Encoding::Sh) settings.directionSampling = DirectionSampling::Grid;
   }
+  settings.jumpDistance = storesJumpDistance(settings);  // the field records whether it was stored
+  if (settings.jumpDistance) plan.channels += 1;
   plan.grid = settings.directionSampling == DirectionSampling::Nodes
                   ? makeNodeGrid(settings.tableSize)
                   : makeHemisphereGrid(settings.directionsTheta, settings.directionsPhi);
@@ -926,6 +956,8 @@ Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
   field.components = settings.components;
   field.channels = plan.channels;
   field.throughput = settings.throughput;
+  field.jumpDistance = settings.jumpDistance;
+  field.settings = settings;  // before encoding: its validation reads the direction sampling
   field.basis = basis;
   field.quantization = settings.quantization;
   field.texelKinds = atlas.texelKinds;

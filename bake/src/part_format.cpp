@@ -15,7 +15,7 @@ namespace shrefract::bake {
 namespace {
 
 constexpr char kMagic[8] = {'S', 'H', 'R', 'F', 'P', 'A', 'R', 'T'};
-constexpr uint32_t kPartVersion = 2;  // 2: the settings name the direction sampling
+constexpr uint32_t kPartVersion = 3;  // 2: the settings name the direction sampling; 3: the jump distance
 constexpr size_t kHeaderBytes = 8 + 4 + 8 + 8;  // magic, version, payload size, checksum
 
 uint64_t fnv1a(const uint8_t* data, size_t size) {
@@ -104,6 +104,7 @@ void visitSettings(S& s, V& v) {
   v.enumeration("path rule", s.pathRule, 1);
   v.boolean("throughput", s.throughput);
   v.enumeration("direction sampling", s.directionSampling, 1);
+  v.boolean("jump distance", s.jumpDistance);
   v.f32("max bytes per sample", s.maxBytesPerSample);
   v.u64("sample budget", s.sampleBudget);
   v.f32("density", s.samplesPerUnitArea);
@@ -177,7 +178,7 @@ std::string shardText(Shard s) { return std::to_string(s.index) + "/" + std::to_
 Result<void> checkPartData(const BakePart& p, const std::string& name) {
   if (p.shard.count < 1 || p.shard.count > kMaxShards || p.shard.index >= p.shard.count)
     return corrupt(name, "shard " + shardText(p.shard) + " out of range");
-  if (p.channels < 3 || p.channels > 5 || p.directions < 1 || p.stride < 1 || p.stride > (1u << 24) ||
+  if (p.channels < 3 || p.channels > kMaxEncodedChannels || p.directions < 1 || p.stride < 1 || p.stride > (1u << 24) ||
       p.heldOutDirections > 1024 || p.sampleCount > (uint64_t(1) << 40))
     return corrupt(name, "counts out of range");
   const uint64_t count = shardSampleCount(p.sampleCount, p.shard);

@@ -51,6 +51,8 @@ std::vector<FlagSpec> bakeFlags() {
                                    "fitted; default for table, the only one for sh)"},
       {"path-rule", true, "branch followed at every interface: highest-energy (default) or first-refraction"},
       {"throughput", false, "store the path's Fresnel throughput as a channel"},
+      {"no-jump-distance", false, "table and pca traced at their nodes (N >= 12): do not store each node's "
+                                  "distance to the nearest jump (the decode then places jumps midway between nodes)"},
       {"max-bytes-per-sample", true, "choose the encoding and its parameters with the lowest error within this "
                                      "many encoded bytes per sample", K::Real, {1, 65536}},
       {"regularization", true, "Tikhonov weight of the hemisphere fit (default 1e-5)", K::Real, {0, kUnbounded}},
@@ -192,6 +194,7 @@ int bakeCommand(int argc, char** argv) {
   else if (rule == "first-refraction") s.pathRule = PathRule::FirstRefraction;
   else return fail("shrefract bake: --path-rule must be highest-energy or first-refraction, got '" + rule + "'", 2);
   s.throughput = args.has("throughput");
+  s.jumpDistance = !args.has("no-jump-distance");
   if (maxBytes.value()) s.maxBytesPerSample = static_cast<float>(*maxBytes.value());
 
   if (auto writable = checkOutputPath(*output); !writable) return fail(writable.error().message);

@@ -68,9 +68,10 @@ std::string fieldSummaryText(const Field& f, uint64_t fileBytes) {
   const BakeSettings& s = f.settings;
   const BakeStatistics& st = f.statistics;
   std::string out;
-  out += format("field: %ux%u texels, %s, %u channels%s%s, %s, layout %s, %u bytes per sample\n", f.width, f.height,
-                encodingText(f).c_str(), f.channels, f.hasOpticalDepth() ? "" : " (no absorption)",
-                f.throughput ? " (with throughput)" : "", toString(f.quantization), toString(s.layout),
+  out += format("field: %ux%u texels, %s, %u channels%s%s%s, %s, layout %s, %u bytes per sample\n", f.width,
+                f.height, encodingText(f).c_str(), f.channels, f.hasOpticalDepth() ? "" : " (no absorption)",
+                f.throughput ? " (with throughput)" : "", f.jumpDistance ? " (with jump distance)" : "",
+                toString(f.quantization), toString(s.layout),
                 f.bytesPerSample());
   out += format("path rule: %s\n", toString(s.pathRule));
   out += format("source: %s; %zu media; mesh %zu vertices, %zu triangles\n", s.source.c_str(), f.media.size(),
@@ -114,9 +115,10 @@ std::string fieldSummaryJson(const Field& f, uint64_t fileBytes) {
   out += format("\"channels\": %u, \"quantization\": \"%s\", \"file_bytes\": %" PRIu64 ", ", f.channels,
                 toString(f.quantization), fileBytes);
   out += format("\"encoding\": \"%s\", \"table_size\": %u, \"components\": %u, \"refinement_layers\": %zu, "
-                "\"throughput\": %s, \"bytes_per_sample\": %u, \"path_rule\": \"%s\", \"direction_sampling\": \"%s\", ",
+                "\"throughput\": %s, \"jump_distance\": %s, \"bytes_per_sample\": %u, \"path_rule\": \"%s\", "
+                "\"direction_sampling\": \"%s\", ",
                 toString(f.encoding), f.tableSize, f.components, refinementLayers(f), f.throughput ? "true" : "false",
-                f.bytesPerSample(), toString(s.pathRule), toString(s.directionSampling));
+                f.jumpDistance ? "true" : "false", f.bytesPerSample(), toString(s.pathRule), toString(s.directionSampling));
   out += format("\"mesh\": {\"vertices\": %zu, \"triangles\": %zu}, \"media\": %s, ", f.mesh.positions.size() / 3,
                 f.mesh.indices.size() / 3, media.c_str());
   out += "\"settings\": {";

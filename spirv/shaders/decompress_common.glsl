@@ -13,7 +13,11 @@ layout(constant_id = kSpecQuantization) const uint QUANTIZATION = kQuantizationU
 // true: the coefficients exceed the device's texel buffer limit; read the storage buffer.
 layout(constant_id = kSpecCoefficientsStorage) const bool COEFFICIENTS_STORAGE = false;
 // Channel 3 is the optical depth (and not the throughput).
-const bool HAS_TAU = CHANNELS == (THROUGHPUT ? 5 : 4);
+// true (decompress_table.comp): the last of the CHANNELS is the jump distance, which guides the
+// decode and is not decoded (field.h EncodingShape::jumpDistance).
+layout(constant_id = kSpecJumpDistance) const bool JUMP_DISTANCE = false;
+const int DECODED = CHANNELS - (JUMP_DISTANCE ? 1 : 0);
+const bool HAS_TAU = DECODED == (THROUGHPUT ? 5 : 4);
 
 layout(push_constant) uniform Push { DecompressPushConstants pc; };
 layout(set = 0, binding = kBindingCoefficients) uniform usamplerBuffer coefficientWords;
@@ -48,7 +52,7 @@ vec3 eyeInFrame(uint s, vec4 eye) {
 vec4 distortionTexel(vec3 xyz, float channel3, float channel4) {
   float len2 = dot(xyz, xyz);
   vec3 direction = len2 > kMinDirectionLength2 ? xyz * inversesqrt(len2) : vec3(0.0);
-  if (THROUGHPUT) direction *= clamp(CHANNELS == 5 ? channel4 : channel3, 0.0, 1.0);
+  if (THROUGHPUT) direction *= clamp(DECODED == 5 ? channel4 : channel3, 0.0, 1.0);
   return vec4(direction, HAS_TAU ? clamp(channel3, -kMaxOpticalDepth, kMaxOpticalDepth) : 0.0);
 }
 

@@ -54,10 +54,10 @@ vec3 straightThrough(uint s, vec3 w) {
 }
 
 // Jump-aware interpolation of the cell's corners v (field_decode.cpp interpolateCorners, which
-// explains it; constants in gpu_layout.h), in the same float operations.
-void interpolateCorners(uint s, HemiOctBilinear b, vec3 w, float v[4][5], inout float sum[5]) {
+// explains it; constants in gpu_layout.h), in the same float operations. sum: the DECODED channels.
+void interpolateCorners(uint s, HemiOctBilinear b, vec3 w, float v[4][6], inout float sum[5]) {
   for (int j = 0; j < 4; ++j)
-    for (int c = 0; c < CHANNELS; ++c) sum[c] += b.weight[j] * v[j][c];
+    for (int c = 0; c < DECODED; ++c) sum[c] += b.weight[j] * v[j][c];
   if (!JUMP_AWARE || TABLE_SIZE < kJumpMinTableSize) return;
   vec3 eye = straightThrough(s, w);
   vec3 e[4];
@@ -68,23 +68,29 @@ void interpolateCorners(uint s, HemiOctBilinear b, vec3 w, float v[4][5], inout 
   }
   // Each corner m in turn as the reference side, weighted by w_m^p.
   float len[4];
+  float distance[4] = float[4](0.0, 0.0, 0.0, 0.0);
   float estimate[5] = float[5](0.0, 0.0, 0.0, 0.0, 0.0);
   float dominance = 0.0, discounted = 0.0;
   for (int j = 0; j < 4; ++j) len[j] = sqrt(e[j].x * e[j].x + e[j].y * e[j].y + e[j].z * e[j].z);
+  if (JUMP_DISTANCE)
+    for (int j = 0; j < 4; ++j)
+      distance[j] = clamp(v[j][DECODED] * (float(TABLE_SIZE - 1u) / kJumpDistanceScale), 0.0, kJumpDistanceMaxCells);
   for (int m = 0; m < 4; ++m) {
-    float pm = pow(b.weight[m], kJumpDominancePower);
+    float pm = JUMP_DISTANCE ? b.weight[m] : pow(b.weight[m], kJumpDominancePower);
     if (!(pm > 0.0)) continue;
     float kept[4];
-    float total = 0.0;
+    float total = 0.0, signedDistance = 0.0;
     for (int j = 0; j < 4; ++j) {
       float dotJ = e[j].x * e[m].x + e[j].y * e[m].y + e[j].z * e[m].z;
       float cosine = len[j] * len[m] > kMinDirectionLength2 ? dotJ / (len[j] * len[m]) : 1.0;
       float keep = clamp((cosine - kJumpCosineNone) / (kJumpCosineFull - kJumpCosineNone), 0.0, 1.0);
       kept[j] = b.weight[j] * keep;
       total += kept[j];
-      discounted += pm * (b.weight[j] - kept[j]);
+      signedDistance += b.weight[j] * distance[j] * (2.0 * keep - 1.0);
     }
-    for (int c = 0; c < CHANNELS; ++c) {
+    if (JUMP_DISTANCE) pm *= clamp(0.5 + signedDistance / kJumpDistanceSoftness, 0.0, 1.0) + kJumpDistanceFloor;
+    for (int j = 0; j < 4; ++j) discounted += pm * (b.weight[j] - kept[j]);
+    for (int c = 0; c < DECODED; ++c) {
       float side = 0.0;
       for (int j = 0; j < 4; ++j) side += kept[j] * (c < 3 ? e[j][c] : v[j][c]);
       estimate[c] += pm * side / total;
@@ -93,7 +99,7 @@ void interpolateCorners(uint s, HemiOctBilinear b, vec3 w, float v[4][5], inout 
   }
   float blend = min(1.0, kJumpBlendGain * discounted / dominance);
   if (!(blend > 0.0)) return;
-  for (int c = 0; c < CHANNELS; ++c) sum[c] += blend * (estimate[c] / dominance - sum[c]);
+  for (int c = 0; c < DECODED; ++c) sum[c] += blend * (estimate[c] / dominance - sum[c]);
 }
 
 void main() {
@@ -101,9 +107,9 @@ void main() {
   if (s >= pc.size.w) return;
   vec3 w = eyeInFrame(s, vec4(pc.eyeObject.xyz, 1.0));
   HemiOctBilinear b = hemiOctBilinear(w, TABLE_SIZE);
-  float v[4][5];
+  float v[4][6];  // CHANNELS at most kMaxEncodedChannels
   for (int j = 0; j < 4; ++j)
-    for (int c = 0; c < 5; ++c) v[j][c] = 0.0;
+    for (int c = 0; c < 6; ++c) v[j][c] = 0.0;
   if (ENCODING == kEncodingTable) {
     for (int j = 0; j < 4; ++j)
       for (int c = 0; c < CHANNELS; ++c) v[j][c] = coefficient(s, b.node[j], uint(c));

@@ -49,7 +49,7 @@ std::string describe(const SyntheticFieldOptions& o) {
   std::string s = std::string(toString(o.encoding)) + " " + toString(o.quantization) + " channels " +
                   std::to_string(o.channels) + (o.throughput ? " (throughput)" : "");
   if (o.encoding == Encoding::Sh) return s + " order " + std::to_string(o.order);
-  s += " N " + std::to_string(o.tableSize);
+  s += " N " + std::to_string(o.tableSize) + (o.jumpDistance ? " jump distance" : "");
   return o.encoding == Encoding::Pca ? s + " K " + std::to_string(o.components) : s;
 }
 
@@ -173,6 +173,38 @@ TEST_F(DecompressionEncodings, JumpAwareCornersMatchCpuReference) {
         const reference::DistortionImage jumpAware = reference::decompress(testing::makeSyntheticField(o), eye);
         const reference::DistortionImage bilinear = reference::decompress(plain, eye);
         EXPECT_GT(testing::countChanged(jumpAware.rgba, bilinear.rgba), 50u) << "no corner was discounted";
+        ASSERT_NO_FATAL_FAILURE(check(o));
+      }
+}
+
+// The jump distance channel (EncodingShape::jumpDistance): the same fields with distances that
+// move the side of every disagreeing cell. The CPU decode must differ from the one without the
+// channel at many samples (where the distances put the eye on the side w^p did not pick), so the
+// GPU's agreement covers the signed distances; 5 and 6 encoded channels (the vec4 basis reads end
+// at 4).
+TEST_F(DecompressionEncodings, JumpDistanceMatchesCpuReference) {
+  uint32_t seed = 500;
+  for (Encoding encoding : {Encoding::Table, Encoding::Pca})
+    for (Quantization q : {Quantization::U8, Quantization::F16})
+      for (const ChannelLayout& layout : {kLayouts[0], kLayouts[1], kLayouts[3]}) {
+        SyntheticFieldOptions o;
+        o.encoding = encoding;
+        o.quantization = q;
+        o.channels = layout.channels;
+        o.throughput = layout.throughput;
+        o.tableSize = q == Quantization::U8 ? 16 : 12;
+        o.components = 7;
+        o.emptyAndGutters = true;
+        o.nodeSampled = o.jumps = true;
+        o.seed = ++seed;
+        SCOPED_TRACE(describe(o));
+        const reference::Vec3 eye{kEyes[0][0], kEyes[0][1], kEyes[0][2]};
+        const reference::DistortionImage without = reference::decompress(testing::makeSyntheticField(o), eye);
+        o.jumpDistance = true;
+        const Field field = testing::makeSyntheticField(o);
+        ASSERT_TRUE(field.shape().jumpDistance);
+        const reference::DistortionImage with = reference::decompress(field, eye);
+        EXPECT_GT(testing::countChanged(with.rgba, without.rgba), 50u) << "the distances moved no side";
         ASSERT_NO_FATAL_FAILURE(check(o));
       }
 }

@@ -12,6 +12,7 @@
 #pragma once
 
 #include <shrefract/field.h>
+#include <shrefract/gpu_layout.h>
 
 #include <algorithm>
 #include <array>
@@ -43,6 +44,9 @@ struct SyntheticFieldOptions {
   // (EncodingShape::jumpAware); `jumps`: every fifth node's direction points the other way.
   bool nodeSampled = false;
   bool jumps = false;
+  // With nodeSampled and N >= 12: a last channel of jump distances (EncodingShape::jumpDistance),
+  // 0.1 to 0.9 cells varying by node and texel, so that the side of each disagreeing cell moves.
+  bool jumpDistance = false;
   uint32_t seed = 1;
   float radius = 1.0f;
   std::array<float, 3> center{0.0f, 0.0f, 0.0f};
@@ -195,6 +199,35 @@ inline std::vector<float> syntheticPcaCoefficients(const SyntheticFieldOptions& 
   return weights;
 }
 
+// Appends the jump distance channel to the coefficients (Table) or the basis (Pca) built for
+// o.channels: in grid cells times kJumpDistanceScale / (N - 1), as the bake stores it.
+inline std::vector<float> withJumpDistance(const SyntheticFieldOptions& o, Field& f, const std::vector<float>& in) {
+  const uint32_t from = o.channels, to = o.channels + 1, nodes = o.tableSize * o.tableSize;
+  const float unit = gpu::kJumpDistanceScale / float(o.tableSize - 1);
+  f.channels = to;
+  f.jumpDistance = f.settings.jumpDistance = true;
+  auto widen = [&](const std::vector<float>& v, auto distance) {
+    std::vector<float> out(v.size() / from * to);
+    for (size_t i = 0; i < v.size() / from; ++i) {
+      std::copy(&v[i * from], &v[i * from] + from, &out[i * to]);
+      out[i * to + from] = unit * distance(i);
+    }
+    return out;
+  };
+  if (o.encoding == Encoding::Pca) {  // the mean component carries it; the others add a little
+    f.basis = widen(f.basis, [&](size_t i) {
+      const size_t k = i / nodes, n = i % nodes;
+      return k == 0 ? 0.5f + 0.4f * std::sin(1.3f * float(n)) : 0.05f * std::sin(0.7f * float(k) + 0.9f * float(n));
+    });
+    return in;
+  }
+  const uint32_t texels = o.width * o.height;
+  return widen(in, [&](size_t i) {
+    const size_t node = i / texels, t = i % texels;
+    return 0.5f + 0.4f * std::sin(1.7f * float(node) + 0.3f * float(t % o.width) + 0.2f * float(t / o.width));
+  });
+}
+
 inline Field makeSyntheticField(const SyntheticFieldOptions& o) {
   Field f;
   f.width = o.width;
@@ -261,9 +294,10 @@ inline Field makeSyntheticField(const SyntheticFieldOptions& o) {
                                     (y - 2) * o.width + x - 1});
   }
 
-  const std::vector<float> coefficients = o.encoding == Encoding::Sh      ? syntheticShCoefficients(o, f, directions)
-                                          : o.encoding == Encoding::Table ? syntheticTableCoefficients(o, f, directions)
-                                                                          : syntheticPcaCoefficients(o, f, directions);
+  std::vector<float> coefficients = o.encoding == Encoding::Sh      ? syntheticShCoefficients(o, f, directions)
+                                    : o.encoding == Encoding::Table ? syntheticTableCoefficients(o, f, directions)
+                                                                    : syntheticPcaCoefficients(o, f, directions);
+  if (o.jumpDistance) coefficients = withJumpDistance(o, f, coefficients);
   (void)encodeCoefficients(f, coefficients);
 
   // Render mesh: the band as (segments) x (segments / 2) quads, atlas coordinates at the corners.

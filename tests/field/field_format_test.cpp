@@ -288,7 +288,8 @@ TEST_P(FieldFormat, HeaderMatchesTheSpec) {
                             (8 + T + 8 + 48 * T + 8 + 16 * f.gutters.size()) +
                             (GetParam().quantization == Quantization::U8 ? 16 + 8 * B * C + 16 + B * T * C
                                                                          : 16 + 16 + 2 * B * T * C) +
-                            (9 * 4 + 4 + 8 + 4) +  // ENCD: nine u32/f32, an empty basis array, the sampling
+                            (9 * 4 + 4 + 8 + 4 + 4) +  // ENCD: nine u32/f32, an empty basis array, the
+                                                       // sampling, the jump distance flag
                             4;
   EXPECT_EQ(b.size(), expected);
   // Sections in their fixed order, ending exactly at the checksum.
@@ -848,19 +849,21 @@ TEST_F(FieldFiles, ReadOfTruncatedFileNamesIt) {
 // Version 2: the Table and Pca encodings, the throughput channel, version 1 files.
 
 // makeField's atlas with a Table (N = 3) or Pca (N = 3, K = 5) encoding, optionally with throughput.
-Field makeEncodedField(Encoding encoding, Quantization q, bool throughput) {
+// jumpDistance: a 12x12 table (the smallest decoded jump-aware) with the jump distance channel.
+Field makeEncodedField(Encoding encoding, Quantization q, bool throughput, bool jumpDistance = false) {
   Field f = makeField({4, q});
   f.encoding = f.settings.encoding = encoding;
   f.order = f.settings.order = 0;
-  f.tableSize = f.settings.tableSize = 3;
+  f.tableSize = f.settings.tableSize = jumpDistance ? 12 : 3;
   f.components = f.settings.components = encoding == Encoding::Pca ? 5 : 0;
   f.throughput = f.settings.throughput = throughput;
-  f.channels = throughput ? 5 : 4;
+  f.jumpDistance = f.settings.jumpDistance = jumpDistance;
+  f.channels = (throughput ? 5 : 4) + (jumpDistance ? 1 : 0);
   f.settings.pathRule = PathRule::FirstRefraction;
   f.settings.maxBytesPerSample = 324.0f;
   f.settings.directionSampling = DirectionSampling::Nodes;
   if (encoding == Encoding::Pca) {
-    f.basis.resize(size_t(f.components) * 9 * f.channels);
+    f.basis.resize(size_t(f.components) * f.tableSize * f.tableSize * f.channels);
     for (size_t i = 0; i < f.basis.size(); ++i) f.basis[i] = std::sin(0.37f * float(i));
   }
   std::vector<float> c(size_t(f.layerCount()) * f.texelCount() * f.valuesPerLayer());
@@ -874,11 +877,15 @@ struct EncodedVariant {
   Encoding encoding;
   Quantization quantization;
   bool throughput;
+  bool jumpDistance = false;
 };
 
 class FieldEncodings : public ::testing::TestWithParam<EncodedVariant> {
  protected:
-  Field field() const { return makeEncodedField(GetParam().encoding, GetParam().quantization, GetParam().throughput); }
+  Field field() const {
+    return makeEncodedField(GetParam().encoding, GetParam().quantization, GetParam().throughput,
+                            GetParam().jumpDistance);
+  }
 };
 
 TEST_P(FieldEncodings, RoundTripIsExact) {
@@ -893,6 +900,9 @@ TEST_P(FieldEncodings, RoundTripIsExact) {
   EXPECT_EQ(g.tableSize, f.tableSize);
   EXPECT_EQ(g.components, f.components);
   EXPECT_EQ(g.throughput, f.throughput);
+  EXPECT_EQ(g.jumpDistance, f.jumpDistance);
+  EXPECT_EQ(g.settings.jumpDistance, f.jumpDistance);
+  EXPECT_EQ(g.decodedChannels(), f.channels - (f.jumpDistance ? 1u : 0u));
   EXPECT_EQ(bits(g.basis), bits(f.basis));
   EXPECT_EQ(g.settings.pathRule, PathRule::FirstRefraction);
   EXPECT_EQ(g.settings.directionSampling, DirectionSampling::Nodes);
@@ -912,7 +922,8 @@ TEST_P(FieldEncodings, EveryTruncationIsRejected) {
 TEST_P(FieldEncodings, BytesPerSampleCountsTheStoredCoefficients) {
   const Field f = field();
   const uint32_t perValue = GetParam().quantization == Quantization::U8 ? 1 : 2;
-  const uint32_t expected = GetParam().encoding == Encoding::Table ? 9 * f.channels * perValue : 5 * perValue;
+  const uint32_t expected =
+      GetParam().encoding == Encoding::Table ? f.tableSize * f.tableSize * f.channels * perValue : 5 * perValue;
   EXPECT_EQ(f.bytesPerSample(), expected);
 }
 
@@ -920,10 +931,13 @@ INSTANTIATE_TEST_SUITE_P(Encodings, FieldEncodings,
                          ::testing::Values(EncodedVariant{Encoding::Table, Quantization::U8, false},
                                            EncodedVariant{Encoding::Table, Quantization::F16, true},
                                            EncodedVariant{Encoding::Pca, Quantization::U8, true},
-                                           EncodedVariant{Encoding::Pca, Quantization::F16, false}),
+                                           EncodedVariant{Encoding::Pca, Quantization::F16, false},
+                                           EncodedVariant{Encoding::Pca, Quantization::U8, false, true},
+                                           EncodedVariant{Encoding::Table, Quantization::F16, true, true}),
                          [](const ::testing::TestParamInfo<EncodedVariant>& p) {
                            return std::string(toString(p.param.encoding)) + "_" + toString(p.param.quantization) +
-                                  (p.param.throughput ? "_throughput" : "");
+                                  (p.param.throughput ? "_throughput" : "") +
+                                  (p.param.jumpDistance ? "_jump_distance" : "");
                          });
 
 TEST(FieldEncodingValidation, BrokenEncodingsAreRejected) {
@@ -976,18 +990,68 @@ TEST(FieldVersion1, StillReadAsAnShFieldWithoutThroughput) {
   EXPECT_FALSE(parse(b, "v1.shrf").ok());
 }
 
-TEST(FieldVersion2, StillReadWithGridSampling) {
-  // A version 2 file is version 3 without the direction sampling at the end of ENCD.
-  const Field f = makeEncodedField(Encoding::Table, Quantization::U8, false);
+// The file without the last `bytes` of ENCD, labelled `version`.
+std::vector<uint8_t> withShorterEncoding(const Field& f, uint64_t bytes, uint32_t version) {
   std::vector<uint8_t> b = serializeField(f);
   const size_t encd = sectionPayload(b, "ENCD");
   const uint64_t encdLength = getU64(b, encd - 8);
-  b.erase(b.begin() + static_cast<std::ptrdiff_t>(encd + encdLength - 4),
+  b.erase(b.begin() + static_cast<std::ptrdiff_t>(encd + encdLength - bytes),
           b.begin() + static_cast<std::ptrdiff_t>(encd + encdLength));
-  putU64(b, encd - 8, encdLength - 4);
-  putU32(b, 4, 2);
+  putU64(b, encd - 8, encdLength - bytes);
+  putU32(b, 4, version);
   putU64(b, 8, b.size());
   resign(b);
+  return b;
+}
+
+TEST(FieldVersion3, StillReadWithoutJumpDistance) {
+  // A version 3 file is version 4 without the jump distance flag at the end of ENCD.
+  const Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false);
+  std::vector<uint8_t> b = withShorterEncoding(f, 4, 3);
+  const Result<Field> r = parse(b, "v3.shrf");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  expectSameField(f, r.value());
+  EXPECT_FALSE(r.value().jumpDistance);
+  EXPECT_EQ(r.value().settings.directionSampling, DirectionSampling::Nodes);
+  // The same bytes labelled version 4 are short by the missing flag.
+  putU32(b, 4, 4);
+  resign(b);
+  EXPECT_FALSE(parse(b, "v3.shrf").ok());
+}
+
+TEST(FieldJumpDistance, OnlyWhereTheDecodeIsJumpAware) {
+  const std::vector<std::pair<std::string, std::function<void(Field&)>>> cases = {
+      {"jump distance", [](Field& f) { f.settings.directionSampling = DirectionSampling::Grid; }},
+      {"jump distance", [](Field& f) {
+         f.tableSize = f.settings.tableSize = 11;
+         f.basis.resize(size_t(f.components) * 11 * 11 * f.channels);
+       }},
+      {"channels", [](Field& f) { f.channels = 6; }},  // 5 decoded without throughput
+  };
+  for (const auto& [what, breakIt] : cases) {
+    Field f = makeEncodedField(Encoding::Pca, Quantization::F16, false, true);
+    ASSERT_TRUE(validateField(f).ok()) << validateField(f).error().message;
+    breakIt(f);
+    const Result<void> r = validateField(f);
+    ASSERT_FALSE(r.ok()) << what;
+    EXPECT_TRUE(contains(r.error().message, what)) << what << ": " << r.error().message;
+  }
+  // The flag set on a field without the channel takes the exit's z as a distance: the absorbing
+  // media then have no optical depth to read.
+  Field f = makeEncodedField(Encoding::Pca, Quantization::F16, false);
+  f.tableSize = f.settings.tableSize = 12;
+  f.basis.resize(size_t(f.components) * 12 * 12 * f.channels);
+  f.jumpDistance = true;
+  const Result<void> r = validateField(f);
+  ASSERT_FALSE(r.ok());
+  EXPECT_TRUE(contains(r.error().message, "no optical depth")) << r.error().message;
+}
+
+TEST(FieldVersion2, StillReadWithGridSampling) {
+  // A version 2 file is version 3 without the direction sampling at the end of ENCD (and version 4
+  // without the jump distance flag after it).
+  const Field f = makeEncodedField(Encoding::Table, Quantization::U8, false);
+  std::vector<uint8_t> b = withShorterEncoding(f, 8, 2);
   const Result<Field> r = parse(b, "v2.shrf");
   ASSERT_TRUE(r.ok()) << r.error().message;
   EXPECT_EQ(r.value().settings.directionSampling, DirectionSampling::Grid);

@@ -64,18 +64,22 @@ Result<Eigen::MatrixXd> leadingEigenvectors(const Eigen::MatrixXd& gram, Eigen::
 
 }  // namespace
 
+glm::dvec3 nodeDirection(float x, float y, uint32_t n) {
+  const std::array<float, 3> d = hemiOctDirectionAt(x, y, n);
+  glm::dvec3 w(d[0], d[1], d[2]);
+  if (w.z < kNodeMinZ) {
+    const double tangential = std::sqrt((1.0 - kNodeMinZ * kNodeMinZ) / (w.x * w.x + w.y * w.y));
+    w = glm::dvec3(w.x * tangential, w.y * tangential, kNodeMinZ);
+  }
+  return w;
+}
+
 DirectionGrid makeNodeGrid(uint32_t n) {
   DirectionGrid g;
   g.rows = g.columns = n;
   for (uint32_t j = 0; j < n; ++j)
     for (uint32_t i = 0; i < n; ++i) {
-      const std::array<float, 3> d = hemiOctDirection(i, j, n);
-      glm::dvec3 w(d[0], d[1], d[2]);
-      if (w.z < kNodeMinZ) {
-        const double tangential = std::sqrt((1.0 - kNodeMinZ * kNodeMinZ) / (w.x * w.x + w.y * w.y));
-        w = glm::dvec3(w.x * tangential, w.y * tangential, kNodeMinZ);
-      }
-      g.directions.push_back(w);
+      g.directions.push_back(nodeDirection(float(i), float(j), n));
       g.weights.push_back(2.0 * std::numbers::pi / (double(n) * n));
     }
   return g;

@@ -4,7 +4,8 @@
 // hemisphere of the sample's local frame, the bake traced where the refracted path leaves the
 // object (world-space unit direction), how much optical depth it crossed and, optionally, the
 // Fresnel throughput of the path. These channels (x, y, z, [tau], [throughput]) are functions on
-// the hemisphere, stored in one of three encodings (docs/encodings.md):
+// the hemisphere (node-sampled Table and Pca fields may add a last channel that only guides their
+// decode: the distance to the nearest jump of the exit direction, docs/encodings.md "Jumps"), stored in one of three encodings (docs/encodings.md):
 //  - Sh: real SH coefficients of order L (see shrefract/sh.h), the paper's scheme;
 //  - Table: the values at the N x N nodes of a hemi-octahedral grid, bilinear between nodes;
 //  - Pca: K weights per sample of a basis learned from the whole field (each basis function a
@@ -28,8 +29,9 @@
 
 namespace shrefract {
 
-// 1: SH only, no throughput; 2: adds ENCD; 3: adds the direction sampling (1 and 2 still read).
-inline constexpr uint32_t kFieldFormatVersion = 3;
+// 1: SH only, no throughput; 2: adds ENCD; 3: adds the direction sampling; 4: adds the jump
+// distance channel (1 to 3 still read).
+inline constexpr uint32_t kFieldFormatVersion = 4;
 
 // Largest magnitude of a decoded coefficient (validateField, encodeCoefficients). With at most
 // 1089 basis functions (order 32) the sum of |Y_i| is at most 1089 / sqrt(4 pi) = 307, so every
@@ -94,6 +96,8 @@ struct HemiOctCoordinates {
 HemiOctCoordinates hemiOctFromDirection(float x, float y, float z);  // z is clamped to >= 0
 // The unit local direction of node (i, j) of an N x N grid (inverse of the map above).
 std::array<float, 3> hemiOctDirection(uint32_t i, uint32_t j, uint32_t n);
+// The same at fractional grid coordinates (x, y) in [0, N - 1]^2, between nodes.
+std::array<float, 3> hemiOctDirectionAt(float x, float y, uint32_t n);
 // The 4 nodes around a direction and their bilinear weights (sum 1): node indices j * N + i.
 struct HemiOctBilinear {
   std::array<uint32_t, 4> node{};
@@ -121,6 +125,11 @@ struct BakeSettings {
   PathRule pathRule = PathRule::HighestEnergy;
   bool throughput = false;           // the path's Fresnel throughput is stored as a channel
   DirectionSampling directionSampling = DirectionSampling::Grid;
+  // Store the jump distance channel where the decode is jump-aware (Table and Pca traced at their
+  // nodes, N >= kJumpMinTableSize): the bake traces where each node's exit jumps, and the decode
+  // places the jump there instead of midway between nodes. A field's settings record whether it was
+  // stored (false for every other field).
+  bool jumpDistance = true;
   float maxBytesPerSample = 0.0f;    // > 0: encoding and parameters were chosen to fit this budget
   uint64_t sampleBudget = 0;         // requested total samples (0: not used)
   float samplesPerUnitArea = 0.0f;   // requested density (0: not used)
@@ -184,10 +193,14 @@ struct EncodingShape {
   uint32_t order = 0;       // Sh
   uint32_t tableSize = 0;   // Table, Pca
   uint32_t components = 0;  // Pca
-  uint32_t channels = 3;
+  uint32_t channels = 3;  // encoded: the decoded ones, then the jump distance when jumpDistance
   // Table, Pca traced at their nodes (DirectionSampling::Nodes): the corners of a cell are blended
   // jump-aware (docs/encodings.md, "Jumps"), since node values are exact exits on either side.
   bool jumpAware = false;
+  // The last channel is the distance from each node to the nearest jump (jump-aware fields only):
+  // the decode uses it to place a jump inside a cell and does not output it.
+  bool jumpDistance = false;
+  uint32_t decodedChannels() const { return channels - (jumpDistance ? 1u : 0u); }
   // Layers (coefficients per sample and stored value): Sh (L+1)^2, Table N^2, Pca K.
   uint32_t layerCount() const {
     return encoding == Encoding::Sh ? (order + 1) * (order + 1)
@@ -203,10 +216,12 @@ struct Field {
   uint32_t order = 0;            // Sh: order L, (L+1)^2 layers; 0 for the other encodings
   uint32_t tableSize = 0;        // Table: N, N^2 layers; Pca: N of the basis tables; 0 for Sh
   uint32_t components = 0;       // Pca: K layers; 0 otherwise
-  // Decoded channels: x, y, z, then tau when a medium absorbs, then the throughput when
-  // `throughput` is set: 3, 4 or 5.
+  // Encoded channels: x, y, z, then tau when a medium absorbs, then the throughput when
+  // `throughput` is set (3, 4 or 5 decoded channels), then the jump distance when `jumpDistance`
+  // is set (EncodingShape::jumpDistance; in grid cells times kJumpDistanceScale / (N - 1), gpu_layout.h).
   uint32_t channels = 4;
   bool throughput = false;
+  bool jumpDistance = false;
   Quantization quantization = Quantization::U8;
 
   // Coefficients a_j(s), layer-major: index ((layer * height + y) * width + x) * values + v, with
@@ -231,13 +246,14 @@ struct Field {
 
   EncodingShape shape() const {
     return {encoding, order, tableSize, components, channels,
-            encoding != Encoding::Sh && settings.directionSampling == DirectionSampling::Nodes};
+            encoding != Encoding::Sh && settings.directionSampling == DirectionSampling::Nodes, jumpDistance};
   }
+  uint32_t decodedChannels() const { return shape().decodedChannels(); }
   uint32_t layerCount() const { return shape().layerCount(); }
   uint32_t basisCount() const { return layerCount(); }  // the name of SH-era callers
   uint32_t valuesPerLayer() const { return shape().valuesPerLayer(); }
-  bool hasOpticalDepth() const { return channels == (throughput ? 5u : 4u); }
-  uint32_t throughputChannel() const { return channels - 1; }  // meaningful when throughput is set
+  bool hasOpticalDepth() const { return decodedChannels() == (throughput ? 5u : 4u); }
+  uint32_t throughputChannel() const { return decodedChannels() - 1; }  // meaningful when throughput is set
   uint64_t texelCount() const { return uint64_t(width) * height; }
   // Encoded bytes per sample: the coefficients only (frames, mesh, tables and basis not counted).
   uint32_t bytesPerSample() const {
@@ -251,10 +267,11 @@ struct Field {
 // Object::createFromField sets as ObjectShading::tint (docs/scenes.md, "Colour model").
 std::array<float, 3> frontMediumColor(const Field& field);
 
-// Decoded channels at most: x, y, z, tau, throughput.
+// Decoded channels at most: x, y, z, tau, throughput; encoded ones add the jump distance.
 inline constexpr uint32_t kMaxFieldChannels = 5;
+inline constexpr uint32_t kMaxEncodedChannels = kMaxFieldChannels + 1;
 
-// The linear sum of an encoding at a local direction, in out[0..channels), before normalization,
+// The linear sum of an encoding at a local direction, in out[0..decodedChannels()), before normalization,
 // from one sample's coefficients a[layer * valuesPerLayer + value] (floats: dequantized, or a
 // bake's fit before quantization) and, for Pca, the basis (field.h layout; nullptr otherwise).
 // z is clamped to >= 0 (the engine does the same). The one implementation of the three sums.
@@ -291,7 +308,8 @@ Result<void> encodeCoefficients(Field& field, const std::function<const float*(u
 
 // Structural validation: sizes agree, values finite, indices and texel references in range,
 // UVs in [0,1], frames zero exactly for empty texels and within kMaxFrameMagnitude, order <= 32,
-// channels 3 or 4, every decodable U8 coefficient within kMaxCoefficientMagnitude.
+// 3 to 5 decoded channels (a jump distance only where the decode is jump-aware), every decodable U8
+// coefficient within kMaxCoefficientMagnitude.
 Result<void> validateField(const Field& field);
 
 // Serialization. parseField validates everything: magic, version (newer versions are rejected

@@ -35,7 +35,8 @@ struct DecompressVariant {
   Quantization quantization = Quantization::U8;
   bool scaleBiasStorage = false;  // Sh
   bool coefficientsStorage = false;
-  bool jumpAware = false;  // Table, Pca
+  bool jumpAware = false;     // Table, Pca
+  bool jumpDistance = false;  // Table, Pca: the last channel is the jump distance
   auto operator<=>(const DecompressVariant&) const = default;
 };
 
@@ -67,7 +68,8 @@ struct DecompressorImpl {
   Result<VkPipeline> variant(const DecompressVariant& v);
   Result<VkPipeline> variant(const FieldResources& f) {
     return variant(DecompressVariant{f.encoding, f.order, f.tableSize, f.components, f.channels, f.throughput,
-                                     f.quantization, f.scaleBiasStorage, f.coefficientsStorage, f.jumpAware});
+                                     f.quantization, f.scaleBiasStorage, f.coefficientsStorage, f.jumpAware,
+                                     f.jumpDistance});
   }
 
   Result<VkPipeline> createPipeline(VkShaderModule module, const VkSpecializationInfo* specialization) {
@@ -150,8 +152,8 @@ Result<VkPipeline> DecompressorImpl::variant(const DecompressVariant& v) {
   // specialization constant is 32 bits wide.)
   auto flag = [](bool b) { return b ? uint32_t(VK_TRUE) : uint32_t(VK_FALSE); };
   // { SH_ORDER, CHANNELS, QUANTIZATION, SCALE_BIAS_STORAGE, COEFFICIENTS_STORAGE, THROUGHPUT,
-  //   ENCODING, TABLE_SIZE, COMPONENTS, JUMP_AWARE }
-  const std::array<uint32_t, 10> values{v.order,
+  //   ENCODING, TABLE_SIZE, COMPONENTS, JUMP_AWARE, JUMP_DISTANCE }
+  const std::array<uint32_t, 11> values{v.order,
                                        v.channels,
                                        static_cast<uint32_t>(v.quantization),
                                        flag(v.scaleBiasStorage),
@@ -160,12 +162,13 @@ Result<VkPipeline> DecompressorImpl::variant(const DecompressVariant& v) {
                                        static_cast<uint32_t>(v.encoding),
                                        v.tableSize,
                                        v.components,
-                                       flag(v.jumpAware)};
-  const std::array<uint32_t, 10> ids{gpu::kSpecShOrder,          gpu::kSpecChannels,    gpu::kSpecQuantization,
+                                       flag(v.jumpAware),
+                                       flag(v.jumpDistance)};
+  const std::array<uint32_t, 11> ids{gpu::kSpecShOrder,          gpu::kSpecChannels,    gpu::kSpecQuantization,
                                     gpu::kSpecScaleBiasStorage, gpu::kSpecCoefficientsStorage,
                                     gpu::kSpecThroughput,       gpu::kSpecEncoding,    gpu::kSpecTableSize,
-                                    gpu::kSpecComponents,       gpu::kSpecJumpAware};
-  std::array<VkSpecializationMapEntry, 10> entries{};
+                                    gpu::kSpecComponents,       gpu::kSpecJumpAware,   gpu::kSpecJumpDistance};
+  std::array<VkSpecializationMapEntry, 11> entries{};
   for (uint32_t i = 0; i < entries.size(); ++i) entries[i] = {ids[i], i * uint32_t(sizeof(uint32_t)), sizeof(uint32_t)};
   const VkSpecializationInfo specialization{static_cast<uint32_t>(entries.size()), entries.data(), sizeof(values),
                                             values.data()};

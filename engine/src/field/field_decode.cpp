@@ -21,8 +21,12 @@ HemiOctCoordinates hemiOctFromDirection(float x, float y, float z) {
 }
 
 std::array<float, 3> hemiOctDirection(uint32_t i, uint32_t j, uint32_t n) {
-  const float a = 2.0f * float(i) / float(n - 1) - 1.0f;  // p.x + p.y
-  const float b = 2.0f * float(j) / float(n - 1) - 1.0f;  // p.x - p.y
+  return hemiOctDirectionAt(float(i), float(j), n);
+}
+
+std::array<float, 3> hemiOctDirectionAt(float x, float y, uint32_t n) {
+  const float a = 2.0f * x / float(n - 1) - 1.0f;  // p.x + p.y
+  const float b = 2.0f * y / float(n - 1) - 1.0f;  // p.x - p.y
   const float px = 0.5f * (a + b), py = 0.5f * (a - b);
   const float pz = std::max(0.0f, 1.0f - std::fabs(px) - std::fabs(py));
   const float len = std::sqrt(px * px + py * py + pz * pz);
@@ -63,9 +67,16 @@ std::array<float, 3> straightThrough(const float* rows, float x, float y, float 
 // picks the side of the jump holding most of the weight, steeply but without a step (a step
 // flickers as the eye moves). Where no corner is discounted this is plain bilinear
 // interpolation; between the two the results are blended by min(1, kJumpBlendGain x the
-// discounted weight), so the decode is continuous everywhere. Mirrored by decompress_table.comp.
-void interpolateCorners(const HemiOctBilinear& b, uint32_t n, const float (*v)[kMaxFieldChannels], uint32_t channels,
+// discounted weight), so the decode is continuous everywhere.
+// With the jump distance channel the side is placed, not guessed: the corners' distances to the
+// nearest jump, signed + for the corners of view m's side and - for the others, interpolate
+// bilinearly to a function that is zero on the jump (exactly, for a straight jump), and view m
+// counts by its bilinear weight where that function puts w on m's side (a ramp of
+// kJumpDistanceSoftness cells across the jump) instead of by w_m^p. Mirrored by
+// decompress_table.comp. out: the decoded channels (the jump distance is not one).
+void interpolateCorners(const HemiOctBilinear& b, const EncodingShape& shape, const float (*v)[kMaxEncodedChannels],
                         const float* rows, const std::array<float, 3>& w, float* out) {
+  const uint32_t n = shape.tableSize, channels = shape.decodedChannels();
   for (int j = 0; j < 4; ++j)
     for (uint32_t c = 0; c < channels; ++c) out[c] += b.weight[j] * v[j][c];
   if (!rows || n < gpu::kJumpMinTableSize) return;
@@ -78,12 +89,16 @@ void interpolateCorners(const HemiOctBilinear& b, uint32_t n, const float (*v)[k
   }
   // Each corner m in turn as the reference side: its agreeing corners' blended estimate, weighted
   // by w_m^p (p = kJumpDominancePower), so the side with the most weight wins without a step.
-  float length[4], estimate[kMaxFieldChannels] = {}, dominance = 0.0f, discounted = 0.0f;
+  float length[4], distance[4] = {}, estimate[kMaxFieldChannels] = {}, dominance = 0.0f, discounted = 0.0f;
   for (int j = 0; j < 4; ++j) length[j] = std::sqrt(e[j][0] * e[j][0] + e[j][1] * e[j][1] + e[j][2] * e[j][2]);
+  if (shape.jumpDistance)
+    for (int j = 0; j < 4; ++j)
+      distance[j] = std::clamp(v[j][channels] * (float(n - 1) / gpu::kJumpDistanceScale), 0.0f,
+                               gpu::kJumpDistanceMaxCells);
   for (int m = 0; m < 4; ++m) {
-    const float pm = std::pow(b.weight[m], gpu::kJumpDominancePower);
+    float pm = shape.jumpDistance ? b.weight[m] : std::pow(b.weight[m], gpu::kJumpDominancePower);
     if (!(pm > 0.0f)) continue;
-    float kept[4], sum = 0.0f;
+    float kept[4], sum = 0.0f, signedDistance = 0.0f;
     for (int j = 0; j < 4; ++j) {
       const float dot = e[j][0] * e[m][0] + e[j][1] * e[m][1] + e[j][2] * e[m][2];
       const float cosine = length[j] * length[m] > gpu::kMinDirectionLength2 ? dot / (length[j] * length[m]) : 1.0f;
@@ -91,8 +106,11 @@ void interpolateCorners(const HemiOctBilinear& b, uint32_t n, const float (*v)[k
           std::clamp((cosine - gpu::kJumpCosineNone) / (gpu::kJumpCosineFull - gpu::kJumpCosineNone), 0.0f, 1.0f);
       kept[j] = b.weight[j] * keep;
       sum += kept[j];
-      discounted += pm * (b.weight[j] - kept[j]);
+      signedDistance += b.weight[j] * distance[j] * (2.0f * keep - 1.0f);
     }
+    if (shape.jumpDistance)
+      pm *= std::clamp(0.5f + signedDistance / gpu::kJumpDistanceSoftness, 0.0f, 1.0f) + gpu::kJumpDistanceFloor;
+    for (int j = 0; j < 4; ++j) discounted += pm * (b.weight[j] - kept[j]);
     for (uint32_t c = 0; c < channels; ++c) {
       float side = 0.0f;
       for (int j = 0; j < 4; ++j) side += kept[j] * (c < 3 ? e[j][c] : v[j][c]);
@@ -109,8 +127,8 @@ void interpolateCorners(const HemiOctBilinear& b, uint32_t n, const float (*v)[k
 
 void evaluateCoefficients(const EncodingShape& shape, const float* a, const float* basis,
                           const std::array<float, 3>& w, float* out, const float* frameRows) {
-  const uint32_t channels = shape.channels;
-  std::fill(out, out + channels, 0.0f);
+  const uint32_t channels = shape.channels;  // encoded; Sh and Table fields without a jump distance decode all
+  std::fill(out, out + shape.decodedChannels(), 0.0f);
   const float z = std::max(w[2], 0.0f);
   if (shape.encoding == Encoding::Sh) {
     const int order = static_cast<int>(shape.order);
@@ -123,7 +141,7 @@ void evaluateCoefficients(const EncodingShape& shape, const float* a, const floa
   }
   const uint32_t n = shape.tableSize;
   const HemiOctBilinear b = hemiOctBilinear(w[0], w[1], z, n);
-  float corners[4][kMaxFieldChannels] = {};
+  float corners[4][kMaxEncodedChannels] = {};
   if (shape.encoding == Encoding::Table) {
     for (int j = 0; j < 4; ++j)
       for (uint32_t c = 0; c < channels; ++c) corners[j][c] = a[size_t(b.node[j]) * channels + c];
@@ -135,7 +153,7 @@ void evaluateCoefficients(const EncodingShape& shape, const float* a, const floa
         for (uint32_t c = 0; c < channels; ++c) corners[j][c] += a[k] * f[c];
       }
   }
-  interpolateCorners(b, n, corners, channels, shape.jumpAware ? frameRows : nullptr, {w[0], w[1], z}, out);
+  interpolateCorners(b, shape, corners, shape.jumpAware ? frameRows : nullptr, {w[0], w[1], z}, out);
 }
 
 void evaluateSample(const Field& field, uint64_t texel, const std::array<float, 3>& w, float* out, uint32_t order) {

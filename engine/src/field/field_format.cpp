@@ -2,6 +2,7 @@
 // coefficient quantization. Readers never trust a length: every count is checked against the
 // bytes that remain before anything is allocated for it.
 #include <shrefract/field.h>
+#include <shrefract/gpu_layout.h>
 
 #include <algorithm>
 #include <array>
@@ -432,7 +433,8 @@ void readMesh(SectionReader& r, FieldMesh& mesh) {
 }
 
 // ENCD (version 2): how the coefficients are to be decoded, and the bake's choices that go with it;
-// version 3 appends the direction sampling (Grid before it).
+// version 3 appends the direction sampling (Grid before it), version 4 the jump distance flag (none
+// before it; the settings record what the field has).
 void readEncoding(SectionReader& r, Field& field, uint32_t version) {
   field.encoding = static_cast<Encoding>(r.u32("encoding"));
   field.tableSize = r.u32("encoding.tableSize");
@@ -448,6 +450,8 @@ void readEncoding(SectionReader& r, Field& field, uint32_t version) {
   r.arrayF32(field.basis, "basis");
   s.directionSampling =
       version >= 3 ? static_cast<DirectionSampling>(r.u32("settings.directionSampling")) : DirectionSampling::Grid;
+  field.jumpDistance = version >= 4 && r.u32("encoding.jumpDistance") != 0;
+  s.jumpDistance = field.jumpDistance;
 }
 
 void writeEncoding(ByteWriter& w, const Field& field) {
@@ -464,6 +468,7 @@ void writeEncoding(ByteWriter& w, const Field& field) {
   w.f32(s.maxBytesPerSample);
   w.arrayF32(field.basis);
   w.u32(static_cast<uint32_t>(s.directionSampling));
+  w.u32(field.jumpDistance ? 1u : 0u);
 }
 
 void readAtlas(SectionReader& r, Field& field) {
@@ -488,9 +493,14 @@ Error invalid(const std::string& message) { return makeError(ErrorCode::CorruptD
 // The encoding's parameters, channels and (Pca) basis: what every decoder relies on.
 Result<void> validateEncoding(const Field& field) {
   const std::string n = std::to_string(field.tableSize);
-  if (field.channels != (field.throughput ? 4u : 3u) && field.channels != (field.throughput ? 5u : 4u))
+  const uint32_t decoded = field.decodedChannels();
+  if (decoded != (field.throughput ? 4u : 3u) && decoded != (field.throughput ? 5u : 4u))
     return invalid("channels is " + std::to_string(field.channels) + ", expected " +
-                   (field.throughput ? "4 or 5 (with throughput)" : "3 or 4"));
+                   (field.throughput ? "4 or 5 (with throughput)" : "3 or 4") +
+                   (field.jumpDistance ? " and one for the jump distance" : ""));
+  if (field.jumpDistance && !(field.shape().jumpAware && field.tableSize >= gpu::kJumpMinTableSize))
+    return invalid("a jump distance channel needs a table or pca field traced at its nodes with a table size of at "
+                   "least " + std::to_string(gpu::kJumpMinTableSize));
   switch (field.encoding) {
     case Encoding::Sh:
       if (field.order > kMaxOrder)
@@ -595,7 +605,7 @@ Result<void> validateMedia(const Field& field) {
       if (!std::isfinite(c) || c < 0.0f) return invalid(label + ".color has " + formatFloat(c) + ", not finite and >= 0");
     if (!field.hasOpticalDepth() && m.absorption != 0.0f)
       return invalid(label + " absorbs (" + formatFloat(m.absorption) + ") but the field has " +
-                     std::to_string(field.channels) + " channels (no optical depth stored)");
+                     std::to_string(field.decodedChannels()) + " channels (no optical depth stored)");
   }
   return {};
 }

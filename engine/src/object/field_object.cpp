@@ -373,6 +373,7 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   f.tableSize = field.tableSize;
   f.components = field.components;
   f.jumpAware = field.shape().jumpAware;
+  f.jumpDistance = field.jumpDistance;
   f.channels = field.channels;
   f.throughput = field.throughput;
   f.quantization = field.quantization;

@@ -26,6 +26,7 @@ struct FieldResources {
   uint32_t tableSize = 0;            // Table, Pca
   uint32_t components = 0;           // Pca
   bool jumpAware = false;            // Table, Pca: EncodingShape::jumpAware
+  bool jumpDistance = false;         // Table, Pca: EncodingShape::jumpDistance (the last channel)
   uint32_t channels = 4;
   bool throughput = false;           // the last channel is the throughput (raster: tint.a)
   Quantization quantization = Quantization::U8;

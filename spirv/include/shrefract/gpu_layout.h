@@ -105,6 +105,8 @@ SHR_CONST(kSpecJumpAware, 9u)
 // The object pass's fragment shaders: taps per axis of a filtered environment lookup
 // (RendererCreateInfo::environmentTapsPerAxis; default kEnvironmentTapsPerAxis).
 SHR_CONST(kSpecEnvironmentTaps, 10u)
+// decompress_table.comp: the field's last channel is the jump distance (EncodingShape::jumpDistance).
+SHR_CONST(kSpecJumpDistance, 11u)
 // Largest scale/bias table read as a uniform buffer: the maxUniformBufferRange every device offers,
 // so that the choice (and the code path) is the same on every device.
 SHR_CONST(kMaxUniformScaleBiasBytes, 16384u)
@@ -160,6 +162,21 @@ SHR_CONSTF(kJumpDominancePower, 4.0f)
 // direction has estimates as far apart as the cell's corners: at N = 12 a cell spans under about
 // 17 deg, inside kJumpCosineFull; coarser cells span as much as the jumps they would have to find.
 SHR_CONST(kJumpMinTableSize, 12u)
+// Fields with the jump distance channel (field.h EncodingShape::jumpDistance): each node stores its
+// distance d in grid cells to the nearest jump (bisected by the bake, at most
+// kJumpDistanceMaxCells), as d * kJumpDistanceScale / (N - 1), about the angle those cells span,
+// so that the Pca weighs an error in it like an error of the exit direction (probe on the cube:
+// 25.60 dB at this scale, 25.21 at half of it, 24.68 at 1 per cell). The decode interpolates the
+// corners' distances, signed by which side of the cell's jump each corner is on: zero on the jump,
+// exact for a straight one. A view of the cell counts in full where that interpolated distance
+// puts the eye on its side by kJumpDistanceSoftness cells, linearly from the jump (probe on the
+// cube: 25.60, 25.46, 24.72 dB for 0.05, 0.1, 0.2 cells; the torus 20.14, -, 20.31).
+SHR_CONSTF(kJumpDistanceScale, 3.14159265f)
+SHR_CONSTF(kJumpDistanceMaxCells, 1.0f)
+SHR_CONSTF(kJumpDistanceSoftness, 0.1f)
+// Every view keeps this much of its bilinear weight, so that a cell whose views all put w on the
+// other side (three sides meeting) still decodes to their bilinear blend.
+SHR_CONSTF(kJumpDistanceFloor, 1e-4f)
 
 // Filtered environment lookups (environment.glsl environmentLevel, docs/antialiasing.md): the
 // level is log2(footprint / texel angle) + this bias, for each tap's share of the footprint (below).

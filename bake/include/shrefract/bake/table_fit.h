@@ -35,6 +35,9 @@ inline constexpr double kNodeMinZ = 0.02;
 // The N x N node directions of the hemi-octahedral table in node order (j * N + i), border nodes
 // lifted to kNodeMinZ; rows = columns = N, equal weights (2 pi / N^2: no fit reads them).
 DirectionGrid makeNodeGrid(uint32_t n);
+// The direction of that table at fractional grid coordinates (x, y) in [0, N - 1]^2, lifted as the
+// border nodes are: what the bake traces between nodes (jump_distance.h).
+glm::dvec3 nodeDirection(float x, float y, uint32_t n);
 
 class TableFit {
  public:
