@@ -19,12 +19,14 @@ Field syntheticField(const SyntheticOptions& o) {
   f.components = o.encoding == Encoding::Pca ? o.components : 0;
   f.channels = o.channels;
   f.throughput = o.throughput;
+  f.jumpDistance = o.jumpDistance;
   f.quantization = o.quantization;
   f.settings.order = f.order;
   f.settings.encoding = f.encoding;
   f.settings.tableSize = f.tableSize;
   f.settings.components = f.components;
   f.settings.throughput = f.throughput;
+  f.settings.jumpDistance = f.jumpDistance;
   f.settings.directionSampling = sh ? DirectionSampling::Grid : o.directionSampling;
   f.settings.quantization = o.quantization;
   f.settings.source = "synthetic";
@@ -50,14 +52,16 @@ Field syntheticField(const SyntheticOptions& o) {
   std::mt19937 rng(o.seed);
   std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
   const uint32_t layers = f.layerCount(), values = f.valuesPerLayer();
-  auto isThroughput = [&](uint32_t c) { return o.throughput && c == o.channels - 1; };
+  const uint32_t decoded = f.decodedChannels();
+  auto isThroughput = [&](uint32_t c) { return o.throughput && c == decoded - 1; };
   if (o.encoding == Encoding::Pca) {  // before the coefficients: encodeCoefficients checks its size
     const size_t nodes = size_t(o.tableSize) * o.tableSize;
     f.basis.resize(size_t(o.components) * nodes * o.channels);
     for (size_t i = 0; i < f.basis.size(); ++i) {
       const size_t k = i / (nodes * o.channels), c = i % o.channels;
       f.basis[i] = 0.25f * uniform(rng);
-      if (isThroughput(uint32_t(c))) f.basis[i] = k == 0 ? 0.5f + f.basis[i] : 0.1f * f.basis[i];
+      if (c == decoded) f.basis[i] = k == 0 ? 0.1f + 0.5f * f.basis[i] : 0.01f * f.basis[i];  // jump distance
+      else if (isThroughput(uint32_t(c))) f.basis[i] = k == 0 ? 0.5f + f.basis[i] : 0.1f * f.basis[i];
       else if (k == 0 && c == 2) f.basis[i] -= 1.0f;
     }
   }
@@ -96,6 +100,7 @@ std::string encodingLabel(const Field& f) {
                                                       : "pca K=" + std::to_string(f.components) + " N=" + n;
   if (f.shape().jumpAware) label += " nodes";
   if (f.throughput) label += " +throughput";
+  if (f.jumpDistance) label += " +jump distance";
   return label;
 }
 

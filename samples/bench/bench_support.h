@@ -25,7 +25,7 @@ struct SyntheticOptions {
   uint32_t width = 256;
   uint32_t height = 256;
   uint32_t order = 8;        // Sh
-  uint32_t channels = 4;     // 3 or 4; with throughput 4 or 5 (the throughput last)
+  uint32_t channels = 4;     // 3 or 4; with throughput 4 or 5 (the throughput last); + 1 with jumpDistance
   Quantization quantization = Quantization::U8;
   float sampleFraction = 1.0f;
   uint32_t seed = 1;
@@ -35,11 +35,15 @@ struct SyntheticOptions {
   bool throughput = false;
   // Nodes: decoded jump-aware, as the tool's default Pca bake is (field.h EncodingShape::jumpAware).
   DirectionSampling directionSampling = DirectionSampling::Grid;
+  // Nodes and N >= 12: the last channel is a jump distance (EncodingShape::jumpDistance), as in the
+  // tool's default bake.
+  bool jumpDistance = false;
 };
 Field syntheticField(const SyntheticOptions& options);
 
 // A field's encoding as the benchmarks' tables name it: "sh L=8", "table 9x9", "pca K=324 N=16",
-// with " nodes" where the cells are decoded jump-aware and " +throughput" with that channel.
+// with " nodes" where the cells are decoded jump-aware, " +throughput" and " +jump distance" with
+// those channels.
 std::string encodingLabel(const Field& field);
 
 // Parses "u8" / "f16".
