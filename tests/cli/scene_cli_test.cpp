@@ -196,6 +196,18 @@ TEST_F(SceneCli, DefaultBakeTracesTheTableNodesAndAGridSizeAsksForTheGrid) {
   EXPECT_NE(grid.out.find("\"direction_sampling\": \"grid\""), std::string::npos) << grid.out;
   const ToolRun text = run(".", {"info", "nodes.shrf"});
   EXPECT_NE(text.out.find("directions the 16x16 table nodes"), std::string::npos) << text.out;
+  // The node-sampled field stores the jump distance (docs/encodings.md, "Placing the jump"); the
+  // grid-fitted one cannot, and --no-jump-distance leaves it out.
+  EXPECT_NE(nodes.out.find("\"jump_distance\": true"), std::string::npos) << nodes.out;
+  EXPECT_NE(text.out.find("(with jump distance)"), std::string::npos) << text.out;
+  EXPECT_NE(grid.out.find("\"jump_distance\": false"), std::string::npos) << grid.out;
+  std::vector<std::string> without = base;
+  without.push_back("--no-jump-distance");
+  const ToolRun plain = bakeAndInfo(without, "plain.shrf");
+  ASSERT_EQ(plain.exit, 0) << plain.err;
+  EXPECT_NE(plain.out.find("\"jump_distance\": false"), std::string::npos) << plain.out;
+  EXPECT_NE(nodes.out.find("\"channels\": 5"), std::string::npos) << nodes.out;  // x, y, z, tau, distance
+  EXPECT_NE(plain.out.find("\"channels\": 4"), std::string::npos) << plain.out;
 }
 
 // A u8 Pca bake gives its widest components refinement layers (table_fit.h) and says how many;
