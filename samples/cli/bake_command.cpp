@@ -52,7 +52,8 @@ std::vector<FlagSpec> bakeFlags() {
       {"path-rule", true, "branch followed at every interface: highest-energy (default) or first-refraction"},
       {"throughput", false, "store the path's Fresnel throughput as a channel"},
       {"no-jump-distance", false, "table and pca traced at their nodes (N >= 12): do not store each node's "
-                                  "distance to the nearest jump (the decode then places jumps midway between nodes)"},
+                                  "distance to the nearest jump (the decode then places jumps midway between "
+                                  "nodes; the channel costs pca nothing per sample, table one value per node)"},
       {"max-bytes-per-sample", true, "choose the encoding and its parameters with the lowest error within this "
                                      "many encoded bytes per sample", K::Real, {1, 65536}},
       {"regularization", true, "Tikhonov weight of the hemisphere fit (default 1e-5)", K::Real, {0, kUnbounded}},
