@@ -316,9 +316,6 @@ struct BakePlan {
   uint64_t sceneHash = 0;
 };
 
-// Traces every grid direction of the shard's samples (threads), fits each sample with `encoder`,
-// and records what the checks need: part.coefficients, heldOut, gridExits, the counters and the
-// thread times. Local sample k is sample shard.index + k * shard.count.
 // The jump distance channel of one sample (jump_distance.h): the nodes as traced, bisections traced
 // at the same point. Stored in grid cells times kJumpDistanceScale / (N - 1) (gpu_layout.h).
 void storeJumpDistances(const Tracer& tracer, const SurfacePoint& point, const LocalFrame& frame, uint32_t n,
@@ -336,6 +333,9 @@ void storeJumpDistances(const Tracer& tracer, const SurfacePoint& point, const L
   for (size_t d = 0; d < cells.size(); ++d) values[d * channels + channels - 1] = cells[d] * unit;
 }
 
+// Traces every grid direction of the shard's samples (threads), fits each sample with `encoder`,
+// and records what the checks need: part.coefficients, heldOut, gridExits, the counters and the
+// thread times. Local sample k is sample shard.index + k * shard.count.
 void traceAndFit(const BakePlan& plan, const SampleEncoder& encoder, const BakeOptions& options, Shard shard,
                  Clock::time_point start, BakePart& part) {
   const SampleAtlas& atlas = plan.atlas;
@@ -353,7 +353,9 @@ void traceAndFit(const BakePlan& plan, const SampleEncoder& encoder, const BakeO
   part.heldOut.assign(count * held * 6, 0.0f);
   part.gridExits.assign(slots * nd * 3, 0.0f);
   const TraceSettings traceSettings = traceSettingsOf(plan.settings);
-  const ChannelLayout layout = ChannelLayout::of(channels - (plan.settings.jumpDistance ? 1u : 0u), plan.settings.throughput);
+  // The traced channels; the jump distance, when stored, is the last one (storeJumpDistances).
+  const ChannelLayout layout =
+      ChannelLayout::of(channels - (plan.settings.jumpDistance ? 1u : 0u), plan.settings.throughput);
   const Tracer& tracer = *plan.tracer;
 
   std::atomic<size_t> next{0};
@@ -388,10 +390,10 @@ void traceAndFit(const BakePlan& plan, const SampleEncoder& encoder, const BakeO
           if (gridSlot[k] != SIZE_MAX)
             for (int c = 0; c < 3; ++c) part.gridExits[(gridSlot[k] * nd + d) * 3 + size_t(c)] = path.exitDirection[c];
         }
-        const auto fitStart = Clock::now();
         if (plan.settings.jumpDistance)
           storeJumpDistances(tracer, point, frame, plan.settings.tableSize, incidents, paths, traceSettings, channels,
                              values.data(), rays);
+        const auto fitStart = Clock::now();
         encoder.fit(values.data(), &part.coefficients[k * stride]);
         const auto heldOutStart = Clock::now();
         uint64_t rng = 0x5348524546ull ^ (s * 0x9e3779b97f4a7c15ull);
