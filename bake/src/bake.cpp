@@ -322,7 +322,7 @@ void storeJumpDistances(const Tracer& tracer, const SurfacePoint& point, const L
                         const std::vector<glm::vec3>& incidents, const std::vector<PathResult>& paths,
                         const TraceSettings& ts, uint32_t channels, float* values, uint64_t& rays) {
   std::vector<TracedView> nodes(paths.size());
-  for (size_t d = 0; d < paths.size(); ++d) nodes[d] = {paths[d].exitDirection, incidents[d]};
+  for (size_t d = 0; d < paths.size(); ++d) nodes[d] = {paths[d].exitDirection, incidents[d], paths[d].trapped};
   const std::vector<float> cells = jumpDistances(n, nodes, [&](float x, float y) {
     const glm::vec3 incident = -localToWorld(frame, glm::vec3(nodeDirection(x, y, n)));
     const PathResult path = tracer.traceFromSurface(point, incident, ts);

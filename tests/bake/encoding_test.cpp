@@ -770,12 +770,12 @@ class BudgetScene {
 // Measured (mean angle against the exact path, degrees; all u8, 16 x 32 directions):
 //   sphere  sh 2, 4, 8: 5.443, 4.678, 4.243   table 4, 6, 9: 6.621, 4.985, 3.990
 //           pca 16, 64, 256: 4.384, 3.973, 3.803
-//           nodes: table 4, 6, 9: 23.55, 9.174, 4.226   pca 16, 64, 256: 3.615, 2.893, 2.541 (decoded
+//           nodes: table 4, 6, 9: 23.55, 9.174, 4.226   pca 16, 64, 256: 3.900, 3.252, 2.901 (decoded
 //           jump-aware with the jump distance, as node-sampled tables of N >= 12 are; without the
 //           distance: 4.241, 3.772, 3.530; plain bilinear: 4.023, 3.686, 3.533)
 //   cube    sh 2, 4, 8: 20.78, 12.89, 9.085   table 4, 6, 9: 15.41, 12.61, 8.980
 //           pca 16, 64, 256: 12.61, 6.245, 5.755
-//           nodes: table 4, 6, 9: 45.91, 20.27, 11.19   pca 16, 64, 256: 11.42, 4.084, 2.570 (jump
+//           nodes: table 4, 6, 9: 45.91, 20.27, 11.19   pca 16, 64, 256: 11.35, 3.923, 2.495 (jump
 //           distance; without it 12.23, 5.534, 4.763; plain bilinear: 12.56, 6.084, 5.433)
 // The smallest steps are sphere pca 64 -> 256 (4.3 %, nodes 6.4 %): the Pca functions are weighted
 // by the cosine of their nodes' directions and these errors by the cosine too, so small K already
@@ -815,8 +815,10 @@ TEST(EncodingBudget, SphereErrorFallsAsTheBytesRise) { expectErrorFallsWithBytes
 
 // The jump distance channel (bake/jump_distance.h) places each jump of the exit direction inside
 // its cell instead of midway between the nodes on either side, at the same bytes per sample.
-// Measured (pca 256 u8 nodes, mean angle against the exact path): sphere 3.530 without, 2.541 with
-// (-28 %); cube 4.712, 2.570 (-45 %). Bound: 20 % lower on both.
+// Measured (pca 256 u8 nodes, mean angle against the exact path): sphere 3.530 without, 2.901 with
+// (-18 %); cube 4.712, 2.495 (-47 %). Bisecting the edges of trapped nodes too measured 2.541 and
+// 2.570 (jump_distance.h: their exits are no side of a jump; skipping them halves the bake's added
+// rays and measured as well in images). Bound: 12 % lower on both.
 TEST(EncodingJumpDistance, PlacesTheJumpsInsideTheirCells) {
   for (const std::string name : {"sphere", "cube"}) {
     BudgetScene& scene = BudgetScene::get(name);
@@ -829,7 +831,7 @@ TEST(EncodingJumpDistance, PlacesTheJumpsInsideTheirCells) {
     EXPECT_EQ(scene.field(with).bytesPerSample(), scene.field(without).bytesPerSample());
     const double a = scene.error(without), b = scene.error(with);
     std::printf("%s pca 256 u8 nodes: mean error %.4f deg without the jump distance, %.4f with\n", name.c_str(), a, b);
-    EXPECT_LT(b, 0.8 * a) << name;
+    EXPECT_LT(b, 0.88 * a) << name;
   }
 }
 TEST(EncodingBudget, CubeErrorFallsAsTheBytesRise) { expectErrorFallsWithBytes("cube"); }

@@ -80,6 +80,23 @@ TEST(JumpDistance, SmoothExitsHaveNoJumpAndTraceNothing) {
   for (float v : d) EXPECT_EQ(v, gpu::kJumpDistanceMaxCells);
 }
 
+TEST(JumpDistance, TrappedNodesAreNoSideOfAJump) {
+  // The axis jump of the test above, with the nodes right of it trapped (stopped at the bake's
+  // interaction cap): their exits are where the path happened to stop, so their edges are not
+  // bisected and the distances stay at the cap.
+  LineField f{[](float x, float) { return x - 4.6f; }};
+  std::vector<TracedView> nodes;
+  for (uint32_t j = 0; j < kN; ++j)
+    for (uint32_t i = 0; i < kN; ++i) {
+      nodes.push_back(f.at(float(i), float(j)));
+      nodes.back().trapped = i >= 5;
+    }
+  f.traces = 0;
+  const std::vector<float> d = jumpDistances(kN, nodes, [&](float x, float y) { return f.at(x, y); });
+  EXPECT_EQ(f.traces, 0);
+  for (float v : d) EXPECT_EQ(v, gpu::kJumpDistanceMaxCells);
+}
+
 TEST(JumpDistance, TheStraightThroughCorrectionIsNotAJump) {
   // A slab: every exit is its own view direction, 12 deg apart between nodes, so the raw exits of
   // far-apart nodes disagree; moved by the change of the straight-through direction they agree.

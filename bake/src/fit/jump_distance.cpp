@@ -47,6 +47,7 @@ std::vector<float> jumpDistances(uint32_t n, std::span<const TracedView> nodes,
       for (int axis = 0; axis < 2; ++axis) {
         if ((axis == 0 ? i : j) + 1 >= n) continue;
         const uint32_t a = j * n + i, b = axis == 0 ? a + 1 : a + n;
+        if (nodes[a].trapped || nodes[b].trapped) continue;
         if (cosine(nodes[a].exit, movedExit(nodes[b], nodes[a].straight)) >= split) continue;
         const glm::vec2 step = axis == 0 ? glm::vec2(1.0f, 0.0f) : glm::vec2(0.0f, 1.0f);
         const float t = crossing(nodes[a], nodes[b], glm::vec2(float(i), float(j)), step, trace);

@@ -22,13 +22,15 @@ inline constexpr int kJumpBisections = 4;
 struct TracedView {
   glm::vec3 exit{0.0f};
   glm::vec3 straight{0.0f};
+  bool trapped = false;  // stopped at the interaction cap: its exit is no side of a jump
 };
 
 // Distances, in grid cells, from every node of an N x N hemi-octahedral table (index j * N + i) to
 // the nearest jump of the exit direction, at most gpu::kJumpDistanceMaxCells. nodes[d] is node d
 // as traced; trace(x, y) traces the view direction at fractional grid coordinates (x, y).
 //
-// A grid edge holds a jump where its nodes disagree as the decode judges corners (one node's exit,
+// A grid edge whose nodes were both traced to an exit (neither trapped) holds a jump where they
+// disagree as the decode judges corners (one node's exit,
 // moved by the change of the straight-through direction to the other node, more than midway
 // between acos(kJumpCosineFull) and acos(kJumpCosineNone) from the other's exit); the crossing is
 // bisected, each traced point going to the side whose moved exit it is nearer. A node with
