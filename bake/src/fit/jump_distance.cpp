@@ -13,7 +13,7 @@ namespace {
 
 float cosine(glm::vec3 a, glm::vec3 b) {
   const float l = glm::length(a) * glm::length(b);
-  return l > gpu::kMinDirectionLength2 ? glm::dot(a, b) / l : 1.0f;  // a trapped path agrees with all
+  return l > gpu::kMinDirectionLength2 ? glm::dot(a, b) / l : 1.0f;  // a zero exit agrees with all, as in the decode
 }
 
 // Node `from`'s exit moved to a view whose straight-through direction is `straight`: the corner
