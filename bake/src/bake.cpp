@@ -51,7 +51,8 @@ bool storesJumpDistance(const BakeSettings& s) {
 
 EncodingShape shapeOf(const BakeSettings& s, uint32_t channels) {
   return {s.encoding, s.order, s.tableSize, s.components, channels,
-          s.encoding != Encoding::Sh && s.directionSampling == DirectionSampling::Nodes, storesJumpDistance(s)};
+          s.encoding != Encoding::Sh && s.directionSampling == DirectionSampling::Nodes, storesJumpDistance(s),
+          s.sampleFrameExits};
 }
 size_t strideOf(const EncodingShape& shape) { return size_t(shape.layerCount()) * shape.valuesPerLayer(); }
 
@@ -96,16 +97,22 @@ TraceSettings traceSettingsOf(const BakeSettings& s) {
   return ts;
 }
 
-// A traced path as the field's channels: x, y, z of the exit direction, then the optical depth
-// when a medium absorbs, then the Fresnel throughput when it is stored.
+// The exit direction as the field stores it: in the sample's frame or in object space.
+glm::vec3 storedExit(bool sampleFrame, const LocalFrame& frame, glm::vec3 exit) {
+  return sampleFrame ? worldToLocal(frame, exit) : exit;
+}
+
+// A traced path as the field's channels: x, y, z of the exit direction (storedExit), then the
+// optical depth when a medium absorbs, then the Fresnel throughput when it is stored.
 struct ChannelLayout {
   uint32_t channels = 3;
-  bool depth = false, throughput = false;
-  static ChannelLayout of(uint32_t channels, bool throughput) {
-    return {channels, channels == (throughput ? 5u : 4u), throughput};
+  bool depth = false, throughput = false, sampleFrame = false;
+  static ChannelLayout of(uint32_t channels, const BakeSettings& s) {
+    return {channels, channels == (s.throughput ? 5u : 4u), s.throughput, s.sampleFrameExits};
   }
-  void store(const PathResult& path, float* v) const {
-    for (int c = 0; c < 3; ++c) v[c] = path.exitDirection[c];
+  void store(const PathResult& path, const LocalFrame& frame, float* v) const {
+    const glm::vec3 exit = storedExit(sampleFrame, frame, path.exitDirection);
+    for (int c = 0; c < 3; ++c) v[c] = exit[c];
     if (depth) v[3] = path.opticalDepth;
     if (throughput) v[channels - 1] = path.energy;
   }
@@ -173,7 +180,7 @@ Result<Selection> selectOrderAndDirections(const SampleAtlas& atlas, const Trace
     for (uint32_t h = 0; h < kHeldOut; ++h) {
       const glm::vec3 w = cosineWeightedDirection(rng);
       heldDirs[k * kHeldOut + h] = w;
-      heldExits[k * kHeldOut + h] = tracer.traceFromSurface(p, -localToWorld(frame, w), ts).exitDirection;
+      heldExits[k * kHeldOut + h] = storedExit(s.sampleFrameExits, frame, tracer.traceFromSurface(p, -localToWorld(frame, w), ts).exitDirection);
     }
   });
 
@@ -193,7 +200,8 @@ Result<Selection> selectOrderAndDirections(const SampleAtlas& atlas, const Trace
       const SurfacePoint& p = atlas.samples[subset[k]];
       const LocalFrame frame = frameFromNormal(p.shadingNormal);
       for (uint32_t d = 0; d < nd; ++d) {
-        const glm::vec3 e = tracer.traceFromSurface(p, -localToWorld(frame, glm::vec3(grid.directions[d])), ts).exitDirection;
+        const glm::vec3 e =
+            storedExit(s.sampleFrameExits, frame, tracer.traceFromSurface(p, -localToWorld(frame, glm::vec3(grid.directions[d])), ts).exitDirection);
         for (int c = 0; c < 3; ++c) values[(k * nd + d) * 3 + size_t(c)] = e[c];
       }
     });
@@ -355,7 +363,7 @@ void traceAndFit(const BakePlan& plan, const SampleEncoder& encoder, const BakeO
   const TraceSettings traceSettings = traceSettingsOf(plan.settings);
   // The traced channels; the jump distance, when stored, is the last one (storeJumpDistances).
   const ChannelLayout layout =
-      ChannelLayout::of(channels - (plan.settings.jumpDistance ? 1u : 0u), plan.settings.throughput);
+      ChannelLayout::of(channels - (plan.settings.jumpDistance ? 1u : 0u), plan.settings);
   const Tracer& tracer = *plan.tracer;
 
   std::atomic<size_t> next{0};
@@ -386,7 +394,7 @@ void traceAndFit(const BakePlan& plan, const SampleEncoder& encoder, const BakeO
           rays += path.rays;
           pathCount += 1;
           trapped += path.trapped ? 1u : 0u;
-          layout.store(path, &values[size_t(d) * channels]);
+          layout.store(path, frame, &values[size_t(d) * channels]);
           if (gridSlot[k] != SIZE_MAX)
             for (int c = 0; c < 3; ++c) part.gridExits[(gridSlot[k] * nd + d) * 3 + size_t(c)] = path.exitDirection[c];
         }
@@ -541,13 +549,13 @@ BudgetProbe traceProbe(const SampleAtlas& atlas, const Tracer& tracer, const Dir
   p.heldDirs.assign(testCount * BudgetProbe::kHeld, glm::vec3(0.0f));
   p.heldExits = p.heldDirs;
   const TraceSettings ts = traceSettingsOf(s);
-  const ChannelLayout layout = ChannelLayout::of(channels, s.throughput);
+  const ChannelLayout layout = ChannelLayout::of(channels, s);
   parallelFor(all.size(), threads, [&](size_t k) {
     const SurfacePoint& point = atlas.samples[all[k]];
     const LocalFrame frame = frameFromNormal(point.shadingNormal);
     for (size_t d = 0; d < nd; ++d) {
       const PathResult path = tracer.traceFromSurface(point, -localToWorld(frame, glm::vec3(grid.directions[d])), ts);
-      layout.store(path, &p.values[(k * nd + d) * channels]);
+      layout.store(path, frame, &p.values[(k * nd + d) * channels]);
     }
     if (k < p.train.size()) return;
     const size_t t = k - p.train.size();
@@ -959,6 +967,7 @@ Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
   field.channels = plan.channels;
   field.throughput = settings.throughput;
   field.jumpDistance = settings.jumpDistance;
+  field.sampleFrameExits = settings.sampleFrameExits;
   field.settings = settings;  // before encoding: its validation reads the direction sampling
   field.basis = basis;
   field.quantization = settings.quantization;

@@ -15,7 +15,8 @@ namespace shrefract::bake {
 namespace {
 
 constexpr char kMagic[8] = {'S', 'H', 'R', 'F', 'P', 'A', 'R', 'T'};
-constexpr uint32_t kPartVersion = 3;  // 2: the settings name the direction sampling; 3: the jump distance
+// 2: the settings name the direction sampling; 3: the jump distance; 4: the frame of the exits.
+constexpr uint32_t kPartVersion = 4;
 constexpr size_t kHeaderBytes = 8 + 4 + 8 + 8;  // magic, version, payload size, checksum
 
 uint64_t fnv1a(const uint8_t* data, size_t size) {
@@ -105,6 +106,7 @@ void visitSettings(S& s, V& v) {
   v.boolean("throughput", s.throughput);
   v.enumeration("direction sampling", s.directionSampling, 1);
   v.boolean("jump distance", s.jumpDistance);
+  v.boolean("sample frame exits", s.sampleFrameExits);
   v.f32("max bytes per sample", s.maxBytesPerSample);
   v.u64("sample budget", s.sampleBudget);
   v.f32("density", s.samplesPerUnitArea);

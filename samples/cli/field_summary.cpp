@@ -73,7 +73,8 @@ std::string fieldSummaryText(const Field& f, uint64_t fileBytes) {
                 f.throughput ? " (with throughput)" : "", f.jumpDistance ? " (with jump distance)" : "",
                 toString(f.quantization), toString(s.layout),
                 f.bytesPerSample());
-  out += format("path rule: %s\n", toString(s.pathRule));
+  out += format("path rule: %s; exits stored in %s\n", toString(s.pathRule),
+                f.sampleFrameExits ? "each sample's frame" : "object space");
   out += format("source: %s; %zu media; mesh %zu vertices, %zu triangles\n", s.source.c_str(), f.media.size(),
                 f.mesh.positions.size() / 3, f.mesh.indices.size() / 3);
   const std::string directions = s.directionSampling == DirectionSampling::Nodes
@@ -116,9 +117,10 @@ std::string fieldSummaryJson(const Field& f, uint64_t fileBytes) {
                 toString(f.quantization), fileBytes);
   out += format("\"encoding\": \"%s\", \"table_size\": %u, \"components\": %u, \"refinement_layers\": %zu, "
                 "\"throughput\": %s, \"jump_distance\": %s, \"bytes_per_sample\": %u, \"path_rule\": \"%s\", "
-                "\"direction_sampling\": \"%s\", ",
+                "\"direction_sampling\": \"%s\", \"exit_frame\": \"%s\", ",
                 toString(f.encoding), f.tableSize, f.components, refinementLayers(f), f.throughput ? "true" : "false",
-                f.jumpDistance ? "true" : "false", f.bytesPerSample(), toString(s.pathRule), toString(s.directionSampling));
+                f.jumpDistance ? "true" : "false", f.bytesPerSample(), toString(s.pathRule), toString(s.directionSampling),
+                f.sampleFrameExits ? "sample" : "object");
   out += format("\"mesh\": {\"vertices\": %zu, \"triangles\": %zu}, \"media\": %s, ", f.mesh.positions.size() / 3,
                 f.mesh.indices.size() / 3, media.c_str());
   out += "\"settings\": {";

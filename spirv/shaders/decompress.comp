@@ -103,6 +103,6 @@ void main() {
   for (int j = 0; j < 4; ++j) {
     uint s = 4u * quad + uint(j);
     if (s >= sampleCount) break;
-    storeSample(s, distortionTexel(vec3(sumX[j], sumY[j], sumZ[j]), sum3[j], sum4[j]));
+    storeSample(s, distortionTexel(objectExit(s, vec3(sumX[j], sumY[j], sumZ[j])), sum3[j], sum4[j]));
   }
 }

@@ -16,6 +16,8 @@ layout(constant_id = kSpecCoefficientsStorage) const bool COEFFICIENTS_STORAGE =
 // true (decompress_table.comp): the last of the CHANNELS is the jump distance, which guides the
 // decode and is not decoded (field.h EncodingShape::jumpDistance).
 layout(constant_id = kSpecJumpDistance) const bool JUMP_DISTANCE = false;
+// true: channels 0..2 are the exit in the sample's frame (field.h EncodingShape::sampleFrameExits).
+layout(constant_id = kSpecSampleFrameExits) const bool SAMPLE_FRAME_EXITS = false;
 const int DECODED = CHANNELS - (JUMP_DISTANCE ? 1 : 0);
 const bool HAS_TAU = DECODED == (THROUGHPUT ? 5 : 4);
 
@@ -45,6 +47,13 @@ vec3 eyeInFrame(uint s, vec4 eye) {
   vec3 w = vec3(dot(frames[3u * s], eye), dot(frames[3u * s + 1u], eye), dot(frames[3u * s + 2u], eye));
   w.z = max(w.z, 0.0);
   return w;
+}
+
+// The decoded exit sum of sample s in object space: a sample-frame sum is rotated by the transpose
+// of the frame's rows (field_decode.cpp evaluateCoefficients), an object-space one kept.
+vec3 objectExit(uint s, vec3 xyz) {
+  if (!SAMPLE_FRAME_EXITS) return xyz;
+  return xyz.x * frames[3u * s].xyz + xyz.y * frames[3u * s + 1u].xyz + xyz.z * frames[3u * s + 2u].xyz;
 }
 
 // The distortion texel (gpu_layout.h) of a decoded sum: xyz the sum of channels 0..2, channel3

@@ -43,11 +43,12 @@ float coefficient(uint s, uint layer, uint v) {
   return sb.y + sb.x * float((fetchWord(e >> 2u) >> (8u * (e & 3u))) & 0xffu);
 }
 
-// The exit of a path that goes straight through, in object space, for the local direction w toward
-// the eye (field_decode.cpp straightThrough).
+// The exit of a path that goes straight through for the local direction w toward the eye, in the
+// space the exits are stored in (field_decode.cpp straightThrough).
 vec3 straightThrough(uint s, vec3 w) {
   float l = sqrt(w.x * w.x + w.y * w.y + w.z * w.z);
   if (!(l > 0.0)) return vec3(0.0);
+  if (SAMPLE_FRAME_EXITS) return vec3(-w.x / l, -w.y / l, -w.z / l);
   vec3 r0 = frames[3u * s].xyz, r1 = frames[3u * s + 1u].xyz, r2 = frames[3u * s + 2u].xyz;
   return vec3(-(w.x * r0.x + w.y * r1.x + w.z * r2.x) / l, -(w.x * r0.y + w.y * r1.y + w.z * r2.y) / l,
               -(w.x * r0.z + w.y * r1.z + w.z * r2.z) / l);
@@ -129,5 +130,5 @@ void main() {
   }
   float sum[5] = float[5](0.0, 0.0, 0.0, 0.0, 0.0);
   interpolateCorners(s, b, w, v, sum);
-  storeSample(s, distortionTexel(vec3(sum[0], sum[1], sum[2]), sum[3], sum[4]));
+  storeSample(s, distortionTexel(objectExit(s, vec3(sum[0], sum[1], sum[2])), sum[3], sum[4]));
 }

@@ -5,7 +5,10 @@
 #include <shrefract/bake/bake.h>
 #include <shrefract/bake/fit.h>
 #include <shrefract/bake/layout.h>
+#include <shrefract/bake/sample_frame.h>
 #include <shrefract/bake/tracer.h>
+
+#include <glm/geometric.hpp>
 
 #include <cmath>
 #include <cstring>
@@ -44,6 +47,86 @@ std::vector<uint8_t> dataBytes(Field f) {
   f.statistics.peakMemoryBytes = 0;
   f.settings.threads = 0;
   return serializeField(f);
+}
+
+// Normals over the sphere, the poles and the rim of the polar cap included.
+std::vector<glm::vec3> testNormals() {
+  std::vector<glm::vec3> normals = {{0, 1, 0}, {0, -1, 0}, {1, 0, 0}, {0, 0, -1}, glm::normalize(glm::vec3(0.1f, 1, 0)),
+                                    glm::normalize(glm::vec3(0.0999f, -0.995f, 0.0f))};
+  for (int i = 0; i < 200; ++i) {
+    const float z = 1.0f - 2.0f * (float(i) + 0.5f) / 200.0f, phi = 2.39996323f * float(i);
+    const float r = std::sqrt(1.0f - z * z);
+    normals.push_back({r * std::cos(phi), z, r * std::sin(phi)});
+  }
+  return normals;
+}
+
+// sample_frame.h: a right-handed orthonormal frame around the normal whose tangent follows the
+// latitude around +Y, so a rotation about +Y carries frames onto frames.
+TEST(SampleFrame, TangentFollowsTheLatitudeAroundUp) {
+  for (const glm::vec3 n : testNormals()) {
+    SCOPED_TRACE(testing::Message() << "n = " << n.x << ", " << n.y << ", " << n.z);
+    const LocalFrame f = frameFromNormal(n);
+    EXPECT_NEAR(glm::length(f.tangent), 1.0f, 1e-6f);
+    EXPECT_NEAR(glm::length(f.bitangent), 1.0f, 1e-6f);
+    EXPECT_NEAR(glm::dot(f.tangent, n), 0.0f, 1e-6f);
+    EXPECT_NEAR(glm::dot(f.bitangent, n), 0.0f, 1e-6f);
+    EXPECT_LT(glm::length(glm::cross(f.tangent, f.bitangent) - n), 1e-6f);
+    const bool polar = n.x * n.x + n.z * n.z <= kPolarCapSin2;
+    if (!polar) {
+      EXPECT_NEAR(f.tangent.y, 0.0f, 1e-6f) << "off the latitude";
+    }
+    // Rotated about +Y by 1 radian, the normal's frame is the rotated frame (outside the cap).
+    const float c = std::cos(1.0f), s = std::sin(1.0f);
+    auto rotate = [&](glm::vec3 v) { return glm::vec3(c * v.x + s * v.z, v.y, -s * v.x + c * v.z); };
+    const LocalFrame g = frameFromNormal(rotate(n));
+    if (!polar) {
+      EXPECT_LT(glm::length(g.tangent - rotate(f.tangent)), 1e-5f);
+      EXPECT_LT(glm::length(g.bitangent - rotate(f.bitangent)), 1e-5f);
+    }
+  }
+}
+
+// A sample-frame field decodes (evaluateSample, object space) to the exits the object-space
+// field of the same scene decodes to: the node-sampled f16 table holds the traced exit at every
+// node in either frame, so at node directions the two agree to f16 rounding.
+TEST(Bake, SampleFrameExitsDecodeToTheObjectSpaceExits) {
+  // The sphere: its frames are general rotations (a cube's are signed permutations).
+  auto scene = makeBuiltinScene("sphere", {.tessellation = 1});
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  BakeOptions options;
+  options.settings.encoding = Encoding::Table;
+  options.settings.order = 0;
+  options.settings.tableSize = 6;
+  options.settings.directionSampling = DirectionSampling::Nodes;
+  options.settings.quantization = Quantization::F16;
+  options.settings.sampleBudget = 200;
+  options.settings.threads = 2;
+  options.heldOutDirections = 0;
+  auto sample = bakeField(*scene, options);
+  options.settings.sampleFrameExits = false;
+  auto object = bakeField(*scene, options);
+  ASSERT_TRUE(sample.ok() && object.ok());
+  ASSERT_TRUE(sample->sampleFrameExits);
+  ASSERT_FALSE(object->sampleFrameExits);
+  double maxDiff = 0.0, maxStored = 0.0;
+  for (uint64_t t = 0; t < sample->texelCount(); ++t) {
+    if (sample->texelKinds[t] != kTexelSample) continue;
+    for (uint32_t node = 0; node < 36; ++node) {
+      const std::array<float, 3> w = hemiOctDirection(node % 6, node / 6, 6);
+      float a[4] = {}, b[4] = {};
+      evaluateSample(*sample, t, w, a);
+      evaluateSample(*object, t, w, b);
+      for (int c = 0; c < 3; ++c) maxDiff = std::max(maxDiff, double(std::abs(a[c] - b[c])));
+      for (int c = 0; c < 3; ++c)  // the stored values differ from the decoded ones (a rotation)
+        maxStored = std::max(maxStored, double(std::abs(fieldCoefficient(*sample, node, t, uint32_t(c)) -
+                                                        fieldCoefficient(*object, node, t, uint32_t(c)))));
+    }
+  }
+  std::printf("sample frame against object space: max decoded difference %.2e, max stored %.2f\n", maxDiff,
+              maxStored);
+  EXPECT_LT(maxDiff, 2e-3);  // two f16 roundings of values up to 1 (4.9e-4 each) and the rotation
+  EXPECT_GT(maxStored, 0.5);
 }
 
 TEST(Bake, SphereFieldIsValidAndAccurate) {

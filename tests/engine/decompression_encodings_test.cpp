@@ -48,6 +48,7 @@ constexpr std::array<std::array<float, 3>, 4> kEyes{
 std::string describe(const SyntheticFieldOptions& o) {
   std::string s = std::string(toString(o.encoding)) + " " + toString(o.quantization) + " channels " +
                   std::to_string(o.channels) + (o.throughput ? " (throughput)" : "");
+  if (o.sampleFrameExits) s += " sample frame";
   if (o.encoding == Encoding::Sh) return s + " order " + std::to_string(o.order);
   s += " N " + std::to_string(o.tableSize) + (o.jumpDistance ? " jump distance" : "");
   return o.encoding == Encoding::Pca ? s + " K " + std::to_string(o.components) : s;
@@ -207,6 +208,36 @@ TEST_F(DecompressionEncodings, JumpDistanceMatchesCpuReference) {
         EXPECT_GT(testing::countChanged(with.rgba, without.rgba), 50u) << "the distances moved no side";
         ASSERT_NO_FATAL_FAILURE(check(o));
       }
+}
+
+// Exits in the sample's frame (EncodingShape::sampleFrameExits): every encoding rotates its sum
+// by the frame's rows, and the jump-aware blend compares against -w. The CPU decode must differ
+// from the same coefficients read in object space at most samples, so the GPU's agreement covers
+// the rotation.
+TEST_F(DecompressionEncodings, SampleFrameExitsMatchCpuReference) {
+  uint32_t seed = 600;
+  for (Encoding encoding : {Encoding::Sh, Encoding::Table, Encoding::Pca})
+    for (Quantization q : {Quantization::U8, Quantization::F16}) {
+      SyntheticFieldOptions o;
+      o.encoding = encoding;
+      o.quantization = q;
+      o.order = 4;
+      o.channels = 4;
+      o.tableSize = 12;
+      o.components = 7;
+      o.emptyAndGutters = true;
+      o.nodeSampled = o.jumps = o.jumpDistance = encoding != Encoding::Sh;
+      o.seed = ++seed;
+      SCOPED_TRACE(describe(o));
+      const reference::Vec3 eye{kEyes[1][0], kEyes[1][1], kEyes[1][2]};
+      const reference::DistortionImage object = reference::decompress(testing::makeSyntheticField(o), eye);
+      o.sampleFrameExits = true;
+      const Field field = testing::makeSyntheticField(o);
+      ASSERT_TRUE(field.shape().sampleFrameExits);
+      const reference::DistortionImage sample = reference::decompress(field, eye);
+      EXPECT_GT(testing::countChanged(sample.rgba, object.rgba), 100u) << "the frame rotated nothing";
+      ASSERT_NO_FATAL_FAILURE(check(o));
+    }
 }
 
 TEST_F(DecompressionEncodings, ShWithThroughputMatchesCpuReference) {

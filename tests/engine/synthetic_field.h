@@ -47,6 +47,8 @@ struct SyntheticFieldOptions {
   // With nodeSampled and N >= 12: a last channel of jump distances (EncodingShape::jumpDistance),
   // 0.1 to 0.9 cells varying by node and texel, so that the side of each disagreeing cell moves.
   bool jumpDistance = false;
+  // Channels 0..2 are read as exits in each sample's frame (EncodingShape::sampleFrameExits).
+  bool sampleFrameExits = false;
   uint32_t seed = 1;
   float radius = 1.0f;
   std::array<float, 3> center{0.0f, 0.0f, 0.0f};
@@ -246,6 +248,7 @@ inline Field makeSyntheticField(const SyntheticFieldOptions& o) {
   f.settings.throughput = f.throughput;
   f.settings.quantization = o.quantization;
   f.settings.source = "synthetic";
+  f.sampleFrameExits = f.settings.sampleFrameExits = o.sampleFrameExits;
   if (o.nodeSampled) f.settings.directionSampling = DirectionSampling::Nodes;
   f.media.push_back(FieldMedium{"air", 1.0f, 0.0f, {1.0f, 1.0f, 1.0f}});
   f.media.push_back(FieldMedium{"glass", o.frontIor, syntheticHasTau(o) ? 0.5f : 0.0f, {1.0f, 1.0f, 1.0f}});

@@ -288,8 +288,8 @@ TEST_P(FieldFormat, HeaderMatchesTheSpec) {
                             (8 + T + 8 + 48 * T + 8 + 16 * f.gutters.size()) +
                             (GetParam().quantization == Quantization::U8 ? 16 + 8 * B * C + 16 + B * T * C
                                                                          : 16 + 16 + 2 * B * T * C) +
-                            (9 * 4 + 4 + 8 + 4 + 4) +  // ENCD: nine u32/f32, an empty basis array, the
-                                                       // sampling, the jump distance flag
+                            (9 * 4 + 4 + 8 + 4 + 4 + 4) +  // ENCD: nine u32/f32, an empty basis array,
+                                                           // the sampling, the jump distance, the exit frame
                             4;
   EXPECT_EQ(b.size(), expected);
   // Sections in their fixed order, ending exactly at the checksum.
@@ -850,7 +850,9 @@ TEST_F(FieldFiles, ReadOfTruncatedFileNamesIt) {
 
 // makeField's atlas with a Table (N = 3) or Pca (N = 3, K = 5) encoding, optionally with throughput.
 // jumpDistance: a 12x12 table (the smallest decoded jump-aware) with the jump distance channel.
-Field makeEncodedField(Encoding encoding, Quantization q, bool throughput, bool jumpDistance = false) {
+// sampleFrameExits: the exits read in each sample's frame.
+Field makeEncodedField(Encoding encoding, Quantization q, bool throughput, bool jumpDistance = false,
+                       bool sampleFrameExits = false) {
   Field f = makeField({4, q});
   f.encoding = f.settings.encoding = encoding;
   f.order = f.settings.order = 0;
@@ -858,6 +860,7 @@ Field makeEncodedField(Encoding encoding, Quantization q, bool throughput, bool 
   f.components = f.settings.components = encoding == Encoding::Pca ? 5 : 0;
   f.throughput = f.settings.throughput = throughput;
   f.jumpDistance = f.settings.jumpDistance = jumpDistance;
+  f.sampleFrameExits = f.settings.sampleFrameExits = sampleFrameExits;
   f.channels = (throughput ? 5 : 4) + (jumpDistance ? 1 : 0);
   f.settings.pathRule = PathRule::FirstRefraction;
   f.settings.maxBytesPerSample = 324.0f;
@@ -878,13 +881,14 @@ struct EncodedVariant {
   Quantization quantization;
   bool throughput;
   bool jumpDistance = false;
+  bool sampleFrameExits = false;
 };
 
 class FieldEncodings : public ::testing::TestWithParam<EncodedVariant> {
  protected:
   Field field() const {
     return makeEncodedField(GetParam().encoding, GetParam().quantization, GetParam().throughput,
-                            GetParam().jumpDistance);
+                            GetParam().jumpDistance, GetParam().sampleFrameExits);
   }
 };
 
@@ -902,6 +906,8 @@ TEST_P(FieldEncodings, RoundTripIsExact) {
   EXPECT_EQ(g.throughput, f.throughput);
   EXPECT_EQ(g.jumpDistance, f.jumpDistance);
   EXPECT_EQ(g.settings.jumpDistance, f.jumpDistance);
+  EXPECT_EQ(g.sampleFrameExits, f.sampleFrameExits);
+  EXPECT_EQ(g.settings.sampleFrameExits, f.sampleFrameExits);
   EXPECT_EQ(g.decodedChannels(), f.channels - (f.jumpDistance ? 1u : 0u));
   EXPECT_EQ(bits(g.basis), bits(f.basis));
   EXPECT_EQ(g.settings.pathRule, PathRule::FirstRefraction);
@@ -933,11 +939,14 @@ INSTANTIATE_TEST_SUITE_P(Encodings, FieldEncodings,
                                            EncodedVariant{Encoding::Pca, Quantization::U8, true},
                                            EncodedVariant{Encoding::Pca, Quantization::F16, false},
                                            EncodedVariant{Encoding::Pca, Quantization::U8, false, true},
-                                           EncodedVariant{Encoding::Table, Quantization::F16, true, true}),
+                                           EncodedVariant{Encoding::Table, Quantization::F16, true, true},
+                                           EncodedVariant{Encoding::Pca, Quantization::U8, false, true, true},
+                                           EncodedVariant{Encoding::Table, Quantization::U8, true, false, true}),
                          [](const ::testing::TestParamInfo<EncodedVariant>& p) {
                            return std::string(toString(p.param.encoding)) + "_" + toString(p.param.quantization) +
                                   (p.param.throughput ? "_throughput" : "") +
-                                  (p.param.jumpDistance ? "_jump_distance" : "");
+                                  (p.param.jumpDistance ? "_jump_distance" : "") +
+                                  (p.param.sampleFrameExits ? "_sample_frame" : "");
                          });
 
 TEST(FieldEncodingValidation, BrokenEncodingsAreRejected) {
@@ -1004,10 +1013,26 @@ std::vector<uint8_t> withShorterEncoding(const Field& f, uint64_t bytes, uint32_
   return b;
 }
 
+TEST(FieldVersion4, StillReadWithObjectSpaceExits) {
+  // A version 4 file is version 5 without the exit frame at the end of ENCD.
+  const Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false, true, true);
+  std::vector<uint8_t> b = withShorterEncoding(f, 4, 4);
+  const Result<Field> r = parse(b, "v4.shrf");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  expectSameField(f, r.value());
+  EXPECT_TRUE(r.value().jumpDistance);
+  EXPECT_FALSE(r.value().sampleFrameExits);
+  EXPECT_FALSE(r.value().settings.sampleFrameExits);
+  // The same bytes labelled version 5 are short by the missing flag.
+  putU32(b, 4, 5);
+  resign(b);
+  EXPECT_FALSE(parse(b, "v4.shrf").ok());
+}
+
 TEST(FieldVersion3, StillReadWithoutJumpDistance) {
-  // A version 3 file is version 4 without the jump distance flag at the end of ENCD.
+  // A version 3 file is version 5 without the jump distance and exit frame at the end of ENCD.
   const Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false);
-  std::vector<uint8_t> b = withShorterEncoding(f, 4, 3);
+  std::vector<uint8_t> b = withShorterEncoding(f, 8, 3);
   const Result<Field> r = parse(b, "v3.shrf");
   ASSERT_TRUE(r.ok()) << r.error().message;
   expectSameField(f, r.value());
@@ -1048,10 +1073,10 @@ TEST(FieldJumpDistance, OnlyWhereTheDecodeIsJumpAware) {
 }
 
 TEST(FieldVersion2, StillReadWithGridSampling) {
-  // A version 2 file is version 3 without the direction sampling at the end of ENCD (and version 4
-  // without the jump distance flag after it).
+  // A version 2 file is version 3 without the direction sampling at the end of ENCD (and version 5
+  // without the jump distance and exit frame after it).
   const Field f = makeEncodedField(Encoding::Table, Quantization::U8, false);
-  std::vector<uint8_t> b = withShorterEncoding(f, 8, 2);
+  std::vector<uint8_t> b = withShorterEncoding(f, 12, 2);
   const Result<Field> r = parse(b, "v2.shrf");
   ASSERT_TRUE(r.ok()) << r.error().message;
   EXPECT_EQ(r.value().settings.directionSampling, DirectionSampling::Grid);

@@ -7,13 +7,18 @@
 namespace shrefract::bake {
 
 LocalFrame frameFromNormal(glm::vec3 n) {
-  const float sign = std::copysign(1.0f, n.z);
-  const float a = -1.0f / (sign + n.z);
-  const float b = n.x * n.y * a;
+  // Along the latitude: up x n, unit where it is long enough to normalize without loss.
+  const glm::vec3 latitude(n.z, 0.0f, -n.x);
+  const float length2 = latitude.x * latitude.x + latitude.z * latitude.z;
   LocalFrame f;
-  f.tangent = glm::vec3(1.0f + sign * n.x * n.x * a, sign * b, -sign * n.x);
-  f.bitangent = glm::vec3(b, sign + n.y * n.y * a, -n.y);
   f.normal = n;
+  if (length2 > kPolarCapSin2) {
+    f.tangent = latitude / std::sqrt(length2);
+  } else {  // near the up axis: +X projected onto the tangent plane (|n.x| < 0.1, so never short)
+    const glm::vec3 x = glm::vec3(1.0f, 0.0f, 0.0f) - n * n.x;
+    f.tangent = x / std::sqrt(glm::dot(x, x));
+  }
+  f.bitangent = glm::cross(n, f.tangent);
   return f;
 }
 

@@ -2,7 +2,8 @@
 //
 // For every surface sample s (a texel of the sample atlas) and every view direction w over the
 // hemisphere of the sample's local frame, the bake traced where the refracted path leaves the
-// object (world-space unit direction), how much optical depth it crossed and, optionally, the
+// object (a unit direction, in object space or, since version 5, in the sample's own frame:
+// `sampleFrameExits`), how much optical depth it crossed and, optionally, the
 // Fresnel throughput of the path. These channels (x, y, z, [tau], [throughput]) are functions on
 // the hemisphere (node-sampled Table and Pca fields may add a last channel that only guides their
 // decode: the distance to the nearest jump of the exit direction, docs/encodings.md "Jumps"), stored in one of three encodings (docs/encodings.md):
@@ -30,8 +31,8 @@
 namespace shrefract {
 
 // 1: SH only, no throughput; 2: adds ENCD; 3: adds the direction sampling; 4: adds the jump
-// distance channel (1 to 3 still read).
-inline constexpr uint32_t kFieldFormatVersion = 4;
+// distance channel; 5: adds exits stored in the sample's frame (1 to 4 still read).
+inline constexpr uint32_t kFieldFormatVersion = 5;
 
 // Largest magnitude of a decoded coefficient (validateField, encodeCoefficients). With at most
 // 1089 basis functions (order 32) the sum of |Y_i| is at most 1089 / sqrt(4 pi) = 307, so every
@@ -130,6 +131,11 @@ struct BakeSettings {
   // places the jump there instead of midway between nodes. A field's settings record whether it was
   // stored (false for every other field).
   bool jumpDistance = true;
+  // Store each exit direction in its sample's frame (x, y along the tangents, z along the normal)
+  // rather than in object space. Samples whose geometry around them looks alike then store alike
+  // functions wherever they sit, which a Pca basis learns with fewer functions (docs/encodings.md,
+  // "Exits in the sample's frame"). A field's settings record what it stores.
+  bool sampleFrameExits = true;
   float maxBytesPerSample = 0.0f;    // > 0: encoding and parameters were chosen to fit this budget
   uint64_t sampleBudget = 0;         // requested total samples (0: not used)
   float samplesPerUnitArea = 0.0f;   // requested density (0: not used)
@@ -200,6 +206,10 @@ struct EncodingShape {
   // The last channel is the distance from each node to the nearest jump (jump-aware fields only):
   // the decode uses it to place a jump inside a cell and does not output it.
   bool jumpDistance = false;
+  // Channels 0..2 are the exit in the sample's frame (BakeSettings::sampleFrameExits): the decode
+  // rotates its sum to object space by the frame's rows, and the straight-through exit that the
+  // jump-aware blend compares with is simply -w.
+  bool sampleFrameExits = false;
   uint32_t decodedChannels() const { return channels - (jumpDistance ? 1u : 0u); }
   // Layers (coefficients per sample and stored value): Sh (L+1)^2, Table N^2, Pca K.
   uint32_t layerCount() const {
@@ -222,6 +232,7 @@ struct Field {
   uint32_t channels = 4;
   bool throughput = false;
   bool jumpDistance = false;
+  bool sampleFrameExits = false;  // EncodingShape::sampleFrameExits
   Quantization quantization = Quantization::U8;
 
   // Coefficients a_j(s), layer-major: index ((layer * height + y) * width + x) * values + v, with
@@ -246,7 +257,8 @@ struct Field {
 
   EncodingShape shape() const {
     return {encoding, order, tableSize, components, channels,
-            encoding != Encoding::Sh && settings.directionSampling == DirectionSampling::Nodes, jumpDistance};
+            encoding != Encoding::Sh && settings.directionSampling == DirectionSampling::Nodes, jumpDistance,
+            sampleFrameExits};
   }
   uint32_t decodedChannels() const { return shape().decodedChannels(); }
   uint32_t layerCount() const { return shape().layerCount(); }
@@ -275,9 +287,11 @@ inline constexpr uint32_t kMaxEncodedChannels = kMaxFieldChannels + 1;
 // from one sample's coefficients a[layer * valuesPerLayer + value] (floats: dequantized, or a
 // bake's fit before quantization) and, for Pca, the basis (field.h layout; nullptr otherwise).
 // z is clamped to >= 0 (the engine does the same). The one implementation of the three sums.
-// Table and Pca with shape.jumpAware and the sample's frame (frameRows: the 12 floats of M_s, as
-// `frames` holds them) blend the cell's corners across jumps of the exit direction as the engine
-// does (docs/encodings.md, "Jumps"); otherwise plainly bilinearly. SH ignores the frame.
+// Table and Pca with shape.jumpAware blend the cell's corners across jumps of the exit direction as
+// the engine does (docs/encodings.md, "Jumps"); otherwise plainly bilinearly. The sample's frame
+// (frameRows: the 12 floats of M_s, as `frames` holds them) gives object-space exits: a field with
+// shape.sampleFrameExits is rotated by it (without it, out stays in the sample's frame), and an
+// object-space jump-aware field needs it for the straight-through exit (without it, bilinear).
 void evaluateCoefficients(const EncodingShape& shape, const float* coefficients, const float* basis,
                           const std::array<float, 3>& localDirection, float* out, const float* frameRows = nullptr);
 

@@ -37,6 +37,7 @@ struct DecompressVariant {
   bool coefficientsStorage = false;
   bool jumpAware = false;     // Table, Pca
   bool jumpDistance = false;  // Table, Pca: the last channel is the jump distance
+  bool sampleFrameExits = false;  // the exits are in the sample's frame
   auto operator<=>(const DecompressVariant&) const = default;
 };
 
@@ -69,7 +70,7 @@ struct DecompressorImpl {
   Result<VkPipeline> variant(const FieldResources& f) {
     return variant(DecompressVariant{f.encoding, f.order, f.tableSize, f.components, f.channels, f.throughput,
                                      f.quantization, f.scaleBiasStorage, f.coefficientsStorage, f.jumpAware,
-                                     f.jumpDistance});
+                                     f.jumpDistance, f.sampleFrameExits});
   }
 
   Result<VkPipeline> createPipeline(VkShaderModule module, const VkSpecializationInfo* specialization) {
@@ -152,8 +153,8 @@ Result<VkPipeline> DecompressorImpl::variant(const DecompressVariant& v) {
   // specialization constant is 32 bits wide.)
   auto flag = [](bool b) { return b ? uint32_t(VK_TRUE) : uint32_t(VK_FALSE); };
   // { SH_ORDER, CHANNELS, QUANTIZATION, SCALE_BIAS_STORAGE, COEFFICIENTS_STORAGE, THROUGHPUT,
-  //   ENCODING, TABLE_SIZE, COMPONENTS, JUMP_AWARE, JUMP_DISTANCE }
-  const std::array<uint32_t, 11> values{v.order,
+  //   ENCODING, TABLE_SIZE, COMPONENTS, JUMP_AWARE, JUMP_DISTANCE, SAMPLE_FRAME_EXITS }
+  const std::array<uint32_t, 12> values{v.order,
                                        v.channels,
                                        static_cast<uint32_t>(v.quantization),
                                        flag(v.scaleBiasStorage),
@@ -163,12 +164,14 @@ Result<VkPipeline> DecompressorImpl::variant(const DecompressVariant& v) {
                                        v.tableSize,
                                        v.components,
                                        flag(v.jumpAware),
-                                       flag(v.jumpDistance)};
-  const std::array<uint32_t, 11> ids{gpu::kSpecShOrder,          gpu::kSpecChannels,    gpu::kSpecQuantization,
+                                       flag(v.jumpDistance),
+                                       flag(v.sampleFrameExits)};
+  const std::array<uint32_t, 12> ids{gpu::kSpecShOrder,          gpu::kSpecChannels,    gpu::kSpecQuantization,
                                     gpu::kSpecScaleBiasStorage, gpu::kSpecCoefficientsStorage,
                                     gpu::kSpecThroughput,       gpu::kSpecEncoding,    gpu::kSpecTableSize,
-                                    gpu::kSpecComponents,       gpu::kSpecJumpAware,   gpu::kSpecJumpDistance};
-  std::array<VkSpecializationMapEntry, 11> entries{};
+                                    gpu::kSpecComponents,       gpu::kSpecJumpAware,   gpu::kSpecJumpDistance,
+                                    gpu::kSpecSampleFrameExits};
+  std::array<VkSpecializationMapEntry, 12> entries{};
   for (uint32_t i = 0; i < entries.size(); ++i) entries[i] = {ids[i], i * uint32_t(sizeof(uint32_t)), sizeof(uint32_t)};
   const VkSpecializationInfo specialization{static_cast<uint32_t>(entries.size()), entries.data(), sizeof(values),
                                             values.data()};

@@ -48,12 +48,14 @@ HemiOctBilinear hemiOctBilinear(float x, float y, float z, uint32_t n) {
 
 namespace {
 
-// The exit of a path that goes straight through (a slab's): the view ray's own direction of travel,
-// in object space, for the local direction w toward the eye (rows: M_s as field.frames stores it).
+// The exit of a path that goes straight through (a slab's): the view ray's own direction of travel
+// for the local direction w toward the eye, in object space (rows: M_s as field.frames stores it)
+// or, rows == nullptr, in the sample's frame (-w / |w|).
 std::array<float, 3> straightThrough(const float* rows, float x, float y, float z) {
   const float l = std::sqrt(x * x + y * y + z * z);
   std::array<float, 3> d{};
   if (!(l > 0.0f)) return d;
+  if (!rows) return {-x / l, -y / l, -z / l};
   for (int c = 0; c < 3; ++c) d[size_t(c)] = -(x * rows[c] + y * rows[4 + c] + z * rows[8 + c]) / l;
   return d;
 }
@@ -74,12 +76,15 @@ std::array<float, 3> straightThrough(const float* rows, float x, float y, float 
 // counts by its bilinear weight where that function puts w on m's side (a ramp of
 // kJumpDistanceSoftness cells across the jump) instead of by w_m^p. Mirrored by
 // decompress_table.comp. out: the decoded channels (the jump distance is not one).
+// rows: M_s for an object-space field (nullptr: plain bilinear), ignored for a sample-frame one.
 void interpolateCorners(const HemiOctBilinear& b, const EncodingShape& shape, const float (*v)[kMaxEncodedChannels],
                         const float* rows, const std::array<float, 3>& w, float* out) {
   const uint32_t n = shape.tableSize, channels = shape.decodedChannels();
   for (int j = 0; j < 4; ++j)
     for (uint32_t c = 0; c < channels; ++c) out[c] += b.weight[j] * v[j][c];
-  if (!rows || n < gpu::kJumpMinTableSize) return;
+  if (shape.sampleFrameExits) rows = nullptr;
+  else if (!rows) return;
+  if (!shape.jumpAware || n < gpu::kJumpMinTableSize) return;
   const std::array<float, 3> eye = straightThrough(rows, w[0], w[1], w[2]);
   float e[4][3];
   for (int j = 0; j < 4; ++j) {
@@ -123,10 +128,9 @@ void interpolateCorners(const HemiOctBilinear& b, const EncodingShape& shape, co
   for (uint32_t c = 0; c < channels; ++c) out[c] += blend * (estimate[c] / dominance - out[c]);
 }
 
-}  // namespace
-
-void evaluateCoefficients(const EncodingShape& shape, const float* a, const float* basis,
-                          const std::array<float, 3>& w, float* out, const float* frameRows) {
+// evaluateCoefficients in the space the field stores its exits in.
+void evaluateStored(const EncodingShape& shape, const float* a, const float* basis, const std::array<float, 3>& w,
+                    float* out, const float* frameRows) {
   const uint32_t channels = shape.channels;  // encoded; Sh and Table fields without a jump distance decode all
   std::fill(out, out + shape.decodedChannels(), 0.0f);
   const float z = std::max(w[2], 0.0f);
@@ -153,7 +157,18 @@ void evaluateCoefficients(const EncodingShape& shape, const float* a, const floa
         for (uint32_t c = 0; c < channels; ++c) corners[j][c] += a[k] * f[c];
       }
   }
-  interpolateCorners(b, shape, corners, shape.jumpAware ? frameRows : nullptr, {w[0], w[1], z}, out);
+  interpolateCorners(b, shape, corners, frameRows, {w[0], w[1], z}, out);
+}
+
+}  // namespace
+
+void evaluateCoefficients(const EncodingShape& shape, const float* a, const float* basis,
+                          const std::array<float, 3>& w, float* out, const float* frameRows) {
+  evaluateStored(shape, a, basis, w, out, frameRows);
+  if (!shape.sampleFrameExits || !frameRows) return;
+  // To object space: the rows of M_s are the frame's axes, so the inverse rotation is the transpose.
+  const float x = out[0], y = out[1], z = out[2];
+  for (int c = 0; c < 3; ++c) out[c] = x * frameRows[c] + y * frameRows[4 + c] + z * frameRows[8 + c];
 }
 
 void evaluateSample(const Field& field, uint64_t texel, const std::array<float, 3>& w, float* out, uint32_t order) {

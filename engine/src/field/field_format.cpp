@@ -434,7 +434,8 @@ void readMesh(SectionReader& r, FieldMesh& mesh) {
 
 // ENCD (version 2): how the coefficients are to be decoded, and the bake's choices that go with it;
 // version 3 appends the direction sampling (Grid before it), version 4 the jump distance flag (none
-// before it; the settings record what the field has).
+// before it; the settings record what the field has), version 5 the frame of the exits (object
+// space before it).
 void readEncoding(SectionReader& r, Field& field, uint32_t version) {
   field.encoding = static_cast<Encoding>(r.u32("encoding"));
   field.tableSize = r.u32("encoding.tableSize");
@@ -452,6 +453,8 @@ void readEncoding(SectionReader& r, Field& field, uint32_t version) {
       version >= 3 ? static_cast<DirectionSampling>(r.u32("settings.directionSampling")) : DirectionSampling::Grid;
   field.jumpDistance = version >= 4 && r.u32("encoding.jumpDistance") != 0;
   s.jumpDistance = field.jumpDistance;
+  field.sampleFrameExits = version >= 5 && r.u32("encoding.sampleFrameExits") != 0;
+  s.sampleFrameExits = field.sampleFrameExits;
 }
 
 void writeEncoding(ByteWriter& w, const Field& field) {
@@ -469,6 +472,7 @@ void writeEncoding(ByteWriter& w, const Field& field) {
   w.arrayF32(field.basis);
   w.u32(static_cast<uint32_t>(s.directionSampling));
   w.u32(field.jumpDistance ? 1u : 0u);
+  w.u32(field.sampleFrameExits ? 1u : 0u);
 }
 
 void readAtlas(SectionReader& r, Field& field) {

@@ -374,6 +374,7 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   f.components = field.components;
   f.jumpAware = field.shape().jumpAware;
   f.jumpDistance = field.jumpDistance;
+  f.sampleFrameExits = field.sampleFrameExits;
   f.channels = field.channels;
   f.throughput = field.throughput;
   f.quantization = field.quantization;

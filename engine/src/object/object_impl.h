@@ -27,6 +27,7 @@ struct FieldResources {
   uint32_t components = 0;           // Pca
   bool jumpAware = false;            // Table, Pca: EncodingShape::jumpAware
   bool jumpDistance = false;         // Table, Pca: EncodingShape::jumpDistance (the last channel)
+  bool sampleFrameExits = false;     // EncodingShape::sampleFrameExits
   uint32_t channels = 4;
   bool throughput = false;           // the last channel is the throughput (raster: tint.a)
   Quantization quantization = Quantization::U8;

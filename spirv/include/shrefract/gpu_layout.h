@@ -107,6 +107,9 @@ SHR_CONST(kSpecJumpAware, 9u)
 SHR_CONST(kSpecEnvironmentTaps, 10u)
 // decompress_table.comp: the field's last channel is the jump distance (EncodingShape::jumpDistance).
 SHR_CONST(kSpecJumpDistance, 11u)
+// Both decompression shaders: channels 0..2 hold the exit in the sample's frame (field.h
+// EncodingShape::sampleFrameExits); the decode rotates it to object space with the frame's rows.
+SHR_CONST(kSpecSampleFrameExits, 12u)
 // Largest scale/bias table read as a uniform buffer: the maxUniformBufferRange every device offers,
 // so that the choice (and the code path) is the same on every device.
 SHR_CONST(kMaxUniformScaleBiasBytes, 16384u)

@@ -1,6 +1,10 @@
 // A surface sample and its local frame: z is the shading normal (toward the outer medium), x and
 // y a tangent basis that depends on the normal alone, so the same point with the same normal gets
-// bit-identical frames from every triangle that shares it.
+// bit-identical frames from every triangle that shares it. The tangent follows the latitude around
+// the object's up axis (+Y, glTF's up), so that samples a rotation about that axis maps onto each
+// other (a torus's ring, a glass's wall, a sphere's parallels) get the same frame relative to their
+// geometry and, with exits stored in the frame (field.h BakeSettings::sampleFrameExits), the same
+// functions: a Pca basis then spends no functions on rotated copies.
 #pragma once
 
 #include <glm/vec3.hpp>
@@ -24,8 +28,12 @@ struct LocalFrame {
   glm::vec3 normal{0.0f, 0.0f, 1.0f};
 };
 
-// Orthonormal basis around a unit normal (Duff et al. 2017, "Building an Orthonormal Basis,
-// Revisited"): branch-free apart from the sign, continuous except across n.z = 0 sign changes.
+// Within asin(0.1), about 5.7 deg, of the up axis the latitude turns too fast to follow (and is
+// undefined on the axis): there the tangent is +X projected onto the tangent plane.
+inline constexpr float kPolarCapSin2 = 0.01f;
+
+// Right-handed orthonormal frame around a unit normal: tangent = normalize(up x n) outside the polar
+// cap (continuous there), bitangent = n x tangent. Discontinuous only across the cap's rim.
 LocalFrame frameFromNormal(glm::vec3 normal);
 
 // Rows of M_s: w = normalize(M_s * (eye, 1)) is the direction from the sample toward the eye,
