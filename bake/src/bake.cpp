@@ -52,7 +52,7 @@ bool storesJumpDistance(const BakeSettings& s) {
 EncodingShape shapeOf(const BakeSettings& s, uint32_t channels) {
   return {s.encoding, s.order, s.tableSize, s.components, channels,
           s.encoding != Encoding::Sh && s.directionSampling == DirectionSampling::Nodes, storesJumpDistance(s),
-          s.sampleFrameExits};
+          s.exitFrame != ExitFrame::Object};
 }
 size_t strideOf(const EncodingShape& shape) { return size_t(shape.layerCount()) * shape.valuesPerLayer(); }
 
@@ -108,7 +108,7 @@ struct ChannelLayout {
   uint32_t channels = 3;
   bool depth = false, throughput = false, sampleFrame = false;
   static ChannelLayout of(uint32_t channels, const BakeSettings& s) {
-    return {channels, channels == (s.throughput ? 5u : 4u), s.throughput, s.sampleFrameExits};
+    return {channels, channels == (s.throughput ? 5u : 4u), s.throughput, s.exitFrame != ExitFrame::Object};
   }
   void store(const PathResult& path, const LocalFrame& frame, float* v) const {
     const glm::vec3 exit = storedExit(sampleFrame, frame, path.exitDirection);
@@ -180,7 +180,7 @@ Result<Selection> selectOrderAndDirections(const SampleAtlas& atlas, const Trace
     for (uint32_t h = 0; h < kHeldOut; ++h) {
       const glm::vec3 w = cosineWeightedDirection(rng);
       heldDirs[k * kHeldOut + h] = w;
-      heldExits[k * kHeldOut + h] = storedExit(s.sampleFrameExits, frame, tracer.traceFromSurface(p, -localToWorld(frame, w), ts).exitDirection);
+      heldExits[k * kHeldOut + h] = storedExit(s.exitFrame != ExitFrame::Object, frame, tracer.traceFromSurface(p, -localToWorld(frame, w), ts).exitDirection);
     }
   });
 
@@ -201,7 +201,7 @@ Result<Selection> selectOrderAndDirections(const SampleAtlas& atlas, const Trace
       const LocalFrame frame = frameFromNormal(p.shadingNormal);
       for (uint32_t d = 0; d < nd; ++d) {
         const glm::vec3 e =
-            storedExit(s.sampleFrameExits, frame, tracer.traceFromSurface(p, -localToWorld(frame, glm::vec3(grid.directions[d])), ts).exitDirection);
+            storedExit(s.exitFrame != ExitFrame::Object, frame, tracer.traceFromSurface(p, -localToWorld(frame, glm::vec3(grid.directions[d])), ts).exitDirection);
         for (int c = 0; c < 3; ++c) values[(k * nd + d) * 3 + size_t(c)] = e[c];
       }
     });
@@ -468,14 +468,90 @@ void measureFit(const EncodingShape& shape, const std::vector<float>& basis, con
   }
 }
 
-// Pca: replaces each sample's table by its weights over a basis learned from all of them.
-Result<void> learnBasis(const EncodingShape& shape, std::vector<float>& coeffs, std::vector<float>& basis,
-                        size_t sampleCount) {
-  std::vector<float> weights;
-  auto pca = fitPcaBasis(coeffs, sampleCount, shape.tableSize, shape.channels, shape.components, weights);
+// A Pca basis of a field's tables, their weights, and what the rank-K approximation leaves: the
+// tables' energy in fitPcaBasis's weighted space less the weights' (the basis is orthonormal there).
+struct LearnedBasis {
+  std::vector<float> basis, weights;
+  double residual = 0.0;
+};
+
+Result<LearnedBasis> learnBasis(const EncodingShape& shape, const std::vector<float>& tables, size_t sampleCount) {
+  LearnedBasis out;
+  auto pca = fitPcaBasis(tables, sampleCount, shape.tableSize, shape.channels, shape.components, out.weights);
   if (!pca) return pca.error();
-  basis = std::move(pca.value().basis);
-  coeffs = std::move(weights);
+  const std::vector<float>& scale = pca.value().scale;
+  for (size_t i = 0; i < tables.size(); ++i) {
+    const double v = double(scale[i % scale.size()]) * double(tables[i]);
+    out.residual += v * v;
+  }
+  for (const float w : out.weights) out.residual -= double(w) * double(w);
+  out.basis = std::move(pca.value().basis);
+  return out;
+}
+
+// Tables traced in the sample's frame, channels 0..2 of every node rotated to object space.
+std::vector<float> tablesInObjectSpace(const std::vector<float>& tables, const SampleAtlas& atlas,
+                                       const EncodingShape& shape) {
+  std::vector<float> out = tables;
+  const size_t nodes = size_t(shape.tableSize) * shape.tableSize, dim = nodes * shape.channels;
+  for (size_t s = 0; s < atlas.samples.size(); ++s) {
+    const LocalFrame frame = frameFromNormal(atlas.samples[s].shadingNormal);
+    for (size_t node = 0; node < nodes; ++node) {
+      float* v = &out[s * dim + node * shape.channels];
+      const glm::vec3 exit = localToWorld(frame, glm::vec3(v[0], v[1], v[2]));
+      for (int c = 0; c < 3; ++c) v[c] = exit[c];
+    }
+  }
+  return out;
+}
+
+// The cosine-weighted mean angle (degrees) between a learned basis's float decode and the traced
+// held-out exits, over at most kFrameChoiceSamples samples spread over the field.
+constexpr size_t kFrameChoiceSamples = 4096;
+double heldOutDegrees(const EncodingShape& shape, const LearnedBasis& b, const SampleAtlas& atlas,
+                      const TracedChecks& checks, uint32_t held) {
+  const size_t n = atlas.samples.size(), step = std::max<size_t>(1, n / kFrameChoiceSamples);
+  std::vector<float> out(shape.channels);
+  double sum = 0.0, weight = 0.0;
+  for (size_t s = 0; s < n; s += step)
+    for (uint32_t h = 0; h < held; ++h) {
+      const glm::vec3 w = checks.heldDirections[s * held + h];
+      decodeFloat(shape, b.basis, &b.weights[s * shape.components], atlas.samples[s], w, out.data());
+      sum += double(w.z) * angleDegrees(glm::vec3(out[0], out[1], out[2]), checks.heldExits[s * held + h]);
+      weight += double(w.z);
+    }
+  return weight > 0.0 ? sum / weight : 0.0;
+}
+
+// Pca: replaces each sample's table by its weights over a basis learned from all of them. With
+// ExitFrame::Auto (tables traced in the sample's frame) the basis is learned in both frames and
+// the one whose decode is closer to the traced held-out exits kept (without held-out directions:
+// the smaller residual). The sample's frame shares functions among samples alike up to a rotation
+// about the up axis; object space among samples that face alike (docs/encodings.md, "Exits in the
+// sample's frame"). Sets shape.sampleFrameExits to the frame kept.
+Result<void> learnBasisInItsFrame(EncodingShape& shape, ExitFrame request, const SampleAtlas& atlas,
+                                  const TracedChecks& checks, uint32_t held, std::vector<float>& coeffs,
+                                  std::vector<float>& basis) {
+  const size_t n = atlas.samples.size();
+  auto learned = learnBasis(shape, coeffs, n);
+  if (!learned) return learned.error();
+  if (request == ExitFrame::Auto) {
+    const std::vector<float> object = tablesInObjectSpace(coeffs, atlas, shape);
+    auto inObject = learnBasis(shape, object, n);
+    if (!inObject) return inObject.error();
+    EncodingShape objectShape = shape;
+    objectShape.sampleFrameExits = false;
+    const bool objectBetter =
+        held > 0 ? heldOutDegrees(objectShape, inObject.value(), atlas, checks, held) <
+                       heldOutDegrees(shape, learned.value(), atlas, checks, held)
+                 : inObject.value().residual < learned.value().residual;
+    if (objectBetter) {
+      learned = std::move(inObject);
+      shape = objectShape;
+    }
+  }
+  basis = std::move(learned.value().basis);
+  coeffs = std::move(learned.value().weights);
   return {};
 }
 
@@ -924,18 +1000,20 @@ void fillStatistics(const SampleAtlas& atlas, const std::vector<BakePart>& parts
 // `parts` passed checkParts and match the plan.
 Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
   const auto finishStart = Clock::now();
-  const BakeSettings& settings = plan.settings;
+  BakeSettings settings = plan.settings;
   const SampleAtlas& atlas = plan.atlas;
   const DirectionGrid& grid = plan.grid;
   const size_t sampleCount = atlas.samples.size();
   const uint32_t nd = static_cast<uint32_t>(grid.directions.size()), held = parts.front().heldOutDirections;
-  const EncodingShape shape = shapeOf(settings, plan.channels);
+  EncodingShape shape = shapeOf(settings, plan.channels);
   Gathered g = gatherParts(parts, parts.front().stride, nd, held);
   std::vector<float>& coeffs = g.coeffs;
 
   std::vector<float> basis;
   if (settings.encoding == Encoding::Pca)
-    if (auto r = learnBasis(shape, coeffs, basis, sampleCount); !r) return r.error();
+    if (auto r = learnBasisInItsFrame(shape, settings.exitFrame, atlas, g.checks, held, coeffs, basis); !r)
+      return r.error();
+  settings.exitFrame = shape.sampleFrameExits ? ExitFrame::Sample : ExitFrame::Object;  // what the field stores
   const size_t stride = strideOf(shape);
   if (settings.spatialNeighbours != 0) {
     std::vector<glm::vec3> positions(sampleCount);
@@ -967,7 +1045,7 @@ Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
   field.channels = plan.channels;
   field.throughput = settings.throughput;
   field.jumpDistance = settings.jumpDistance;
-  field.sampleFrameExits = settings.sampleFrameExits;
+  field.sampleFrameExits = shape.sampleFrameExits;
   field.settings = settings;  // before encoding: its validation reads the direction sampling
   field.basis = basis;
   field.quantization = settings.quantization;

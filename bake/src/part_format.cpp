@@ -106,7 +106,7 @@ void visitSettings(S& s, V& v) {
   v.boolean("throughput", s.throughput);
   v.enumeration("direction sampling", s.directionSampling, 1);
   v.boolean("jump distance", s.jumpDistance);
-  v.boolean("sample frame exits", s.sampleFrameExits);
+  v.enumeration("exit frame", s.exitFrame, 2);
   v.f32("max bytes per sample", s.maxBytesPerSample);
   v.u64("sample budget", s.sampleBudget);
   v.f32("density", s.samplesPerUnitArea);

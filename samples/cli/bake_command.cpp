@@ -54,9 +54,10 @@ std::vector<FlagSpec> bakeFlags() {
       {"no-jump-distance", false, "table and pca traced at their nodes (N >= 12): do not store each node's "
                                   "distance to the nearest jump (the decode then places jumps midway between "
                                   "nodes; the channel costs pca nothing per sample, table one value per node)"},
-      {"exit-frame", true, "frame the exit directions are stored in: sample (default: each sample's own frame, "
-                         "so that alike geometry stores alike functions) or object (object space, as fields "
-                         "before format version 5)"},
+      {"exit-frame", true, "frame the exit directions are stored in: auto (default: pca keeps whichever of the "
+                         "two leaves the smaller residual, the others store sample), sample (each sample's own "
+                         "frame: glass alike up to a rotation about +Y stores alike functions) or object (object "
+                         "space, as fields before format version 5)"},
       {"max-bytes-per-sample", true, "choose the encoding and its parameters with the lowest error within this "
                                      "many encoded bytes per sample", K::Real, {1, 65536}},
       {"regularization", true, "Tikhonov weight of the hemisphere fit (default 1e-5)", K::Real, {0, kUnbounded}},
@@ -199,10 +200,11 @@ int bakeCommand(int argc, char** argv) {
   else return fail("shrefract bake: --path-rule must be highest-energy or first-refraction, got '" + rule + "'", 2);
   s.throughput = args.has("throughput");
   s.jumpDistance = !args.has("no-jump-distance");
-  const std::string exitFrame = args.get("exit-frame").value_or("sample");
-  if (exitFrame == "sample") s.sampleFrameExits = true;
-  else if (exitFrame == "object") s.sampleFrameExits = false;
-  else return fail("shrefract bake: --exit-frame must be sample or object, got '" + exitFrame + "'", 2);
+  const std::string exitFrame = args.get("exit-frame").value_or("auto");
+  if (exitFrame == "auto") s.exitFrame = ExitFrame::Auto;
+  else if (exitFrame == "sample") s.exitFrame = ExitFrame::Sample;
+  else if (exitFrame == "object") s.exitFrame = ExitFrame::Object;
+  else return fail("shrefract bake: --exit-frame must be auto, sample or object, got '" + exitFrame + "'", 2);
   if (maxBytes.value()) s.maxBytesPerSample = static_cast<float>(*maxBytes.value());
 
   if (auto writable = checkOutputPath(*output); !writable) return fail(writable.error().message);

@@ -103,8 +103,9 @@ TEST(Bake, SampleFrameExitsDecodeToTheObjectSpaceExits) {
   options.settings.sampleBudget = 200;
   options.settings.threads = 2;
   options.heldOutDirections = 0;
+  options.settings.exitFrame = ExitFrame::Sample;
   auto sample = bakeField(*scene, options);
-  options.settings.sampleFrameExits = false;
+  options.settings.exitFrame = ExitFrame::Object;
   auto object = bakeField(*scene, options);
   ASSERT_TRUE(sample.ok() && object.ok());
   ASSERT_TRUE(sample->sampleFrameExits);

@@ -208,9 +208,9 @@ TEST_F(SceneCli, DefaultBakeTracesTheTableNodesAndAGridSizeAsksForTheGrid) {
   EXPECT_NE(plain.out.find("\"jump_distance\": false"), std::string::npos) << plain.out;
   EXPECT_NE(nodes.out.find("\"channels\": 5"), std::string::npos) << nodes.out;  // x, y, z, tau, distance
   EXPECT_NE(plain.out.find("\"channels\": 4"), std::string::npos) << plain.out;
-  // Exits in the sample's frame by default (docs/encodings.md, "Exits in the sample's frame");
-  // --exit-frame object stores them in object space; any other value is a usage error that leaves
-  // an existing output alone.
+  // The default bake chooses the frame of the exits (docs/encodings.md, "Exits in the sample's
+  // frame"; on this sphere, the sample's); --exit-frame object stores them in object space; any
+  // other value is a usage error that leaves an existing output alone.
   EXPECT_NE(nodes.out.find("\"exit_frame\": \"sample\""), std::string::npos) << nodes.out;
   EXPECT_NE(text.out.find("exits stored in each sample's frame"), std::string::npos) << text.out;
   std::vector<std::string> objectArgs = base;
@@ -223,7 +223,7 @@ TEST_F(SceneCli, DefaultBakeTracesTheTableNodesAndAGridSizeAsksForTheGrid) {
   badArgs.insert(badArgs.end(), {"--exit-frame", "world", "-o", "object.shrf"});
   const ToolRun bad = run(".", badArgs);
   EXPECT_EQ(bad.exit, 2);
-  EXPECT_NE(bad.err.find("--exit-frame must be sample or object, got 'world'"), std::string::npos) << bad.err;
+  EXPECT_NE(bad.err.find("--exit-frame must be auto, sample or object, got 'world'"), std::string::npos) << bad.err;
   EXPECT_EQ(fs::file_size(dir_ / "object.shrf"), before);
 }
 

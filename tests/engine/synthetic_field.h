@@ -248,7 +248,8 @@ inline Field makeSyntheticField(const SyntheticFieldOptions& o) {
   f.settings.throughput = f.throughput;
   f.settings.quantization = o.quantization;
   f.settings.source = "synthetic";
-  f.sampleFrameExits = f.settings.sampleFrameExits = o.sampleFrameExits;
+  f.sampleFrameExits = o.sampleFrameExits;
+  f.settings.exitFrame = o.sampleFrameExits ? ExitFrame::Sample : ExitFrame::Object;
   if (o.nodeSampled) f.settings.directionSampling = DirectionSampling::Nodes;
   f.media.push_back(FieldMedium{"air", 1.0f, 0.0f, {1.0f, 1.0f, 1.0f}});
   f.media.push_back(FieldMedium{"glass", o.frontIor, syntheticHasTau(o) ? 0.5f : 0.0f, {1.0f, 1.0f, 1.0f}});

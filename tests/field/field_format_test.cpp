@@ -860,7 +860,8 @@ Field makeEncodedField(Encoding encoding, Quantization q, bool throughput, bool 
   f.components = f.settings.components = encoding == Encoding::Pca ? 5 : 0;
   f.throughput = f.settings.throughput = throughput;
   f.jumpDistance = f.settings.jumpDistance = jumpDistance;
-  f.sampleFrameExits = f.settings.sampleFrameExits = sampleFrameExits;
+  f.sampleFrameExits = sampleFrameExits;
+  f.settings.exitFrame = sampleFrameExits ? ExitFrame::Sample : ExitFrame::Object;
   f.channels = (throughput ? 5 : 4) + (jumpDistance ? 1 : 0);
   f.settings.pathRule = PathRule::FirstRefraction;
   f.settings.maxBytesPerSample = 324.0f;
@@ -907,7 +908,7 @@ TEST_P(FieldEncodings, RoundTripIsExact) {
   EXPECT_EQ(g.jumpDistance, f.jumpDistance);
   EXPECT_EQ(g.settings.jumpDistance, f.jumpDistance);
   EXPECT_EQ(g.sampleFrameExits, f.sampleFrameExits);
-  EXPECT_EQ(g.settings.sampleFrameExits, f.sampleFrameExits);
+  EXPECT_EQ(g.settings.exitFrame, f.settings.exitFrame);
   EXPECT_EQ(g.decodedChannels(), f.channels - (f.jumpDistance ? 1u : 0u));
   EXPECT_EQ(bits(g.basis), bits(f.basis));
   EXPECT_EQ(g.settings.pathRule, PathRule::FirstRefraction);
@@ -1022,7 +1023,7 @@ TEST(FieldVersion4, StillReadWithObjectSpaceExits) {
   expectSameField(f, r.value());
   EXPECT_TRUE(r.value().jumpDistance);
   EXPECT_FALSE(r.value().sampleFrameExits);
-  EXPECT_FALSE(r.value().settings.sampleFrameExits);
+  EXPECT_EQ(r.value().settings.exitFrame, ExitFrame::Object);
   // The same bytes labelled version 5 are short by the missing flag.
   putU32(b, 4, 5);
   resign(b);

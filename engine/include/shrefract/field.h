@@ -69,6 +69,11 @@ enum class DirectionSampling : uint32_t {
   Nodes = 1,
 };
 
+// The frame a field's exit directions are stored in (docs/encodings.md, "Exits in the sample's
+// frame"). A field stores Object or Sample; Auto is a bake's request: trace in the sample's frame
+// and, for Pca, keep whichever frame leaves the smaller rank-K residual of the tables.
+enum class ExitFrame : uint32_t { Object = 0, Sample = 1, Auto = 2 };
+
 // Which branch a single traced path follows at every interface (docs/tracing.md).
 enum class PathRule : uint32_t {
   HighestEnergy = 0,    // the paper: the branch with the larger Fresnel factor
@@ -81,6 +86,7 @@ const char* toString(SmoothingWindow window);
 const char* toString(Encoding encoding);
 const char* toString(PathRule rule);
 const char* toString(DirectionSampling sampling);
+const char* toString(ExitFrame frame);
 
 // Largest table size N (nodes per side) of the Table encoding and of Pca basis functions, and the
 // largest number of Pca components.
@@ -132,10 +138,11 @@ struct BakeSettings {
   // stored (false for every other field).
   bool jumpDistance = true;
   // Store each exit direction in its sample's frame (x, y along the tangents, z along the normal)
-  // rather than in object space. Samples whose geometry around them looks alike then store alike
-  // functions wherever they sit, which a Pca basis learns with fewer functions (docs/encodings.md,
-  // "Exits in the sample's frame"). A field's settings record what it stores.
-  bool sampleFrameExits = true;
+  // or in object space. In the sample's frame, samples whose geometry around them looks alike store
+  // alike functions wherever they sit, which a Pca basis learns with fewer functions; on glass with
+  // no such symmetry object space can need fewer (docs/encodings.md, "Exits in the sample's frame").
+  // Auto: Pca keeps the frame with the smaller residual. A field's settings record what it stores.
+  ExitFrame exitFrame = ExitFrame::Auto;
   float maxBytesPerSample = 0.0f;    // > 0: encoding and parameters were chosen to fit this budget
   uint64_t sampleBudget = 0;         // requested total samples (0: not used)
   float samplesPerUnitArea = 0.0f;   // requested density (0: not used)
@@ -206,7 +213,7 @@ struct EncodingShape {
   // The last channel is the distance from each node to the nearest jump (jump-aware fields only):
   // the decode uses it to place a jump inside a cell and does not output it.
   bool jumpDistance = false;
-  // Channels 0..2 are the exit in the sample's frame (BakeSettings::sampleFrameExits): the decode
+  // Channels 0..2 are the exit in the sample's frame (BakeSettings::exitFrame): the decode
   // rotates its sum to object space by the frame's rows, and the straight-through exit that the
   // jump-aware blend compares with is simply -w.
   bool sampleFrameExits = false;

@@ -73,6 +73,15 @@ const char* toString(DirectionSampling sampling) {
   return "unknown";
 }
 
+const char* toString(ExitFrame frame) {
+  switch (frame) {
+    case ExitFrame::Object: return "object";
+    case ExitFrame::Sample: return "sample";
+    case ExitFrame::Auto: return "auto";
+  }
+  return "unknown";
+}
+
 const char* toString(PathRule rule) {
   switch (rule) {
     case PathRule::HighestEnergy: return "highest-energy";
@@ -454,7 +463,7 @@ void readEncoding(SectionReader& r, Field& field, uint32_t version) {
   field.jumpDistance = version >= 4 && r.u32("encoding.jumpDistance") != 0;
   s.jumpDistance = field.jumpDistance;
   field.sampleFrameExits = version >= 5 && r.u32("encoding.sampleFrameExits") != 0;
-  s.sampleFrameExits = field.sampleFrameExits;
+  s.exitFrame = field.sampleFrameExits ? ExitFrame::Sample : ExitFrame::Object;
 }
 
 void writeEncoding(ByteWriter& w, const Field& field) {
