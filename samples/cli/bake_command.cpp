@@ -55,7 +55,7 @@ std::vector<FlagSpec> bakeFlags() {
                                   "distance to the nearest jump (the decode then places jumps midway between "
                                   "nodes; the channel costs pca nothing per sample, table one value per node)"},
       {"exit-frame", true, "frame the exit directions are stored in: auto (default: pca keeps whichever of the "
-                         "two leaves the smaller residual, the others store sample), sample (each sample's own "
+                         "two decodes closer to traced check paths, the others store sample), sample (each sample's own "
                          "frame: glass alike up to a rotation about +Y stores alike functions) or object (object "
                          "space, as fields before format version 5)"},
       {"max-bytes-per-sample", true, "choose the encoding and its parameters with the lowest error within this "
