@@ -875,6 +875,7 @@ TEST(EncodingSampleFrame, SharesFunctionsAmongRotatedSamples) {
         EXPECT_LT(b, 1.02 * a) << name;
       }
       const Field& chosen = scene.field(automatic);
+      EXPECT_EQ(chosen.settings.exitFrame, chosen.sampleFrameExits ? ExitFrame::Sample : ExitFrame::Object);
       std::printf("  auto chose %s\n", chosen.sampleFrameExits ? "the sample's frame" : "object space");
       EXPECT_EQ(scene.error(automatic), chosen.sampleFrameExits ? b : a) << name;
       if (name == "sphere") {
