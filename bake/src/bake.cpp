@@ -170,6 +170,7 @@ Result<Selection> selectOrderAndDirections(const SampleAtlas& atlas, const Trace
   const size_t step = std::max<size_t>(1, n / kSubset);
   for (size_t i = 0; i < n && subset.size() < kSubset; i += step) subset.push_back(i);
   const TraceSettings ts = traceSettingsOf(s);
+  const bool sampleFrame = s.exitFrame != ExitFrame::Object;  // values and exits as the field stores them
 
   // Held-out directions, cosine-weighted over the hemisphere, and their traced exits.
   std::vector<glm::vec3> heldDirs(subset.size() * kHeldOut), heldExits(subset.size() * kHeldOut);
@@ -180,7 +181,8 @@ Result<Selection> selectOrderAndDirections(const SampleAtlas& atlas, const Trace
     for (uint32_t h = 0; h < kHeldOut; ++h) {
       const glm::vec3 w = cosineWeightedDirection(rng);
       heldDirs[k * kHeldOut + h] = w;
-      heldExits[k * kHeldOut + h] = storedExit(s.exitFrame != ExitFrame::Object, frame, tracer.traceFromSurface(p, -localToWorld(frame, w), ts).exitDirection);
+      const glm::vec3 exit = tracer.traceFromSurface(p, -localToWorld(frame, w), ts).exitDirection;
+      heldExits[k * kHeldOut + h] = storedExit(sampleFrame, frame, exit);
     }
   });
 
@@ -200,8 +202,8 @@ Result<Selection> selectOrderAndDirections(const SampleAtlas& atlas, const Trace
       const SurfacePoint& p = atlas.samples[subset[k]];
       const LocalFrame frame = frameFromNormal(p.shadingNormal);
       for (uint32_t d = 0; d < nd; ++d) {
-        const glm::vec3 e =
-            storedExit(s.exitFrame != ExitFrame::Object, frame, tracer.traceFromSurface(p, -localToWorld(frame, glm::vec3(grid.directions[d])), ts).exitDirection);
+        const glm::vec3 incident = -localToWorld(frame, glm::vec3(grid.directions[d]));
+        const glm::vec3 e = storedExit(sampleFrame, frame, tracer.traceFromSurface(p, incident, ts).exitDirection);
         for (int c = 0; c < 3; ++c) values[(k * nd + d) * 3 + size_t(c)] = e[c];
       }
     });
@@ -498,9 +500,10 @@ std::vector<float> tablesInObjectSpace(const std::vector<float>& tables, const S
   return out;
 }
 
-// Traced views the exit frame is chosen on: kFrameChoiceViews cosine-weighted directions at each
-// of at most kFrameChoiceSamples samples spread over the field, traced for the choice alone (so
-// it does not depend on --held-out), with a fixed sequence per sample.
+// Traced views the exit frame is chosen on: kFrameChoiceViews cosine-weighted directions at every
+// (n / kFrameChoiceSamples)-th sample (all of a field under 2 kFrameChoiceSamples samples,
+// otherwise between kFrameChoiceSamples and twice as many), traced for the choice alone (so it does
+// not depend on --held-out), with a fixed sequence per sample.
 constexpr size_t kFrameChoiceSamples = 2048;
 constexpr uint32_t kFrameChoiceViews = 8;
 struct FrameChoiceViews {
@@ -534,7 +537,8 @@ FrameChoiceViews traceFrameChoiceViews(const BakePlan& plan) {
 // error saturates where the angle does not: the bunny's mean angles (34.07 deg in the sample's
 // frame, 34.17 in object space, over views 3 % of which decode within 1 deg) rank the frames against
 // its images (14.78 against 15.01 dB at the angular step); clipped at 5 deg (4.42, 4.35) they rank
-// them as the images do, and so on the sphere, cube, torus and glass of water (docs/encodings.md).
+// them as the images do, and so on the sphere, torus and glass of water. Not on the cube, whose
+// images prefer object space by 0.42 dB (no statistic of these views measured says so: docs/encodings.md).
 constexpr double kFrameChoiceClipDegrees = 5.0;
 double meanClippedDegrees(const EncodingShape& shape, const LearnedBasis& b, const SampleAtlas& atlas,
                           const FrameChoiceViews& v) {
@@ -551,11 +555,11 @@ double meanClippedDegrees(const EncodingShape& shape, const LearnedBasis& b, con
 
 // Pca: replaces each sample's table by its weights over a basis learned from all of them. With
 // ExitFrame::Auto (tables traced in the sample's frame) the basis is learned in both frames and
-// the one whose decode is closer to freshly traced exits kept (FrameChoiceViews, meanClippedDegrees;
-// the rank-K residual, tried as the criterion, chose the sample's frame on the bunny, whose images
-// are worse there). The sample's frame shares functions among samples alike up to a rotation about the up
-// axis; object space among samples that face alike (docs/encodings.md, "Exits in the sample's
-// frame"). Sets shape.sampleFrameExits to the frame kept.
+// the one whose decode is closer to freshly traced exits kept (FrameChoiceViews,
+// meanClippedDegrees; the rank-K residual, tried as the criterion, chose the sample's frame on the
+// bunny, whose images are worse there). The sample's frame shares functions among samples alike up
+// to a rotation about the up axis; object space among samples that face alike (docs/encodings.md,
+// "Exits in the sample's frame"). Sets shape.sampleFrameExits to the frame kept.
 Result<void> learnBasisInItsFrame(const BakePlan& plan, EncodingShape& shape, std::vector<float>& coeffs,
                                   std::vector<float>& basis) {
   const SampleAtlas& atlas = plan.atlas;
@@ -577,7 +581,8 @@ Result<void> learnBasisInItsFrame(const BakePlan& plan, EncodingShape& shape, st
     if (plan.note)
       plan.note(std::string("exit frame: chose ") + (shape.sampleFrameExits ? "the sample's frame" : "object space") +
                 " (mean angle, clipped at 5 deg, to " + std::to_string(views.directions.size()) + " traced views: " +
-                std::to_string(sample) + " deg in the sample's frame, " + std::to_string(object) + " deg in object space)");
+                std::to_string(sample) + " deg in the sample's frame, " + std::to_string(object) +
+                " deg in object space)");
   }
   basis = std::move(learned.value().basis);
   coeffs = std::move(learned.value().weights);
