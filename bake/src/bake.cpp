@@ -49,10 +49,13 @@ bool storesJumpDistance(const BakeSettings& s) {
          s.tableSize >= gpu::kJumpMinTableSize;
 }
 
+// Exits traced into the sample's frame (ExitFrame::Sample, and Auto until a Pca bake chooses).
+bool tracesInSampleFrame(const BakeSettings& s) { return s.exitFrame != ExitFrame::Object; }
+
 EncodingShape shapeOf(const BakeSettings& s, uint32_t channels) {
   return {s.encoding, s.order, s.tableSize, s.components, channels,
           s.encoding != Encoding::Sh && s.directionSampling == DirectionSampling::Nodes, storesJumpDistance(s),
-          s.exitFrame != ExitFrame::Object};
+          tracesInSampleFrame(s)};
 }
 size_t strideOf(const EncodingShape& shape) { return size_t(shape.layerCount()) * shape.valuesPerLayer(); }
 
@@ -108,7 +111,7 @@ struct ChannelLayout {
   uint32_t channels = 3;
   bool depth = false, throughput = false, sampleFrame = false;
   static ChannelLayout of(uint32_t channels, const BakeSettings& s) {
-    return {channels, channels == (s.throughput ? 5u : 4u), s.throughput, s.exitFrame != ExitFrame::Object};
+    return {channels, channels == (s.throughput ? 5u : 4u), s.throughput, tracesInSampleFrame(s)};
   }
   void store(const PathResult& path, const LocalFrame& frame, float* v) const {
     const glm::vec3 exit = storedExit(sampleFrame, frame, path.exitDirection);
@@ -154,6 +157,32 @@ void parallelFor(size_t count, uint32_t threads, Body body) {
   arena.execute([&] { tbb::parallel_for(size_t(0), count, [&](size_t i) { body(i); }); });
 }
 
+// `perSample` cosine-weighted view directions (in the sample's frame) at each of `samples`, from the
+// fixed sequence of seed ^ (sample * golden ratio), and their traced exits: in the sample's frame
+// when sampleFrame (storedExit), in object space otherwise. Held-out checks of the bake's choices.
+struct TracedViews {
+  std::vector<glm::vec3> directions, exits;  // samples.size() x perSample
+};
+TracedViews traceCosineViews(const SampleAtlas& atlas, const Tracer& tracer, const TraceSettings& ts,
+                             const std::vector<size_t>& samples, uint32_t perSample, uint64_t seed, bool sampleFrame,
+                             uint32_t threads) {
+  TracedViews v;
+  v.directions.resize(samples.size() * perSample);
+  v.exits = v.directions;
+  parallelFor(samples.size(), threads, [&](size_t k) {
+    const SurfacePoint& p = atlas.samples[samples[k]];
+    const LocalFrame frame = frameFromNormal(p.shadingNormal);
+    uint64_t rng = seed ^ (uint64_t(samples[k]) * 0x9e3779b97f4a7c15ull);
+    for (uint32_t h = 0; h < perSample; ++h) {
+      const glm::vec3 w = cosineWeightedDirection(rng);
+      v.directions[k * perSample + h] = w;
+      const glm::vec3 exit = tracer.traceFromSurface(p, -localToWorld(frame, w), ts).exitDirection;
+      v.exits[k * perSample + h] = storedExit(sampleFrame, frame, exit);
+    }
+  });
+  return v;
+}
+
 struct Selection {
   uint32_t order = 0, rows = 0, columns = 0;
   double meanDegrees = 0.0;
@@ -170,21 +199,11 @@ Result<Selection> selectOrderAndDirections(const SampleAtlas& atlas, const Trace
   const size_t step = std::max<size_t>(1, n / kSubset);
   for (size_t i = 0; i < n && subset.size() < kSubset; i += step) subset.push_back(i);
   const TraceSettings ts = traceSettingsOf(s);
-  const bool sampleFrame = s.exitFrame != ExitFrame::Object;  // values and exits as the field stores them
+  const bool sampleFrame = tracesInSampleFrame(s);  // values and exits as the field stores them
 
   // Held-out directions, cosine-weighted over the hemisphere, and their traced exits.
-  std::vector<glm::vec3> heldDirs(subset.size() * kHeldOut), heldExits(subset.size() * kHeldOut);
-  parallelFor(subset.size(), threads, [&](size_t k) {
-    const SurfacePoint& p = atlas.samples[subset[k]];
-    const LocalFrame frame = frameFromNormal(p.shadingNormal);
-    uint64_t rng = 0x4d41584552524f52ull ^ (uint64_t(subset[k]) * 0x9e3779b97f4a7c15ull);
-    for (uint32_t h = 0; h < kHeldOut; ++h) {
-      const glm::vec3 w = cosineWeightedDirection(rng);
-      heldDirs[k * kHeldOut + h] = w;
-      const glm::vec3 exit = tracer.traceFromSurface(p, -localToWorld(frame, w), ts).exitDirection;
-      heldExits[k * kHeldOut + h] = storedExit(sampleFrame, frame, exit);
-    }
-  });
+  const TracedViews held =
+      traceCosineViews(atlas, tracer, ts, subset, kHeldOut, 0x4d41584552524f52ull, sampleFrame, threads);
 
   std::vector<std::pair<uint32_t, uint32_t>> grids;
   for (uint32_t rows = 8; rows <= s.directionsTheta; rows *= 2) grids.emplace_back(rows, 2 * rows);
@@ -216,9 +235,9 @@ Result<Selection> selectOrderAndDirections(const SampleAtlas& atlas, const Trace
         fit->fit(&values[k * nd * 3], 3, c.data());
         float out[3];
         for (uint32_t h = 0; h < kHeldOut; ++h) {
-          const glm::vec3 w = heldDirs[k * kHeldOut + h];
+          const glm::vec3 w = held.directions[k * kHeldOut + h];
           evaluateExpansion(static_cast<int>(order), c.data(), 3, w, out);
-          sums[k] += double(w.z) * angleDegrees(glm::vec3(out[0], out[1], out[2]), heldExits[k * kHeldOut + h]);
+          sums[k] += double(w.z) * angleDegrees(glm::vec3(out[0], out[1], out[2]), held.exits[k * kHeldOut + h]);
           weights[k] += double(w.z);
         }
       });
@@ -508,26 +527,15 @@ constexpr size_t kFrameChoiceSamples = 2048;
 constexpr uint32_t kFrameChoiceViews = 8;
 struct FrameChoiceViews {
   std::vector<size_t> samples;
-  std::vector<glm::vec3> directions, exits;  // samples x kFrameChoiceViews
+  TracedViews views;  // exits in object space
 };
 
 FrameChoiceViews traceFrameChoiceViews(const BakePlan& plan) {
   FrameChoiceViews v;
   const size_t n = plan.atlas.samples.size(), step = std::max<size_t>(1, n / kFrameChoiceSamples);
   for (size_t s = 0; s < n; s += step) v.samples.push_back(s);
-  v.directions.resize(v.samples.size() * kFrameChoiceViews);
-  v.exits = v.directions;
-  const TraceSettings ts = traceSettingsOf(plan.settings);
-  parallelFor(v.samples.size(), plan.settings.threads, [&](size_t k) {
-    const SurfacePoint& p = plan.atlas.samples[v.samples[k]];
-    const LocalFrame frame = frameFromNormal(p.shadingNormal);
-    uint64_t rng = 0x4652414d45ull ^ (uint64_t(v.samples[k]) * 0x9e3779b97f4a7c15ull);
-    for (uint32_t h = 0; h < kFrameChoiceViews; ++h) {
-      const glm::vec3 w = cosineWeightedDirection(rng);
-      v.directions[k * kFrameChoiceViews + h] = w;
-      v.exits[k * kFrameChoiceViews + h] = plan.tracer->traceFromSurface(p, -localToWorld(frame, w), ts).exitDirection;
-    }
-  });
+  v.views = traceCosineViews(plan.atlas, *plan.tracer, traceSettingsOf(plan.settings), v.samples, kFrameChoiceViews,
+                             0x4652414d45ull, false, plan.settings.threads);
   return v;
 }
 
@@ -547,10 +555,11 @@ double meanClippedDegrees(const EncodingShape& shape, const LearnedBasis& b, con
   for (size_t k = 0; k < v.samples.size(); ++k)
     for (uint32_t h = 0; h < kFrameChoiceViews; ++h) {
       const size_t s = v.samples[k], i = k * kFrameChoiceViews + h;
-      decodeFloat(shape, b.basis, &b.weights[s * shape.components], atlas.samples[s], v.directions[i], out.data());
-      sum += std::min(angleDegrees(glm::vec3(out[0], out[1], out[2]), v.exits[i]), kFrameChoiceClipDegrees);
+      decodeFloat(shape, b.basis, &b.weights[s * shape.components], atlas.samples[s], v.views.directions[i],
+                  out.data());
+      sum += std::min(angleDegrees(glm::vec3(out[0], out[1], out[2]), v.views.exits[i]), kFrameChoiceClipDegrees);
     }
-  return v.directions.empty() ? 0.0 : sum / double(v.directions.size());
+  return v.views.directions.empty() ? 0.0 : sum / double(v.views.directions.size());
 }
 
 // Pca: replaces each sample's table by its weights over a basis learned from all of them. With
@@ -580,7 +589,8 @@ Result<void> learnBasisInItsFrame(const BakePlan& plan, EncodingShape& shape, st
     }
     if (plan.note)
       plan.note(std::string("exit frame: chose ") + (shape.sampleFrameExits ? "the sample's frame" : "object space") +
-                " (mean angle, clipped at 5 deg, to " + std::to_string(views.directions.size()) + " traced views: " +
+                " (mean angle, clipped at " + std::to_string(int(kFrameChoiceClipDegrees)) + " deg, to " +
+                std::to_string(views.views.directions.size()) + " traced views: " +
                 std::to_string(sample) + " deg in the sample's frame, " + std::to_string(object) +
                 " deg in object space)");
   }

@@ -120,7 +120,7 @@ std::string fieldSummaryJson(const Field& f, uint64_t fileBytes) {
                 "\"direction_sampling\": \"%s\", \"exit_frame\": \"%s\", ",
                 toString(f.encoding), f.tableSize, f.components, refinementLayers(f), f.throughput ? "true" : "false",
                 f.jumpDistance ? "true" : "false", f.bytesPerSample(), toString(s.pathRule), toString(s.directionSampling),
-                f.sampleFrameExits ? "sample" : "object");
+                toString(f.sampleFrameExits ? ExitFrame::Sample : ExitFrame::Object));
   out += format("\"mesh\": {\"vertices\": %zu, \"triangles\": %zu}, \"media\": %s, ", f.mesh.positions.size() / 3,
                 f.mesh.indices.size() / 3, media.c_str());
   out += "\"settings\": {";
