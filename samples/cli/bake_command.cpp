@@ -42,7 +42,7 @@ std::vector<FlagSpec> bakeFlags() {
       {"quant", true, "coefficient storage: u8 (default) or f16"},
       {"encoding", true, "hemisphere encoding: pca (default: learned basis, the measured best at 324 bytes per "
                          "sample), table (hemi-octahedral map) or sh (the paper's; implied by --order and --max-error)"},
-      {"table-size", true, "table: nodes per side N (default 9); pca: N of the basis tables (default 16)", K::Integer,
+      {"table-size", true, "table: nodes per side N (default 9); pca: N of the basis tables (default 32)", K::Integer,
        {2, double(bake::kMaxBakeTableSize)}},
       {"components", true, "pca: basis functions K = bytes per sample in u8 (default 324)", K::Integer,
        {1, double(kMaxComponents)}},
@@ -169,7 +169,7 @@ int bakeCommand(int argc, char** argv) {
   else return fail("shrefract bake: --quant must be u8 or f16, got '" + quant + "'", 2);
 
   // The default is the measured best at the paper's 324 bytes per sample (docs/encodings.md): Pca
-  // with 324 weights over 16x16 tables. --order or --max-error ask for SH.
+  // with 324 weights over 32x32 tables. --order or --max-error ask for SH.
   const bool shImplied = order.value() || maxError.value();
   const std::string encoding = args.get("encoding").value_or(shImplied ? "sh" : "pca");
   if (encoding == "sh") s.encoding = Encoding::Sh;
@@ -178,11 +178,11 @@ int bakeCommand(int argc, char** argv) {
   else return fail("shrefract bake: --encoding must be sh, table or pca, got '" + encoding + "'", 2);
   if ((tableSize.value() || components.value()) && s.encoding == Encoding::Sh && !maxBytes.value())
     return fail("shrefract bake: --table-size and --components need --encoding table or pca", 2);
-  s.tableSize = tableSize.value() ? static_cast<uint32_t>(*tableSize.value()) : s.encoding == Encoding::Pca ? 16u : 9u;
+  s.tableSize = tableSize.value() ? static_cast<uint32_t>(*tableSize.value()) : s.encoding == Encoding::Pca ? bake::kDefaultPcaTableSize : 9u;
   s.components = components.value() ? static_cast<uint32_t>(*components.value()) : 324u;
   if ((order.value() || maxError.value()) && s.encoding != Encoding::Sh)
     return fail("shrefract bake: --order and --max-error apply to --encoding sh only", 2);
-  // Node sampling is the measured better one for Pca's 16x16 tables, the grid fit for the coarser
+  // Node sampling is the measured better one for Pca's tables, the grid fit for the coarser
   // tables of `table` (docs/encodings.md, "Sampling"); asking for a grid size asks for the grid.
   const bool tabulated = s.encoding != Encoding::Sh;
   const bool nodesByDefault = s.encoding == Encoding::Pca && !dirs.value() && !maxBytes.value();

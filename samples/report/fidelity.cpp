@@ -69,7 +69,7 @@ BakeSettings defaultFieldSettings() {
   BakeSettings s;
   s.encoding = Encoding::Pca;
   s.order = 0;
-  s.tableSize = 16;
+  s.tableSize = bake::kDefaultPcaTableSize;
   s.components = 324;
   s.directionSampling = DirectionSampling::Nodes;
   s.layout = SampleLayout::Charts;  // the tool's default (docs/sample-layouts.md, "Choosing a layout")
@@ -83,7 +83,7 @@ Profile profileFor(ReportSize size, uint64_t samples) {
   BakeSettings base;  // the library default: order 8, 32x64 directions, split layout, default budget
   BakeSettings sweep = base;
   std::vector<uint32_t> orders, tables, components;
-  uint32_t pcaTable = 16;
+  uint32_t pcaTable = 16;  // the Pca sweep's tables: 16x16 keeps the sweep within minutes (the default field is 32x32)
   switch (size) {
     case ReportSize::Smoke:
       p.width = 64;
