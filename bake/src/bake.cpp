@@ -465,12 +465,14 @@ void traceAndFit(const BakePlan& plan, const SampleEncoder& encoder, const BakeO
   if (options.progress) options.progress({count, count, raysSoFar.load(), secondsSince(start)});
 }
 
-// Fit and held-out errors of the float encoding (grid: every kGridCheckStride-th sample).
+// Fit and held-out errors of the float encoding (grid: every kGridCheckStride-th sample), one
+// sample per task: each writes only its own errors[s].
 void measureFit(const EncodingShape& shape, const std::vector<float>& basis, const std::vector<float>& coeffs,
-                const SampleAtlas& atlas, const DirectionGrid& grid, const TracedChecks& checks, uint32_t held, std::vector<SampleError>& errors) {
+                const SampleAtlas& atlas, const DirectionGrid& grid, const TracedChecks& checks, uint32_t held,
+                uint32_t threads, std::vector<SampleError>& errors) {
   const uint32_t nd = static_cast<uint32_t>(grid.directions.size());
-  std::vector<float> out(shape.channels);
-  for (size_t s = 0; s < errors.size(); ++s) {
+  parallelFor(errors.size(), threads, [&](size_t s) {
+    std::vector<float> out(shape.channels);
     SampleError& err = errors[s];
     const float* c = &coeffs[s * strideOf(shape)];
     for (uint32_t d = 0; d < (s % kGridCheckStride == 0 ? nd : 0u); ++d) {
@@ -487,7 +489,7 @@ void measureFit(const EncodingShape& shape, const std::vector<float>& basis, con
       err.heldMax = std::max(err.heldMax, a);
       ++err.heldCount;
     }
-  }
+  });
 }
 
 // A Pca basis of a field's tables and their weights.
@@ -978,26 +980,35 @@ Result<void> encodeWithRefinement(Field& field, const SampleAtlas& atlas, const 
 }
 
 // Quantization error: the decoded direction from quantized coefficients against the float
-// encoding, at every third grid direction of every 7th sample (deterministic subset).
+// encoding, at every third grid direction of every 7th sample (deterministic subset; the sums run
+// in sample order whatever the threads).
 void measureQuantization(const Field& field, const SampleAtlas& atlas, const std::vector<float>& basis,
-                         const std::vector<float>& coeffs, const DirectionGrid& grid, BakeStatistics& st) {
+                         const std::vector<float>& coeffs, const DirectionGrid& grid, uint32_t threads,
+                         BakeStatistics& st) {
+  constexpr size_t kSampleStride = 7;
   const EncodingShape shape = field.shape();
-  const size_t sampleCount = atlas.samples.size();
-  double squares = 0.0, maxAngle = 0.0;
-  uint64_t count = 0;
-  std::vector<float> a(shape.channels), b(shape.channels);
   const std::vector<uint64_t> texelOf = firstTexels(atlas);
-  for (size_t s = 0; s < sampleCount; s += 7) {
-    if (texelOf[s] == UINT64_MAX) continue;
+  std::vector<SampleError> errors((atlas.samples.size() + kSampleStride - 1) / kSampleStride);
+  parallelFor(errors.size(), threads, [&](size_t i) {
+    const size_t s = i * kSampleStride;
+    if (texelOf[s] == UINT64_MAX) return;
+    std::vector<float> a(shape.channels), b(shape.channels);
     for (size_t d = 0; d < grid.directions.size(); d += 3) {
       const glm::vec3 w(grid.directions[d]);
       decodeFloat(shape, basis, &coeffs[s * strideOf(shape)], atlas.samples[s], w, a.data());
       evaluateSample(field, texelOf[s], {w.x, w.y, w.z}, b.data());
       const double angle = angleDegrees(glm::vec3(a[0], a[1], a[2]), glm::vec3(b[0], b[1], b[2]));
-      squares += angle * angle;
-      maxAngle = std::max(maxAngle, angle);
-      ++count;
+      errors[i].gridSquares += angle * angle;
+      errors[i].gridMax = std::max(errors[i].gridMax, angle);
+      ++errors[i].gridCount;
     }
+  });
+  double squares = 0.0, maxAngle = 0.0;
+  uint64_t count = 0;
+  for (const SampleError& e : errors) {
+    squares += e.gridSquares;
+    maxAngle = std::max(maxAngle, e.gridMax);
+    count += e.gridCount;
   }
   st.quantizationRmsDegrees = count ? static_cast<float>(std::sqrt(squares / double(count))) : 0.0f;
   st.quantizationMaxDegrees = static_cast<float>(maxAngle);
@@ -1077,7 +1088,7 @@ Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
                          size_t(shape.tableSize) * shape.tableSize * shape.channels, refined);
   }
   std::vector<SampleError> errors(sampleCount);
-  measureFit(shape, basis, coeffs, atlas, grid, g.checks, held, errors);
+  measureFit(shape, basis, coeffs, atlas, grid, g.checks, held, settings.threads, errors);
 
   Field field;
   field.width = atlas.width;
@@ -1104,7 +1115,7 @@ Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
     std::copy(rows.begin(), rows.end(), &field.frames[t * 12]);
   }
   if (auto encoded = encodeWithRefinement(field, atlas, shape, coeffs, refined); !encoded) return encoded.error();
-  measureQuantization(field, atlas, basis, coeffs, grid, field.statistics);
+  measureQuantization(field, atlas, basis, coeffs, grid, settings.threads, field.statistics);
   field.media = plan.media;
   field.settings = settings;
   for (const BakePart& p : parts) field.settings.threads = std::max(field.settings.threads, p.settings.threads);
