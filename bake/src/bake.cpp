@@ -10,6 +10,7 @@
 #include <shrefract/sh.h>
 
 #include "splitmix.h"
+#include "parallel.h"
 
 #include <sys/resource.h>
 
@@ -26,8 +27,6 @@
 #include <vector>
 
 #include <glm/geometric.hpp>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 
 namespace shrefract::bake {
@@ -147,15 +146,6 @@ struct SampleError {
   uint32_t gridCount = 0, heldCount = 0;
 };
 
-
-// Runs body(i) for i in [0, count) on at most `threads` threads (oneTBB, in an arena of that
-// size). Every body here writes only its own index's slots and seeds its random numbers from the
-// index, so the result does not depend on the schedule (bake_test, SearchesAreDeterministicAcrossThreadCounts).
-template <class Body>
-void parallelFor(size_t count, uint32_t threads, Body body) {
-  tbb::task_arena arena(static_cast<int>(std::max(1u, threads)));
-  arena.execute([&] { tbb::parallel_for(size_t(0), count, [&](size_t i) { body(i); }); });
-}
 
 // `perSample` cosine-weighted view directions (in the sample's frame) at each of `samples`, from the
 // fixed sequence of seed ^ (sample * golden ratio), and their traced exits: in the sample's frame
@@ -497,9 +487,10 @@ struct LearnedBasis {
   std::vector<float> basis, weights;
 };
 
-Result<LearnedBasis> learnBasis(const EncodingShape& shape, const std::vector<float>& tables, size_t sampleCount) {
+Result<LearnedBasis> learnBasis(const EncodingShape& shape, const std::vector<float>& tables, size_t sampleCount,
+                                uint32_t threads) {
   LearnedBasis out;
-  auto pca = fitPcaBasis(tables, sampleCount, shape.tableSize, shape.channels, shape.components, out.weights);
+  auto pca = fitPcaBasis(tables, sampleCount, shape.tableSize, shape.channels, shape.components, out.weights, threads);
   if (!pca) return pca.error();
   out.basis = std::move(pca.value().basis);
   return out;
@@ -575,10 +566,10 @@ Result<void> learnBasisInItsFrame(const BakePlan& plan, EncodingShape& shape, st
                                   std::vector<float>& basis) {
   const SampleAtlas& atlas = plan.atlas;
   const size_t n = atlas.samples.size();
-  auto learned = learnBasis(shape, coeffs, n);
+  auto learned = learnBasis(shape, coeffs, n, plan.settings.threads);
   if (!learned) return learned.error();
   if (plan.settings.exitFrame == ExitFrame::Auto) {
-    auto inObject = learnBasis(shape, tablesInObjectSpace(coeffs, atlas, shape), n);
+    auto inObject = learnBasis(shape, tablesInObjectSpace(coeffs, atlas, shape), n, plan.settings.threads);
     if (!inObject) return inObject.error();
     EncodingShape objectShape = shape;
     objectShape.sampleFrameExits = false;
@@ -694,7 +685,7 @@ BudgetProbe traceProbe(const SampleAtlas& atlas, const Tracer& tracer, const Dir
 // Mean angular error of one candidate on the probe's test samples, cosine-weighted (as often as a
 // view direction covers the screen), after quantization.
 Result<double> candidateError(const BudgetCandidate& c, const BudgetProbe& p, const SampleAtlas& atlas,
-                              const DirectionGrid& grid, uint32_t channels) {
+                              const DirectionGrid& grid, uint32_t channels, uint32_t threads) {
   auto encoder = SampleEncoder::create(grid, c.settings, channels);
   if (!encoder) return encoder.error();
   const size_t nd = grid.directions.size(), fitStride = encoder->stride();
@@ -707,7 +698,7 @@ Result<double> candidateError(const BudgetCandidate& c, const BudgetProbe& p, co
   if (c.settings.encoding == Encoding::Pca) {
     // The basis is learned from the training samples only; the test samples are projected on it.
     std::vector<float> train(fitted.begin(), fitted.begin() + std::ptrdiff_t(p.train.size() * fitStride)), weights;
-    auto pca = fitPcaBasis(train, p.train.size(), shape.tableSize, channels, shape.components, weights);
+    auto pca = fitPcaBasis(train, p.train.size(), shape.tableSize, channels, shape.components, weights, threads);
     if (!pca) return pca.error();
     test = projectOnBasis(test, p.test.size(), pca.value());
     basis = std::move(pca.value().basis);
@@ -749,7 +740,7 @@ Result<BakeSettings> selectForBudget(const SampleAtlas& atlas, const Tracer& tra
   const BudgetProbe probe = traceProbe(atlas, tracer, grid, s, channels, threads);
   const BudgetCandidate* best = nullptr;
   for (BudgetCandidate& c : candidates) {
-    auto error = candidateError(c, probe, atlas, grid, channels);
+    auto error = candidateError(c, probe, atlas, grid, channels, threads);
     if (!error) {  // e.g. too few directions for an SH order: not a candidate
       if (note) note("max-bytes-per-sample: " + candidateLabel(c.settings) + " skipped: " + error.error().message);
       continue;

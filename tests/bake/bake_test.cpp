@@ -151,6 +151,26 @@ TEST(Bake, DeterministicAcrossThreadCounts) {
   EXPECT_EQ(dataBytes(bake("torus", one, 2)), dataBytes(bake("torus", two, 2)));
 }
 
+// The Pca fit splits its products into column blocks run on the bake's threads (table_fit.cpp
+// productByColumns, gramOf): at the default 32x32 tables (5120 values with the jump distance) the
+// basis takes the subspace iteration, and the field must not depend on the thread count either.
+TEST(Bake, PcaFitIsDeterministicAcrossThreadCounts) {
+  BakeSettings s = small();
+  s.encoding = Encoding::Pca;
+  s.order = 0;
+  s.tableSize = 32;
+  s.components = 8;
+  s.directionSampling = DirectionSampling::Nodes;
+  s.exitFrame = ExitFrame::Sample;
+  s.sampleBudget = 300;
+  BakeSettings three = s;
+  s.threads = 1;
+  three.threads = 3;
+  const Field a = bake("torus", s, 1), b = bake("torus", three, 1);
+  ASSERT_EQ(a.basis.size(), size_t(8) * 32 * 32 * a.channels);
+  EXPECT_EQ(dataBytes(a), dataBytes(b));
+}
+
 // The --max-error and --max-bytes-per-sample searches run their probes in parallelFor (oneTBB):
 // their choice and the field must not depend on the thread count either.
 // Besides the field, the notes (each candidate's measured error, printed to 4 digits) must match.

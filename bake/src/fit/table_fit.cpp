@@ -1,6 +1,7 @@
 #include <shrefract/bake/table_fit.h>
 #include <shrefract/field.h>
 
+#include "parallel.h"
 #include "splitmix.h"
 
 #include <Eigen/Dense>
@@ -39,12 +40,48 @@ Result<Eigen::MatrixXd> exactLeadingEigenvectors(const Eigen::MatrixXd& m, Eigen
   return Eigen::MatrixXd(eigen.eigenvectors().rightCols(std::min(k, m.rows())).rowwise().reverse());
 }
 
+// The fit's large products run in fixed blocks of columns, one block per task: a block's product
+// is the same whatever the threads, so the basis does not depend on them. 32x32 tables with five
+// channels make the Gram matrix 5120 x 5120; on one thread its product and the subspace iteration
+// took most of a 20000-sample bake.
+constexpr Eigen::Index kProductColumns = 128;
+
+template <class Matrix>
+Eigen::Index columnBlocks(const Matrix& m) {
+  return (m.cols() + kProductColumns - 1) / kProductColumns;
+}
+
+// lhs * rhs, rhs's column blocks in parallel.
+template <class Lhs, class Rhs>
+Rhs productByColumns(const Lhs& lhs, const Rhs& rhs, uint32_t threads) {
+  Rhs out(lhs.rows(), rhs.cols());
+  parallelFor(size_t(columnBlocks(rhs)), threads, [&](size_t b) {
+    const Eigen::Index j = Eigen::Index(b) * kProductColumns, w = std::min(kProductColumns, rhs.cols() - j);
+    out.middleCols(j, w).noalias() = lhs * rhs.middleCols(j, w);
+  });
+  return out;
+}
+
+// x^T x, both triangles: each column block's part on and below the diagonal in parallel, then
+// mirrored (half the products of the full square).
+Eigen::MatrixXd gramOf(const Eigen::MatrixXf& x, uint32_t threads) {
+  const Eigen::Index dim = x.cols();
+  Eigen::MatrixXf lower = Eigen::MatrixXf::Zero(dim, dim);
+  parallelFor(size_t(columnBlocks(x)), threads, [&](size_t b) {
+    const Eigen::Index j = Eigen::Index(b) * kProductColumns, w = std::min(kProductColumns, dim - j);
+    lower.block(j, j, dim - j, w).noalias() = x.rightCols(dim - j).transpose() * x.middleCols(j, w);
+  });
+  Eigen::MatrixXd gram = lower.cast<double>();
+  gram.triangularView<Eigen::StrictlyUpper>() = gram.transpose();
+  return gram;
+}
+
 // The same for the positive semi-definite `gram`. Large matrices: randomized subspace iteration
 // (Halko, Martinsson and Tropp 2011, algorithms 4.4 and 5.3): a block of k + 64 vectors,
 // multiplied by the matrix and re-orthonormalized kEigenPowerIterations times, then the exact
 // solver on the matrix projected onto the block. The start block is a fixed sequence, so the bake
 // stays deterministic; fields of tables up to kExactEigenDim values use the exact solver.
-Result<Eigen::MatrixXd> leadingEigenvectors(const Eigen::MatrixXd& gram, Eigen::Index k) {
+Result<Eigen::MatrixXd> leadingEigenvectors(const Eigen::MatrixXd& gram, Eigen::Index k, uint32_t threads) {
   const Eigen::Index n = gram.rows();
   const Eigen::Index block = std::min(n, k + kEigenOversampling);
   if (n <= kExactEigenDim || 2 * block >= n) return exactLeadingEigenvectors(gram, k);
@@ -53,10 +90,10 @@ Result<Eigen::MatrixXd> leadingEigenvectors(const Eigen::MatrixXd& gram, Eigen::
   for (Eigen::Index j = 0; j < block; ++j)
     for (Eigen::Index i = 0; i < n; ++i) q(i, j) = double(splitmix(state) >> 11) * 0x1p-53 - 0.5;
   for (int it = 0; it < kEigenPowerIterations; ++it) {
-    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(gram.selfadjointView<Eigen::Lower>() * q);
+    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(productByColumns(gram, q, threads));
     q = qr.householderQ() * Eigen::MatrixXd::Identity(n, block);
   }
-  const Eigen::MatrixXd projected = q.transpose() * (gram.selfadjointView<Eigen::Lower>() * q);
+  const Eigen::MatrixXd projected = q.transpose() * productByColumns(gram, q, threads);
   auto small = exactLeadingEigenvectors(projected, k);
   if (!small) return small.error();
   return Eigen::MatrixXd(q * small.value());
@@ -163,7 +200,7 @@ void TableFit::fit(const float* values, uint32_t channels, float* out) const {
 }
 
 Result<PcaBasis> fitPcaBasis(const std::vector<float>& tables, size_t samples, uint32_t tableSize, uint32_t channels,
-                             uint32_t components, std::vector<float>& weights) {
+                             uint32_t components, std::vector<float>& weights, uint32_t threads) {
   const size_t dim = size_t(tableSize) * tableSize * channels;
   if (samples == 0 || tables.size() != samples * dim || components == 0)
     return makeError(ErrorCode::InvalidArgument, "pca: no samples or mismatched table sizes");
@@ -187,13 +224,13 @@ Result<PcaBasis> fitPcaBasis(const std::vector<float>& tables, size_t samples, u
     columnScale[Eigen::Index(i)] = static_cast<float>(scale[i % channels] * nodeWeight);
   }
   const Eigen::MatrixXf x = raw * columnScale.asDiagonal();
-  const Eigen::MatrixXd gram = (x.transpose() * x).cast<double>();
+  const Eigen::MatrixXd gram = gramOf(x, threads);
   const uint32_t k = static_cast<uint32_t>(std::min<size_t>(components, dim));
-  auto leading = leadingEigenvectors(gram, Eigen::Index(k));
+  auto leading = leadingEigenvectors(gram, Eigen::Index(k), threads);
   if (!leading) return leading.error();
   Eigen::MatrixXf basis = Eigen::MatrixXf::Zero(Eigen::Index(dim), Eigen::Index(components));
   for (uint32_t j = 0; j < k; ++j) basis.col(Eigen::Index(j)) = leading.value().col(Eigen::Index(j)).cast<float>();
-  const Eigen::MatrixXf w = x * basis;  // samples x components
+  const Eigen::MatrixXf w = productByColumns(x, basis, threads);  // samples x components
   weights.resize(samples * components);
   for (size_t s = 0; s < samples; ++s)
     for (uint32_t j = 0; j < components; ++j) weights[s * components + j] = w(Eigen::Index(s), Eigen::Index(j));

@@ -81,9 +81,10 @@ struct PcaBasis {
 
 // tables: samples x (N^2 * channels), node-major as TableFit writes them. Returns the basis of
 // min(K, N^2 * channels) functions and writes each sample's weights to weights (samples x K, zero
-// for functions beyond the rank).
+// for functions beyond the rank). Its products run on up to `threads` threads; the result does not
+// depend on how many.
 Result<PcaBasis> fitPcaBasis(const std::vector<float>& tables, size_t samples, uint32_t tableSize, uint32_t channels,
-                             uint32_t components, std::vector<float>& weights);
+                             uint32_t components, std::vector<float>& weights, uint32_t threads = 1);
 
 // The weights of `samples` further tables on a basis fitted by fitPcaBasis (samples x K).
 std::vector<float> projectOnBasis(const std::vector<float>& tables, size_t samples, const PcaBasis& basis);
