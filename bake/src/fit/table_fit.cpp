@@ -72,7 +72,7 @@ Eigen::MatrixXd gramOf(const Eigen::MatrixXf& x, uint32_t threads) {
     lower.block(j, j, dim - j, w).noalias() = x.rightCols(dim - j).transpose() * x.middleCols(j, w);
   });
   Eigen::MatrixXd gram = lower.cast<double>();
-  gram.triangularView<Eigen::StrictlyUpper>() = gram.transpose();
+  for (Eigen::Index c = 1; c < dim; ++c) gram.col(c).head(c) = gram.row(c).head(c).transpose();  // mirror
   return gram;
 }
 
