@@ -76,11 +76,12 @@ Eigen::MatrixXd gramOf(const Eigen::MatrixXf& x, uint32_t threads) {
   return gram;
 }
 
-// The same for the positive semi-definite `gram`. Large matrices: randomized subspace iteration
-// (Halko, Martinsson and Tropp 2011, algorithms 4.4 and 5.3): a block of k + 64 vectors,
-// multiplied by the matrix and re-orthonormalized kEigenPowerIterations times, then the exact
-// solver on the matrix projected onto the block. The start block is a fixed sequence, so the bake
-// stays deterministic; fields of tables up to kExactEigenDim values use the exact solver.
+// The same for the positive semi-definite `gram`, both triangles stored (gramOf). Large matrices:
+// randomized subspace iteration (Halko, Martinsson and Tropp 2011, algorithms 4.4 and 5.3): a
+// block of k + 64 vectors, multiplied by the matrix and re-orthonormalized kEigenPowerIterations
+// times, then the exact solver on the matrix projected onto the block. The start block is a fixed
+// sequence, so the bake stays deterministic; fields of tables up to kExactEigenDim values use the
+// exact solver.
 Result<Eigen::MatrixXd> leadingEigenvectors(const Eigen::MatrixXd& gram, Eigen::Index k, uint32_t threads) {
   const Eigen::Index n = gram.rows();
   const Eigen::Index block = std::min(n, k + kEigenOversampling);
