@@ -979,6 +979,7 @@ void measureQuantization(const Field& field, const SampleAtlas& atlas, const std
   constexpr size_t kSampleStride = 7;
   const EncodingShape shape = field.shape();
   const std::vector<uint64_t> texelOf = firstTexels(atlas);
+  // One slot per checked sample; its grid* fields hold the quantization angles (the held* stay 0).
   std::vector<SampleError> errors((atlas.samples.size() + kSampleStride - 1) / kSampleStride);
   parallelFor(errors.size(), threads, [&](size_t i) {
     const size_t s = i * kSampleStride;

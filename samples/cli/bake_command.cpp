@@ -42,7 +42,10 @@ std::vector<FlagSpec> bakeFlags() {
       {"quant", true, "coefficient storage: u8 (default) or f16"},
       {"encoding", true, "hemisphere encoding: pca (default: learned basis, the measured best at 324 bytes per "
                          "sample), table (hemi-octahedral map) or sh (the paper's; implied by --order and --max-error)"},
-      {"table-size", true, "table: nodes per side N (default 9); pca: N of the basis tables (default 32)", K::Integer,
+      {"table-size", true,
+       "table: nodes per side N (default 9); pca: N of the basis tables (default " +
+           std::to_string(bake::kDefaultPcaTableSize) + ")",
+       K::Integer,
        {2, double(bake::kMaxBakeTableSize)}},
       {"components", true, "pca: basis functions K = bytes per sample in u8 (default 324)", K::Integer,
        {1, double(kMaxComponents)}},
