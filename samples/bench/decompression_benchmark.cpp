@@ -687,9 +687,10 @@ int run(const Options& options) {
   }
   const double ratio = bestRate > 0.0 ? decompressRate / bestRate : 0.0;
   std::printf("device: %s\n", h.deviceName().c_str());
-  std::printf("field: %s, %ux%u atlas, %llu samples, order %u (%u basis functions), %u channels, %s\n",
+  // encodingLabel: a Table or Pca field has no SH order ("order 0" said nothing of its 324 layers).
+  std::printf("field: %s, %ux%u atlas, %llu samples, %s (%u layers), %u channels, %s\n",
               options.field.empty() ? "synthetic" : options.field.c_str(), field.width, field.height,
-              static_cast<unsigned long long>(samples), field.order, layers, field.channels,
+              static_cast<unsigned long long>(samples), encodingLabel(field).c_str(), layers, field.channels,
               toString(field.quantization));
   std::printf("coefficient bytes read per decompression: %.2f MiB (%u per sample and basis function)\n",
               double(decompressBytes) / 1048576.0, field.valuesPerLayer() * componentBytes);
