@@ -178,6 +178,7 @@ Result<bake::Image> renderFrame(Session& session, const Environment& environment
   rci.exposure = settings.exposure;
   rci.frustumCulling = settings.skipWork;
   rci.environmentTapsPerAxis = settings.environmentTapsPerAxis;
+  rci.sampleCount = settings.msaaSamples;
   auto renderer = Renderer::create(*session.context, rci);
   if (!renderer) return renderer.error();
   std::unique_ptr<Decompressor> decompressor;
@@ -204,22 +205,24 @@ Result<bake::Image> renderFrame(Session& session, const Environment& environment
       return makeError(ErrorCode::Vulkan, "vkCreateQueryPool failed", r);
   }
 
-  auto color = h.createImage(width, height, colorFormat,
-                             VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
-                             VK_IMAGE_ASPECT_COLOR_BIT);
-  if (!color) {
-    if (queries) vkDestroyQueryPool(h.device(), queries, nullptr);
-    return color.error();
-  }
+  const bool msaa = settings.msaaSamples != VK_SAMPLE_COUNT_1_BIT;
+  const VkImageUsageFlags colorUsage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  auto color = h.createImage(width, height, colorFormat, colorUsage, VK_IMAGE_ASPECT_COLOR_BIT, settings.msaaSamples);
   auto depth = h.createImage(width, height, depthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
-                             VK_IMAGE_ASPECT_DEPTH_BIT);
-  if (!depth) {
-    h.destroyImage(color.value());
+                             VK_IMAGE_ASPECT_DEPTH_BIT, settings.msaaSamples);
+  // Multisampled: the colour is resolved into a single-sample image, which is read back.
+  auto resolve = msaa ? h.createImage(width, height, colorFormat, colorUsage, VK_IMAGE_ASPECT_COLOR_BIT)
+                      : Result<harness::Harness::Image>(harness::Harness::Image{});
+  if (!color || !depth || !resolve) {
+    const Error error = !color ? color.error() : !depth ? depth.error() : resolve.error();
+    for (auto* image : {&color, &depth, &resolve})
+      if (*image && image->value().image) h.destroyImage(image->value());
     if (queries) vkDestroyQueryPool(h.device(), queries, nullptr);
-    return depth.error();
+    return error;
   }
   harness::Harness::Image colorImage = color.value();
   harness::Harness::Image depthImage = depth.value();
+  harness::Harness::Image resolveImage = resolve.value();
   const VkExtent2D extent{width, height};
 
   Result<void> submitted{};
@@ -242,7 +245,7 @@ Result<bake::Image> renderFrame(Session& session, const Environment& environment
 
       // Timestamp 2 before the attachments' barriers: the raster time includes them (cheap).
       if (queries) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries, 2);
-      harness::beginRendering(cmd, colorImage, depthImage);
+      harness::beginRendering(cmd, colorImage, depthImage, msaa ? &resolveImage : nullptr);
       renderer.value()->recordBackground(cmd, environment, settings.camera, extent);
       renderer.value()->recordObjects(cmd, environment, settings.camera, extent, objects, settings.mode);
       vkCmdEndRendering(cmd);
@@ -272,9 +275,11 @@ Result<bake::Image> renderFrame(Session& session, const Environment& environment
   if (queries) vkDestroyQueryPool(h.device(), queries, nullptr);
   Result<std::vector<float>> pixels = !submitted.ok()  ? Result<std::vector<float>>(submitted.error())
                                       : !recorded.ok() ? Result<std::vector<float>>(recorded.error())
-                                                       : h.readbackColor(colorImage, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
+                                                       : h.readbackColor(msaa ? resolveImage : colorImage,
+                                                                         VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
   h.destroyImage(colorImage);
   h.destroyImage(depthImage);
+  if (msaa) h.destroyImage(resolveImage);
   if (!pixels) return pixels.error();
   bake::Image out;
   out.width = width;

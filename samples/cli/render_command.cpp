@@ -59,6 +59,9 @@ std::vector<FlagSpec> renderFlags() {
        {-double(bake::kMaxEnvironmentLevelBias), double(bake::kMaxEnvironmentLevelBias)}},
       {"spp", true, "samples per pixel N, a perfect square: sqrt(N) x sqrt(N) stratified samples, averaged "
                     "(default 1; every mode)", K::Integer, {1, 64}},
+      {"msaa", true, "GPU modes: the host's multisample count, 1, 2, 4 or 8 (default 1): one shading sample "
+                     "per pixel, silhouettes covered at N samples and resolved (docs/antialiasing.md, \"MSAA\")",
+       K::Integer, {1, 8}},
       {"threads", true, "CPU modes: worker threads (default: all cores)", K::Integer, {1, 1024}},
       {"absorption", true, "absorption scale k in exp(-tau * k) (default 1: the media as defined)", K::Real, {0, kUnbounded}},
       {"exposure", true, "linear scale applied before writing (default 1)", K::Real, {0, kUnbounded, true}},
@@ -112,6 +115,7 @@ struct Request {
   std::optional<std::array<uint32_t, 2>> size;
   std::optional<float> exposure, absorption;
   uint32_t samplesPerAxis = 1, frames = 1;
+  uint32_t msaa = 1;  // --msaa: a power of two in 1..8
   std::optional<uint32_t> environmentTaps;  // --env-taps; each mode has its own default
   std::optional<float> environmentLevelBias;  // --env-level-bias (CPU references only)
   std::optional<uint32_t> maxBounces, treeDepth, threads;
@@ -152,6 +156,9 @@ Result<void> checkApplicability(const Args& args, const Request& r) {
     return usage("shrefract render: --filtered applies to --mode exact and full-tree only (the GPU modes always filter)");
   if (cpu && !args.has("filtered") && args.has("env-taps"))
     return usage("shrefract render: --env-taps applies to --mode exact and full-tree with --filtered only");
+  if (cpu && args.has("msaa"))
+    return usage("shrefract render: --msaa applies to the GPU modes (sh, single-interface) only; the CPU modes "
+                 "supersample with --spp");
   if (args.has("env-level-bias") && !(cpu && args.has("filtered")))
     return usage("shrefract render: --env-level-bias applies to --mode exact and full-tree with --filtered only");
   if (r.scene && r.mode == "sh")
@@ -201,6 +208,9 @@ Result<Request> readRequest(const Args& args) {
   r.threads = narrow<uint32_t>(args.integer("threads").value());
   r.device = narrow<int>(args.integer("device").value()).value_or(-1);
   r.environmentTaps = narrow<uint32_t>(args.integer("env-taps").value());
+  r.msaa = narrow<uint32_t>(args.integer("msaa").value()).value_or(1u);
+  if (r.msaa & (r.msaa - 1))
+    return usage("shrefract render: --msaa must be 1, 2, 4 or 8, got " + std::to_string(r.msaa));
   if (auto v = args.number("env-level-bias").value()) r.environmentLevelBias = static_cast<float>(*v);
   auto spa = samplesPerAxisOf(args);
   if (!spa) return spa.error();
@@ -367,10 +377,10 @@ void printGpuSummary(const Args& args, const Request& r, const Inputs& in, const
     return;
   }
   std::printf("{\"output\": %s, \"scene\": %s, \"mode\": %s, \"environment\": %s, \"width\": %u, "
-              "\"height\": %u, \"spp\": %u, \"env_taps\": %u, \"device\": %s, \"frames\": %zu, ",
+              "\"height\": %u, \"spp\": %u, \"msaa\": %u, \"env_taps\": %u, \"device\": %s, \"frames\": %zu, ",
               jsonString(r.output).c_str(), jsonString(r.input).c_str(), jsonString(r.mode).c_str(),
               jsonString(args.has("cube-env") ? "cube" : "lat-long").c_str(), frame.width, frame.height,
-              r.samplesPerAxis * r.samplesPerAxis, frame.environmentTapsPerAxis, jsonString(deviceName).c_str(),
+              r.samplesPerAxis * r.samplesPerAxis, r.msaa, frame.environmentTapsPerAxis, jsonString(deviceName).c_str(),
               timings.wallMs.size());
   if (in.field)
     std::printf("\"field\": {\"order\": %u, \"width\": %u, \"height\": %u, \"quantization\": %s, "
@@ -427,11 +437,17 @@ int renderGpu(const Args& args, const Request& r, const Inputs& in, const Camera
   frame.frames = r.frames;
   frame.samplesPerAxis = r.samplesPerAxis;
   frame.environmentTapsPerAxis = r.environmentTaps.value_or(frame.environmentTapsPerAxis);
+  frame.msaaSamples = static_cast<VkSampleCountFlagBits>(r.msaa);  // 1, 2, 4, 8 are the flag bits
   std::vector<Object*> drawList;
   for (auto& o : objects) drawList.push_back(o.get());
   offscreen::FrameTimings timings;
   auto image = offscreen::renderFrame(s, *env.value(), drawList, frame, &timings);
-  if (!image) return fail(image.error());
+  if (!image) {
+    // A sample count the device does not offer is the flag's fault: name it.
+    if (r.msaa > 1 && image.error().code == ErrorCode::Unsupported)
+      return fail(usage("shrefract render: --msaa " + std::to_string(r.msaa) + ": " + image.error().message), 2);
+    return fail(image.error());
+  }
   objects.clear();
   env.value().reset();
 

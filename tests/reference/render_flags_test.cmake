@@ -1,6 +1,7 @@
 # `shrefract render` supersampling and path flags: --spp (a perfect square 1..64, every mode),
 # --path-rule and --throughput (exact mode), --filtered (exact and full-tree), --env-taps (GPU
-# modes, and CPU modes with --filtered), --env-level-bias (CPU modes with --filtered). Range and
+# modes, and CPU modes with --filtered), --env-level-bias (CPU modes with --filtered), --msaa (GPU
+# modes: 1, 2, 4 or 8, a count the device lacks refused naming the flag). Range and
 # usage errors exit 2 with one line naming the flag and write nothing; good values render (CPU
 # modes always; the GPU case skips without a device, printing "SKIPPED: no Vulkan device"). Inputs: SHREFRACT (the tool), WORK_DIR.
 file(REMOVE_RECURSE ${WORK_DIR})
@@ -44,6 +45,12 @@ expect_usage_error(--env-level-bias 16x12 --mode exact --filtered --env-level-bi
 expect_usage_error(--env-level-bias 16x12 --mode exact --filtered --env-level-bias nan)
 expect_usage_error(--env-level-bias 16x12 --mode exact --env-level-bias -1)
 expect_usage_error(--env-level-bias 16x12 --env-level-bias -1)
+expect_usage_error(--msaa 16x12 --msaa 3)
+expect_usage_error(--msaa 16x12 --msaa 0)
+expect_usage_error(--msaa 16x12 --msaa 16)
+expect_usage_error(--msaa 16x12 --msaa four)
+expect_usage_error(--msaa 16x12 --mode exact --msaa 4)
+expect_usage_error(--msaa 16x12 --mode full-tree --msaa 4)
 
 # CPU modes: always available.
 execute_process(COMMAND ${SHREFRACT} ${base} --size 16x12 --mode exact --spp 4 --path-rule first-refraction --throughput --filtered --env-taps 1 --env-level-bias -0.5 --json
@@ -76,9 +83,26 @@ if(NOT rc EQUAL 0)
   endif()
   message(FATAL_ERROR "single-interface render with --spp 16 failed (${rc}): ${err}")
 endif()
-foreach(field "\"spp\": 16" "\"env_taps\": 3")
+foreach(field "\"spp\": 16" "\"env_taps\": 3" "\"msaa\": 1")
   if(NOT out MATCHES "${field}")
     message(FATAL_ERROR "the JSON summary lacks ${field}: ${out}")
   endif()
 endforeach()
+file(REMOVE ${WORK_DIR}/out.png)
+# 4 samples: every Vulkan device offers them for colour and depth.
+execute_process(COMMAND ${SHREFRACT} ${base} --size 16x12 --msaa 4 --json RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0 OR NOT EXISTS ${WORK_DIR}/out.png OR NOT out MATCHES "\"msaa\": 4")
+  message(FATAL_ERROR "render with --msaa 4 failed (${rc}): ${err}${out}")
+endif()
+file(REMOVE ${WORK_DIR}/out.png)
+# 8: offered by some devices (not lavapipe): it renders, or it is refused as a usage error naming
+# the flag with nothing written.
+execute_process(COMMAND ${SHREFRACT} ${base} --size 16x12 --msaa 8 RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(rc EQUAL 2)
+  if(NOT err MATCHES "--msaa 8" OR EXISTS ${WORK_DIR}/out.png)
+    message(FATAL_ERROR "--msaa 8 refused without naming the flag, or with an output written: ${err}")
+  endif()
+elseif(NOT rc EQUAL 0)
+  message(FATAL_ERROR "render with --msaa 8 failed (${rc}): ${err}")
+endif()
 message("render flags ok")

@@ -71,6 +71,12 @@ struct FrameSettings {
   // eye has not changed and objects outside the view (Decompressor's camera overload).
   bool skipWork = false;
   uint32_t environmentTapsPerAxis = RendererCreateInfo{}.environmentTapsPerAxis;
+  // The host's multisampling (RendererCreateInfo::sampleCount): colour and depth attachments of
+  // this many samples, resolved (averaged) into the image that is read back. It covers the
+  // silhouettes that one shading sample per pixel steps on (docs/antialiasing.md, "MSAA"), at
+  // every sub-sample of samplesPerAxis alike. A count the device lacks is refused by
+  // Renderer::create (Unsupported).
+  VkSampleCountFlagBits msaaSamples = VK_SAMPLE_COUNT_1_BIT;
 };
 
 // GPU timestamps of the last frame and host wall time of every frame.
