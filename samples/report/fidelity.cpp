@@ -215,6 +215,7 @@ Result<BakedPair> bakePair(const bake::Scene& scene, const bake::BakeOptions& op
 struct GpuRender {
   bake::Image image;
   bake::Image image1spp;
+  std::optional<bake::Image> image1sppMsaa;  // the default field only: 1 spp with the host's 4x MSAA
   double decompressionMs = 0.0, rasterMs = 0.0, frameMs = 0.0;
 };
 
@@ -382,6 +383,19 @@ Result<void> measureVariant(SceneContext& c, const Variant& v, FidelityScene& ou
     std::vector<Object*> list{object.value().get()};
     auto gpu = renderOnGpu(c.session, c.gpuEnvironment, list, c.camera, ShadingMode::Field, c.profile, c.width,
                            c.height, c.frames);
+    if (gpu && keep && isU8) {
+      // One shading sample per pixel with the silhouettes covered at 4 samples, as a host with
+      // MSAA renders it (4 is a count every Vulkan device offers).
+      offscreen::FrameSettings fs;
+      fs.width = c.width;
+      fs.height = c.height;
+      fs.camera = c.camera;
+      fs.mode = ShadingMode::Field;
+      fs.msaaSamples = VK_SAMPLE_COUNT_4_BIT;
+      auto msaa = offscreen::renderFrame(c.session, c.gpuEnvironment, list, fs, nullptr);
+      if (!msaa) return msaa.error();
+      gpu.value().image1sppMsaa = std::move(msaa).value();
+    }
     object.value().reset();
     c.session.context->releaseDeferred();
     if (!gpu) {
@@ -489,8 +503,9 @@ Result<void> decompose(SceneContext& c, const DefaultField& def, FidelityScene& 
 
 // Every mode at one sample per pixel with filtered lookups against itself supersampled, both
 // against the physical reference and against the full tree at twice the samples per axis: the
-// default field (the GPU's 1-spp render kept by measureVariant), the exact highest-energy path
-// and the full tree (CPU, ReferenceOptions::filtered).
+// default field (the GPU's 1-spp render kept by measureVariant, and the same with 4x MSAA: one
+// shading sample, silhouettes covered at 4), the exact highest-energy path and the full tree
+// (CPU, ReferenceOptions::filtered).
 Result<void> measureAntialiasing(SceneContext& c, const DefaultField& def, FidelityScene& out) {
   const uint32_t dense = std::min(2 * c.profile.samplesPerAxis, bake::kMaxSamplesPerAxis);
   bake::ReferenceOptions ro;
@@ -516,6 +531,9 @@ Result<void> measureAntialiasing(SceneContext& c, const DefaultField& def, Fidel
   };
   if (def.gpuU8)
     if (auto r = entry("default field u8 (GPU)", def.gpuU8->image1spp, def.gpuU8->image); !r) return r;
+  if (def.gpuU8 && def.gpuU8->image1sppMsaa)
+    if (auto r = entry("default field u8 (GPU), host's 4x MSAA", *def.gpuU8->image1sppMsaa, def.gpuU8->image); !r)
+      return r;
   ro.filtered = true;
   ro.mode = bake::ReferenceMode::Exact;
   auto exact = cpuRender(c, ro, "exact highest-energy, filtered", 1);
@@ -749,7 +767,8 @@ std::string markdownOf(const Profile& p, const std::vector<FidelityScene>& scene
       const uint32_t dense = sc.denseSamplesPerAxis;
       const bake::ReferenceOptions cpu;  // the CPU modes' filtering, as measured
       md += fmt("\nAnti-aliasing: each mode at 1 sample per pixel with filtered lookups (the CPU modes with "
-                "ReferenceOptions::filtered: 4 probes, %ux%u taps at level bias %g) and at %ux%u, against the physical "
+                "ReferenceOptions::filtered: 4 probes, %ux%u taps at level bias %g; the field also with the host's 4x MSAA: "
+                "one shading sample per pixel, silhouettes covered at 4) and at %ux%u, against the physical "
                 "reference (target: within 2 dB; the full tree at %ux%u is that reference itself) and against the full "
                 "tree at %ux%u, which shares no sample positions with the %ux%u renders.\n\n",
                 cpu.environmentTapsPerAxis, cpu.environmentTapsPerAxis, static_cast<double>(cpu.environmentLevelBias),

@@ -86,10 +86,10 @@ foreach(step "path rule" "spatial sampling" "angular encoding" "quantization" "p
     message(FATAL_ERROR "the error decomposition has no measured '${step}' step")
   endif()
 endforeach()
-# The anti-aliasing table: each mode at 1 spp filtered and supersampled, both measured against the
+# The anti-aliasing table: each mode at 1 spp filtered (the field also with 4x MSAA) and supersampled, both measured against the
 # physical reference (the full tree's supersampled render is that reference: no finite figure) and
 # against the denser full tree (every figure finite).
-foreach(mode "default field u8 \\(GPU\\)" "exact highest-energy \\(CPU\\)")
+foreach(mode "default field u8 \\(GPU\\)" "default field u8 \\(GPU\\), host's 4x MSAA" "exact highest-energy \\(CPU\\)")
   if(NOT text MATCHES "\\| ${mode} \\| [0-9]+\\.[0-9]+ \\| [0-9]+\\.[0-9]+ \\| -?[0-9]+\\.[0-9]+ \\|")
     message(FATAL_ERROR "the anti-aliasing table has no measured '${mode}' row")
   endif()
