@@ -6,7 +6,7 @@
 //
 //   shrefract_frame_benchmark [FIELD.shrf ...] [--instances N] [--size WxH] [--frames N] [--cube-env]
 //                             [--shading field|exit-direction|single-interface]
-//                             [--format rgba16f|rgba8|rgba32f] [--env-taps N[,N...]] [--validation]
+//                             [--format rgba16f|rgba8|rgba32f] [--env-taps N[,N...]] [--msaa N] [--validation]
 //
 // Scenes: each FIELD.shrf (read with readField), or without one a synthetic field (bench_support:
 // order 8, u8, 4 channels, a 256x256 atlas of samples on a flat square). The environment is
@@ -27,7 +27,10 @@
 // medians over the frames. --env-taps runs every series once per tap count of the filtered
 // environment lookups (RendererCreateInfo::environmentTapsPerAxis, default the engine's) and prints
 // each count's raster time against the first count's, measured in the same run: the cost of the
-// filtering on this device (docs/antialiasing.md, "Cost"). Exit code 0 with "SKIPPED:" when there
+// filtering on this device (docs/antialiasing.md, "Cost"). --msaa N (2, 4 or 8) runs everything
+// twice, into single-sample attachments and into N-sample ones resolved at the end of rendering
+// (the host's MSAA, RendererCreateInfo::sampleCount), and prints the raster time at N samples
+// against one sample, series by series, measured in the same run. Exit code 0 with "SKIPPED:" when there
 // is no Vulkan device; 2 with one
 // line for bad arguments or a FIELD.shrf that does not exist.
 #include <shrefract/decompressor.h>
@@ -64,6 +67,7 @@ struct Options {
   ShadingMode shading = ShadingMode::Field;
   VkFormat colorFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
   std::vector<uint32_t> environmentTaps{RendererCreateInfo{}.environmentTapsPerAxis};
+  VkSampleCountFlagBits msaa = VK_SAMPLE_COUNT_1_BIT;  // > 1: also run with this many samples
   bool validation = false;
 };
 
@@ -76,7 +80,8 @@ int usage(const std::string& message) {
 int help() {
   std::printf("usage: shrefract_frame_benchmark [FIELD.shrf ...] [--instances N] [--size WxH] [--frames N]\n"
               "                                 [--cube-env] [--shading field|exit-direction|single-interface]\n"
-              "                                 [--format rgba16f|rgba8|rgba32f] [--env-taps N[,N...]] [--validation]\n");
+              "                                 [--format rgba16f|rgba8|rgba32f] [--env-taps N[,N...]] [--msaa N]\n"
+              "                                 [--validation]\n");
   return 0;
 }
 
@@ -184,7 +189,9 @@ Camera orbit(const Camera& base, float degrees) {
 // Attachments, command buffers and fences of the frame loop, shared by every series.
 struct Frames {
   harness::Harness& h;
+  VkSampleCountFlagBits samples = VK_SAMPLE_COUNT_1_BIT;
   harness::Harness::Image color{}, depth{};
+  harness::Harness::Image resolve{};  // multisampled frames only: the single-sample target
   VkCommandPool pool = VK_NULL_HANDLE;
   std::array<VkCommandBuffer, kInFlight> cmd{};
   std::array<VkFence, kInFlight> fence{};
@@ -201,17 +208,25 @@ Frames::~Frames() {
   timers.clear();
   if (color.image) h.destroyImage(color);
   if (depth.image) h.destroyImage(depth);
+  if (resolve.image) h.destroyImage(resolve);
 }
 
-Result<void> createFrames(Frames& f, const Options& o) {
+Result<void> createFrames(Frames& f, const Options& o, VkSampleCountFlagBits samples) {
+  f.samples = samples;
   auto color = f.h.createImage(o.width, o.height, o.colorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT,
-                               VK_IMAGE_ASPECT_COLOR_BIT);
+                               VK_IMAGE_ASPECT_COLOR_BIT, samples);
   if (!color) return color.error();
   f.color = color.value();
   auto depth = f.h.createImage(o.width, o.height, VK_FORMAT_D32_SFLOAT, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
-                               VK_IMAGE_ASPECT_DEPTH_BIT);
+                               VK_IMAGE_ASPECT_DEPTH_BIT, samples);
   if (!depth) return depth.error();
   f.depth = depth.value();
+  if (samples != VK_SAMPLE_COUNT_1_BIT) {
+    auto resolve = f.h.createImage(o.width, o.height, o.colorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT,
+                                   VK_IMAGE_ASPECT_COLOR_BIT);
+    if (!resolve) return resolve.error();
+    f.resolve = resolve.value();
+  }
   VkCommandPoolCreateInfo pci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
   pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
   pci.queueFamilyIndex = f.h.queueFamily();
@@ -243,7 +258,7 @@ struct Pass {
 // where an object covers it before its fragment shader runs (renderer.h allows either order).
 void recordRaster(VkCommandBuffer cmd, const Frames& f, const Pass& pass, const Camera& camera, VkExtent2D extent,
                   const std::vector<Object*>& objects) {
-  harness::beginRendering(cmd, f.color, f.depth);
+  harness::beginRendering(cmd, f.color, f.depth, f.resolve.image ? &f.resolve : nullptr);
   pass.renderer.recordObjects(cmd, pass.environment, camera, extent, objects, pass.shading);
   pass.renderer.recordBackground(cmd, pass.environment, camera, extent);
   vkCmdEndRendering(cmd);
@@ -395,6 +410,7 @@ Result<std::vector<Named>> runTapCount(Gpu& gpu, Frames& frames, Decompressor& d
                                        uint32_t taps) {
   RendererCreateInfo info{o.colorFormat, VK_FORMAT_D32_SFLOAT};
   info.environmentTapsPerAxis = taps;
+  info.sampleCount = frames.samples;
   auto renderer = Renderer::create(*gpu.context, info);
   if (!renderer) return renderer.error();
   if (o.environmentTaps.size() > 1) std::printf("environment taps per axis: %u\n", taps);
@@ -428,26 +444,41 @@ void printTapRatios(const Options& o, const std::vector<std::vector<Named>>& byC
     }
 }
 
-int benchmarkScene(Gpu& gpu, Frames& frames, const Environment& environment, Scene& scene, const Options& o) {
-  auto placed = placeInstances(*gpu.context, scene, o.instances);
-  if (!placed) return fail(scene.name + ": " + placed.error().message);
+// What N samples per pixel cost against one, series by series and tap count by tap count: the
+// raster pass's GPU time (or wall without timestamps), both measured in this run.
+void printMsaaRatios(const Options& o, const std::vector<std::vector<Named>>& single,
+                     const std::vector<std::vector<Named>>& multi, bool timestamps) {
+  std::printf("MSAA, %ux against 1 sample per pixel (same run, %s):\n", uint32_t(o.msaa),
+              timestamps ? "GPU raster" : "wall");
+  for (size_t k = 0; k < single.size() && k < multi.size(); ++k)
+    for (size_t s = 0; s < single[k].size() && s < multi[k].size(); ++s) {
+      const SeriesResult& a = single[k][s].result;
+      const SeriesResult& b = multi[k][s].result;
+      const double before = timestamps ? a.rasterMs : a.wallMs, after = timestamps ? b.rasterMs : b.wallMs;
+      std::printf("  %u taps, %-28s %8.3f -> %8.3f ms  %.2fx\n", o.environmentTaps[k], single[k][s].name.c_str(),
+                  before, after, after / before);
+    }
+}
+
+// Every tap count's series of the scene into `frames`; prints them, and the tap ratios.
+Result<std::vector<std::vector<Named>>> benchmarkScene(Gpu& gpu, Frames& frames, const Environment& environment,
+                                                       Scene& scene, const Options& o) {
   auto decompressor = Decompressor::create(*gpu.context);
-  if (!decompressor) return fail(decompressor.error().message);
-  if (auto prepared = decompressor.value()->prepare(*scene.objects[0]); !prepared)
-    return fail(prepared.error().message);
+  if (!decompressor) return decompressor.error();
+  if (auto prepared = decompressor.value()->prepare(*scene.objects[0]); !prepared) return prepared.error();
   const Field& f = scene.field;
-  std::printf("field: %s, %s, %s, %u channels, %ux%u atlas, %zu triangles; %s\n", scene.name.c_str(),
-              encodingLabel(f).c_str(), toString(f.quantization), f.channels, f.width, f.height, f.mesh.indices.size() / 3,
-              instancesLabel(o.instances).c_str());
+  std::printf("field: %s, %s, %s, %u channels, %ux%u atlas, %zu triangles; %s; %u sample(s) per pixel\n",
+              scene.name.c_str(), encodingLabel(f).c_str(), toString(f.quantization), f.channels, f.width, f.height,
+              f.mesh.indices.size() / 3, instancesLabel(o.instances).c_str(), uint32_t(frames.samples));
   std::vector<std::vector<Named>> byCount;
   for (uint32_t taps : o.environmentTaps) {
     auto series = runTapCount(gpu, frames, *decompressor.value(), environment, scene, o, taps);
-    if (!series) return fail(series.error().message);
+    if (!series) return series.error();
     byCount.push_back(std::move(series).value());
   }
   if (byCount.size() > 1) printTapRatios(o, byCount, frames.timers[0]->available());
   vkDeviceWaitIdle(gpu.harness->device());
-  return 0;
+  return byCount;
 }
 
 // The scenes in order: each FIELD.shrf, or the synthetic field.
@@ -488,24 +519,33 @@ int run(const Options& o) {
   std::printf("device: %s\n", gpu->harness->deviceName().c_str());
   std::printf("frame: %ux%u, %u frames per series after %u warm-up, %u frames in flight; %s environment\n", o.width,
               o.height, o.frames, kWarmUp, kInFlight, o.cube ? "procedural cube" : "procedural lat-long");
-  int rc = 0;
   {
     auto environment = createEnvironment(*gpu->context, o.cube);
     if (!environment) return fail(environment.error().message);
-    Frames frames(*gpu->harness);
-    if (auto created = createFrames(frames, o); !created)
+    Frames frames(*gpu->harness), multisampled(*gpu->harness);
+    if (auto created = createFrames(frames, o, VK_SAMPLE_COUNT_1_BIT); !created)
       return fail(created.error().message);
-    for (size_t i = 0; i < std::max<size_t>(1, o.fields.size()) && rc == 0; ++i) {
+    if (o.msaa != VK_SAMPLE_COUNT_1_BIT)
+      if (auto created = createFrames(multisampled, o, o.msaa); !created)
+        return fail("--msaa " + std::to_string(uint32_t(o.msaa)) + ": " + created.error().message);
+    for (size_t i = 0; i < std::max<size_t>(1, o.fields.size()); ++i) {
       auto scene = loadScene(o, i);
       if (!scene) return fail(scene.error().message);
-      rc = benchmarkScene(*gpu, frames, *environment.value(), scene.value(), o);
+      auto placed = placeInstances(*gpu->context, scene.value(), o.instances);
+      if (!placed) return fail(scene.value().name + ": " + placed.error().message);
+      auto single = benchmarkScene(*gpu, frames, *environment.value(), scene.value(), o);
+      if (!single) return fail(single.error().message);
+      if (o.msaa == VK_SAMPLE_COUNT_1_BIT) continue;
+      auto multi = benchmarkScene(*gpu, multisampled, *environment.value(), scene.value(), o);
+      if (!multi) return fail("--msaa " + std::to_string(uint32_t(o.msaa)) + ": " + multi.error().message);
+      printMsaaRatios(o, single.value(), multi.value(), frames.timers[0]->available());
     }
   }
   if (const uint32_t messages = gpu->harness->messageCount(); messages) {
     std::fprintf(stderr, "%u Vulkan validation message(s)\n", messages);
     return 1;
   }
-  return rc;
+  return 0;
 }
 
 // "2" or "1,2,4": each count within the renderer's range; false (counts untouched) otherwise.
@@ -551,6 +591,11 @@ int parseArguments(int argc, char** argv, Options& o) {
     } else if (a == "--env-taps") {
       if (!parseTapCounts(takes(), o.environmentTaps))
         return usage("--env-taps expects counts 1.." + std::to_string(kMaxEnvironmentTapsPerAxis) + ", comma-separated");
+    } else if (a == "--msaa") {
+      uint32_t n = 0;
+      if (!parseCount(takes().c_str(), 1, 8, n) || (n & (n - 1)))
+        return usage("--msaa expects 1, 2, 4 or 8");
+      o.msaa = static_cast<VkSampleCountFlagBits>(n);  // 1, 2, 4, 8 are the flag bits
     } else if (a == "--cube-env") {
       o.cube = true;
     } else if (a == "--validation") {
