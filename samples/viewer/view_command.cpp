@@ -32,6 +32,8 @@ std::vector<FlagSpec> viewFlags() {
       {"order", true, "initial SH order (default: the baked order)", K::Integer, {0, 32}},
       {"env-taps", true, "initial taps per axis of each filtered environment lookup (default 2; T cycles)",
        K::Integer, {1, kMaxEnvironmentTapsPerAxis}},
+      {"msaa", true, "the host's multisample count: 1 (default), 2, 4 or 8; silhouettes covered at N samples",
+       K::Integer, {1, 8}},
       {"mode", true, "initial shading: field (default for fields) or single-interface (default for scenes)"},
       {"frames", true, "render this many frames, then exit (default: until the window closes)", K::Integer, {1, 1e8}},
       {"screenshot", true, "write the last frame to this .png or .exr at exit"},
@@ -96,6 +98,7 @@ int viewCommand(int argc, char** argv) {
   auto absorption = args.number("absorption");
   auto order = args.integer("order");
   auto taps = args.integer("env-taps");
+  auto msaa = args.integer("msaa");
   auto ior = args.number("ior");
   auto tess = args.integer("tessellation");
   auto frames = args.integer("frames");
@@ -103,6 +106,7 @@ int viewCommand(int argc, char** argv) {
   for (const Error* e : {size.ok() ? nullptr : &size.error(), fov.ok() ? nullptr : &fov.error(),
                          exposure.ok() ? nullptr : &exposure.error(), absorption.ok() ? nullptr : &absorption.error(),
                          order.ok() ? nullptr : &order.error(), taps.ok() ? nullptr : &taps.error(),
+                         msaa.ok() ? nullptr : &msaa.error(),
                          ior.ok() ? nullptr : &ior.error(),
                          tess.ok() ? nullptr : &tess.error(), frames.ok() ? nullptr : &frames.error(),
                          device.ok() ? nullptr : &device.error()})
@@ -119,6 +123,11 @@ int viewCommand(int argc, char** argv) {
   if (absorption.value()) options.absorption = static_cast<float>(*absorption.value());
   if (order.value()) options.order = static_cast<uint32_t>(*order.value());
   if (taps.value()) options.environmentTaps = static_cast<uint32_t>(*taps.value());
+  if (msaa.value()) {
+    const int64_t n = *msaa.value();
+    if (n & (n - 1)) return fail("shrefract view: --msaa must be 1, 2, 4 or 8, got " + std::to_string(n), 2);
+    options.msaa = static_cast<VkSampleCountFlagBits>(n);  // 1, 2, 4, 8 are the flag bits
+  }
   if (frames.value()) options.frames = static_cast<uint32_t>(*frames.value());
   if (args.has("no-vsync")) options.vsync = false;
   if (auto shot = args.get("screenshot")) {

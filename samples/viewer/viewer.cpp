@@ -119,6 +119,9 @@ struct Host {
   VkCommandPool pool = VK_NULL_HANDLE;
   std::array<FrameSlot, kFramesInFlight> slots{};
   harness::Harness::Image color{}, depth{};
+  // With MSAA, color and depth are multisampled and `resolve` is the single-sample image the frame
+  // is averaged into: what is blitted and read back (shown()).
+  harness::Harness::Image resolve{};
   VkExtent2D targetExtent{};
   bool linearBlit = false;  // the colour format can be blitted with a linear filter
 
@@ -134,6 +137,7 @@ struct Host {
   std::pair<size_t, uint32_t> instancesOf{SIZE_MAX, 0};
 
   VkDevice device() const { return session->harness->device(); }
+  const harness::Harness::Image& shown() const { return resolve.image ? resolve : color; }
 
   // Destroys every Vulkan object but the device and instance (which the session owns; the frame
   // loop's end then destroys the session and counts what the layer reported through it).
@@ -149,6 +153,7 @@ struct Host {
     session->context->releaseDeferred();  // the device is idle: nothing retired is in use
     session->harness->destroyImage(color);
     session->harness->destroyImage(depth);
+    session->harness->destroyImage(resolve);
     for (FrameSlot& s : slots) {
       if (s.queries) vkDestroyQueryPool(device(), s.queries, nullptr);
       if (s.fence) vkDestroyFence(device(), s.fence, nullptr);
@@ -209,20 +214,29 @@ Result<void> createFrameSlots(Host& h, bool timestamps) {
   return {};
 }
 
-// (Re)creates the colour and depth targets the engine draws into. Precondition: the device is idle.
-Result<void> createTargets(Host& h, VkExtent2D extent) {
+// (Re)creates the colour and depth targets the engine draws into, with `samples` per pixel (and
+// then the single-sample resolve target). Precondition: the device is idle.
+Result<void> createTargets(Host& h, VkExtent2D extent, VkSampleCountFlagBits samples) {
   harness::Harness& hr = *h.session->harness;
   hr.destroyImage(h.color);
   hr.destroyImage(h.depth);
+  hr.destroyImage(h.resolve);
+  const VkImageUsageFlags shownUsage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  const bool msaa = samples != VK_SAMPLE_COUNT_1_BIT;
   auto color = hr.createImage(extent.width, extent.height, kColorFormat,
-                              VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
-                              VK_IMAGE_ASPECT_COLOR_BIT);
+                              msaa ? VkImageUsageFlags(VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT) : shownUsage,
+                              VK_IMAGE_ASPECT_COLOR_BIT, samples);
   if (!color) return color.error();
   h.color = color.value();
   auto depth = hr.createImage(extent.width, extent.height, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
-                              VK_IMAGE_ASPECT_DEPTH_BIT);
+                              VK_IMAGE_ASPECT_DEPTH_BIT, samples);
   if (!depth) return depth.error();
   h.depth = depth.value();
+  if (msaa) {
+    auto resolve = hr.createImage(extent.width, extent.height, kColorFormat, shownUsage, VK_IMAGE_ASPECT_COLOR_BIT);
+    if (!resolve) return resolve.error();
+    h.resolve = resolve.value();
+  }
   h.targetExtent = extent;
   return {};
 }
@@ -313,10 +327,13 @@ Result<void> recordFrame(Host& h, FrameSlot& slot, const FrameInputs& in) {
 
   // The targets are cleared every frame (old contents discarded). The source stages order this
   // frame's writes after the previous frame's blit read and attachment writes on the same queue.
-  imageBarrier(cmd, h.color.image, VK_IMAGE_ASPECT_COLOR_BIT,
-               VK_PIPELINE_STAGE_2_BLIT_BIT | VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_NONE,
-               VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
-               VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
+  // With MSAA the resolve target is written at the end of rendering, in the same stage.
+  for (const harness::Harness::Image* target : {&h.color, &h.resolve})
+    if (target->image)
+      imageBarrier(cmd, target->image, VK_IMAGE_ASPECT_COLOR_BIT,
+                   VK_PIPELINE_STAGE_2_BLIT_BIT | VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_NONE,
+                   VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+                   VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
   imageBarrier(cmd, h.depth.image, VK_IMAGE_ASPECT_DEPTH_BIT,
                VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
                VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
@@ -330,6 +347,12 @@ Result<void> recordFrame(Host& h, FrameSlot& slot, const FrameInputs& in) {
   colorAttachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
   colorAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
   colorAttachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  if (h.resolve.image) {  // averaged into the single-sample target; the samples are not kept
+    colorAttachment.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    colorAttachment.resolveMode = VK_RESOLVE_MODE_AVERAGE_BIT;
+    colorAttachment.resolveImageView = h.resolve.view;
+    colorAttachment.resolveImageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  }
   VkRenderingAttachmentInfo depthAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
   depthAttachment.imageView = h.depth.view;
   depthAttachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
@@ -354,7 +377,7 @@ Result<void> recordFrame(Host& h, FrameSlot& slot, const FrameInputs& in) {
 
   // Target -> swapchain image. The swapchain image's first use waits on the acquire semaphore at
   // the blit stage (see the submit), so its barrier starts from that stage.
-  imageBarrier(cmd, h.color.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+  imageBarrier(cmd, h.shown().image, VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
                VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_TRANSFER_READ_BIT,
                VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
   imageBarrier(cmd, in.swapchainImage, VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_NONE,
@@ -367,7 +390,7 @@ Result<void> recordFrame(Host& h, FrameSlot& slot, const FrameInputs& in) {
   region.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
   region.dstOffsets[1] = {static_cast<int32_t>(dst.width), static_cast<int32_t>(dst.height), 1};
   const bool sameSize = dst.width == h.targetExtent.width && dst.height == h.targetExtent.height;
-  vkCmdBlitImage(cmd, h.color.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, in.swapchainImage,
+  vkCmdBlitImage(cmd, h.shown().image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, in.swapchainImage,
                  VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region,
                  !sameSize && h.linearBlit ? VK_FILTER_LINEAR : VK_FILTER_NEAREST);
   // Presentation needs no access mask: the present waits on the semaphore signalled after this.
@@ -416,6 +439,13 @@ int runViewer(const ViewerOptions& options) {
   h.session = std::move(session).value();
   harness::Harness& hr = *h.session->harness;
   Context& context = *h.session->context;
+  // An MSAA count the device lacks is the flag's fault, as in render: named before any target.
+  const VkPhysicalDeviceLimits& limits = hr.properties().limits;
+  if (!(limits.framebufferColorSampleCounts & limits.framebufferDepthSampleCounts & options.msaa)) {
+    std::fprintf(stderr, "shrefract view: --msaa %u: %s offers no %u-sample colour and depth targets\n",
+                 uint32_t(options.msaa), hr.deviceName().c_str(), uint32_t(options.msaa));
+    return 2;
+  }
 
   VkResult vr = glfwCreateWindowSurface(hr.instance(), h.window, nullptr, &h.surface);
   if (vr != VK_SUCCESS) return fail("glfwCreateWindowSurface failed (VkResult " + std::to_string(vr) + "): " + gGlfwError);
@@ -434,7 +464,9 @@ int runViewer(const ViewerOptions& options) {
   if (auto r = createFrameSlots(h, timestamps); !r) return fail(r.error().message);
   // A screenshot is taken at the requested size; otherwise the target follows the window.
   const bool fixedTarget = !options.screenshot.empty();
-  if (auto r = createTargets(h, fixedTarget ? VkExtent2D{options.width, options.height} : h.swapchain->extent()); !r)
+  if (auto r = createTargets(h, fixedTarget ? VkExtent2D{options.width, options.height} : h.swapchain->extent(),
+                             options.msaa);
+      !r)
     return fail(r.error().message);
 
   // --- engine objects -----------------------------------------------------------------------
@@ -448,6 +480,7 @@ int runViewer(const ViewerOptions& options) {
   rci.depthFormat = kDepthFormat;
   rci.exposure = options.exposure;
   rci.environmentTapsPerAxis = options.environmentTaps;
+  rci.sampleCount = options.msaa;
   auto renderer = Renderer::create(context, rci);
   if (!renderer) return fail(renderer.error().message);
   h.renderer = std::move(renderer).value();
@@ -557,7 +590,7 @@ int runViewer(const ViewerOptions& options) {
       if (auto r = h.swapchain->create(fb, options.vsync); !r) return fail(r.error().message);
       swapchainFramebuffer = fb;
       if (!fixedTarget)
-        if (auto r = createTargets(h, h.swapchain->extent()); !r) return fail(r.error().message);
+        if (auto r = createTargets(h, h.swapchain->extent(), options.msaa); !r) return fail(r.error().message);
       recreate = false;
     }
 
@@ -660,7 +693,7 @@ int runViewer(const ViewerOptions& options) {
   if (!options.screenshot.empty()) {
     if (frame == 0) return fail("no frame was rendered; no screenshot written");
     // The last frame left the target in TRANSFER_SRC_OPTIMAL after its blit.
-    auto pixels = hr.readbackColor(h.color, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+    auto pixels = hr.readbackColor(h.shown(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
     if (!pixels) return fail(pixels.error().message);
     shot = bake::Image{h.targetExtent.width, h.targetExtent.height, std::move(pixels).value()};
   }

@@ -33,6 +33,9 @@ struct ViewerOptions {
   std::optional<uint32_t> order;       // initial SH order (default: the baked order)
   ShadingMode mode = ShadingMode::Field;
   uint32_t environmentTaps = RendererCreateInfo{}.environmentTapsPerAxis;  // initial; T cycles
+  // The host's MSAA (RendererCreateInfo::sampleCount): multisampled targets resolved before the
+  // blit and the screenshot. A count the device lacks fails with exit code 2.
+  VkSampleCountFlagBits msaa = VK_SAMPLE_COUNT_1_BIT;
 
   uint32_t frames = 0;                 // 0: until the window closes; else exit after that many
   std::string screenshot;              // PNG/EXR of the last frame, written at exit ("" none)
@@ -42,7 +45,8 @@ struct ViewerOptions {
   bool vsync = true;                   // FIFO; false prefers IMMEDIATE/MAILBOX (--no-vsync)
 };
 
-// Runs the viewer; returns the process exit code (0, or 1 after printing one line to stderr).
+// Runs the viewer; returns the process exit code (0, or 1 after printing one line to stderr; 2
+// for an MSAA count the device lacks).
 // Fails when any Vulkan validation message was reported, without writing the screenshot.
 int runViewer(const ViewerOptions& options);
 

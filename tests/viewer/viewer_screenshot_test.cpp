@@ -144,10 +144,11 @@ class ViewerTest : public ::testing::Test {
 
   // The frame the viewer shows first for `field`: its default camera (the mesh bounds framed with a
   // 40 degree field of view), drawn in `mode` (or only the background when `withObject` is false)
-  // with `taps` taps per axis of each environment lookup.
+  // with `taps` taps per axis of each environment lookup and `msaa` samples per pixel (resolved).
   static bake::Image reference(const Field& field, const bake::Image& environment, ShadingMode mode, float absorption,
                                uint32_t width, uint32_t height, bool withObject = true,
-                               uint32_t taps = RendererCreateInfo{}.environmentTapsPerAxis) {
+                               uint32_t taps = RendererCreateInfo{}.environmentTapsPerAxis,
+                               VkSampleCountFlagBits msaa = VK_SAMPLE_COUNT_1_BIT) {
     auto env = offscreen::uploadEnvironment(*session_, environment);
     EXPECT_TRUE(env.ok());
     auto object = offscreen::uploadField(*session_, field);
@@ -162,6 +163,7 @@ class ViewerTest : public ::testing::Test {
     frame.camera = offscreen::frameBounds(lo, hi, 40.0f);
     frame.mode = mode;
     frame.environmentTapsPerAxis = taps;
+    frame.msaaSamples = msaa;
     std::vector<Object*> objects;
     if (withObject) objects.push_back(object.value().get());
     auto image = offscreen::renderFrame(*session_, *env.value(), objects, frame);
@@ -273,6 +275,28 @@ TEST_F(ViewerTest, TapsKeyAndFlagSetTheEnvironmentTaps) {
   EXPECT_LE(fractionDifferent(byFlag.value(), one, kSameImageTolerance), kSameImageOutliers);
 }
 
+TEST_F(ViewerTest, MsaaFlagResolvesTheFrame) {
+  // --msaa 4: the viewer's own multisampled targets, resolved before the screenshot, as the
+  // offscreen library's 4x frame; the 1-sample frame differs from it on the silhouette (small
+  // frame: the silhouette is then a larger share of the pixels, 1% at 160x120).
+  const uint32_t width = 96, height = 72;
+  const CommandResult r = view(shellQuote(at("tiny.shrf")) + " --msaa 4 --frames 2 --screenshot " +
+                               shellQuote(at("msaa.png")) + " --size 96x72");
+  expectCleanRun(r);
+  auto shot = bake::loadImage(at("msaa.png"));
+  ASSERT_TRUE(shot.ok());
+  const Field field = readOrFail("tiny.shrf");
+  const bake::Image env = bake::proceduralEnvironment(1024);
+  const uint32_t taps = RendererCreateInfo{}.environmentTapsPerAxis;
+  const bake::Image single = reference(field, env, ShadingMode::Field, 1.0f, width, height, true, taps);
+  const bake::Image four = reference(field, env, ShadingMode::Field, 1.0f, width, height, true, taps, VK_SAMPLE_COUNT_4_BIT);
+  const double apart = fractionDifferent(single, four, kSameImageTolerance);
+  std::printf("1 against 4 samples per pixel: %.4f of the pixels differ by more than %.2f\n", apart,
+              double(kSameImageTolerance));
+  ASSERT_GT(apart, 2 * kSameImageOutliers) << "MSAA draws like one sample here: the test would not see the flag";
+  EXPECT_LE(fractionDifferent(shot.value(), four, kSameImageTolerance), kSameImageOutliers);
+}
+
 TEST_F(ViewerTest, LowerOrdersAreUploadedAtRunTime) {
   // Down to order 0 and back up, one key per frame: each change builds a new engine object in the
   // frame's own command buffer while older frames may still use the previous one.
@@ -355,6 +379,16 @@ TEST_F(ViewerTest, ErrorsAreOneLineWithNonZeroExit) {
   r = runCommand(tool() + " view " + shellQuote(at("tiny.shrf")) + " --env-taps 5");
   EXPECT_EQ(r.exitCode, 2) << r.output;
   EXPECT_NE(r.output.find("--env-taps"), std::string::npos) << r.output;
+  r = runCommand(tool() + " view " + shellQuote(at("tiny.shrf")) + " --msaa 3");
+  EXPECT_EQ(r.exitCode, 2) << r.output;
+  EXPECT_EQ(nonEmptyLines(r.output), 1) << r.output;
+  EXPECT_NE(r.output.find("--msaa"), std::string::npos) << r.output;
+  // A count the device lacks (lavapipe offers 1 and 4; a GPU may offer 8, and then it runs).
+  r = view(shellQuote(at("tiny.shrf")) + " --msaa 8 --frames 1");
+  if (r.exitCode != 0) {
+    EXPECT_EQ(r.exitCode, 2) << r.output;
+    EXPECT_NE(r.output.find("--msaa 8"), std::string::npos) << r.output;
+  }
   r = runCommand(tool() + " view " + shellQuote(at("tiny.shrf")) + " --keys x");
   EXPECT_EQ(r.exitCode, 2) << r.output;
   EXPECT_EQ(nonEmptyLines(r.output), 1) << r.output;
