@@ -608,6 +608,7 @@ std::vector<BudgetCandidate> budgetCandidates(const BakeSettings& base, uint32_t
     const double functions = budget / perValue;  // layers x values that fit
     auto add = [&](Encoding e, uint32_t order, uint32_t n, uint32_t k, uint32_t bytes) {
       BudgetCandidate c{base, bytes, 0.0};
+      c.settings.directionSampling = DirectionSampling::Grid;  // all fitted to the probe's grid
       c.settings.encoding = e;
       c.settings.order = order;
       c.settings.tableSize = n;
@@ -759,6 +760,26 @@ Result<BakeSettings> selectForBudget(const SampleAtlas& atlas, const Tracer& tra
   return best->settings;
 }
 
+// The budget measures every candidate on one grid probe, Pca on kBudgetPcaTableSize grid-fitted
+// tables; the field is then baked in the chosen encoding's own shape. SH and Table fields are grid
+// fits (node sampling pays for Pca's tables only: docs/encodings.md, "Sampling"). A Pca field
+// keeps the requested node sampling and table size, the tool's default (32x32 nodes, with the jump
+// distance), which measured better than 16x16 tables on the built-in scenes (docs/encodings.md,
+// "Choosing"): there the probe's figure overstates the baked Pca field's error.
+void bakeChoiceAtItsShape(BakeSettings& chosen, const BakeSettings& requested,
+                          const std::function<void(const std::string&)>& note) {
+  if (chosen.encoding != Encoding::Pca || requested.directionSampling != DirectionSampling::Nodes) {
+    chosen.directionSampling = DirectionSampling::Grid;
+    return;
+  }
+  chosen.directionSampling = DirectionSampling::Nodes;
+  chosen.tableSize = requested.tableSize;
+  if (note)
+    note("max-bytes-per-sample: baking the pca field on " + std::to_string(chosen.tableSize) + "x" +
+         std::to_string(chosen.tableSize) + " node tables (the probe measured " + std::to_string(kBudgetPcaTableSize) +
+         "x" + std::to_string(kBudgetPcaTableSize) + " grid fits)");
+}
+
 // FNV-1a over what a merge must share with the parts: the layout's samples, texels, gutters,
 // neighbours and mesh, and the media. A changed scene file or override changes it.
 class Fingerprint {
@@ -860,8 +881,7 @@ Result<BakePlan> planBake(const Scene& scene, const BakeOptions& options, bool c
     auto chosen = selectForBudget(plan.atlas, *plan.tracer, settings, plan.channels, settings.threads, options.note);
     if (!chosen) return chosen.error();
     settings = chosen.value();
-    // The budget's candidates are measured on grid fits; a chosen SH field can only be a grid one.
-    if (settings.encoding == Encoding::Sh) settings.directionSampling = DirectionSampling::Grid;
+    bakeChoiceAtItsShape(settings, options.settings, options.note);
   }
   settings.jumpDistance = storesJumpDistance(settings);  // the field records whether it was stored
   if (settings.jumpDistance) plan.channels += 1;

@@ -187,8 +187,10 @@ int bakeCommand(int argc, char** argv) {
     return fail("shrefract bake: --order and --max-error apply to --encoding sh only", 2);
   // Node sampling is the measured better one for Pca's tables, the grid fit for the coarser
   // tables of `table` (docs/encodings.md, "Sampling"); asking for a grid size asks for the grid.
+  // With --max-bytes-per-sample it is what a chosen Pca field is baked with (SH and Table fields
+  // are grid fits whatever this says).
   const bool tabulated = s.encoding != Encoding::Sh;
-  const bool nodesByDefault = s.encoding == Encoding::Pca && !dirs.value() && !maxBytes.value();
+  const bool nodesByDefault = s.encoding == Encoding::Pca && !dirs.value();
   const std::string sampling = args.get("direction-sampling").value_or(nodesByDefault ? "nodes" : "grid");
   if (sampling == "nodes") s.directionSampling = DirectionSampling::Nodes;
   else if (sampling == "grid") s.directionSampling = DirectionSampling::Grid;

@@ -171,6 +171,46 @@ TEST(Bake, PcaFitIsDeterministicAcrossThreadCounts) {
   EXPECT_EQ(dataBytes(a), dataBytes(b));
 }
 
+// --max-bytes-per-sample measures its candidates on grid fits (Pca on 16x16 tables) but bakes a
+// chosen Pca field in the requested shape, node tables of the requested size with the jump
+// distance, as the tool's default is baked: a budget of the default's bytes gives the default's
+// field (the tool's `bake --max-bytes-per-sample 324` and its default agree: docs/encodings.md).
+// An SH or Table choice stays a grid fit.
+TEST(Bake, BudgetBakesAChosenPcaFieldInTheRequestedShape) {
+  BakeSettings s = small();
+  s.encoding = Encoding::Pca;
+  s.tableSize = 12;  // kJumpMinTableSize: the smallest with the jump distance
+  s.components = 40;
+  s.directionSampling = DirectionSampling::Nodes;
+  s.maxBytesPerSample = 40.0f;
+  s.source = "builtin:torus";
+  BuiltinSceneOptions so;
+  so.tessellation = 1;
+  std::string notes;
+  BakeOptions options;
+  options.settings = s;
+  options.note = [&notes](const std::string& line) { notes += line + "\n"; };
+  auto field = bakeField(makeBuiltinScene("torus", so).value(), options);
+  ASSERT_TRUE(field.ok()) << field.error().message;
+  const Field& f = field.value();
+  std::printf("%s", notes.c_str());
+  ASSERT_EQ(f.encoding, Encoding::Pca) << "the torus at 40 bytes chose another encoding; the test needs Pca:\n" << notes;
+  EXPECT_EQ(f.settings.directionSampling, DirectionSampling::Nodes);
+  EXPECT_EQ(f.tableSize, 12u);
+  EXPECT_TRUE(f.jumpDistance);
+  EXPECT_LE(f.bytesPerSample(), 40u);
+  EXPECT_NE(notes.find("baking the pca field on 12x12 node tables"), std::string::npos) << notes;
+
+  // The same budget asking for grid sampling keeps the probe's shape.
+  options.settings.directionSampling = DirectionSampling::Grid;
+  auto grid = bakeField(makeBuiltinScene("torus", so).value(), options);
+  ASSERT_TRUE(grid.ok()) << grid.error().message;
+  EXPECT_EQ(grid.value().encoding, Encoding::Pca);
+  EXPECT_EQ(grid.value().settings.directionSampling, DirectionSampling::Grid);
+  EXPECT_EQ(grid.value().tableSize, 16u);
+  EXPECT_FALSE(grid.value().jumpDistance);
+}
+
 // The --max-error and --max-bytes-per-sample searches run their probes in parallelFor (oneTBB):
 // their choice and the field must not depend on the thread count either.
 // Besides the field, the notes (each candidate's measured error, printed to 4 digits) must match.
