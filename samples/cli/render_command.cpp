@@ -60,7 +60,8 @@ std::vector<FlagSpec> renderFlags() {
       {"spp", true, "samples per pixel N, a perfect square: sqrt(N) x sqrt(N) stratified samples, averaged "
                     "(default 1; every mode)", K::Integer, {1, 64}},
       {"msaa", true, "GPU modes: the host's multisample count, 1, 2, 4 or 8 (default 1): one shading sample "
-                     "per pixel, silhouettes covered at N samples and resolved (docs/antialiasing.md, \"MSAA\")",
+                     "per pixel, silhouettes covered at N samples and resolved (docs/antialiasing.md, \"MSAA and "
+                     "the sphere's rim\")",
        K::Integer, {1, 8}},
       {"threads", true, "CPU modes: worker threads (default: all cores)", K::Integer, {1, 1024}},
       {"absorption", true, "absorption scale k in exp(-tau * k) (default 1: the media as defined)", K::Real, {0, kUnbounded}},
