@@ -13,6 +13,30 @@ layout(location = 2) in vec2 inFieldUv;
 layout(location = 3) in float inFrontIor;
 layout(location = 0) out vec4 outColor;
 
+// The transmitted light over the pixel: the taps of lookupEnvironmentOverPixel, but each at the
+// exit the distortion image holds at the tap's own place in the pixel (the field coordinate moved
+// by the tap's offset along its derivatives), where it holds one, instead of the centre's exit
+// moved linearly: near a silhouette or a jump the exit turns faster than linearly across a pixel.
+// Mirrored by cpu_reference.cpp transmittedOverPixel.
+vec3 transmittedOverPixel(vec3 exitWorld, vec3 ddx, vec3 ddy, vec2 uv, vec2 uvDx, vec2 uvDy) {
+  if (ddx == vec3(0.0) && ddy == vec3(0.0)) return lookupEnvironment(exitWorld, 0.0);
+  float n = float(ENVIRONMENT_TAPS);
+  float footprint = directionFootprint(ddx / n, ddy / n);
+  if (ENVIRONMENT_TAPS == 1u) return lookupEnvironment(exitWorld, footprint * kOneTapFootprintScale);
+  vec3 sum = vec3(0.0);
+  for (uint j = 0u; j < ENVIRONMENT_TAPS; ++j) {
+    for (uint i = 0u; i < ENVIRONMENT_TAPS; ++i) {
+      float a = (float(i) + 0.5) / n - 0.5, b = (float(j) + 0.5) / n - 0.5;
+      vec4 d = textureLod(distortionMap, uv + a * uvDx + b * uvDy, 0.0);
+      float len2 = dot(d.xyz, d.xyz);
+      vec3 tap = len2 > kMinDirectionLength2 ? rotateByQuaternion(pc.worldFromObjectRotation, d.xyz * inversesqrt(len2))
+                                             : exitWorld + a * ddx + b * ddy;
+      sum += lookupEnvironment(dot(tap, tap) > 1e-12 ? tap : exitWorld, footprint);
+    }
+  }
+  return sum / (n * n);
+}
+
 void main() {
   vec3 n = normalize(inNormal);
   vec3 v = normalize(inPosition - pc.eyeObject.xyz);
@@ -35,6 +59,7 @@ void main() {
   // Derivatives before any branch that is not uniform (fine derivatives of the quad's lanes): a
   // direction that diverges fast across the pixel reads blurrier levels instead of sparkling.
   vec3 exitDx = dFdxFine(exitWorld), exitDy = dFdyFine(exitWorld);
+  vec2 uvDx = dFdxFine(inFieldUv), uvDy = dFdyFine(inFieldUv);
   vec3 reflectedDx = dFdxFine(reflectedWorld), reflectedDy = dFdyFine(reflectedWorld);
   if (uint(pc.medium.w) == kModeFieldExitDirection) {  // the measured quantity itself
     outColor = vec4(exitWorld, d.w);
@@ -45,7 +70,7 @@ void main() {
   // filtered length is the throughput, blended as the direction is. Others store unit lengths,
   // which bilinear filtering shortens between diverging texels: they must not be scaled.
   if (pc.tint.a > 0.5) transmittance *= min(sqrt(len2), 1.0);
-  vec3 color = (1.0 - fresnel) * transmittance * pc.tint.rgb * lookupEnvironmentOverPixel(exitWorld, exitDx, exitDy);
+  vec3 color = (1.0 - fresnel) * transmittance * pc.tint.rgb * transmittedOverPixel(exitWorld, exitDx, exitDy, inFieldUv, uvDx, uvDy);
   if (pc.medium.z > 0.5)
     color += fresnel * lookupEnvironmentOverPixel(reflectedWorld, reflectedDx, reflectedDy);
   outColor = vec4(color * pc.eyeObject.w, 1.0);

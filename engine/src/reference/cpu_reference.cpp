@@ -202,6 +202,7 @@ namespace {
 
 // What the object pass computes from its inputs before the lookups (object_field_body.glsl).
 struct FieldFragment {
+  glm::vec2 uv{0.0f};
   glm::vec3 v, n;
   float cosI = 0.0f;
   Vec4 d{};
@@ -212,6 +213,7 @@ struct FieldFragment {
 FieldFragment fieldFragment(const DistortionImage& distortion, const SurfacePoint& point, const Vec3& eyeArray,
                             const Transform& worldFromObject) {
   FieldFragment f;
+  f.uv = glm::vec2(point.uv[0], point.uv[1]);
   f.n = glm::normalize(toGlm(point.normal));
   f.v = glm::normalize(toGlm(point.position) - toGlm(eyeArray));
   f.cosI = -glm::dot(f.v, f.n);
@@ -228,6 +230,34 @@ FieldFragment fieldFragment(const DistortionImage& distortion, const SurfacePoin
   return f;
 }
 
+// The transmitted light over the pixel (object_field_body.glsl transmittedOverPixel): the taps of
+// sampleLatLongOverPixel, each at the exit the distortion image holds at the tap's own place in
+// the pixel, where it holds one (else the centre's exit moved along its derivatives).
+Vec3 transmittedOverPixel(const DistortionImage& distortion, const LatLongImage& env, const FieldFragment& f,
+                          const LookupDerivatives& d, const Transform& worldFromObject) {
+  const glm::vec3 dir = f.exitWorld, dx = toGlm(d.exitDx), dy = toGlm(d.exitDy);
+  if (dx == glm::vec3(0.0f) && dy == glm::vec3(0.0f)) return sampleLatLong(env, fromGlm(dir), 0.0f);
+  const uint32_t taps = std::clamp(env.tapsPerAxis, 1u, kMaxEnvironmentTapsPerAxis);
+  const float n = float(taps);
+  const float footprint = directionFootprint(fromGlm(dx / n), fromGlm(dy / n));
+  if (taps == 1) return sampleLatLong(env, fromGlm(dir), footprint * gpu::kOneTapFootprintScale);
+  const glm::vec2 uvDx(d.uvDx[0], d.uvDx[1]), uvDy(d.uvDy[0], d.uvDy[1]);
+  glm::vec3 sum(0.0f);
+  for (uint32_t j = 0; j < taps; ++j)
+    for (uint32_t i = 0; i < taps; ++i) {
+      const float a = (float(i) + 0.5f) / n - 0.5f, b = (float(j) + 0.5f) / n - 0.5f;
+      const glm::vec2 uv = f.uv + a * uvDx + b * uvDy;
+      const Vec4 t = sampleBilinear(distortion, uv.x, uv.y);
+      const glm::vec3 exit(t[0], t[1], t[2]);
+      const float len2 = glm::dot(exit, exit);
+      const glm::vec3 tap = len2 > gpu::kMinDirectionLength2
+                                ? toGlm(rotateDirection(worldFromObject, fromGlm(exit / std::sqrt(len2))))
+                                : dir + a * dx + b * dy;
+      sum += toGlm(sampleLatLong(env, fromGlm(glm::dot(tap, tap) > 1e-12f ? tap : dir), footprint));
+    }
+  return fromGlm(sum / (n * n));
+}
+
 }  // namespace
 
 Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environment, const SurfacePoint& point,
@@ -239,7 +269,7 @@ Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environme
   float transmittance = std::exp(-std::max(f.d[3], 0.0f) * (shading.absorptionScale * worldFromObject.scale));
   if (distortion.throughput) transmittance *= std::min(std::sqrt(f.len2), 1.0f);
   glm::vec3 color = (1.0f - fresnel) * transmittance * toGlm(shading.tint) *
-                    toGlm(sampleLatLongOverPixel(environment, fromGlm(f.exitWorld), derivatives.exitDx, derivatives.exitDy));
+                    toGlm(transmittedOverPixel(distortion, environment, f, derivatives, worldFromObject));
   if (shading.reflection)
     color += fresnel * toGlm(sampleLatLongOverPixel(environment, fromGlm(f.reflectedWorld), derivatives.reflectedDx,
                                                           derivatives.reflectedDy));
@@ -340,6 +370,10 @@ LookupDerivatives pixelDerivatives(const RenderObject& object, uint32_t first, c
   out.exitDy = fromGlm(sy * (self.exitWorld - ny.exitWorld));
   out.reflectedDx = fromGlm(sx * (self.reflectedWorld - nx.reflectedWorld));
   out.reflectedDy = fromGlm(sy * (self.reflectedWorld - ny.reflectedWorld));
+  for (int k = 0; k < 2; ++k) {
+    out.uvDx[size_t(k)] = sx * (self.uv[k] - nx.uv[k]);
+    out.uvDy[size_t(k)] = sy * (self.uv[k] - ny.uv[k]);
+  }
   return out;
 }
 
