@@ -768,10 +768,8 @@ Result<BakeSettings> selectForBudget(const SampleAtlas& atlas, const Tracer& tra
 // "Choosing"): there the probe's figure overstates the baked Pca field's error.
 void bakeChoiceAtItsShape(BakeSettings& chosen, const BakeSettings& requested,
                           const std::function<void(const std::string&)>& note) {
-  if (chosen.encoding != Encoding::Pca || requested.directionSampling != DirectionSampling::Nodes) {
-    chosen.directionSampling = DirectionSampling::Grid;
-    return;
-  }
+  // Every candidate is a grid fit (budgetCandidates): only a Pca field asked at its nodes changes.
+  if (chosen.encoding != Encoding::Pca || requested.directionSampling != DirectionSampling::Nodes) return;
   chosen.directionSampling = DirectionSampling::Nodes;
   chosen.tableSize = requested.tableSize;
   if (note)

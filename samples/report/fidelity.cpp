@@ -211,17 +211,19 @@ Result<BakedPair> bakePair(const bake::Scene& scene, const bake::BakeOptions& op
 }
 
 // A GPU render: the image at S x S samples per pixel (untimed), then `frames` timed frames at 1 spp
-// (what a host pays per frame; medians), the last of which is kept.
+// (what a host pays per frame; medians), the last of which is kept; with `msaaToo`, also one
+// untimed 1-spp frame with the host's 4x MSAA (a count every Vulkan device offers).
 struct GpuRender {
   bake::Image image;
   bake::Image image1spp;
-  std::optional<bake::Image> image1sppMsaa;  // the default field only: 1 spp with the host's 4x MSAA
+  std::optional<bake::Image> image1sppMsaa;  // with msaaToo: 1 spp with the host's 4x MSAA
   double decompressionMs = 0.0, rasterMs = 0.0, frameMs = 0.0;
 };
 
 Result<GpuRender> renderOnGpu(offscreen::Session& session, const Environment& environment,
                               const std::vector<Object*>& objects, const Camera& camera, ShadingMode mode,
-                              const Profile& p, uint32_t width, uint32_t height, uint32_t frames) {
+                              const Profile& p, uint32_t width, uint32_t height, uint32_t frames,
+                              bool msaaToo = false) {
   GpuRender out;
   offscreen::FrameSettings fs;
   fs.width = width;
@@ -240,6 +242,13 @@ Result<GpuRender> renderOnGpu(offscreen::Session& session, const Environment& en
   auto timed = offscreen::renderFrame(session, environment, objects, fs, &timings);
   if (!timed) return timed.error();
   out.image1spp = std::move(timed).value();
+  if (msaaToo) {
+    fs.frames = 1;
+    fs.msaaSamples = VK_SAMPLE_COUNT_4_BIT;
+    auto msaa = offscreen::renderFrame(session, environment, objects, fs, nullptr);
+    if (!msaa) return msaa.error();
+    out.image1sppMsaa = std::move(msaa).value();
+  }
   // Medians over the timed frames: a shared CPU (lavapipe) makes single frames noisy.
   out.decompressionMs = median(timings.gpuDecompressionMs);
   out.rasterMs = median(timings.gpuRasterMs);
@@ -381,21 +390,9 @@ Result<void> measureVariant(SceneContext& c, const Variant& v, FidelityScene& ou
       continue;
     }
     std::vector<Object*> list{object.value().get()};
+    // The default field's u8 render also with MSAA, for the anti-aliasing table.
     auto gpu = renderOnGpu(c.session, c.gpuEnvironment, list, c.camera, ShadingMode::Field, c.profile, c.width,
-                           c.height, c.frames);
-    if (gpu && keep && isU8) {
-      // One shading sample per pixel with the silhouettes covered at 4 samples, as a host with
-      // MSAA renders it (4 is a count every Vulkan device offers).
-      offscreen::FrameSettings fs;
-      fs.width = c.width;
-      fs.height = c.height;
-      fs.camera = c.camera;
-      fs.mode = ShadingMode::Field;
-      fs.msaaSamples = VK_SAMPLE_COUNT_4_BIT;
-      auto msaa = offscreen::renderFrame(c.session, c.gpuEnvironment, list, fs, nullptr);
-      if (!msaa) return msaa.error();
-      gpu.value().image1sppMsaa = std::move(msaa).value();
-    }
+                           c.height, c.frames, keep && isU8);
     object.value().reset();
     c.session.context->releaseDeferred();
     if (!gpu) {

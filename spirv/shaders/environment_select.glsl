@@ -29,6 +29,9 @@ layout(constant_id = kSpecEnvironmentTaps) const uint ENVIRONMENT_TAPS = kEnviro
 // at the level of one cell's footprint (one tap: the whole footprint, kOneTapFootprintScale
 // finer). A tap that cancels to zero (derivatives as long as a half turn) reads dir. Zero
 // derivatives read level 0 once.
+// Where tap i of n sits along one of the pixel's axes, in (-1/2, 1/2): the centre of its cell.
+float tapOffset(uint i, float n) { return (float(i) + 0.5) / n - 0.5; }
+
 vec3 lookupEnvironmentOverPixel(vec3 dir, vec3 ddx, vec3 ddy) {
   if (ddx == vec3(0.0) && ddy == vec3(0.0)) return lookupEnvironment(dir, 0.0);
   float n = float(ENVIRONMENT_TAPS);
@@ -37,7 +40,7 @@ vec3 lookupEnvironmentOverPixel(vec3 dir, vec3 ddx, vec3 ddy) {
   vec3 sum = vec3(0.0);
   for (uint j = 0u; j < ENVIRONMENT_TAPS; ++j) {
     for (uint i = 0u; i < ENVIRONMENT_TAPS; ++i) {
-      float a = (float(i) + 0.5) / n - 0.5, b = (float(j) + 0.5) / n - 0.5;
+      float a = tapOffset(i, n), b = tapOffset(j, n);
       vec3 tap = dir + a * ddx + b * ddy;
       sum += lookupEnvironment(dot(tap, tap) > 1e-12 ? tap : dir, footprint);
     }

@@ -19,14 +19,15 @@ layout(location = 0) out vec4 outColor;
 // moved linearly: near a silhouette or a jump the exit turns faster than linearly across a pixel.
 // Mirrored by cpu_reference.cpp transmittedOverPixel.
 vec3 transmittedOverPixel(vec3 exitWorld, vec3 ddx, vec3 ddy, vec2 uv, vec2 uvDx, vec2 uvDy) {
-  if (ddx == vec3(0.0) && ddy == vec3(0.0)) return lookupEnvironment(exitWorld, 0.0);
+  // No derivatives or one tap: nothing but the centre's exit is read.
+  if ((ddx == vec3(0.0) && ddy == vec3(0.0)) || ENVIRONMENT_TAPS == 1u)
+    return lookupEnvironmentOverPixel(exitWorld, ddx, ddy);
   float n = float(ENVIRONMENT_TAPS);
   float footprint = directionFootprint(ddx / n, ddy / n);
-  if (ENVIRONMENT_TAPS == 1u) return lookupEnvironment(exitWorld, footprint * kOneTapFootprintScale);
   vec3 sum = vec3(0.0);
   for (uint j = 0u; j < ENVIRONMENT_TAPS; ++j) {
     for (uint i = 0u; i < ENVIRONMENT_TAPS; ++i) {
-      float a = (float(i) + 0.5) / n - 0.5, b = (float(j) + 0.5) / n - 0.5;
+      float a = tapOffset(i, n), b = tapOffset(j, n);
       vec4 d = textureLod(distortionMap, uv + a * uvDx + b * uvDy, 0.0);
       float len2 = dot(d.xyz, d.xyz);
       vec3 tap = len2 > kMinDirectionLength2 ? rotateByQuaternion(pc.worldFromObjectRotation, d.xyz * inversesqrt(len2))

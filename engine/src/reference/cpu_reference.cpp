@@ -168,6 +168,11 @@ Vec3 sampleLatLong(const LatLongImage& env, const Vec3& direction, float footpri
   return fromGlm(c);
 }
 
+namespace {
+// Where tap i of n sits along one of the pixel's axes, in (-1/2, 1/2) (environment_select.glsl).
+float tapOffset(uint32_t i, float n) { return (float(i) + 0.5f) / n - 0.5f; }
+}  // namespace
+
 Vec3 sampleLatLongOverPixel(const LatLongImage& env, const Vec3& direction, const Vec3& ddx, const Vec3& ddy) {
   const glm::vec3 dir = toGlm(direction), dx = toGlm(ddx), dy = toGlm(ddy);
   if (dx == glm::vec3(0.0f) && dy == glm::vec3(0.0f)) return sampleLatLong(env, direction, 0.0f);
@@ -178,7 +183,7 @@ Vec3 sampleLatLongOverPixel(const LatLongImage& env, const Vec3& direction, cons
   glm::vec3 sum(0.0f);
   for (uint32_t j = 0; j < taps; ++j)
     for (uint32_t i = 0; i < taps; ++i) {
-      const float a = (float(i) + 0.5f) / n - 0.5f, b = (float(j) + 0.5f) / n - 0.5f;
+      const float a = tapOffset(i, n), b = tapOffset(j, n);
       const glm::vec3 tap = dir + a * dx + b * dy;
       sum += toGlm(sampleLatLong(env, fromGlm(glm::dot(tap, tap) > 1e-12f ? tap : dir), footprint));
     }
@@ -236,16 +241,17 @@ FieldFragment fieldFragment(const DistortionImage& distortion, const SurfacePoin
 Vec3 transmittedOverPixel(const DistortionImage& distortion, const LatLongImage& env, const FieldFragment& f,
                           const LookupDerivatives& d, const Transform& worldFromObject) {
   const glm::vec3 dir = f.exitWorld, dx = toGlm(d.exitDx), dy = toGlm(d.exitDy);
-  if (dx == glm::vec3(0.0f) && dy == glm::vec3(0.0f)) return sampleLatLong(env, fromGlm(dir), 0.0f);
   const uint32_t taps = std::clamp(env.tapsPerAxis, 1u, kMaxEnvironmentTapsPerAxis);
+  // No derivatives or one tap: nothing but the centre's exit is read.
+  if ((dx == glm::vec3(0.0f) && dy == glm::vec3(0.0f)) || taps == 1)
+    return sampleLatLongOverPixel(env, fromGlm(dir), d.exitDx, d.exitDy);
   const float n = float(taps);
   const float footprint = directionFootprint(fromGlm(dx / n), fromGlm(dy / n));
-  if (taps == 1) return sampleLatLong(env, fromGlm(dir), footprint * gpu::kOneTapFootprintScale);
   const glm::vec2 uvDx(d.uvDx[0], d.uvDx[1]), uvDy(d.uvDy[0], d.uvDy[1]);
   glm::vec3 sum(0.0f);
   for (uint32_t j = 0; j < taps; ++j)
     for (uint32_t i = 0; i < taps; ++i) {
-      const float a = (float(i) + 0.5f) / n - 0.5f, b = (float(j) + 0.5f) / n - 0.5f;
+      const float a = tapOffset(i, n), b = tapOffset(j, n);
       const glm::vec2 uv = f.uv + a * uvDx + b * uvDy;
       const Vec4 t = sampleBilinear(distortion, uv.x, uv.y);
       const glm::vec3 exit(t[0], t[1], t[2]);
