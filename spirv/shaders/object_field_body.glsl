@@ -13,12 +13,57 @@ layout(location = 2) in vec2 inFieldUv;
 layout(location = 3) in float inFrontIor;
 layout(location = 0) out vec4 outColor;
 
-// The transmitted light over the pixel: the taps of lookupEnvironmentOverPixel, but each at the
-// exit the distortion image holds at the tap's own place in the pixel (the field coordinate moved
+
+// The four texels around a field coordinate, with the sampler's bilinear weights, and how far
+// apart their exits are: 0 where every pair is within acos(kSpatialAgreeCosine), 1 where some pair
+// is beyond acos(kSpatialSplitCosine), linearly in the cosine between (gpu_layout.h).
+struct TexelCell {
+  vec3 exit[4];  // unit, object space; zero where the texel is empty
+  float weight[4];
+  float jump;
+};
+
+TexelCell readCell(vec2 uv) {
+  ivec2 size = textureSize(distortionMap, 0);
+  vec2 p = uv * vec2(size) - 0.5;
+  ivec2 corner = ivec2(floor(p));
+  vec2 f = p - floor(p);
+  TexelCell cell;
+  cell.weight = float[]((1.0 - f.x) * (1.0 - f.y), f.x * (1.0 - f.y), (1.0 - f.x) * f.y, f.x * f.y);
+  for (int k = 0; k < 4; ++k) {
+    vec3 d = texelFetch(distortionMap, clamp(corner + ivec2(k & 1, k >> 1), ivec2(0), size - 1), 0).xyz;
+    float len2 = dot(d, d);
+    cell.exit[k] = len2 > kMinDirectionLength2 ? d * inversesqrt(len2) : vec3(0.0);
+  }
+  float minCos = 1.0;
+  for (int a = 0; a < 4; ++a)
+    for (int c = a + 1; c < 4; ++c)
+      if (cell.exit[a] != vec3(0.0) && cell.exit[c] != vec3(0.0)) minCos = min(minCos, dot(cell.exit[a], cell.exit[c]));
+  cell.jump = clamp((kSpatialAgreeCosine - minCos) / (kSpatialAgreeCosine - kSpatialSplitCosine), 0.0, 1.0);
+  return cell;
+}
+
+// The cell's texels' own lookups blended by their bilinear weights, each divided by 1 + its luma
+// (a firefly-robust average: gpu_layout.h kLumaRed); w = 0 where no texel with weight holds an exit.
+vec4 cellColours(TexelCell cell, float footprint) {
+  vec3 sum = vec3(0.0);
+  float weight = 0.0;
+  for (int k = 0; k < 4; ++k) {
+    if (cell.exit[k] == vec3(0.0)) continue;
+    vec3 c = lookupEnvironment(rotateByQuaternion(pc.worldFromObjectRotation, cell.exit[k]), footprint);
+    float w = cell.weight[k] / (1.0 + dot(c, vec3(kLumaRed, kLumaGreen, kLumaBlue)));
+    sum += w * c;
+    weight += w;
+  }
+  return weight > 0.0 ? vec4(sum / weight, 1.0) : vec4(0.0);
+}
+
+// The transmitted light over the pixel, interpolating directions: the taps of
+// lookupEnvironmentOverPixel, but each at the exit the distortion image holds at the tap's own place in the pixel (the field coordinate moved
 // by the tap's offset along its derivatives), where it holds one, instead of the centre's exit
 // moved linearly: near a silhouette or a jump the exit turns faster than linearly across a pixel.
-// Mirrored by cpu_reference.cpp transmittedOverPixel.
-vec3 transmittedOverPixel(vec3 exitWorld, vec3 ddx, vec3 ddy, vec2 uv, vec2 uvDx, vec2 uvDy) {
+// Mirrored by cpu_reference.cpp directionsOverPixel.
+vec3 directionsOverPixel(vec3 exitWorld, vec3 ddx, vec3 ddy, vec2 uv, vec2 uvDx, vec2 uvDy) {
   // No derivatives or one tap: nothing but the centre's exit is read.
   if ((ddx == vec3(0.0) && ddy == vec3(0.0)) || ENVIRONMENT_TAPS == 1u)
     return lookupEnvironmentOverPixel(exitWorld, ddx, ddy);
@@ -36,6 +81,20 @@ vec3 transmittedOverPixel(vec3 exitWorld, vec3 ddx, vec3 ddy, vec2 uv, vec2 uvDx
     }
   }
   return sum / (n * n);
+}
+
+// The transmitted light over the pixel: directionsOverPixel where the texels around the centre
+// agree, their own lookups' blend (cellColours, each at one tap's share of the footprint) where
+// they straddle a jump, linearly between (TexelCell.jump). Once per pixel, not per tap: at 4x4
+// supersampling the same images (within 0.01 dB), at 1 spp 0.06 dB less, for a quarter of the
+// lookups (docs/encodings.md "Jumps across texels").
+vec3 transmittedOverPixel(vec3 exitWorld, vec3 ddx, vec3 ddy, vec2 uv, vec2 uvDx, vec2 uvDy) {
+  vec3 directions = directionsOverPixel(exitWorld, ddx, ddy, uv, uvDx, uvDy);
+  TexelCell cell = readCell(uv);
+  if (cell.jump == 0.0) return directions;
+  float footprint = directionFootprint(ddx / float(ENVIRONMENT_TAPS), ddy / float(ENVIRONMENT_TAPS));
+  vec4 colours = cellColours(cell, footprint);
+  return mix(directions, colours.rgb, cell.jump * colours.w);
 }
 
 void main() {

@@ -306,6 +306,65 @@ TEST(CpuReference, ShadeFieldOnAConstantEnvironment) {
   EXPECT_NEAR(reference::shadeField(distortion, env, p, {0, 0, 4}, shading, 1.0f)[0], c3[0], 1e-6f);
 }
 
+// Jumps across texels (gpu_layout.h kSpatialAgreeCosine): two texels whose exits are 90 deg apart
+// blend as colours, each texel's lookup weighed by its bilinear weight / (1 + luma), where the
+// blended direction would read a third colour no path sees; texels that agree blend as directions.
+// An environment of three regions: red where y > 0.5, green where x > 0.5, yellow where both.
+TEST(CpuReference, TexelsAcrossAJumpBlendTheirColours) {
+  constexpr uint32_t kW = 64, kH = 32;
+  std::vector<float> envPixels(size_t(kW) * kH * 4);
+  for (uint32_t y = 0; y < kH; ++y)
+    for (uint32_t x = 0; x < kW; ++x) {
+      const float theta = (float(y) + 0.5f) / float(kH) * std::numbers::pi_v<float>;
+      const float phi = ((float(x) + 0.5f) / float(kW) - 0.5f) * 2.0f * std::numbers::pi_v<float>;
+      const float dx = std::sin(theta) * std::sin(phi), dy = std::cos(theta);
+      float* p = &envPixels[(size_t(y) * kW + x) * 4];
+      p[0] = dy > 0.5f ? 1.0f : 0.0f;
+      p[1] = dx > 0.5f ? 1.0f : 0.0f;
+      p[2] = 0.0f;
+      p[3] = 1.0f;
+    }
+  const std::vector<std::vector<float>> noChain;
+  const reference::LatLongImage env{kW, kH, envPixels.data(), &noChain};
+  reference::DistortionImage distortion;
+  distortion.width = 2;
+  distortion.height = 1;
+  reference::SurfacePoint p;
+  p.normal = {0, 0, 1};
+  p.uv = {0.5f, 0.5f};  // midway between the two texel centres
+  p.frontIor = 1.0f;    // no reflection: the colour is the transmitted lookup
+  const ObjectShading shading;
+  auto shade = [&](const std::array<float, 3>& a, const std::array<float, 3>& b) {
+    distortion.rgba = {a[0], a[1], a[2], 0.0f, b[0], b[1], b[2], 0.0f};
+    return reference::shadeField(distortion, env, p, {0, 0, 4}, shading);
+  };
+  // Both texels +y: red, whichever way they blend.
+  const reference::Vec3 same = shade({0, 1, 0}, {0, 1, 0});
+  EXPECT_NEAR(same[0], 1.0f, 1e-5f);
+  EXPECT_NEAR(same[1], 0.0f, 1e-5f);
+  // +y and +x: their blended direction (1, 1, 0) / sqrt(2) reads yellow; the colours blend to red
+  // and green weighed 0.5 / (1 + 0.2126) and 0.5 / (1 + 0.7152).
+  const reference::Vec3 jump = shade({0, 1, 0}, {1, 0, 0});
+  const float red = 1.0f / 1.2126f, green = 1.0f / 1.7152f;
+  EXPECT_NEAR(jump[0], red / (red + green), 1e-4f);
+  EXPECT_NEAR(jump[1], green / (red + green), 1e-4f);
+  EXPECT_NEAR(jump[2], 0.0f, 1e-6f);
+  // Within kSpatialAgreeCosine (2 deg apart about a direction inside the red region): direction
+  // blending, the same red.
+  const float a = 2.0f * std::numbers::pi_v<float> / 180.0f;
+  const reference::Vec3 agree = shade({0, 1, 0}, {std::sin(a), std::cos(a), 0});
+  EXPECT_NEAR(agree[0], 1.0f, 1e-5f);
+  EXPECT_NEAR(agree[1], 0.0f, 1e-5f);
+  // The uv on an empty texel whose neighbours straddle a jump with no weight: no colour weight, no
+  // direction: the view direction (-z, which the environment shows black), never NaN.
+  distortion.width = 2;
+  distortion.height = 2;
+  distortion.rgba = {0, 0, 0, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0};
+  p.uv = {0.25f, 0.25f};  // texel (0, 0)'s centre: bilinear weight 1 on the empty texel
+  const reference::Vec3 empty = reference::shadeField(distortion, env, p, {0, 0, 4}, shading);
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(empty[k], 0.0f) << k;
+}
+
 TEST(CpuReference, RenderHitsFrontFacesOnly) {
   // A quad at z = 0 facing +z; the camera on +z sees it in the middle of the image.
   FieldMesh mesh;

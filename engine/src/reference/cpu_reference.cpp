@@ -235,16 +235,64 @@ FieldFragment fieldFragment(const DistortionImage& distortion, const SurfacePoin
   return f;
 }
 
-// The transmitted light over the pixel (object_field_body.glsl transmittedOverPixel): the taps of
-// sampleLatLongOverPixel, each at the exit the distortion image holds at the tap's own place in
-// the pixel, where it holds one (else the centre's exit moved along its derivatives).
-Vec3 transmittedOverPixel(const DistortionImage& distortion, const LatLongImage& env, const FieldFragment& f,
+// The four texels around a field coordinate (object_field_body.glsl TexelCell, readCell).
+struct TexelCell {
+  std::array<glm::vec3, 4> exit{};  // unit, object space; zero where the texel is empty
+  std::array<float, 4> weight{};
+  float jump = 0.0f;
+};
+
+TexelCell readCell(const DistortionImage& distortion, glm::vec2 uv) {
+  const float x = uv.x * float(distortion.width) - 0.5f, y = uv.y * float(distortion.height) - 0.5f;
+  const float fx = std::floor(x), fy = std::floor(y);
+  const float ax = x - fx, ay = y - fy;
+  TexelCell cell;
+  cell.weight = {(1.0f - ax) * (1.0f - ay), ax * (1.0f - ay), (1.0f - ax) * ay, ax * ay};
+  for (int k = 0; k < 4; ++k) {
+    const auto cx = static_cast<uint32_t>(std::clamp(fx + float(k & 1), 0.0f, float(distortion.width - 1)));
+    const auto cy = static_cast<uint32_t>(std::clamp(fy + float(k >> 1), 0.0f, float(distortion.height - 1)));
+    const float* texel = texelAt(distortion, cx, cy);
+    const glm::vec3 d(texel[0], texel[1], texel[2]);
+    const float len2 = glm::dot(d, d);
+    cell.exit[k] = len2 > gpu::kMinDirectionLength2 ? d / std::sqrt(len2) : glm::vec3(0.0f);
+  }
+  float minCos = 1.0f;
+  for (int a = 0; a < 4; ++a)
+    for (int c = a + 1; c < 4; ++c)
+      if (cell.exit[a] != glm::vec3(0.0f) && cell.exit[c] != glm::vec3(0.0f))
+        minCos = std::min(minCos, glm::dot(cell.exit[a], cell.exit[c]));
+  cell.jump = std::clamp((gpu::kSpatialAgreeCosine - minCos) / (gpu::kSpatialAgreeCosine - gpu::kSpatialSplitCosine),
+                         0.0f, 1.0f);
+  return cell;
+}
+
+// The cell's texels' own lookups, each weighed by its bilinear weight / (1 + its luma); w = 0 where
+// no texel with weight holds an exit (object_field_body.glsl cellColours).
+glm::vec4 cellColours(const TexelCell& cell, const LatLongImage& env, float footprint,
+                      const Transform& worldFromObject) {
+  glm::vec3 sum(0.0f);
+  float weight = 0.0f;
+  for (int k = 0; k < 4; ++k) {
+    if (cell.exit[k] == glm::vec3(0.0f)) continue;
+    const glm::vec3 c = toGlm(sampleLatLong(env, rotateDirection(worldFromObject, fromGlm(cell.exit[k])), footprint));
+    const float w = cell.weight[k] / (1.0f + glm::dot(c, glm::vec3(gpu::kLumaRed, gpu::kLumaGreen, gpu::kLumaBlue)));
+    sum += w * c;
+    weight += w;
+  }
+  return weight > 0.0f ? glm::vec4(sum / weight, 1.0f) : glm::vec4(0.0f);
+}
+
+// The transmitted light over the pixel, interpolating directions (object_field_body.glsl
+// directionsOverPixel): the taps of sampleLatLongOverPixel, each at the exit the distortion image
+// holds at the tap's own place in the pixel, where it holds one (else the centre's exit moved along
+// its derivatives).
+glm::vec3 directionsOverPixel(const DistortionImage& distortion, const LatLongImage& env, const FieldFragment& f,
                           const LookupDerivatives& d, const Transform& worldFromObject) {
   const glm::vec3 dir = f.exitWorld, dx = toGlm(d.exitDx), dy = toGlm(d.exitDy);
   const uint32_t taps = std::clamp(env.tapsPerAxis, 1u, kMaxEnvironmentTapsPerAxis);
   // No derivatives or one tap: nothing but the centre's exit is read.
   if ((dx == glm::vec3(0.0f) && dy == glm::vec3(0.0f)) || taps == 1)
-    return sampleLatLongOverPixel(env, fromGlm(dir), d.exitDx, d.exitDy);
+    return toGlm(sampleLatLongOverPixel(env, fromGlm(dir), d.exitDx, d.exitDy));
   const float n = float(taps);
   const float footprint = directionFootprint(fromGlm(dx / n), fromGlm(dy / n));
   const glm::vec2 uvDx(d.uvDx[0], d.uvDx[1]), uvDy(d.uvDy[0], d.uvDy[1]);
@@ -261,7 +309,22 @@ Vec3 transmittedOverPixel(const DistortionImage& distortion, const LatLongImage&
                                 : dir + a * dx + b * dy;
       sum += toGlm(sampleLatLong(env, fromGlm(glm::dot(tap, tap) > 1e-12f ? tap : dir), footprint));
     }
-  return fromGlm(sum / (n * n));
+  return sum / (n * n);
+}
+
+// The transmitted light over the pixel (object_field_body.glsl transmittedOverPixel): directions
+// where the texels around the centre agree, their own lookups' blend where they straddle a jump.
+Vec3 transmittedOverPixel(const DistortionImage& distortion, const LatLongImage& env, const FieldFragment& f,
+                          const LookupDerivatives& d, const Transform& worldFromObject) {
+  const glm::vec3 directions = directionsOverPixel(distortion, env, f, d, worldFromObject);
+  const TexelCell cell = readCell(distortion, f.uv);
+  if (cell.jump == 0.0f) return fromGlm(directions);
+  const uint32_t taps = std::clamp(env.tapsPerAxis, 1u, kMaxEnvironmentTapsPerAxis);
+  const float n = float(taps);
+  const float footprint = directionFootprint(fromGlm(toGlm(d.exitDx) / n), fromGlm(toGlm(d.exitDy) / n));
+  const glm::vec4 colours = cellColours(cell, env, footprint, worldFromObject);
+  const float t = cell.jump * colours.w;
+  return fromGlm(directions + t * (glm::vec3(colours) - directions));
 }
 
 }  // namespace
