@@ -13,7 +13,6 @@ layout(location = 2) in vec2 inFieldUv;
 layout(location = 3) in float inFrontIor;
 layout(location = 0) out vec4 outColor;
 
-
 // The four texels around a field coordinate, with the sampler's bilinear weights, and how far
 // apart their exits are: 0 where every pair is within acos(kSpatialAgreeCosine), 1 where some pair
 // is beyond acos(kSpatialSplitCosine), linearly in the cosine between (gpu_layout.h).
@@ -59,9 +58,10 @@ vec4 cellColours(TexelCell cell, float footprint) {
 }
 
 // The transmitted light over the pixel, interpolating directions: the taps of
-// lookupEnvironmentOverPixel, but each at the exit the distortion image holds at the tap's own place in the pixel (the field coordinate moved
-// by the tap's offset along its derivatives), where it holds one, instead of the centre's exit
-// moved linearly: near a silhouette or a jump the exit turns faster than linearly across a pixel.
+// lookupEnvironmentOverPixel, but each at the exit the distortion image holds at the tap's own
+// place in the pixel (the field coordinate moved by the tap's offset along its derivatives), where
+// it holds one, instead of the centre's exit moved linearly: near a silhouette or a jump the exit
+// turns faster than linearly across a pixel.
 // Mirrored by cpu_reference.cpp directionsOverPixel.
 vec3 directionsOverPixel(vec3 exitWorld, vec3 ddx, vec3 ddy, vec2 uv, vec2 uvDx, vec2 uvDy) {
   // No derivatives or one tap: nothing but the centre's exit is read.
