@@ -287,7 +287,7 @@ glm::vec4 cellColours(const TexelCell& cell, const LatLongImage& env, float foot
 // holds at the tap's own place in the pixel, where it holds one (else the centre's exit moved along
 // its derivatives).
 glm::vec3 directionsOverPixel(const DistortionImage& distortion, const LatLongImage& env, const FieldFragment& f,
-                          const LookupDerivatives& d, const Transform& worldFromObject) {
+                              const LookupDerivatives& d, const Transform& worldFromObject) {
   const glm::vec3 dir = f.exitWorld, dx = toGlm(d.exitDx), dy = toGlm(d.exitDy);
   const uint32_t taps = std::clamp(env.tapsPerAxis, 1u, kMaxEnvironmentTapsPerAxis);
   // No derivatives or one tap: nothing but the centre's exit is read.
