@@ -22,6 +22,9 @@ vec3 lookupEnvironment(vec3 dir, float footprint) { return sampleEnvironment(env
 // Taps per axis of lookupEnvironmentOverPixel, chosen per renderer (RendererCreateInfo).
 layout(constant_id = kSpecEnvironmentTaps) const uint ENVIRONMENT_TAPS = kEnvironmentTapsPerAxis;
 
+// Where tap i of n sits along one of the pixel's axes, in (-1/2, 1/2): the centre of its cell.
+float tapOffset(uint i, float n) { return (float(i) + 0.5) / n - 0.5; }
+
 // The environment averaged over the pixel for a direction `dir` with screen derivatives ddx, ddy
 // (fine: each 2x2 quad's own row and column differences, which the CPU reference mirrors by
 // shading the quad neighbours; take them in uniform control flow): ENVIRONMENT_TAPS^2 taps at the
@@ -29,9 +32,6 @@ layout(constant_id = kSpecEnvironmentTaps) const uint ENVIRONMENT_TAPS = kEnviro
 // at the level of one cell's footprint (one tap: the whole footprint, kOneTapFootprintScale
 // finer). A tap that cancels to zero (derivatives as long as a half turn) reads dir. Zero
 // derivatives read level 0 once.
-// Where tap i of n sits along one of the pixel's axes, in (-1/2, 1/2): the centre of its cell.
-float tapOffset(uint i, float n) { return (float(i) + 0.5) / n - 0.5; }
-
 vec3 lookupEnvironmentOverPixel(vec3 dir, vec3 ddx, vec3 ddy) {
   if (ddx == vec3(0.0) && ddy == vec3(0.0)) return lookupEnvironment(dir, 0.0);
   float n = float(ENVIRONMENT_TAPS);

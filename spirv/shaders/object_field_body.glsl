@@ -89,12 +89,13 @@ vec3 directionsOverPixel(vec3 exitWorld, vec3 ddx, vec3 ddy, vec2 uv, vec2 uvDx,
 // supersampling the same images (within 0.01 dB), at 1 spp 0.06 dB less, for a quarter of the
 // lookups (docs/encodings.md "Jumps across texels").
 vec3 transmittedOverPixel(vec3 exitWorld, vec3 ddx, vec3 ddy, vec2 uv, vec2 uvDx, vec2 uvDy) {
-  vec3 directions = directionsOverPixel(exitWorld, ddx, ddy, uv, uvDx, uvDy);
   TexelCell cell = readCell(uv);
-  if (cell.jump == 0.0) return directions;
+  if (cell.jump == 0.0) return directionsOverPixel(exitWorld, ddx, ddy, uv, uvDx, uvDy);
   float footprint = directionFootprint(ddx / float(ENVIRONMENT_TAPS), ddy / float(ENVIRONMENT_TAPS));
   vec4 colours = cellColours(cell, footprint);
-  return mix(directions, colours.rgb, cell.jump * colours.w);
+  float t = cell.jump * colours.w;
+  if (t == 1.0) return colours.rgb;  // the direction taps would weigh nothing
+  return mix(directionsOverPixel(exitWorld, ddx, ddy, uv, uvDx, uvDy), colours.rgb, t);
 }
 
 void main() {

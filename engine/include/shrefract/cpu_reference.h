@@ -125,8 +125,8 @@ struct SurfacePoint {
 };
 
 // Screen derivatives (fine, as the GPU's) of a fragment's two lookup directions, for
-// sampleLatLongOverPixel; zero reads level 0 once. The field coordinate's place each transmitted
-// tap's own exit in the distortion image (shadeField).
+// sampleLatLongOverPixel; zero reads level 0 once. The field coordinate's derivatives place each
+// transmitted tap in the distortion image (shadeField).
 struct LookupDerivatives {
   Vec3 exitDx{}, exitDy{};            // the exit (refracted) direction
   Vec3 reflectedDx{}, reflectedDy{};  // the front reflection

@@ -82,19 +82,38 @@ DistortionImage decompress(const Field& field, const Vec3& eye, uint32_t order) 
   return image;
 }
 
-Vec4 sampleBilinear(const DistortionImage& image, float u, float v) {
+namespace {
+// The four texels around (u, v) as the sampler addresses them (texel centres at half-integers,
+// clamped to the edge), in the order (x0, y0), (x1, y0), (x0, y1), (x1, y1), and where (u, v)
+// lies between them: shared by sampleBilinear and the raster mirror's readCell.
+struct BilinearCorners {
+  std::array<const float*, 4> texel{};
+  float ax = 0.0f, ay = 0.0f;  // the fractions along x and y
+  std::array<float, 4> weights() const {
+    return {(1.0f - ax) * (1.0f - ay), ax * (1.0f - ay), (1.0f - ax) * ay, ax * ay};
+  }
+};
+
+BilinearCorners bilinearCorners(const DistortionImage& image, float u, float v) {
   const float x = u * float(image.width) - 0.5f;
   const float y = v * float(image.height) - 0.5f;
   const float fx = std::floor(x), fy = std::floor(y);
-  const float ax = x - fx, ay = y - fy;
   auto clampX = [&](float i) { return static_cast<uint32_t>(std::clamp(i, 0.0f, float(image.width - 1))); };
   auto clampY = [&](float j) { return static_cast<uint32_t>(std::clamp(j, 0.0f, float(image.height - 1))); };
   const uint32_t x0 = clampX(fx), x1 = clampX(fx + 1.0f), y0 = clampY(fy), y1 = clampY(fy + 1.0f);
+  return {{texelAt(image, x0, y0), texelAt(image, x1, y0), texelAt(image, x0, y1), texelAt(image, x1, y1)},
+          x - fx,
+          y - fy};
+}
+}  // namespace
+
+Vec4 sampleBilinear(const DistortionImage& image, float u, float v) {
+  const BilinearCorners q = bilinearCorners(image, u, v);
   Vec4 out{};
   for (int c = 0; c < 4; ++c) {
-    const float top = (1.0f - ax) * texelAt(image, x0, y0)[c] + ax * texelAt(image, x1, y0)[c];
-    const float bottom = (1.0f - ax) * texelAt(image, x0, y1)[c] + ax * texelAt(image, x1, y1)[c];
-    out[c] = (1.0f - ay) * top + ay * bottom;
+    const float top = (1.0f - q.ax) * q.texel[0][c] + q.ax * q.texel[1][c];
+    const float bottom = (1.0f - q.ax) * q.texel[2][c] + q.ax * q.texel[3][c];
+    out[c] = (1.0f - q.ay) * top + q.ay * bottom;
   }
   return out;
 }
@@ -243,16 +262,11 @@ struct TexelCell {
 };
 
 TexelCell readCell(const DistortionImage& distortion, glm::vec2 uv) {
-  const float x = uv.x * float(distortion.width) - 0.5f, y = uv.y * float(distortion.height) - 0.5f;
-  const float fx = std::floor(x), fy = std::floor(y);
-  const float ax = x - fx, ay = y - fy;
+  const BilinearCorners corners = bilinearCorners(distortion, uv.x, uv.y);
   TexelCell cell;
-  cell.weight = {(1.0f - ax) * (1.0f - ay), ax * (1.0f - ay), (1.0f - ax) * ay, ax * ay};
+  cell.weight = corners.weights();
   for (int k = 0; k < 4; ++k) {
-    const auto cx = static_cast<uint32_t>(std::clamp(fx + float(k & 1), 0.0f, float(distortion.width - 1)));
-    const auto cy = static_cast<uint32_t>(std::clamp(fy + float(k >> 1), 0.0f, float(distortion.height - 1)));
-    const float* texel = texelAt(distortion, cx, cy);
-    const glm::vec3 d(texel[0], texel[1], texel[2]);
+    const glm::vec3 d(corners.texel[k][0], corners.texel[k][1], corners.texel[k][2]);
     const float len2 = glm::dot(d, d);
     cell.exit[k] = len2 > gpu::kMinDirectionLength2 ? d / std::sqrt(len2) : glm::vec3(0.0f);
   }
@@ -316,14 +330,14 @@ glm::vec3 directionsOverPixel(const DistortionImage& distortion, const LatLongIm
 // where the texels around the centre agree, their own lookups' blend where they straddle a jump.
 Vec3 transmittedOverPixel(const DistortionImage& distortion, const LatLongImage& env, const FieldFragment& f,
                           const LookupDerivatives& d, const Transform& worldFromObject) {
-  const glm::vec3 directions = directionsOverPixel(distortion, env, f, d, worldFromObject);
   const TexelCell cell = readCell(distortion, f.uv);
-  if (cell.jump == 0.0f) return fromGlm(directions);
-  const uint32_t taps = std::clamp(env.tapsPerAxis, 1u, kMaxEnvironmentTapsPerAxis);
-  const float n = float(taps);
+  if (cell.jump == 0.0f) return fromGlm(directionsOverPixel(distortion, env, f, d, worldFromObject));
+  const float n = float(std::clamp(env.tapsPerAxis, 1u, kMaxEnvironmentTapsPerAxis));
   const float footprint = directionFootprint(fromGlm(toGlm(d.exitDx) / n), fromGlm(toGlm(d.exitDy) / n));
   const glm::vec4 colours = cellColours(cell, env, footprint, worldFromObject);
   const float t = cell.jump * colours.w;
+  if (t == 1.0f) return fromGlm(glm::vec3(colours));  // the direction taps would weigh nothing
+  const glm::vec3 directions = directionsOverPixel(distortion, env, f, d, worldFromObject);
   return fromGlm(directions + t * (glm::vec3(colours) - directions));
 }
 
