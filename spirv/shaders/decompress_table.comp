@@ -57,8 +57,16 @@ vec3 straightThrough(uint s, vec3 w) {
 // Jump-aware interpolation of the cell's corners v (field_decode.cpp interpolateCorners, which
 // explains it; constants in gpu_layout.h), in the same float operations. sum: the DECODED channels.
 void interpolateCorners(uint s, HemiOctBilinear b, vec3 w, float v[4][6], inout float sum[5]) {
+  // Node-sampled exits blend by b_j |o_j| (field_decode.cpp interpolateCorners says why).
+  float lengths[4] = float[4](1.0, 1.0, 1.0, 1.0);
+  float exitWeight[4];
+  float weighted = 0.0;
+  if (JUMP_AWARE)
+    for (int j = 0; j < 4; ++j) lengths[j] = octahedronLength(b.node[j], TABLE_SIZE);
+  for (int j = 0; j < 4; ++j) weighted += b.weight[j] * lengths[j];
+  for (int j = 0; j < 4; ++j) exitWeight[j] = b.weight[j] * lengths[j] / weighted;
   for (int j = 0; j < 4; ++j)
-    for (int c = 0; c < DECODED; ++c) sum[c] += b.weight[j] * v[j][c];
+    for (int c = 0; c < DECODED; ++c) sum[c] += (c < 3 ? exitWeight[j] : b.weight[j]) * v[j][c];
   if (!JUMP_AWARE || TABLE_SIZE < kJumpMinTableSize) return;
   vec3 eye = straightThrough(s, w);
   vec3 e[4];
@@ -91,10 +99,12 @@ void interpolateCorners(uint s, HemiOctBilinear b, vec3 w, float v[4][6], inout 
     }
     if (JUMP_DISTANCE) pm *= clamp(0.5 + signedDistance / kJumpDistanceSoftness, 0.0, 1.0) + kJumpDistanceFloor;
     for (int j = 0; j < 4; ++j) discounted += pm * (b.weight[j] - kept[j]);
+    float exitTotal = 0.0;
+    for (int j = 0; j < 4; ++j) exitTotal += kept[j] * lengths[j];
     for (int c = 0; c < DECODED; ++c) {
       float side = 0.0;
-      for (int j = 0; j < 4; ++j) side += kept[j] * (c < 3 ? e[j][c] : v[j][c]);
-      estimate[c] += pm * side / total;
+      for (int j = 0; j < 4; ++j) side += c < 3 ? kept[j] * lengths[j] * e[j][c] : kept[j] * v[j][c];
+      estimate[c] += pm * side / (c < 3 ? exitTotal : total);
     }
     dominance += pm;
   }

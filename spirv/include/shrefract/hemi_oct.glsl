@@ -43,4 +43,12 @@ vec3 hemiOctDirection(uint i, uint j, uint n) {
   return vec3(px / len, py / len, pz / len);
 }
 
+// The length of node `node`'s point on the octahedron (field_decode.cpp octahedronLength).
+float octahedronLength(uint node, uint n) {
+  float a = 2.0 * float(node % n) / float(n - 1u) - 1.0, b = 2.0 * float(node / n) / float(n - 1u) - 1.0;
+  float px = 0.5 * (a + b), py = 0.5 * (a - b);
+  float pz = max(0.0, 1.0 - abs(px) - abs(py));
+  return sqrt(px * px + py * py + pz * pz);
+}
+
 #endif  // SHREFRACT_HEMI_OCT_GLSL
