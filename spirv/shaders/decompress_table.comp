@@ -54,6 +54,31 @@ vec3 straightThrough(uint s, vec3 w) {
               -(w.x * r0.z + w.y * r1.z + w.z * r2.z) / l);
 }
 
+// A side's estimate at w from its corners' values: coefficients (sum 1) of the plane fitted to them
+// (field_decode.cpp sideCoefficients, which explains it), in the same float operations.
+void sideCoefficients(HemiOctBilinear b, float kept[4], float keep[4], out float alpha[4]) {
+  float tx = b.weight[1] + b.weight[3], ty = b.weight[2] + b.weight[3];
+  float dx[4] = float[4](-tx, 1.0 - tx, -tx, 1.0 - tx), dy[4] = float[4](-ty, -ty, 1.0 - ty, 1.0 - ty);
+  float f[4];
+  float sx = 0.0, sy = 0.0, sxx = kJumpSideSlopeRidge, sxy = 0.0, syy = kJumpSideSlopeRidge;
+  for (int j = 0; j < 4; ++j) {
+    float k2 = keep[j] * keep[j];
+    f[j] = kept[j] * (k2 * k2);
+    sx += f[j] * dx[j];
+    sy += f[j] * dy[j];
+    sxx += f[j] * dx[j] * dx[j];
+    sxy += f[j] * dx[j] * dy[j];
+    syy += f[j] * dy[j] * dy[j];
+  }
+  float minor = sxx * syy - sxy * sxy;
+  float det = 0.0;
+  for (int j = 0; j < 4; ++j) {
+    alpha[j] = f[j] * (minor - sx * (dx[j] * syy - sxy * dy[j]) + sy * (dx[j] * sxy - sxx * dy[j]));
+    det += alpha[j];
+  }
+  for (int j = 0; j < 4; ++j) alpha[j] /= det;
+}
+
 // Jump-aware interpolation of the cell's corners v (field_decode.cpp interpolateCorners, which
 // explains it; constants in gpu_layout.h), in the same float operations. sum: the DECODED channels.
 void interpolateCorners(uint s, HemiOctBilinear b, vec3 w, float v[4][6], inout float sum[5]) {
@@ -87,24 +112,23 @@ void interpolateCorners(uint s, HemiOctBilinear b, vec3 w, float v[4][6], inout 
   for (int m = 0; m < 4; ++m) {
     float pm = JUMP_DISTANCE ? b.weight[m] : pow(b.weight[m], kJumpDominancePower);
     if (!(pm > 0.0)) continue;
-    float kept[4];
-    float total = 0.0, signedDistance = 0.0;
+    float keep[4], kept[4];
+    float signedDistance = 0.0;
     for (int j = 0; j < 4; ++j) {
       float dotJ = e[j].x * e[m].x + e[j].y * e[m].y + e[j].z * e[m].z;
       float cosine = len[j] * len[m] > kMinDirectionLength2 ? dotJ / (len[j] * len[m]) : 1.0;
-      float keep = clamp((cosine - kJumpCosineNone) / (kJumpCosineFull - kJumpCosineNone), 0.0, 1.0);
-      kept[j] = b.weight[j] * keep;
-      total += kept[j];
-      signedDistance += b.weight[j] * distance[j] * (2.0 * keep - 1.0);
+      keep[j] = clamp((cosine - kJumpCosineNone) / (kJumpCosineFull - kJumpCosineNone), 0.0, 1.0);
+      kept[j] = b.weight[j] * keep[j];
+      signedDistance += b.weight[j] * distance[j] * (2.0 * keep[j] - 1.0);
     }
     if (JUMP_DISTANCE) pm *= clamp(0.5 + signedDistance / kJumpDistanceSoftness, 0.0, 1.0) + kJumpDistanceFloor;
     for (int j = 0; j < 4; ++j) discounted += pm * (b.weight[j] - kept[j]);
-    float exitTotal = 0.0;
-    for (int j = 0; j < 4; ++j) exitTotal += kept[j] * lengths[j];
+    float alpha[4];
+    sideCoefficients(b, kept, keep, alpha);
     for (int c = 0; c < DECODED; ++c) {
       float side = 0.0;
-      for (int j = 0; j < 4; ++j) side += c < 3 ? kept[j] * lengths[j] * e[j][c] : kept[j] * v[j][c];
-      estimate[c] += pm * side / (c < 3 ? exitTotal : total);
+      for (int j = 0; j < 4; ++j) side += alpha[j] * (c < 3 ? e[j][c] : v[j][c]);
+      estimate[c] += pm * side;
     }
     dominance += pm;
   }

@@ -1183,6 +1183,49 @@ TEST(HemiOctahedral, NodeSampledLinearExitsDecodeExactlyInsideQuadrants) {
   }
 }
 
+// A cell that a jump crosses, three corners on the eye's side: the side's exits are the
+// straight-through exit (-w in the sample's frame) tilted by a term linear across the grid, as a
+// prism's side face bends them, so its estimate at w is the plane through its three corners
+// (field_decode.cpp sideCoefficients), exact to rounding; their blend moved by the
+// straight-through correction alone errs by a degree there.
+TEST(HemiOctahedral, JumpCellSideExtrapolatesItsOwnCorners) {
+  const uint32_t n = 16;  // jump-aware (>= gpu::kJumpMinTableSize)
+  const float jump = 16.5f;  // the jump: grid coordinates with i + j = 16.5
+  const auto sideA = [n](float i, float j) {
+    const std::array<float, 3> w = hemiOctDirectionAt(i, j, n);
+    return std::array<float, 3>{-w[0] - 0.3f + 0.08f * i, -w[1] + 0.1f + 0.06f * j, -w[2]};
+  };
+  std::vector<float> table(size_t(n) * n * 4);
+  for (uint32_t node = 0; node < n * n; ++node) {
+    const float i = float(node % n), j = float(node / n);
+    const std::array<float, 3> e = i + j < jump ? sideA(i, j) : std::array<float, 3>{0.8f, 0.0f, -0.6f};
+    const float cells = std::min(std::fabs(i + j - jump) / std::sqrt(2.0f), 1.0f);  // to the jump
+    std::copy(e.begin(), e.end(), table.begin() + node * 4);
+    table[node * 4 + 3] = cells * 3.14159265f / float(n - 1);  // the channel's scale (gpu_layout.h)
+  }
+  EncodingShape shape;
+  shape.encoding = Encoding::Table;
+  shape.tableSize = n;
+  shape.channels = 4;
+  shape.jumpAware = shape.jumpDistance = shape.sampleFrameExits = true;
+  // Cell (7, 8): corners (7, 8), (8, 8), (7, 9) on side A, (8, 9) beyond the jump with bilinear
+  // weight >= 1 / gpu::kJumpBlendGain, so that the jump-aware estimate replaces the bilinear blend.
+  float worst = 0.0f;
+  for (const auto& [gi, gj] : {std::pair{7.4f, 8.3f}, std::pair{7.2f, 8.6f}, std::pair{7.7f, 8.1f}, std::pair{7.5f, 8.5f}}) {
+    float out[3];
+    evaluateCoefficients(shape, table.data(), nullptr, hemiOctDirectionAt(gi, gj, n), out);
+    const std::array<float, 3> exact = sideA(gi, gj);
+    const float cx = out[1] * exact[2] - out[2] * exact[1], cy = out[2] * exact[0] - out[0] * exact[2],
+                cz = out[0] * exact[1] - out[1] * exact[0];
+    const float degrees = std::atan2(std::sqrt(cx * cx + cy * cy + cz * cz),
+                                     out[0] * exact[0] + out[1] * exact[1] + out[2] * exact[2]) * 57.29578f;
+    worst = std::max(worst, degrees);
+  }
+  // Measured: 0.0075 deg (the slopes' ridge); the blend of the side's corners moved by the
+  // straight-through correction (the decode before the plane fit): 0.69 deg.
+  EXPECT_LT(worst, 0.05f);
+}
+
 // Extreme but valid: weights at the coefficient bound and direction basis values at theirs decode
 // to finite sums whose squared length is finite too (the bound of validateField).
 TEST(FieldEncodingValidation, ExtremePcaFieldDecodesFinite) {

@@ -69,12 +69,42 @@ std::array<float, 3> straightThrough(const float* rows, float x, float y, float 
   return d;
 }
 
+// The coefficients (sum 1) that give a side's estimate at w from its corners' values: the plane
+// fitted by least squares to the corners at their offsets from w in cells, weighted by
+// kept_j keep_j^4 and with gpu::kJumpSideSlopeRidge on both slopes, evaluated at w (Cramer's
+// rule for its constant term). With one corner it is that corner's value; with three or more,
+// the plane through them: where the exit moves unlike a slab's (a prism's side face), the side's
+// own corners give its slope instead of the straight-through correction alone.
+std::array<float, 4> sideCoefficients(const HemiOctBilinear& b, const float* kept, const float* keep) {
+  const float tx = b.weight[1] + b.weight[3], ty = b.weight[2] + b.weight[3];
+  const float dx[4] = {-tx, 1.0f - tx, -tx, 1.0f - tx}, dy[4] = {-ty, -ty, 1.0f - ty, 1.0f - ty};
+  float f[4], sx = 0.0f, sy = 0.0f, sxx = gpu::kJumpSideSlopeRidge, sxy = 0.0f, syy = gpu::kJumpSideSlopeRidge;
+  for (int j = 0; j < 4; ++j) {
+    const float k2 = keep[j] * keep[j];
+    f[j] = kept[j] * (k2 * k2);
+    sx += f[j] * dx[j];
+    sy += f[j] * dy[j];
+    sxx += f[j] * dx[j] * dx[j];
+    sxy += f[j] * dx[j] * dy[j];
+    syy += f[j] * dy[j] * dy[j];
+  }
+  const float minor = sxx * syy - sxy * sxy;
+  std::array<float, 4> alpha{};
+  float det = 0.0f;
+  for (int j = 0; j < 4; ++j) {
+    alpha[size_t(j)] = f[j] * (minor - sx * (dx[j] * syy - sxy * dy[j]) + sy * (dx[j] * sxy - sxx * dy[j]));
+    det += alpha[size_t(j)];
+  }
+  for (float& a : alpha) a /= det;  // det >= f_m ridge^2 > 0: corner m is fully on its own side
+  return alpha;
+}
+
 // Jump-aware interpolation of a cell's four corners (docs/encodings.md, "Jumps"). Bilinear
 // interpolation across a jump of the exit direction makes a direction no path takes. Each corner
 // estimates the exit at w as its own exit moved by the change of the straight-through direction
 // from its node to w; seen from a corner m, a corner whose estimate is far from m's is discounted
 // (fully beyond acos(kJumpCosineNone), linearly in the cosine from acos(kJumpCosineFull)) and the
-// estimates of the others are blended. The four views are averaged with weights w_m^p, which
+// others' estimates give the side's value at w (sideCoefficients: the plane through them). The four views are averaged with weights w_m^p, which
 // picks the side of the jump holding most of the weight, steeply but without a step (a step
 // flickers as the eye moves). Where no corner is discounted this is plain bilinear
 // interpolation; between the two the results are blended by min(1, kJumpBlendGain x the
@@ -122,25 +152,22 @@ void interpolateCorners(const HemiOctBilinear& b, const EncodingShape& shape, co
   for (int m = 0; m < 4; ++m) {
     float pm = shape.jumpDistance ? b.weight[m] : std::pow(b.weight[m], gpu::kJumpDominancePower);
     if (!(pm > 0.0f)) continue;
-    float kept[4], sum = 0.0f, signedDistance = 0.0f;
+    float keep[4], kept[4], signedDistance = 0.0f;
     for (int j = 0; j < 4; ++j) {
       const float dot = e[j][0] * e[m][0] + e[j][1] * e[m][1] + e[j][2] * e[m][2];
       const float cosine = length[j] * length[m] > gpu::kMinDirectionLength2 ? dot / (length[j] * length[m]) : 1.0f;
-      const float keep =
-          std::clamp((cosine - gpu::kJumpCosineNone) / (gpu::kJumpCosineFull - gpu::kJumpCosineNone), 0.0f, 1.0f);
-      kept[j] = b.weight[j] * keep;
-      sum += kept[j];
-      signedDistance += b.weight[j] * distance[j] * (2.0f * keep - 1.0f);
+      keep[j] = std::clamp((cosine - gpu::kJumpCosineNone) / (gpu::kJumpCosineFull - gpu::kJumpCosineNone), 0.0f, 1.0f);
+      kept[j] = b.weight[j] * keep[j];
+      signedDistance += b.weight[j] * distance[j] * (2.0f * keep[j] - 1.0f);
     }
     if (shape.jumpDistance)
       pm *= std::clamp(0.5f + signedDistance / gpu::kJumpDistanceSoftness, 0.0f, 1.0f) + gpu::kJumpDistanceFloor;
     for (int j = 0; j < 4; ++j) discounted += pm * (b.weight[j] - kept[j]);
-    float exitSum = 0.0f;  // >= w_m |o_m| > 0, as sum
-    for (int j = 0; j < 4; ++j) exitSum += kept[j] * lengths[j];
+    const std::array<float, 4> alpha = sideCoefficients(b, kept, keep);
     for (uint32_t c = 0; c < channels; ++c) {
       float side = 0.0f;
-      for (int j = 0; j < 4; ++j) side += c < 3 ? kept[j] * lengths[j] * e[j][c] : kept[j] * v[j][c];
-      estimate[c] += pm * side / (c < 3 ? exitSum : sum);  // sum >= w_m > 0
+      for (int j = 0; j < 4; ++j) side += alpha[size_t(j)] * (c < 3 ? e[j][c] : v[j][c]);
+      estimate[c] += pm * side;
     }
     dominance += pm;
   }
