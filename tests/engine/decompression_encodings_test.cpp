@@ -223,8 +223,9 @@ TEST_F(DecompressionEncodings, SampleFrameExitsMatchCpuReference) {
       o.quantization = q;
       o.order = 4;
       o.channels = 4;
-      // Pca u8 as the default field stores it (bake::kDefaultPcaTableSize, 32x32 tables).
-      o.tableSize = encoding == Encoding::Pca && q == Quantization::U8 ? 32 : 12;
+      // Pca u8 as the default field stores it (bake::kDefaultPcaTableSize, 32x32 tables), Pca f16
+      // at the bake's largest (bake::kMaxBakeTableSize, 64x64).
+      o.tableSize = encoding != Encoding::Pca ? 12 : q == Quantization::U8 ? 32 : 64;
       o.components = 7;
       o.emptyAndGutters = true;
       o.nodeSampled = o.jumps = o.jumpDistance = encoding != Encoding::Sh;
