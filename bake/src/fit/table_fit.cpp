@@ -100,6 +100,39 @@ Result<Eigen::MatrixXd> leadingEigenvectors(const Eigen::MatrixXd& gram, Eigen::
   return Eigen::MatrixXd(q * small.value());
 }
 
+// Tables of more than this many values skip the Gram matrix: at 64x64 with 5 channels it holds
+// 20480^2 values (3.4 GB in double, beside the float lower triangle it is mirrored from), and
+// forming it costs samples x dim^2 / 2 products. The leading right singular vectors of x come
+// instead from the same subspace iteration applied to x^T x as two thin products with x, never
+// formed. 32x32 tables (up to 5120 values) keep the Gram path, so their fields do not change.
+constexpr Eigen::Index kGramMaxDim = 8192;
+
+// x^T (x q) for the thin block q, both products in fixed column blocks (deterministic).
+Eigen::MatrixXd normalProduct(const Eigen::MatrixXf& x, const Eigen::MatrixXd& q, uint32_t threads) {
+  const Eigen::MatrixXf y = productByColumns(x, Eigen::MatrixXf(q.cast<float>()), threads);
+  return productByColumns(x.transpose(), y, threads).cast<double>();
+}
+
+// The k leading eigenvectors of x^T x (the right singular vectors of x) without forming it: the
+// randomized subspace iteration of leadingEigenvectors with the same start block and iterations,
+// then the exact solver on x^T x projected onto the block.
+Result<Eigen::MatrixXd> leadingRightSingularVectors(const Eigen::MatrixXf& x, Eigen::Index k, uint32_t threads) {
+  const Eigen::Index n = x.cols();
+  const Eigen::Index block = std::min(n, k + kEigenOversampling);
+  Eigen::MatrixXd q(n, block);
+  uint64_t state = 0;
+  for (Eigen::Index j = 0; j < block; ++j)
+    for (Eigen::Index i = 0; i < n; ++i) q(i, j) = double(splitmix(state) >> 11) * 0x1p-53 - 0.5;
+  for (int it = 0; it < kEigenPowerIterations; ++it) {
+    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(normalProduct(x, q, threads));
+    q = qr.householderQ() * Eigen::MatrixXd::Identity(n, block);
+  }
+  const Eigen::MatrixXd projected = q.transpose() * normalProduct(x, q, threads);
+  auto small = exactLeadingEigenvectors(projected, k);
+  if (!small) return small.error();
+  return Eigen::MatrixXd(q * small.value());
+}
+
 }  // namespace
 
 glm::dvec3 nodeDirection(float x, float y, uint32_t n) {
@@ -225,9 +258,9 @@ Result<PcaBasis> fitPcaBasis(const std::vector<float>& tables, size_t samples, u
     columnScale[Eigen::Index(i)] = static_cast<float>(scale[i % channels] * nodeWeight);
   }
   const Eigen::MatrixXf x = raw * columnScale.asDiagonal();
-  const Eigen::MatrixXd gram = gramOf(x, threads);
   const uint32_t k = static_cast<uint32_t>(std::min<size_t>(components, dim));
-  auto leading = leadingEigenvectors(gram, Eigen::Index(k), threads);
+  auto leading = Eigen::Index(dim) > kGramMaxDim ? leadingRightSingularVectors(x, Eigen::Index(k), threads)
+                                                 : leadingEigenvectors(gramOf(x, threads), Eigen::Index(k), threads);
   if (!leading) return leading.error();
   Eigen::MatrixXf basis = Eigen::MatrixXf::Zero(Eigen::Index(dim), Eigen::Index(components));
   for (uint32_t j = 0; j < k; ++j) basis.col(Eigen::Index(j)) = leading.value().col(Eigen::Index(j)).cast<float>();
