@@ -76,28 +76,34 @@ Eigen::MatrixXd gramOf(const Eigen::MatrixXf& x, uint32_t threads) {
   return gram;
 }
 
-// The same for the positive semi-definite `gram`, both triangles stored (gramOf). Large matrices:
-// randomized subspace iteration (Halko, Martinsson and Tropp 2011, algorithms 4.4 and 5.3): a
-// block of k + 64 vectors, multiplied by the matrix and re-orthonormalized kEigenPowerIterations
-// times, then the exact solver on the matrix projected onto the block. The start block is a fixed
-// sequence, so the bake stays deterministic; fields of tables up to kExactEigenDim values use the
-// exact solver.
-Result<Eigen::MatrixXd> leadingEigenvectors(const Eigen::MatrixXd& gram, Eigen::Index k, uint32_t threads) {
-  const Eigen::Index n = gram.rows();
+// The k leading eigenvectors of a positive semi-definite n x n matrix that `product` multiplies
+// thin blocks by: randomized subspace iteration (Halko, Martinsson and Tropp 2011, algorithms 4.4
+// and 5.3): a block of k + 64 vectors, multiplied by the matrix and re-orthonormalized
+// kEigenPowerIterations times, then the exact solver on the matrix projected onto the block. The
+// start block is a fixed sequence, so the bake stays deterministic.
+template <class Product>
+Result<Eigen::MatrixXd> subspaceIteration(Eigen::Index n, Eigen::Index k, const Product& product) {
   const Eigen::Index block = std::min(n, k + kEigenOversampling);
-  if (n <= kExactEigenDim || 2 * block >= n) return exactLeadingEigenvectors(gram, k);
   Eigen::MatrixXd q(n, block);
   uint64_t state = 0;
   for (Eigen::Index j = 0; j < block; ++j)
     for (Eigen::Index i = 0; i < n; ++i) q(i, j) = double(splitmix(state) >> 11) * 0x1p-53 - 0.5;
   for (int it = 0; it < kEigenPowerIterations; ++it) {
-    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(productByColumns(gram, q, threads));
+    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(product(q));
     q = qr.householderQ() * Eigen::MatrixXd::Identity(n, block);
   }
-  const Eigen::MatrixXd projected = q.transpose() * productByColumns(gram, q, threads);
+  const Eigen::MatrixXd projected = q.transpose() * product(q);
   auto small = exactLeadingEigenvectors(projected, k);
   if (!small) return small.error();
   return Eigen::MatrixXd(q * small.value());
+}
+
+// The same for `gram`, both triangles stored (gramOf): the subspace iteration for large matrices;
+// fields of tables up to kExactEigenDim values use the exact solver.
+Result<Eigen::MatrixXd> leadingEigenvectors(const Eigen::MatrixXd& gram, Eigen::Index k, uint32_t threads) {
+  const Eigen::Index n = gram.rows();
+  if (n <= kExactEigenDim || 2 * std::min(n, k + kEigenOversampling) >= n) return exactLeadingEigenvectors(gram, k);
+  return subspaceIteration(n, k, [&](const Eigen::MatrixXd& q) { return productByColumns(gram, q, threads); });
 }
 
 // Tables of more than this many values skip the Gram matrix: at 64x64 with 5 channels it holds
@@ -107,30 +113,13 @@ Result<Eigen::MatrixXd> leadingEigenvectors(const Eigen::MatrixXd& gram, Eigen::
 // formed. 32x32 tables (up to 5120 values) keep the Gram path, so their fields do not change.
 constexpr Eigen::Index kGramMaxDim = 8192;
 
-// x^T (x q) for the thin block q, both products in fixed column blocks (deterministic).
-Eigen::MatrixXd normalProduct(const Eigen::MatrixXf& x, const Eigen::MatrixXd& q, uint32_t threads) {
-  const Eigen::MatrixXf y = productByColumns(x, Eigen::MatrixXf(q.cast<float>()), threads);
-  return productByColumns(x.transpose(), y, threads).cast<double>();
-}
-
-// The k leading eigenvectors of x^T x (the right singular vectors of x) without forming it: the
-// randomized subspace iteration of leadingEigenvectors with the same start block and iterations,
-// then the exact solver on x^T x projected onto the block.
+// The k leading eigenvectors of x^T x (the right singular vectors of x) without forming it; each
+// product x^T (x q) in fixed column blocks (deterministic).
 Result<Eigen::MatrixXd> leadingRightSingularVectors(const Eigen::MatrixXf& x, Eigen::Index k, uint32_t threads) {
-  const Eigen::Index n = x.cols();
-  const Eigen::Index block = std::min(n, k + kEigenOversampling);
-  Eigen::MatrixXd q(n, block);
-  uint64_t state = 0;
-  for (Eigen::Index j = 0; j < block; ++j)
-    for (Eigen::Index i = 0; i < n; ++i) q(i, j) = double(splitmix(state) >> 11) * 0x1p-53 - 0.5;
-  for (int it = 0; it < kEigenPowerIterations; ++it) {
-    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(normalProduct(x, q, threads));
-    q = qr.householderQ() * Eigen::MatrixXd::Identity(n, block);
-  }
-  const Eigen::MatrixXd projected = q.transpose() * normalProduct(x, q, threads);
-  auto small = exactLeadingEigenvectors(projected, k);
-  if (!small) return small.error();
-  return Eigen::MatrixXd(q * small.value());
+  return subspaceIteration(x.cols(), k, [&](const Eigen::MatrixXd& q) {
+    const Eigen::MatrixXf y = productByColumns(x, Eigen::MatrixXf(q.cast<float>()), threads);
+    return Eigen::MatrixXd(productByColumns(x.transpose(), y, threads).cast<double>());
+  });
 }
 
 }  // namespace
