@@ -43,8 +43,8 @@ struct BakeOptions {
 
 // Largest table size the bake fits: the format's kMaxTableSize. A grid-fitted Table inverts an
 // N^2 x N^2 matrix (4096^2 at 64); a Pca over 64x64 tables traces 4096 paths a sample and learns
-// its basis from a Gram matrix of (64^2 x channels)^2 values (3.4 GB in double with 5 channels;
-// the torus's bake peaked at 7.4 GiB with --exit-frame sample, docs/encodings.md "64x64 tables").
+// its basis from the tables themselves, without their Gram matrix (the torus's bake peaked at
+// 3.55 GiB with --exit-frame sample; docs/encodings.md "64x64 tables").
 inline constexpr uint32_t kMaxBakeTableSize = kMaxTableSize;
 
 // Nodes per side of the Pca basis tables when the caller does not ask (the tool's default field and
