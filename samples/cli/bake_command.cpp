@@ -44,7 +44,8 @@ std::vector<FlagSpec> bakeFlags() {
                          "sample), table (hemi-octahedral map) or sh (the paper's; implied by --order and --max-error)"},
       {"table-size", true,
        "table: nodes per side N (default 9); pca: N of the basis tables (default " +
-           std::to_string(bake::kDefaultPcaTableSize) + ")",
+           std::to_string(bake::kDefaultPcaTableSize) + " traced at the nodes, " +
+           std::to_string(bake::kDefaultGridPcaTableSize) + " fitted to a grid)",
        K::Integer,
        {2, double(bake::kMaxBakeTableSize)}},
       {"components", true, "pca: basis functions K = bytes per sample in u8 (default 324)", K::Integer,
@@ -172,7 +173,7 @@ int bakeCommand(int argc, char** argv) {
   else return fail("shrefract bake: --quant must be u8 or f16, got '" + quant + "'", 2);
 
   // The default is the measured best at the paper's 324 bytes per sample (docs/encodings.md): Pca
-  // with 324 weights over 32x32 tables. --order or --max-error ask for SH.
+  // with 324 weights over 64x64 tables traced at their nodes. --order or --max-error ask for SH.
   const bool shImplied = order.value() || maxError.value();
   const std::string encoding = args.get("encoding").value_or(shImplied ? "sh" : "pca");
   if (encoding == "sh") s.encoding = Encoding::Sh;
@@ -199,6 +200,10 @@ int bakeCommand(int argc, char** argv) {
     return fail("shrefract bake: --direction-sampling nodes needs --encoding table or pca", 2);
   if (s.directionSampling == DirectionSampling::Nodes && dirs.value())
     return fail("shrefract bake: --directions sets the grid, which --direction-sampling nodes does not trace", 2);
+  // A Pca fitted to a grid keeps its former tables: the default 32x64 grid has half as many
+  // directions as 64x64 tables have nodes.
+  if (!tableSize.value() && s.encoding == Encoding::Pca && s.directionSampling == DirectionSampling::Grid)
+    s.tableSize = bake::kDefaultGridPcaTableSize;
   const std::string rule = args.get("path-rule").value_or("highest-energy");
   if (rule == "highest-energy") s.pathRule = PathRule::HighestEnergy;
   else if (rule == "first-refraction") s.pathRule = PathRule::FirstRefraction;

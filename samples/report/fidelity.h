@@ -24,7 +24,7 @@
 namespace shrefract::report {
 
 // The tool's default bake (`shrefract bake` without --order; docs/encodings.md): Pca K=324 over
-// 32x32 tables (bake::kDefaultPcaTableSize) traced at their nodes, u8, the layout's default sample budget.
+// 64x64 tables (bake::kDefaultPcaTableSize) traced at their nodes, u8, the layout's default sample budget.
 BakeSettings defaultFieldSettings();
 
 struct FidelityResult {

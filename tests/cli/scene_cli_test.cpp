@@ -195,7 +195,8 @@ TEST_F(SceneCli, DefaultBakeTracesTheTableNodesAndAGridSizeAsksForTheGrid) {
   ASSERT_EQ(grid.exit, 0) << grid.err;
   EXPECT_NE(grid.out.find("\"direction_sampling\": \"grid\""), std::string::npos) << grid.out;
   const ToolRun text = run(".", {"info", "nodes.shrf"});
-  EXPECT_NE(text.out.find("directions the 32x32 table nodes"), std::string::npos) << text.out;
+  const std::string n = std::to_string(bake::kDefaultPcaTableSize);
+  EXPECT_NE(text.out.find("directions the " + n + "x" + n + " table nodes"), std::string::npos) << text.out;
   // The node-sampled field stores the jump distance (docs/encodings.md, "Placing the jump"); the
   // grid-fitted one cannot, and --no-jump-distance leaves it out.
   EXPECT_NE(nodes.out.find("\"jump_distance\": true"), std::string::npos) << nodes.out;

@@ -223,8 +223,8 @@ TEST_F(DecompressionEncodings, SampleFrameExitsMatchCpuReference) {
       o.quantization = q;
       o.order = 4;
       o.channels = 4;
-      // Pca u8 as the default field stores it (bake::kDefaultPcaTableSize, 32x32 tables), Pca f16
-      // at the bake's largest (bake::kMaxBakeTableSize, 64x64).
+      // Pca u8 at 32x32 tables (the former default), Pca f16 at 64x64 (bake::kDefaultPcaTableSize,
+      // the default field's, and bake::kMaxBakeTableSize).
       o.tableSize = encoding != Encoding::Pca ? 12 : q == Quantization::U8 ? 32 : 64;
       o.components = 7;
       o.emptyAndGutters = true;

@@ -48,11 +48,16 @@ struct BakeOptions {
 inline constexpr uint32_t kMaxBakeTableSize = kMaxTableSize;
 
 // Nodes per side of the Pca basis tables when the caller does not ask (the tool's default field and
-// the report's). With the exits in the sample's frame, 32x32 tables under the same 324 weights gain
-// 2.5 to 4.3 dB on the built-in scenes over 16x16 and lose 0.5 dB on the bunny, whose functions the
-// 324 weights cover worst; the bake costs 4x the traced paths and a basis of 4x the size
-// (docs/encodings.md, "Finer tables in the sample's frame").
-inline constexpr uint32_t kDefaultPcaTableSize = 32;
+// the report's). With the exits in the sample's frame, 32x32 tables under the same 324 weights
+// gained 2.5 to 4.3 dB on the built-in scenes over 16x16 (docs/encodings.md, "Finer tables in the
+// sample's frame"), and 64x64 tables gain again on all five measured scenes: sphere +0.57, cube
+// +1.75, torus +1.63, glass of water +0.27, bunny +0.17 dB; the bake traces 4x the paths, takes
+// 3.5 to 5x as long and about twice the memory, and the basis is 4x the size (docs/encodings.md,
+// "64x64 tables").
+inline constexpr uint32_t kDefaultPcaTableSize = 64;
+// The same for a Pca fitted to a direction grid (--direction-sampling grid): the default 32x64 grid
+// traces 2048 directions, half the nodes of a 64x64 table.
+inline constexpr uint32_t kDefaultGridPcaTableSize = 32;
 
 // The hemisphere grid a bake accepts (settings.directionsTheta x directionsPhi), and the cap on
 // interactions: one declaration, read by the bake's checks and by the tool's flags.
