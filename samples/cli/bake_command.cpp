@@ -182,7 +182,6 @@ int bakeCommand(int argc, char** argv) {
   else return fail("shrefract bake: --encoding must be sh, table or pca, got '" + encoding + "'", 2);
   if ((tableSize.value() || components.value()) && s.encoding == Encoding::Sh && !maxBytes.value())
     return fail("shrefract bake: --table-size and --components need --encoding table or pca", 2);
-  s.tableSize = tableSize.value() ? static_cast<uint32_t>(*tableSize.value()) : s.encoding == Encoding::Pca ? bake::kDefaultPcaTableSize : 9u;
   s.components = components.value() ? static_cast<uint32_t>(*components.value()) : 324u;
   if ((order.value() || maxError.value()) && s.encoding != Encoding::Sh)
     return fail("shrefract bake: --order and --max-error apply to --encoding sh only", 2);
@@ -202,8 +201,9 @@ int bakeCommand(int argc, char** argv) {
     return fail("shrefract bake: --directions sets the grid, which --direction-sampling nodes does not trace", 2);
   // A Pca fitted to a grid keeps its former tables: the default 32x64 grid has half as many
   // directions as 64x64 tables have nodes.
-  if (!tableSize.value() && s.encoding == Encoding::Pca && s.directionSampling == DirectionSampling::Grid)
-    s.tableSize = bake::kDefaultGridPcaTableSize;
+  const uint32_t pcaTableSize = s.directionSampling == DirectionSampling::Nodes ? bake::kDefaultPcaTableSize
+                                                                                : bake::kDefaultGridPcaTableSize;
+  s.tableSize = tableSize.value() ? static_cast<uint32_t>(*tableSize.value()) : s.encoding == Encoding::Pca ? pcaTableSize : 9u;
   const std::string rule = args.get("path-rule").value_or("highest-energy");
   if (rule == "highest-energy") s.pathRule = PathRule::HighestEnergy;
   else if (rule == "first-refraction") s.pathRule = PathRule::FirstRefraction;

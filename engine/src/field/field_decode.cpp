@@ -20,17 +20,29 @@ HemiOctCoordinates hemiOctFromDirection(float x, float y, float z) {
   return {std::clamp((px + py + 1.0f) * 0.5f, 0.0f, 1.0f), std::clamp((px - py + 1.0f) * 0.5f, 0.0f, 1.0f)};
 }
 
+namespace {
+
+// The point on the octahedron |x| + |y| + z = 1 at grid coordinates (x, y) of an n x n grid, which
+// hemiOctDirectionAt normalizes.
+std::array<float, 3> octahedronPoint(float x, float y, uint32_t n) {
+  const float a = 2.0f * x / float(n - 1) - 1.0f;  // p.x + p.y
+  const float b = 2.0f * y / float(n - 1) - 1.0f;  // p.x - p.y
+  const float px = 0.5f * (a + b), py = 0.5f * (a - b);
+  return {px, py, std::max(0.0f, 1.0f - std::fabs(px) - std::fabs(py))};
+}
+
+float pointLength(const std::array<float, 3>& p) { return std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]); }
+
+}  // namespace
+
 std::array<float, 3> hemiOctDirection(uint32_t i, uint32_t j, uint32_t n) {
   return hemiOctDirectionAt(float(i), float(j), n);
 }
 
 std::array<float, 3> hemiOctDirectionAt(float x, float y, uint32_t n) {
-  const float a = 2.0f * x / float(n - 1) - 1.0f;  // p.x + p.y
-  const float b = 2.0f * y / float(n - 1) - 1.0f;  // p.x - p.y
-  const float px = 0.5f * (a + b), py = 0.5f * (a - b);
-  const float pz = std::max(0.0f, 1.0f - std::fabs(px) - std::fabs(py));
-  const float len = std::sqrt(px * px + py * py + pz * pz);
-  return {px / len, py / len, pz / len};
+  const std::array<float, 3> p = octahedronPoint(x, y, n);
+  const float len = pointLength(p);
+  return {p[0] / len, p[1] / len, p[2] / len};
 }
 
 HemiOctBilinear hemiOctBilinear(float x, float y, float z, uint32_t n) {
@@ -48,14 +60,9 @@ HemiOctBilinear hemiOctBilinear(float x, float y, float z, uint32_t n) {
 
 namespace {
 
-// The length of node `node`'s point on the octahedron |x| + |y| + z = 1, before hemiOctDirection
-// normalizes it (1 at the pole and the horizon's vertices, 1/sqrt(3) at a face's centre).
-float octahedronLength(uint32_t node, uint32_t n) {
-  const float a = 2.0f * float(node % n) / float(n - 1) - 1.0f, b = 2.0f * float(node / n) / float(n - 1) - 1.0f;
-  const float px = 0.5f * (a + b), py = 0.5f * (a - b);
-  const float pz = std::max(0.0f, 1.0f - std::fabs(px) - std::fabs(py));
-  return std::sqrt(px * px + py * py + pz * pz);
-}
+// The length of node `node`'s point on the octahedron (1 at the pole and the horizon's vertices,
+// 1/sqrt(3) at a face's centre).
+float octahedronLength(uint32_t node, uint32_t n) { return pointLength(octahedronPoint(float(node % n), float(node / n), n)); }
 
 // The exit of a path that goes straight through (a slab's): the view ray's own direction of travel
 // for the local direction w toward the eye, in object space (rows: M_s as field.frames stores it)

@@ -33,22 +33,25 @@ HemiOctBilinear hemiOctBilinear(vec3 w, uint n) {
   return b;
 }
 
-// The unit direction of node (i, j) of an n x n grid (field.h hemiOctDirection).
-vec3 hemiOctDirection(uint i, uint j, uint n) {
+// Node (i, j)'s point on the octahedron |x| + |y| + z = 1 of an n x n grid, and its length
+// (field_decode.cpp octahedronPoint, pointLength).
+vec3 octahedronPoint(uint i, uint j, uint n) {
   float a = 2.0 * float(i) / float(n - 1u) - 1.0;  // p.x + p.y
   float b = 2.0 * float(j) / float(n - 1u) - 1.0;  // p.x - p.y
   float px = 0.5 * (a + b), py = 0.5 * (a - b);
-  float pz = max(0.0, 1.0 - abs(px) - abs(py));
-  float len = sqrt(px * px + py * py + pz * pz);
-  return vec3(px / len, py / len, pz / len);
+  return vec3(px, py, max(0.0, 1.0 - abs(px) - abs(py)));
+}
+
+float pointLength(vec3 p) { return sqrt(p.x * p.x + p.y * p.y + p.z * p.z); }
+
+// The unit direction of node (i, j) of an n x n grid (field.h hemiOctDirection).
+vec3 hemiOctDirection(uint i, uint j, uint n) {
+  vec3 p = octahedronPoint(i, j, n);
+  float len = pointLength(p);
+  return vec3(p.x / len, p.y / len, p.z / len);
 }
 
 // The length of node `node`'s point on the octahedron (field_decode.cpp octahedronLength).
-float octahedronLength(uint node, uint n) {
-  float a = 2.0 * float(node % n) / float(n - 1u) - 1.0, b = 2.0 * float(node / n) / float(n - 1u) - 1.0;
-  float px = 0.5 * (a + b), py = 0.5 * (a - b);
-  float pz = max(0.0, 1.0 - abs(px) - abs(py));
-  return sqrt(px * px + py * py + pz * pz);
-}
+float octahedronLength(uint node, uint n) { return pointLength(octahedronPoint(node % n, node / n, n)); }
 
 #endif  // SHREFRACT_HEMI_OCT_GLSL
