@@ -496,19 +496,26 @@ Result<LearnedBasis> learnBasis(const EncodingShape& shape, const std::vector<fl
   return out;
 }
 
-// Tables traced in the sample's frame, channels 0..2 of every node rotated to object space.
-std::vector<float> tablesInObjectSpace(const std::vector<float>& tables, const SampleAtlas& atlas,
-                                       const EncodingShape& shape) {
-  std::vector<float> out = tables;
+// Tables traced in the sample's frame (table k belongs to sample samples[k]): channels 0..2 of
+// every node rotated to object space, in place.
+void rotateExitsToObjectSpace(std::vector<float>& tables, const std::vector<size_t>& samples,
+                              const SampleAtlas& atlas, const EncodingShape& shape) {
   const size_t nodes = size_t(shape.tableSize) * shape.tableSize, dim = nodes * shape.channels;
-  for (size_t s = 0; s < atlas.samples.size(); ++s) {
-    const LocalFrame frame = frameFromNormal(atlas.samples[s].shadingNormal);
+  for (size_t k = 0; k < samples.size(); ++k) {
+    const LocalFrame frame = frameFromNormal(atlas.samples[samples[k]].shadingNormal);
     for (size_t node = 0; node < nodes; ++node) {
-      float* v = &out[s * dim + node * shape.channels];
+      float* v = &tables[k * dim + node * shape.channels];
       const glm::vec3 exit = localToWorld(frame, glm::vec3(v[0], v[1], v[2]));
       for (int c = 0; c < 3; ++c) v[c] = exit[c];
     }
   }
+}
+
+// The tables of `samples`, in that order.
+std::vector<float> gatherTables(const std::vector<float>& tables, const std::vector<size_t>& samples, size_t dim) {
+  std::vector<float> out(samples.size() * dim);
+  for (size_t k = 0; k < samples.size(); ++k)
+    std::copy_n(&tables[samples[k] * dim], dim, &out[k * dim]);
   return out;
 }
 
@@ -523,17 +530,30 @@ struct FrameChoiceViews {
   TracedViews views;  // exits in object space
 };
 
+size_t frameChoiceStep(size_t n) { return std::max<size_t>(1, n / kFrameChoiceSamples); }
+
 FrameChoiceViews traceFrameChoiceViews(const BakePlan& plan) {
   FrameChoiceViews v;
-  const size_t n = plan.atlas.samples.size(), step = std::max<size_t>(1, n / kFrameChoiceSamples);
+  const size_t n = plan.atlas.samples.size(), step = frameChoiceStep(n);
   for (size_t s = 0; s < n; s += step) v.samples.push_back(s);
   v.views = traceCosineViews(plan.atlas, *plan.tracer, traceSettingsOf(plan.settings), v.samples, kFrameChoiceViews,
                              0x4652414d45ull, false, plan.settings.threads);
   return v;
 }
 
+// The samples the two candidate bases are learned from: as many as the views' samples, midway
+// between them, so that the views test each basis on tables it was not learned from (a field under
+// 2 kFrameChoiceSamples samples: all of them, the views' samples included).
+std::vector<size_t> frameChoiceTrainingSamples(size_t n) {
+  const size_t step = frameChoiceStep(n);
+  std::vector<size_t> out;
+  for (size_t s = step / 2; s < n; s += step) out.push_back(s);
+  return out;
+}
+
 // The mean angle (degrees), each clipped at kFrameChoiceClipDegrees, between a learned basis's float
-// decode (jump-aware, as the engine decodes) and the traced exits of the views. Clipped, because
+// decode (jump-aware, as the engine decodes) and the traced exits of the views; weights: those of the
+// views' samples, in their order. Clipped, because
 // an exit a few degrees off already shows another part of the environment, so that the image's
 // error saturates where the angle does not: the bunny's mean angles (34.07 deg in the sample's
 // frame, 34.17 in object space, over views 3 % of which decode within 1 deg) rank the frames against
@@ -541,52 +561,84 @@ FrameChoiceViews traceFrameChoiceViews(const BakePlan& plan) {
 // them as the images do, and so on the sphere, torus and glass of water. Not on the cube, whose
 // images prefer object space by 0.42 dB (no statistic of these views measured says so: docs/encodings.md).
 constexpr double kFrameChoiceClipDegrees = 5.0;
-double meanClippedDegrees(const EncodingShape& shape, const LearnedBasis& b, const SampleAtlas& atlas,
-                          const FrameChoiceViews& v) {
+double meanClippedDegrees(const EncodingShape& shape, const std::vector<float>& basis,
+                          const std::vector<float>& weights, const SampleAtlas& atlas, const FrameChoiceViews& v) {
   std::vector<float> out(shape.channels);
   double sum = 0.0;
   for (size_t k = 0; k < v.samples.size(); ++k)
     for (uint32_t h = 0; h < kFrameChoiceViews; ++h) {
       const size_t s = v.samples[k], i = k * kFrameChoiceViews + h;
-      decodeFloat(shape, b.basis, &b.weights[s * shape.components], atlas.samples[s], v.views.directions[i],
-                  out.data());
+      decodeFloat(shape, basis, &weights[k * shape.components], atlas.samples[s], v.views.directions[i], out.data());
       sum += std::min(angleDegrees(glm::vec3(out[0], out[1], out[2]), v.views.exits[i]), kFrameChoiceClipDegrees);
     }
   return v.views.directions.empty() ? 0.0 : sum / double(v.views.directions.size());
 }
 
-// Pca: replaces each sample's table by its weights over a basis learned from all of them. With
-// ExitFrame::Auto (tables traced in the sample's frame) the basis is learned in both frames and
-// the one whose decode is closer to freshly traced exits kept (FrameChoiceViews,
-// meanClippedDegrees; the rank-K residual, tried as the criterion, chose the sample's frame on the
-// bunny, whose images are worse there). The sample's frame shares functions among samples alike up
-// to a rotation about the up axis; object space among samples that face alike (docs/encodings.md,
-// "Exits in the sample's frame"). Sets shape.sampleFrameExits to the frame kept.
+// One candidate frame's clipped mean angle: a basis learned from the training tables, the views'
+// tables projected on it.
+Result<double> candidateFrameDegrees(const EncodingShape& shape, const std::vector<float>& training, size_t trainingCount,
+                                     const std::vector<float>& viewTables, const SampleAtlas& atlas,
+                                     const FrameChoiceViews& views, uint32_t threads) {
+  std::vector<float> unused;
+  auto pca = fitPcaBasis(training, trainingCount, shape.tableSize, shape.channels, shape.components, unused, threads);
+  if (!pca) return pca.error();
+  const std::vector<float> weights = projectOnBasis(viewTables, views.samples.size(), pca.value(), threads);
+  return meanClippedDegrees(shape, pca.value().basis, weights, atlas, views);
+}
+
+// ExitFrame::Auto: whether the tables (traced in the sample's frame) keep it rather than object
+// space. Each frame's basis is learned from a subset of the samples (frameChoiceTrainingSamples) and
+// the one whose decode is closer to freshly traced exits kept (FrameChoiceViews, meanClippedDegrees;
+// the rank-K residual, tried as the criterion, chose the sample's frame on the bunny, whose images
+// are worse there); the field's basis is then learned once, in the frame kept. Learning both from
+// every sample took 2 full fits (the cube's default 64x64 bake: 672 s, 5.17 GiB at peak).
+Result<bool> keepSampleFrame(const BakePlan& plan, const EncodingShape& shape, const std::vector<float>& tables) {
+  const SampleAtlas& atlas = plan.atlas;
+  const size_t dim = size_t(shape.tableSize) * shape.tableSize * shape.channels;
+  const FrameChoiceViews views = traceFrameChoiceViews(plan);
+  const std::vector<size_t> trainingSamples = frameChoiceTrainingSamples(atlas.samples.size());
+  std::vector<float> training = gatherTables(tables, trainingSamples, dim), viewTables = gatherTables(tables, views.samples, dim);
+  auto sample = candidateFrameDegrees(shape, training, trainingSamples.size(), viewTables, atlas, views,
+                                      plan.settings.threads);
+  if (!sample) return sample.error();
+  EncodingShape objectShape = shape;
+  objectShape.sampleFrameExits = false;
+  rotateExitsToObjectSpace(training, trainingSamples, atlas, shape);
+  rotateExitsToObjectSpace(viewTables, views.samples, atlas, shape);
+  auto object = candidateFrameDegrees(objectShape, training, trainingSamples.size(), viewTables, atlas, views,
+                                      plan.settings.threads);
+  if (!object) return object.error();
+  const bool keep = !(object.value() < sample.value());
+  if (plan.note)
+    plan.note(std::string("exit frame: chose ") + (keep ? "the sample's frame" : "object space") + " (mean angle, clipped at " +
+              std::to_string(int(kFrameChoiceClipDegrees)) + " deg, to " + std::to_string(views.views.directions.size()) +
+              " traced views, bases learned from " + std::to_string(trainingSamples.size()) + " samples: " +
+              std::to_string(sample.value()) + " deg in the sample's frame, " + std::to_string(object.value()) +
+              " deg in object space)");
+  return keep;
+}
+
+// Pca: replaces each sample's table by its weights over a basis learned from all of them, in the
+// frame of ExitFrame::Auto's choice (keepSampleFrame) where the tables were traced in the sample's
+// frame. The sample's frame shares functions among samples alike up to a rotation about the up
+// axis; object space among samples that face alike (docs/encodings.md, "Exits in the sample's
+// frame"). Sets shape.sampleFrameExits to the frame kept.
 Result<void> learnBasisInItsFrame(const BakePlan& plan, EncodingShape& shape, std::vector<float>& coeffs,
                                   std::vector<float>& basis) {
   const SampleAtlas& atlas = plan.atlas;
   const size_t n = atlas.samples.size();
+  if (plan.settings.exitFrame == ExitFrame::Auto) {
+    auto keep = keepSampleFrame(plan, shape, coeffs);
+    if (!keep) return keep.error();
+    if (!keep.value()) {
+      std::vector<size_t> all(n);
+      for (size_t s = 0; s < n; ++s) all[s] = s;
+      rotateExitsToObjectSpace(coeffs, all, atlas, shape);
+      shape.sampleFrameExits = false;
+    }
+  }
   auto learned = learnBasis(shape, coeffs, n, plan.settings.threads);
   if (!learned) return learned.error();
-  if (plan.settings.exitFrame == ExitFrame::Auto) {
-    auto inObject = learnBasis(shape, tablesInObjectSpace(coeffs, atlas, shape), n, plan.settings.threads);
-    if (!inObject) return inObject.error();
-    EncodingShape objectShape = shape;
-    objectShape.sampleFrameExits = false;
-    const FrameChoiceViews views = traceFrameChoiceViews(plan);
-    const double object = meanClippedDegrees(objectShape, inObject.value(), atlas, views);
-    const double sample = meanClippedDegrees(shape, learned.value(), atlas, views);
-    if (object < sample) {
-      learned = std::move(inObject);
-      shape = objectShape;
-    }
-    if (plan.note)
-      plan.note(std::string("exit frame: chose ") + (shape.sampleFrameExits ? "the sample's frame" : "object space") +
-                " (mean angle, clipped at " + std::to_string(int(kFrameChoiceClipDegrees)) + " deg, to " +
-                std::to_string(views.views.directions.size()) + " traced views: " +
-                std::to_string(sample) + " deg in the sample's frame, " + std::to_string(object) +
-                " deg in object space)");
-  }
   basis = std::move(learned.value().basis);
   coeffs = std::move(learned.value().weights);
   return {};
@@ -701,7 +753,7 @@ Result<double> candidateError(const BudgetCandidate& c, const BudgetProbe& p, co
     std::vector<float> train(fitted.begin(), fitted.begin() + std::ptrdiff_t(p.train.size() * fitStride)), weights;
     auto pca = fitPcaBasis(train, p.train.size(), shape.tableSize, channels, shape.components, weights, threads);
     if (!pca) return pca.error();
-    test = projectOnBasis(test, p.test.size(), pca.value());
+    test = projectOnBasis(test, p.test.size(), pca.value(), threads);
     basis = std::move(pca.value().basis);
     if (c.settings.quantization == Quantization::U8) {  // as finishBake: refined on the training weights
       const std::vector<uint32_t> refined = chooseRefinedComponents(weights, p.train.size(), shape.components);

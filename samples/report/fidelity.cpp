@@ -83,7 +83,7 @@ Profile profileFor(ReportSize size, uint64_t samples) {
   BakeSettings base;  // the library default: order 8, 32x64 directions, split layout, default budget
   BakeSettings sweep = base;
   std::vector<uint32_t> orders, tables, components;
-  uint32_t pcaTable = 16;  // the Pca sweep's tables: 16x16 keeps the sweep within minutes (the default field is 32x32)
+  uint32_t pcaTable = 16;  // the Pca sweep's tables: 16x16 keeps the sweep within minutes (the default field is 64x64)
   switch (size) {
     case ReportSize::Smoke:
       p.width = 64;
@@ -138,10 +138,12 @@ Profile profileFor(ReportSize size, uint64_t samples) {
   p.variants.push_back({"default", baseLabel + dirs, base, true});
   if (base.directionSampling == DirectionSampling::Nodes && size != ReportSize::Smoke) {
     // The sampling decision, measured: the default field fitted to the 32x64 grid instead.
+    // Its tables are those the tool fits to a grid (32x64 directions hold fewer values than 64x64 nodes).
     BakeSettings grid = base;
     grid.directionSampling = DirectionSampling::Grid;
-    p.variants.push_back({"default, grid sampling", baseLabel + fmt(" %ux%u grid", grid.directionsTheta,
-                                                                     grid.directionsPhi), grid});
+    grid.tableSize = bake::kDefaultGridPcaTableSize;
+    p.variants.push_back({"default, grid sampling", fmt("pca K%u N%u %ux%u grid", grid.components, grid.tableSize,
+                                                        grid.directionsTheta, grid.directionsPhi), grid});
   }
   for (uint32_t order : orders) p.variants.push_back({"sh", fmt("L%u", order), withEncoding(sweep, Encoding::Sh, order, 0, 0)});
   // SH with the Lanczos window (`bake --window lanczos`): it damps the ringing that the jumps

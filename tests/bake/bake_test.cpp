@@ -171,6 +171,40 @@ TEST(Bake, PcaFitIsDeterministicAcrossThreadCounts) {
   EXPECT_EQ(dataBytes(a), dataBytes(b));
 }
 
+// ExitFrame::Auto (the default) compares the two frames on bases learned from a subset of the
+// samples, not from all of them (bake.cpp keepSampleFrame: two full fits made the 64x64 default
+// bake twice as slow), and then learns the field's basis once, in the frame kept: the field is the
+// one an explicit --exit-frame of that frame bakes, byte for byte.
+TEST(Bake, AutoExitFrameChoosesOnASubsetAndLearnsTheFieldOnce) {
+  BakeSettings s = small();
+  s.encoding = Encoding::Pca;
+  s.order = 0;
+  s.tableSize = 8;
+  s.components = 8;
+  s.directionSampling = DirectionSampling::Nodes;
+  s.sampleBudget = 6000;  // over 2 x 2048 samples: the choice learns from a subset
+  auto scene = makeBuiltinScene("torus", {.tessellation = 1});
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  BakeOptions options;
+  options.settings = s;
+  options.heldOutDirections = 0;
+  std::string notes;
+  options.note = [&notes](const std::string& line) { notes += line + "\n"; };
+  auto automatic = bakeField(*scene, options);
+  ASSERT_TRUE(automatic.ok()) << automatic.error().message;
+  const size_t at = notes.find("bases learned from ");
+  ASSERT_NE(at, std::string::npos) << notes;
+  const unsigned long learnedFrom = std::stoul(notes.substr(at + 19));
+  std::printf("%s", notes.c_str());
+  EXPECT_GE(learnedFrom, 2048u);
+  EXPECT_LT(learnedFrom, automatic->statistics.samples / 2) << "the choice learned from the whole field";
+  options.settings.exitFrame = automatic->sampleFrameExits ? ExitFrame::Sample : ExitFrame::Object;
+  options.note = nullptr;
+  auto explicitFrame = bakeField(*scene, options);
+  ASSERT_TRUE(explicitFrame.ok()) << explicitFrame.error().message;
+  EXPECT_EQ(dataBytes(automatic.value()), dataBytes(explicitFrame.value()));
+}
+
 // --max-bytes-per-sample measures its candidates on grid fits (Pca on 16x16 tables) but bakes a
 // chosen Pca field in the requested shape, node tables of the requested size with the jump
 // distance, as the tool's default is baked: a budget of the default's bytes gives the default's

@@ -269,14 +269,15 @@ Result<PcaBasis> fitPcaBasis(const std::vector<float>& tables, size_t samples, u
   return out;
 }
 
-std::vector<float> projectOnBasis(const std::vector<float>& tables, size_t samples, const PcaBasis& basis) {
+std::vector<float> projectOnBasis(const std::vector<float>& tables, size_t samples, const PcaBasis& basis,
+                                  uint32_t threads) {
   // The stored basis is in the data's units (B = D^-1 B_scaled), so the projection on the
   // orthonormal B_scaled of the weighted table D t is w = B_scaled^T D t = (D^2 B)^T t.
   const size_t dim = size_t(basis.tableSize) * basis.tableSize * basis.channels;
   std::vector<double> scale2(dim);
   for (size_t i = 0; i < dim; ++i) scale2[i] = double(basis.scale[i]) * double(basis.scale[i]);
   std::vector<float> out(samples * basis.components, 0.0f);
-  for (size_t s = 0; s < samples; ++s)
+  parallelFor(samples, threads, [&](size_t s) {
     for (uint32_t k = 0; k < basis.components; ++k) {
       double w = 0.0;
       const float* b = &basis.basis[k * dim];
@@ -284,6 +285,7 @@ std::vector<float> projectOnBasis(const std::vector<float>& tables, size_t sampl
       for (size_t i = 0; i < dim; ++i) w += scale2[i] * double(b[i]) * double(t[i]);
       out[s * basis.components + k] = static_cast<float>(w);
     }
+  });
   return out;
 }
 

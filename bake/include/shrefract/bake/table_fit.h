@@ -86,8 +86,10 @@ struct PcaBasis {
 Result<PcaBasis> fitPcaBasis(const std::vector<float>& tables, size_t samples, uint32_t tableSize, uint32_t channels,
                              uint32_t components, std::vector<float>& weights, uint32_t threads = 1);
 
-// The weights of `samples` further tables on a basis fitted by fitPcaBasis (samples x K).
-std::vector<float> projectOnBasis(const std::vector<float>& tables, size_t samples, const PcaBasis& basis);
+// The weights of `samples` further tables on a basis fitted by fitPcaBasis (samples x K), on up to
+// `threads` threads (the result does not depend on how many).
+std::vector<float> projectOnBasis(const std::vector<float>& tables, size_t samples, const PcaBasis& basis,
+                                  uint32_t threads = 1);
 
 // ---- u8 refinement layers of a Pca field (docs/encodings.md, "Quantization") -------------------
 // A u8 layer keeps 255 levels over its component's range over the whole field. The leading
