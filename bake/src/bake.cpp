@@ -591,7 +591,8 @@ Result<double> candidateFrameDegrees(const EncodingShape& shape, const std::vect
 // the one whose decode is closer to freshly traced exits kept (FrameChoiceViews, meanClippedDegrees;
 // the rank-K residual, tried as the criterion, chose the sample's frame on the bunny, whose images
 // are worse there); the field's basis is then learned once, in the frame kept. Learning both from
-// every sample took 2 full fits (the cube's default 64x64 bake: 672 s, 5.17 GiB at peak).
+// every sample took two full fits: the cube's default 64x64 bake took 700 s and 5.17 GiB at peak,
+// now 519 to 561 s and 3.55 GiB (docs/encodings.md, "Choosing the frame on a subset").
 Result<bool> keepSampleFrame(const BakePlan& plan, const EncodingShape& shape, const std::vector<float>& tables) {
   const SampleAtlas& atlas = plan.atlas;
   const size_t dim = size_t(shape.tableSize) * shape.tableSize * shape.channels;
