@@ -178,6 +178,7 @@ Result<bake::Image> renderFrame(Session& session, const Environment& environment
   rci.exposure = settings.exposure;
   rci.frustumCulling = settings.skipWork;
   rci.environmentTapsPerAxis = settings.environmentTapsPerAxis;
+  rci.silhouetteCoverage = settings.silhouetteCoverage;
   rci.sampleCount = settings.msaaSamples;
   auto renderer = Renderer::create(*session.context, rci);
   if (!renderer) return renderer.error();

@@ -52,10 +52,10 @@ std::vector<FlagSpec> renderFlags() {
                           "footprint, as the engine does, and blend across path discontinuities (docs/antialiasing.md; 5x "
                           "the rays)"},
       {"env-taps", true, "taps per axis of each filtered environment lookup (1 is one trilinear lookup, cheaper "
-                         "and blurrier): GPU modes (default 2), and exact and full-tree with --filtered (default 4) "
+                         "and blurrier): GPU modes and exact and full-tree with --filtered (default 4) "
                          "(docs/antialiasing.md)", K::Integer, {1, kMaxEnvironmentTapsPerAxis}},
       {"env-level-bias", true, "exact and full-tree with --filtered: levels added to each tap's (default -1: each "
-                               "tap blurs over its own cell; 0 with --env-taps 2 mirrors the engine)", K::Real,
+                               "tap blurs over its own cell; 0 mirrors the engine)", K::Real,
        {-double(bake::kMaxEnvironmentLevelBias), double(bake::kMaxEnvironmentLevelBias)}},
       {"spp", true, "samples per pixel N, a perfect square: sqrt(N) x sqrt(N) stratified samples, averaged "
                     "(default 1; every mode)", K::Integer, {1, 64}},

@@ -30,7 +30,7 @@ std::vector<FlagSpec> viewFlags() {
       {"exposure", true, "linear scale applied before display (default 1)", K::Real, {0, kUnbounded, true}},
       {"absorption", true, "initial absorption scale k in exp(-tau * k) (default 1: the media as defined)", K::Real, {0, kUnbounded}},
       {"order", true, "initial SH order (default: the baked order)", K::Integer, {0, 32}},
-      {"env-taps", true, "initial taps per axis of each filtered environment lookup (default 2; T cycles)",
+      {"env-taps", true, "initial taps per axis of each filtered environment lookup (default 4; T cycles)",
        K::Integer, {1, kMaxEnvironmentTapsPerAxis}},
       {"msaa", true, "the host's multisample count: 1 (default), 2, 4 or 8; silhouettes covered at N samples",
        K::Integer, {1, 8}},

@@ -12,6 +12,9 @@ layout(location = 1) in vec3 inNormal;
 layout(location = 2) in vec2 inFieldUv;
 layout(location = 3) in float inFrontIor;
 layout(location = 0) out vec4 outColor;
+// true: the alpha written is the fragment's silhouette coverage, blended over what is drawn (the
+// pipeline's blend state); false: 1, or the optical depth in kModeFieldExitDirection.
+layout(constant_id = kSpecSilhouetteCoverage) const bool SILHOUETTE_COVERAGE = false;
 
 // The four texels around a field coordinate, with the sampler's bilinear weights, and how far
 // apart their exits are: 0 where every pair is within acos(kSpatialAgreeCosine), 1 where some pair
@@ -98,11 +101,21 @@ vec3 transmittedOverPixel(vec3 exitWorld, vec3 ddx, vec3 ddy, vec2 uv, vec2 uvDx
   return mix(directionsOverPixel(exitWorld, ddx, ddy, uv, uvDx, uvDy), colours.rgb, t);
 }
 
+// The share of its pixel a fragment covers where the surface turns away from the eye: one sample
+// per pixel shades a pixel the silhouette crosses as if it were all glass (gpu_layout.h
+// kSilhouetteCoverageScale says why c / |grad c| measures the distance). 1 on faces seen at an
+// angle (c changes slowly across the pixel). Mirrored by cpu_reference.cpp silhouetteCoverage.
+float silhouetteCoverage(float cosView) {
+  float g = length(vec2(dFdxFine(cosView), dFdyFine(cosView)));
+  return g > 0.0 ? clamp(0.5 + kSilhouetteCoverageScale * cosView / g, 0.0, 1.0) : 1.0;
+}
+
 void main() {
   vec3 n = normalize(inNormal);
   vec3 v = normalize(inPosition - pc.eyeObject.xyz);
   // Interpolated normals can face away near silhouettes; bend them back toward the viewer.
   float cosI = -dot(v, n);
+  float coverage = SILHOUETTE_COVERAGE ? silhouetteCoverage(cosI) : 1.0;
   if (cosI < 1e-4) {
     n = normalize(n + (1e-4 - cosI) * -v);
     cosI = -dot(v, n);
@@ -134,5 +147,5 @@ void main() {
   vec3 color = (1.0 - fresnel) * transmittance * pc.tint.rgb * transmittedOverPixel(exitWorld, exitDx, exitDy, inFieldUv, uvDx, uvDy);
   if (pc.medium.z > 0.5)
     color += fresnel * lookupEnvironmentOverPixel(reflectedWorld, reflectedDx, reflectedDy);
-  outColor = vec4(color * pc.eyeObject.w, 1.0);
+  outColor = vec4(color * pc.eyeObject.w, coverage);
 }

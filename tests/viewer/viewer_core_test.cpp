@@ -184,9 +184,9 @@ TEST(ViewState, TapsCycleThroughTheRendererRange) {
     EXPECT_GE(s.environmentTaps, 1u);
     EXPECT_LE(s.environmentTaps, kMaxEnvironmentTapsPerAxis);
   }
-  // Every count once, back at the start (default 2: 3, 4, 1, 2).
-  EXPECT_EQ(seen, (std::vector<uint32_t>{3, 4, 1, 2}));
-  EXPECT_NE(title(s, {"builtin"}, -1.0, -1.0, -1.0).find("taps 2"), std::string::npos);
+  // Every count once, back at the start (default 4: 1, 2, 3, 4).
+  EXPECT_EQ(seen, (std::vector<uint32_t>{1, 2, 3, 4}));
+  EXPECT_NE(title(s, {"builtin"}, -1.0, -1.0, -1.0).find("taps 4"), std::string::npos);
 }
 
 TEST(ViewState, KeysMapToActionsAndTitleShowsTimings) {

@@ -249,10 +249,10 @@ TEST_F(ViewerTest, KeysChangeOrderFieldAbsorptionEnvironmentAndMode) {
 }
 
 TEST_F(ViewerTest, TapsKeyAndFlagSetTheEnvironmentTaps) {
-  // T, one press per frame: 2 -> 3 -> 4 -> 1 taps per axis, each press a new renderer while earlier
-  // frames may still be in flight; the last frames draw with one tap, as --env-taps 1 does.
+  // T, one press per frame: 4 -> 1 -> 2 -> 3 -> 4 -> 1 taps per axis, each press a new renderer
+  // while earlier frames may still be in flight; the last frames draw with one tap, as --env-taps 1 does.
   const uint32_t width = 160, height = 120;
-  const CommandResult keys = view(shellQuote(at("tiny.shrf")) + " --keys ttt --frames 5 --screenshot " +
+  const CommandResult keys = view(shellQuote(at("tiny.shrf")) + " --keys ttttt --frames 7 --screenshot " +
                                   shellQuote(at("taps_keys.png")) + " --size 160x120");
   expectCleanRun(keys);
   EXPECT_NE(keys.output.find("taps 1"), std::string::npos) << keys.output;

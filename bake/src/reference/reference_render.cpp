@@ -656,7 +656,12 @@ Result<ReferenceImage> renderDistortion(const FieldMesh& mesh, const reference::
         reference::pixelDerivatives(object, bestTriangle, o.camera, bigWidth, bigHeight, bx, by);
     const reference::Vec3 c =
         reference::shadeField(distortion, latLong, point, o.camera.eye, o.shading, o.exposure, Transform{}, derivatives);
-    sample.color = glm::vec3(c[0], c[1], c[2]);
+    // Blended with the background by its silhouette coverage, as reference::render does by default.
+    const float coverage = reference::silhouetteCoverage(point, o.camera.eye, derivatives);
+    const reference::Vec3 b = coverage < 1.0f ? reference::sampleLatLong(latLong, {rayF.x, rayF.y, rayF.z})
+                                               : reference::Vec3{};
+    for (int k = 0; k < 3; ++k)
+      sample.color[k] = coverage * c[size_t(k)] + (1.0f - coverage) * b[size_t(k)];
     sample.hit = true;
     const reference::Vec3 dir = reference::shadedExitDirection(distortion, point, o.camera.eye);
     sample.direction = glm::vec3(dir[0], dir[1], dir[2]);

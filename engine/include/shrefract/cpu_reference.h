@@ -131,7 +131,15 @@ struct LookupDerivatives {
   Vec3 exitDx{}, exitDy{};            // the exit (refracted) direction
   Vec3 reflectedDx{}, reflectedDy{};  // the front reflection
   std::array<float, 2> uvDx{}, uvDy{};  // the field coordinate
+  float cosViewDx = 0.0f, cosViewDy = 0.0f;  // the cosine between the view and the interpolated normal
 };
+
+struct SurfacePoint;
+// The share of its pixel the fragment at `point` (object space, as `eye`) covers at a smooth
+// silhouette, from the cosine between the view and the interpolated normal and its screen
+// derivatives (object_field_body.glsl silhouetteCoverage; RendererCreateInfo::silhouetteCoverage):
+// 1 where the cosine changes slowly.
+float silhouetteCoverage(const SurfacePoint& point, const Vec3& eye, const LookupDerivatives& derivatives);
 
 // ShadingMode::Field for one fragment (see renderer.h), before the colour attachment's format
 // conversion. `distortion` must be decompressed for the same eye. When distortion.throughput is
@@ -196,7 +204,10 @@ LookupDerivatives pixelDerivatives(const RenderObject& object, uint32_t first, c
 // barycentric attributes, shaded with shadeField and pixelDerivatives' filtered lookups (the chain
 // built with environmentLevels when environment.levels is null); the environment's level 0 in the
 // ray's direction where no triangle is hit, as the background pass reads it. Near and far planes are ignored (scenes in tests sit well inside them).
+// silhouetteCoverage: as RendererCreateInfo::silhouetteCoverage at one sample per pixel, each
+// object pixel is blended with that background by its coverage (over the background only, where
+// the GPU blends over whatever was drawn before).
 RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImage& environment, const Camera& camera,
-                     uint32_t width, uint32_t height, float exposure = 1.0f);
+                     uint32_t width, uint32_t height, float exposure = 1.0f, bool silhouetteCoverage = true);
 
 }  // namespace shrefract::reference

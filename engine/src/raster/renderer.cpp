@@ -35,12 +35,14 @@ struct RendererImpl {
   std::array<VkPipeline, 2> background{};
   std::array<VkPipeline, 2> singleInterface{};
   std::array<VkPipeline, 2> field{};
+  // ShadingMode::FieldExitDirection where `field` blends by silhouette coverage (else null: `field`).
+  std::array<VkPipeline, 2> fieldExit{};
   DrawStats lastDraw;
 
   void release() {
     if (!context) return;
     ContextImpl& c = *context;
-    for (const auto* group : {&background, &singleInterface, &field})
+    for (const auto* group : {&background, &singleInterface, &field, &fieldExit})
       for (VkPipeline p : *group)
         if (p) c.vk.vkDestroyPipeline(c.device(), p, c.alloc());
     for (VkPipelineLayout l : {backgroundLayout, objectLayout, fieldLayout})
@@ -59,8 +61,10 @@ struct ShaderPair {
   size_t fragBytes;
 };
 
+// coverage: the fragment shader's alpha is its silhouette coverage (kSpecSilhouetteCoverage),
+// blended over the attachment.
 Result<VkPipeline> createGraphicsPipeline(ContextImpl& c, const RendererCreateInfo& info, VkPipelineLayout layout,
-                                          const ShaderPair& shaders, bool objectPass) {
+                                          const ShaderPair& shaders, bool objectPass, bool coverage) {
   auto vert = c.createShaderModule(shaders.vert, shaders.vertBytes);
   if (!vert) return vert.error();
   auto frag = c.createShaderModule(shaders.frag, shaders.fragBytes);
@@ -77,9 +81,13 @@ Result<VkPipeline> createGraphicsPipeline(ContextImpl& c, const RendererCreateIn
   stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
   stages[1].module = frag.value();
   stages[1].pName = "main";
-  // Every fragment shader gets the tap count; those without the constant (the background) ignore it.
-  const VkSpecializationMapEntry tapsEntry{gpu::kSpecEnvironmentTaps, 0, sizeof(uint32_t)};
-  const VkSpecializationInfo specialization{1, &tapsEntry, sizeof(uint32_t), &info.environmentTapsPerAxis};
+  // Every fragment shader gets the tap count and the coverage switch; those without the constants
+  // (the background, the single interface) ignore them.
+  const std::array<uint32_t, 2> specValues{info.environmentTapsPerAxis, coverage ? VK_TRUE : VK_FALSE};
+  const std::array<VkSpecializationMapEntry, 2> specEntries{{{gpu::kSpecEnvironmentTaps, 0, sizeof(uint32_t)},
+                                                             {gpu::kSpecSilhouetteCoverage, sizeof(uint32_t), sizeof(VkBool32)}}};
+  const VkSpecializationInfo specialization{uint32_t(specEntries.size()), specEntries.data(), sizeof(specValues),
+                                            specValues.data()};
   stages[1].pSpecializationInfo = &specialization;
 
   VkVertexInputBindingDescription binding{0, kVertexFloats * sizeof(float), VK_VERTEX_INPUT_RATE_VERTEX};
@@ -115,6 +123,13 @@ Result<VkPipeline> createGraphicsPipeline(ContextImpl& c, const RendererCreateIn
   ds.depthWriteEnable = (hasDepth && objectPass) ? VK_TRUE : VK_FALSE;
   ds.depthCompareOp = objectPass ? VK_COMPARE_OP_LESS : VK_COMPARE_OP_LESS_OR_EQUAL;
   VkPipelineColorBlendAttachmentState blend{};
+  if (coverage) {  // colour: src a + dst (1 - a); alpha: a + dst alpha (1 - a)
+    blend.blendEnable = VK_TRUE;
+    blend.srcColorBlendFactor = VK_BLEND_FACTOR_SRC_ALPHA;
+    blend.dstColorBlendFactor = VK_BLEND_FACTOR_ONE_MINUS_SRC_ALPHA;
+    blend.srcAlphaBlendFactor = VK_BLEND_FACTOR_ONE;
+    blend.dstAlphaBlendFactor = VK_BLEND_FACTOR_ONE_MINUS_SRC_ALPHA;
+  }
   blend.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT |
                          VK_COLOR_COMPONENT_A_BIT;
   VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
@@ -299,8 +314,14 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, const Rende
     VkPipelineLayout layout;
     ShaderPair shaders;
     bool objectPass;
+    bool coverage = false;
   };
-  const std::array<Variant, 6> variants{{
+  const bool coverage = info.silhouetteCoverage && info.sampleCount == VK_SAMPLE_COUNT_1_BIT;
+  const ShaderPair fieldShaders{kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_field_frag,
+                                sizeof(kSpirv_object_field_frag)};
+  const ShaderPair fieldCubeShaders{kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_field_cube_frag,
+                                    sizeof(kSpirv_object_field_cube_frag)};
+  std::vector<Variant> variants{{
       {&impl->background[0], impl->backgroundLayout,
        {kSpirv_background_vert, sizeof(kSpirv_background_vert), kSpirv_background_frag,
         sizeof(kSpirv_background_frag)},
@@ -317,16 +338,15 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, const Rende
        {kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_single_interface_cube_frag,
         sizeof(kSpirv_object_single_interface_cube_frag)},
        true},
-      {&impl->field[0], impl->fieldLayout,
-       {kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_field_frag, sizeof(kSpirv_object_field_frag)},
-       true},
-      {&impl->field[1], impl->fieldLayout,
-       {kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_field_cube_frag,
-        sizeof(kSpirv_object_field_cube_frag)},
-       true},
+      {&impl->field[0], impl->fieldLayout, fieldShaders, true, coverage},
+      {&impl->field[1], impl->fieldLayout, fieldCubeShaders, true, coverage},
   }};
+  if (coverage) {
+    variants.push_back({&impl->fieldExit[0], impl->fieldLayout, fieldShaders, true, false});
+    variants.push_back({&impl->fieldExit[1], impl->fieldLayout, fieldCubeShaders, true, false});
+  }
   for (const Variant& v : variants) {
-    auto pipeline = createGraphicsPipeline(c, info, v.layout, v.shaders, v.objectPass);
+    auto pipeline = createGraphicsPipeline(c, info, v.layout, v.shaders, v.objectPass, v.coverage);
     if (!pipeline) return pipeline.error();
     *v.target = pipeline.value();
   }
@@ -372,7 +392,8 @@ void Renderer::recordObjects(VkCommandBuffer cmd, const Environment& environment
     }
     ++r.lastDraw.drawn;
     const bool field = (mode == ShadingMode::Field || mode == ShadingMode::FieldExitDirection) && o.field;
-    const VkPipeline pipeline = field ? r.field[encoding] : r.singleInterface[encoding];
+    const bool exitDirection = mode == ShadingMode::FieldExitDirection && r.fieldExit[encoding];
+    const VkPipeline pipeline = !field ? r.singleInterface[encoding] : exitDirection ? r.fieldExit[encoding] : r.field[encoding];
     const VkPipelineLayout layout = field ? r.fieldLayout : r.objectLayout;
     if (pipeline != bound) {
       // Set 0 (environment) stays bound across the switch: both layouts share it.

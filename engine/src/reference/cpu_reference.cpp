@@ -1,6 +1,8 @@
 #include <shrefract/cpu_reference.h>
 
 #include <algorithm>
+#include <tuple>
+#include <utility>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -228,19 +230,24 @@ namespace {
 struct FieldFragment {
   glm::vec2 uv{0.0f};
   glm::vec3 v, n;
+  float cosView = 0.0f;  // -v . n before n is bent toward the viewer
   float cosI = 0.0f;
   Vec4 d{};
   float len2 = 0.0f;
   glm::vec3 exitWorld, reflectedWorld;
 };
 
+// The fragment's unit view direction and interpolated normal (object_field_body.glsl main).
+std::pair<glm::vec3, glm::vec3> viewAndNormal(const SurfacePoint& point, const Vec3& eyeArray) {
+  return {glm::normalize(toGlm(point.position) - toGlm(eyeArray)), glm::normalize(toGlm(point.normal))};
+}
+
 FieldFragment fieldFragment(const DistortionImage& distortion, const SurfacePoint& point, const Vec3& eyeArray,
                             const Transform& worldFromObject) {
   FieldFragment f;
   f.uv = glm::vec2(point.uv[0], point.uv[1]);
-  f.n = glm::normalize(toGlm(point.normal));
-  f.v = glm::normalize(toGlm(point.position) - toGlm(eyeArray));
-  f.cosI = -glm::dot(f.v, f.n);
+  std::tie(f.v, f.n) = viewAndNormal(point, eyeArray);
+  f.cosI = f.cosView = -glm::dot(f.v, f.n);
   if (f.cosI < 1e-4f) {
     f.n = glm::normalize(f.n + (1e-4f - f.cosI) * -f.v);
     f.cosI = -glm::dot(f.v, f.n);
@@ -359,6 +366,13 @@ Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environme
   return fromGlm(color * exposure);
 }
 
+float silhouetteCoverage(const SurfacePoint& point, const Vec3& eye, const LookupDerivatives& derivatives) {
+  const auto [v, n] = viewAndNormal(point, eye);
+  const float cosView = -glm::dot(v, n);
+  const float dx = derivatives.cosViewDx, dy = derivatives.cosViewDy, g = std::sqrt(dx * dx + dy * dy);
+  return g > 0.0f ? std::clamp(0.5f + gpu::kSilhouetteCoverageScale * cosView / g, 0.0f, 1.0f) : 1.0f;
+}
+
 Vec3 pixelRay(const Camera& camera, uint32_t width, uint32_t height, uint32_t x, uint32_t y) {
   const float aspect = height ? float(width) / float(height) : 1.0f;
   glm::mat4 proj = glm::perspectiveRH_ZO(glm::radians(camera.verticalFovDegrees), aspect, camera.nearPlane,
@@ -453,6 +467,8 @@ LookupDerivatives pixelDerivatives(const RenderObject& object, uint32_t first, c
   out.exitDy = fromGlm(sy * (self.exitWorld - ny.exitWorld));
   out.reflectedDx = fromGlm(sx * (self.reflectedWorld - nx.reflectedWorld));
   out.reflectedDy = fromGlm(sy * (self.reflectedWorld - ny.reflectedWorld));
+  out.cosViewDx = sx * (self.cosView - nx.cosView);
+  out.cosViewDy = sy * (self.cosView - ny.cosView);
   for (int k = 0; k < 2; ++k) {
     out.uvDx[size_t(k)] = sx * (self.uv[k] - nx.uv[k]);
     out.uvDy[size_t(k)] = sy * (self.uv[k] - ny.uv[k]);
@@ -469,7 +485,7 @@ Vec3 shadedExitDirection(const DistortionImage& distortion, const SurfacePoint& 
 }
 
 RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImage& environment, const Camera& camera,
-                     uint32_t width, uint32_t height, float exposure) {
+                     uint32_t width, uint32_t height, float exposure, bool silhouetteCoverage) {
   // The chain the engine builds at upload, unless the caller has it already.
   std::vector<std::vector<float>> ownLevels;
   LatLongImage filtered = environment;
@@ -523,7 +539,9 @@ RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImag
       const LookupDerivatives derivatives = pixelDerivatives(object, bestTriangle, camera, width, height, px, py);
       const Vec3 c = shadeField(*object.distortion, filtered, point, eye, object.shading, exposure,
                                 object.worldFromObject, derivatives);
-      for (int k = 0; k < 3; ++k) out[k] = c[size_t(k)];
+      const float coverage = silhouetteCoverage ? reference::silhouetteCoverage(point, eye, derivatives) : 1.0f;
+      const Vec3 background = coverage < 1.0f ? sampleLatLong(environment, rayF) : Vec3{};
+      for (int k = 0; k < 3; ++k) out[k] = coverage * c[size_t(k)] + (1.0f - coverage) * background[size_t(k)];
       image.object[size_t(py) * width + px] = bestObject;
       const Vec3 dir = rotateDirection(object.worldFromObject, shadedExitDirection(*object.distortion, point, eye));
       for (int k = 0; k < 3; ++k) image.directions[(size_t(py) * width + px) * 3 + size_t(k)] = dir[size_t(k)];
