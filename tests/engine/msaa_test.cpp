@@ -70,6 +70,16 @@ TEST(Msaa, HostSampleCountBringsTheFrameTowardSupersampling) {
     ASSERT_FALSE(refused.ok());
     EXPECT_EQ(refused.error().code, ErrorCode::Unsupported);
   }
+  {
+    // Silhouette coverage blends at one sample per pixel: an integer colour format (which no
+    // device blends) is refused, naming the setting, before any pipeline is made.
+    RendererCreateInfo integer;
+    integer.colorFormat = VK_FORMAT_R32G32B32A32_UINT;
+    auto refused = Renderer::create(ctx, integer);
+    ASSERT_FALSE(refused.ok());
+    EXPECT_EQ(refused.error().code, ErrorCode::Unsupported);
+    EXPECT_NE(refused.error().message.find("silhouetteCoverage"), std::string::npos) << refused.error().message;
+  }
 
   std::vector<float> sky(64 * 32 * 4);
   for (size_t i = 0; i < sky.size(); ++i) sky[i] = i % 4 == 3 ? 1.0f : float((i / 4) % 64) / 64.0f;

@@ -281,6 +281,14 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, const Rende
   if (!(supported & info.sampleCount) || (info.sampleCount & (info.sampleCount - 1)) != 0)
     return makeError(ErrorCode::Unsupported, "Renderer::create: the device does not support " +
                                                  std::to_string(info.sampleCount) + " samples per pixel");
+  if (info.silhouetteCoverage && info.sampleCount == VK_SAMPLE_COUNT_1_BIT) {
+    // The coverage pipelines blend: refused here rather than as a validation error later.
+    VkFormatProperties format{};
+    c.vk.vkGetPhysicalDeviceFormatProperties(c.info.physicalDevice, info.colorFormat, &format);
+    if (!(format.optimalTilingFeatures & VK_FORMAT_FEATURE_COLOR_ATTACHMENT_BLEND_BIT))
+      return makeError(ErrorCode::Unsupported, "Renderer::create: colorFormat " + std::to_string(info.colorFormat) +
+                                                   " does not blend, which silhouetteCoverage needs (set it to false)");
+  }
   if (info.environmentTapsPerAxis < 1 || info.environmentTapsPerAxis > kMaxEnvironmentTapsPerAxis)
     return makeError(ErrorCode::InvalidArgument, "Renderer::create: environmentTapsPerAxis " +
                                                      std::to_string(info.environmentTapsPerAxis) + " is outside 1.." +
