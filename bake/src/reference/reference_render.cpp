@@ -657,11 +657,9 @@ Result<ReferenceImage> renderDistortion(const FieldMesh& mesh, const reference::
     const reference::Vec3 c =
         reference::shadeField(distortion, latLong, point, o.camera.eye, o.shading, o.exposure, Transform{}, derivatives);
     // Blended with the background by its silhouette coverage, as reference::render does by default.
-    const float coverage = reference::silhouetteCoverage(point, o.camera.eye, derivatives);
-    const reference::Vec3 b = coverage < 1.0f ? reference::sampleLatLong(latLong, {rayF.x, rayF.y, rayF.z})
-                                               : reference::Vec3{};
-    for (int k = 0; k < 3; ++k)
-      sample.color[k] = coverage * c[size_t(k)] + (1.0f - coverage) * b[size_t(k)];
+    const reference::Vec3 covered =
+        reference::overBackground(c, point, o.camera.eye, derivatives, latLong, {rayF.x, rayF.y, rayF.z});
+    sample.color = glm::vec3(covered[0], covered[1], covered[2]);
     sample.hit = true;
     const reference::Vec3 dir = reference::shadedExitDirection(distortion, point, o.camera.eye);
     sample.direction = glm::vec3(dir[0], dir[1], dir[2]);

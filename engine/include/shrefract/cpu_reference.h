@@ -134,12 +134,17 @@ struct LookupDerivatives {
   float cosViewDx = 0.0f, cosViewDy = 0.0f;  // the cosine between the view and the interpolated normal
 };
 
-struct SurfacePoint;
 // The share of its pixel the fragment at `point` (object space, as `eye`) covers at a smooth
 // silhouette, from the cosine between the view and the interpolated normal and its screen
 // derivatives (object_field_body.glsl silhouetteCoverage; RendererCreateInfo::silhouetteCoverage):
 // 1 where the cosine changes slowly.
 float silhouetteCoverage(const SurfacePoint& point, const Vec3& eye, const LookupDerivatives& derivatives);
+
+// A shaded fragment's colour as the object pass leaves it at one sample per pixel: blended by its
+// silhouette coverage over the background the pixel's ray `ray` (world space) reads there, the
+// environment's level 0 (render() and the bake's renderDistortion both).
+Vec3 overBackground(const Vec3& colour, const SurfacePoint& point, const Vec3& eye, const LookupDerivatives& derivatives,
+                    const LatLongImage& environment, const Vec3& ray);
 
 // ShadingMode::Field for one fragment (see renderer.h), before the colour attachment's format
 // conversion. `distortion` must be decompressed for the same eye. When distortion.throughput is

@@ -92,8 +92,9 @@ struct RendererCreateInfo {
   // attachment holds (the background, or the host's scene drawn before): a silhouette's pixels
   // are no longer all glass or all background (docs/antialiasing.md, "Silhouette coverage"). The
   // colour format must support blending (VK_FORMAT_FEATURE_COLOR_ATTACHMENT_BLEND_BIT, else
-  // Renderer::create fails with Unsupported); such a fragment still writes depth. Ignored with MSAA (the samples cover the silhouette) and in
-  // ShadingMode::FieldExitDirection (its alpha is the optical depth).
+  // Renderer::create fails with Unsupported); such a fragment still writes depth. Ignored with
+  // MSAA (the samples cover the silhouette) and in ShadingMode::FieldExitDirection (its alpha is
+  // the optical depth).
   bool silhouetteCoverage = true;
   // Taps per axis of each filtered environment lookup in the object pass, 1 to 4: n x n taps
   // over the parallelogram the looked-up direction sweeps across the pixel, each at the exit the

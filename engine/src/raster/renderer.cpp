@@ -281,7 +281,8 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, const Rende
   if (!(supported & info.sampleCount) || (info.sampleCount & (info.sampleCount - 1)) != 0)
     return makeError(ErrorCode::Unsupported, "Renderer::create: the device does not support " +
                                                  std::to_string(info.sampleCount) + " samples per pixel");
-  if (info.silhouetteCoverage && info.sampleCount == VK_SAMPLE_COUNT_1_BIT) {
+  const bool coverage = info.silhouetteCoverage && info.sampleCount == VK_SAMPLE_COUNT_1_BIT;
+  if (coverage) {
     // The coverage pipelines blend: refused here rather than as a validation error later.
     VkFormatProperties format{};
     c.vk.vkGetPhysicalDeviceFormatProperties(c.info.physicalDevice, info.colorFormat, &format);
@@ -324,7 +325,6 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, const Rende
     bool objectPass;
     bool coverage = false;
   };
-  const bool coverage = info.silhouetteCoverage && info.sampleCount == VK_SAMPLE_COUNT_1_BIT;
   const ShaderPair fieldShaders{kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_field_frag,
                                 sizeof(kSpirv_object_field_frag)};
   const ShaderPair fieldCubeShaders{kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_field_cube_frag,

@@ -373,6 +373,16 @@ float silhouetteCoverage(const SurfacePoint& point, const Vec3& eye, const Looku
   return g > 0.0f ? std::clamp(0.5f + gpu::kSilhouetteCoverageScale * cosView / g, 0.0f, 1.0f) : 1.0f;
 }
 
+Vec3 overBackground(const Vec3& colour, const SurfacePoint& point, const Vec3& eye, const LookupDerivatives& derivatives,
+                    const LatLongImage& environment, const Vec3& ray) {
+  const float coverage = silhouetteCoverage(point, eye, derivatives);
+  if (coverage >= 1.0f) return colour;
+  const Vec3 background = sampleLatLong(environment, ray);
+  Vec3 out{};
+  for (size_t k = 0; k < 3; ++k) out[k] = coverage * colour[k] + (1.0f - coverage) * background[k];
+  return out;
+}
+
 Vec3 pixelRay(const Camera& camera, uint32_t width, uint32_t height, uint32_t x, uint32_t y) {
   const float aspect = height ? float(width) / float(height) : 1.0f;
   glm::mat4 proj = glm::perspectiveRH_ZO(glm::radians(camera.verticalFovDegrees), aspect, camera.nearPlane,
@@ -539,9 +549,8 @@ RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImag
       const LookupDerivatives derivatives = pixelDerivatives(object, bestTriangle, camera, width, height, px, py);
       const Vec3 c = shadeField(*object.distortion, filtered, point, eye, object.shading, exposure,
                                 object.worldFromObject, derivatives);
-      const float coverage = silhouetteCoverage ? reference::silhouetteCoverage(point, eye, derivatives) : 1.0f;
-      const Vec3 background = coverage < 1.0f ? sampleLatLong(environment, rayF) : Vec3{};
-      for (int k = 0; k < 3; ++k) out[k] = coverage * c[size_t(k)] + (1.0f - coverage) * background[size_t(k)];
+      const Vec3 covered = silhouetteCoverage ? overBackground(c, point, eye, derivatives, environment, rayF) : c;
+      for (int k = 0; k < 3; ++k) out[k] = covered[size_t(k)];
       image.object[size_t(py) * width + px] = bestObject;
       const Vec3 dir = rotateDirection(object.worldFromObject, shadedExitDirection(*object.distortion, point, eye));
       for (int k = 0; k < 3; ++k) image.directions[(size_t(py) * width + px) * 3 + size_t(k)] = dir[size_t(k)];
