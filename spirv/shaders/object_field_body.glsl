@@ -23,7 +23,26 @@ struct TexelCell {
   vec3 exit[4];  // unit, object space; zero where the texel is empty
   float weight[4];
   float jump;
+  float scatter;  // scatterAfterOneJump of the exits
 };
+
+// How far the four exits still spread once one jump may split them into two groups, in radians:
+// the widest angle within a group, for the split that makes it narrowest (two and two, or one and
+// three). 0 in a smooth cell and in a cell a clean jump crosses; wide where the exit changes
+// faster than the texels resolve (gpu_layout.h kSpatialScatterThreshold). An empty texel agrees
+// with every other. Mirrored by cpu_reference.cpp scatterAfterOneJump.
+float scatterAfterOneJump(vec3 exit[4]) {
+  const int first[6] = int[](0, 0, 0, 1, 1, 2), second[6] = int[](1, 2, 3, 2, 3, 3);  // ab ac ad bc bd cd
+  float c[6];
+  for (int q = 0; q < 6; ++q) {
+    vec3 a = exit[first[q]], b = exit[second[q]];
+    c[q] = a == vec3(0.0) || b == vec3(0.0) ? 1.0 : dot(a, b);
+  }
+  float best = max(max(min(c[0], c[5]), min(c[1], c[4])), min(c[2], c[3]));  // ab|cd, ac|bd, ad|bc
+  best = max(best, max(min(min(c[3], c[4]), c[5]), min(min(c[1], c[2]), c[5])));  // a|bcd, b|acd
+  best = max(best, max(min(min(c[0], c[2]), c[4]), min(min(c[0], c[1]), c[3])));  // c|abd, d|abc
+  return acos(clamp(best, -1.0, 1.0));
+}
 
 TexelCell readCell(vec2 uv) {
   ivec2 size = textureSize(distortionMap, 0);
@@ -42,6 +61,7 @@ TexelCell readCell(vec2 uv) {
     for (int c = a + 1; c < 4; ++c)
       if (cell.exit[a] != vec3(0.0) && cell.exit[c] != vec3(0.0)) minCos = min(minCos, dot(cell.exit[a], cell.exit[c]));
   cell.jump = clamp((kSpatialAgreeCosine - minCos) / (kSpatialAgreeCosine - kSpatialSplitCosine), 0.0, 1.0);
+  cell.scatter = scatterAfterOneJump(cell.exit);
   return cell;
 }
 
@@ -87,15 +107,17 @@ vec3 directionsOverPixel(vec3 exitWorld, vec3 ddx, vec3 ddy, vec2 uv, vec2 uvDx,
 }
 
 // The transmitted light over the pixel: directionsOverPixel where the texels around the centre
-// agree, their own lookups' blend (cellColours, each at one tap's share of the footprint) where
-// they straddle a jump, linearly between (TexelCell.jump). Once per pixel, not per tap: at 4x4
-// supersampling the same images (within 0.01 dB), at 1 spp 0.06 dB less, for a quarter of the
-// lookups (docs/encodings.md "Jumps across texels").
+// agree, their own lookups' blend (cellColours, each at one tap's share of the footprint, widened
+// by the cell's scatter beyond kSpatialScatterThreshold) where they straddle a jump, linearly
+// between (TexelCell.jump). Once per pixel, not per tap: at 4x4 supersampling the same images
+// (within 0.01 dB), at 1 spp 0.06 dB less, for a quarter of the lookups (docs/encodings.md
+// "Jumps across texels").
 vec3 transmittedOverPixel(vec3 exitWorld, vec3 ddx, vec3 ddy, vec2 uv, vec2 uvDx, vec2 uvDy) {
   TexelCell cell = readCell(uv);
   if (cell.jump == 0.0) return directionsOverPixel(exitWorld, ddx, ddy, uv, uvDx, uvDy);
   float footprint = directionFootprint(ddx / float(ENVIRONMENT_TAPS), ddy / float(ENVIRONMENT_TAPS));
-  vec4 colours = cellColours(cell, footprint);
+  float blur = kSpatialScatterBlur * max(cell.scatter - kSpatialScatterThreshold, 0.0);
+  vec4 colours = cellColours(cell, sqrt(footprint * footprint + blur * blur));
   float t = cell.jump * colours.w;
   if (t == 1.0) return colours.rgb;  // the direction taps would weigh nothing
   return mix(directionsOverPixel(exitWorld, ddx, ddy, uv, uvDx, uvDy), colours.rgb, t);

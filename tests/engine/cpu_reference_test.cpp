@@ -365,6 +365,66 @@ TEST(CpuReference, TexelsAcrossAJumpBlendTheirColours) {
   for (int k = 0; k < 3; ++k) EXPECT_EQ(empty[k], 0.0f) << k;
 }
 
+// Scatter in a jump cell (gpu_layout.h kSpatialScatterThreshold): the spread four exits keep once
+// one jump may split them in two, in closed form, and what the shading does with it. An
+// environment of vertical stripes, red in every other 8 columns, green 0.5 everywhere: level 0
+// reads red 1 at a red column's centre, the chain's coarse levels average the stripes to 0.5.
+TEST(CpuReference, ScatteredTexelsReadABlurrierLevel) {
+  using reference::Vec3;
+  const Vec3 x{1, 0, 0}, y{0, 1, 0}, z{0, 0, 1}, minusX{-1, 0, 0}, none{0, 0, 0};
+  const float halfPi = 0.5f * std::numbers::pi_v<float>;
+  EXPECT_EQ(reference::scatterAfterOneJump({x, x, x, x}), 0.0f);
+  EXPECT_EQ(reference::scatterAfterOneJump({y, x, y, x}), 0.0f) << "a clean jump: two groups that agree";
+  EXPECT_EQ(reference::scatterAfterOneJump({x, y, y, y}), 0.0f) << "one texel across a jump";
+  EXPECT_NEAR(reference::scatterAfterOneJump({x, y, z, minusX}), halfPi, 1e-6f);
+  EXPECT_NEAR(reference::scatterAfterOneJump({x, none, y, z}), halfPi, 1e-6f) << "three apart and an empty texel";
+  const float a = 2.0f * std::numbers::pi_v<float> / 180.0f;  // 2 deg
+  const Vec3 tilted{std::sin(a), 0.0f, std::cos(a)}, tilted2{0.0f, std::sin(a), std::cos(a)};
+  EXPECT_NEAR(reference::scatterAfterOneJump({z, tilted, tilted2, z}), a, 1e-3f) << "a smooth cell: its own spread";
+
+  constexpr uint32_t kW = 64, kH = 32;
+  std::vector<float> envPixels(size_t(kW) * kH * 4);
+  for (uint32_t row = 0; row < kH; ++row)
+    for (uint32_t col = 0; col < kW; ++col) {
+      float* p = &envPixels[(size_t(row) * kW + col) * 4];
+      p[0] = (col / 8) % 2 == 0 ? 1.0f : 0.0f;
+      p[1] = 0.5f;
+      p[2] = 0.0f;
+      p[3] = 1.0f;
+    }
+  reference::LatLongImage env{kW, kH, envPixels.data()};
+  const std::vector<std::vector<float>> chain = reference::environmentLevels(env);
+  env.levels = &chain;
+  // The direction at the centre of texel (col, row): red columns 4, 20, 36 and 52, rows far apart.
+  auto at = [&](float col, float row) {
+    const float theta = (row + 0.5f) / float(kH) * std::numbers::pi_v<float>;
+    const float phi = ((col + 0.5f) / float(kW) - 0.5f) * 2.0f * std::numbers::pi_v<float>;
+    return Vec3{std::sin(theta) * std::sin(phi), std::cos(theta), -std::sin(theta) * std::cos(phi)};  // environment.glsl
+  };
+  const std::array<Vec3, 4> scattered{at(4, 8), at(20, 24), at(36, 12), at(52, 20)};
+  for (const Vec3& d : scattered) ASSERT_NEAR(reference::sampleLatLong(env, d, 0.0f)[0], 1.0f, 1e-5f) << "a red column";
+  ASSERT_GT(reference::scatterAfterOneJump(scattered), 0.5f);
+  reference::DistortionImage distortion;
+  distortion.width = 2;
+  distortion.height = 2;
+  auto shade = [&](const std::array<Vec3, 4>& exits) {
+    distortion.rgba.clear();
+    for (const Vec3& e : exits) distortion.rgba.insert(distortion.rgba.end(), {e[0], e[1], e[2], 0.0f});
+    reference::SurfacePoint p;
+    p.normal = {0, 0, 1};
+    p.uv = {0.5f, 0.5f};  // the cell's centre: a quarter of each texel
+    p.frontIor = 1.0f;    // no reflection
+    return reference::shadeField(distortion, env, p, {0, 0, 4}, ObjectShading{});
+  };
+  // Scattered: each lookup reads the coarse levels' average, not its red column.
+  const Vec3 blurred = shade(scattered);
+  EXPECT_NEAR(blurred[0], 0.5f, 0.05f);
+  EXPECT_NEAR(blurred[1], 0.5f, 1e-4f);
+  // A clean jump between two red columns: no scatter, level 0, red.
+  const Vec3 sharp = shade({scattered[0], scattered[2], scattered[0], scattered[2]});
+  EXPECT_NEAR(sharp[0], 1.0f, 1e-5f);
+}
+
 TEST(CpuReference, RenderHitsFrontFacesOnly) {
   // A quad at z = 0 facing +z; the camera on +z sees it in the middle of the image.
   FieldMesh mesh;

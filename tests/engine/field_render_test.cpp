@@ -7,8 +7,10 @@
 // with SHREFRACT_WRITE_TEST_IMAGES set in the environment they are written on success too.
 #include <gtest/gtest.h>
 #include <shrefract/cpu_reference.h>
+#include <shrefract/gpu_layout.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -205,8 +207,10 @@ TEST_F(FieldRender, TwoObjectsMatchCpuReference) {
 // from each other. Counts outside 1..4 are refused. Planted once each: the CPU mirror with zero
 // footprints fails the first check; pipelines created without the tap count's specialization
 // (always 4 taps) fail it at 1 tap.
-TEST_F(FieldRender, FilteredLookupsMatchCpuMirror) {
-  bake::Image env;  // 512 x 256, 8-texel stripes in u and v: aliases where a pixel spans several
+// 512 x 256, 8-texel stripes in u and v: aliases where a pixel spans several, so that the level a
+// lookup reads changes its colour.
+bake::Image stripesEnvironment() {
+  bake::Image env;
   env.width = 512;
   env.height = 256;
   env.rgba.resize(size_t(env.width) * env.height * 4);
@@ -219,6 +223,11 @@ TEST_F(FieldRender, FilteredLookupsMatchCpuMirror) {
       p[2] = a != b ? 0.7f : 0.3f;
       p[3] = 1.0f;
     }
+  return env;
+}
+
+TEST_F(FieldRender, FilteredLookupsMatchCpuMirror) {
+  const bake::Image env = stripesEnvironment();
   auto gpuEnv = offscreen::uploadEnvironment(*session, env);
   ASSERT_TRUE(gpuEnv.ok()) << gpuEnv.error().message;
   testing::SyntheticFieldOptions a;
@@ -291,6 +300,64 @@ TEST_F(FieldRender, FilteredLookupsMatchCpuMirror) {
     ASSERT_FALSE(refused.ok()) << taps << " taps per axis must be refused";
     EXPECT_EQ(refused.error().code, ErrorCode::InvalidArgument);
     EXPECT_NE(refused.error().message.find("environmentTapsPerAxis"), std::string::npos) << refused.error().message;
+  }
+}
+
+// Texels whose exits scatter (a chaotic field: each texel's direction moved at random) read their
+// colour blend's lookups at a footprint widened by the scatter beyond kSpatialScatterThreshold;
+// the GPU matches the CPU mirror (same tolerance as above) on a field where most cells scatter.
+TEST_F(FieldRender, ScatteredTexelsMatchCpuMirror) {
+  const bake::Image env = stripesEnvironment();
+  auto gpuEnv = offscreen::uploadEnvironment(*session, env);
+  ASSERT_TRUE(gpuEnv.ok()) << gpuEnv.error().message;
+  testing::SyntheticFieldOptions a;
+  a.order = 2;
+  a.quantization = Quantization::F16;
+  a.radius = 0.9f;
+  a.width = 48;
+  a.height = 24;
+  a.texelScatter = 0.3f;
+  const Field field = testing::makeSyntheticField(a);
+  auto object = offscreen::uploadField(*session, field);
+  ASSERT_TRUE(object.ok()) << object.error().message;
+  offscreen::FrameSettings frame;
+  frame.width = 160;
+  frame.height = 120;
+  frame.camera.eye = {0.2f, 0.6f, 4.0f};
+  frame.camera.verticalFovDegrees = 45.0f;
+  frame.mode = ShadingMode::Field;
+  const reference::DistortionImage distortion = reference::decompress(field, frame.camera.eye);
+  // The share of the image's cells that scatter beyond the threshold: the case under test.
+  uint32_t cells = 0, scattered = 0;
+  for (uint32_t y = 0; y + 1 < distortion.height; ++y)
+    for (uint32_t x = 0; x + 1 < distortion.width; ++x) {
+      std::array<reference::Vec3, 4> exits;
+      for (uint32_t k = 0; k < 4; ++k) {
+        const float* d = &distortion.rgba[(size_t(y + k / 2) * distortion.width + x + k % 2) * 4];
+        const float len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        exits[k] = len > 0.0f ? reference::Vec3{d[0] / len, d[1] / len, d[2] / len} : reference::Vec3{};
+      }
+      ++cells;
+      if (reference::scatterAfterOneJump(exits) > gpu::kSpatialScatterThreshold) ++scattered;
+    }
+  std::printf("%u of %u texel cells scatter beyond %.2f rad\n", scattered, cells, double(gpu::kSpatialScatterThreshold));
+  EXPECT_GT(scattered, cells / 2);
+  auto gpu = offscreen::renderFrame(*session, *gpuEnv.value(), {object.value().get()}, frame);
+  ASSERT_TRUE(gpu.ok()) << gpu.error().message;
+  const reference::LatLongImage cpuEnv{env.width, env.height, env.rgba.data()};
+  const reference::RenderedImage cpu = reference::render({{&field.mesh, &distortion, object.value()->shading}}, cpuEnv,
+                                                         frame.camera, frame.width, frame.height);
+  bake::Image diff;
+  const Comparison mirror = compare(gpu.value(), cpu.rgba, kFieldTolerance, &cpu.object, &diff);
+  std::printf("scattered texels: %u of %u object pixels outside tolerance against the CPU mirror (max |diff| %.4f)\n",
+              mirror.failed, mirror.pixels, double(mirror.maxDiff));
+  EXPECT_GT(mirror.pixels, 3000u);
+  const bool pass = float(mirror.failed) <= kFieldTolerance.failFraction * float(mirror.pixels);
+  EXPECT_TRUE(pass) << mirror.failed << " of " << mirror.pixels << " object pixels outside tolerance";
+  if (!pass || std::getenv("SHREFRACT_WRITE_TEST_IMAGES")) {
+    writeForInspection("scattered_gpu.png", gpu.value());
+    writeForInspection("scattered_cpu.png", bake::Image{cpu.width, cpu.height, cpu.rgba});
+    writeForInspection("scattered_diff_x10.png", diff);
   }
 }
 

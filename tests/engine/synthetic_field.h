@@ -49,6 +49,9 @@ struct SyntheticFieldOptions {
   bool jumpDistance = false;
   // Channels 0..2 are read as exits in each sample's frame (EncodingShape::sampleFrameExits).
   bool sampleFrameExits = false;
+  // > 0: each texel's dominant direction moved by a pseudo-random vector of components up to this
+  // (per texel, from the seed), so that neighbouring texels disagree as a chaotic field's do.
+  float texelScatter = 0.0f;
   uint32_t seed = 1;
   float radius = 1.0f;
   std::array<float, 3> center{0.0f, 0.0f, 0.0f};
@@ -285,6 +288,11 @@ inline Field makeSyntheticField(const SyntheticFieldOptions& o) {
       }
       for (int k = 0; k < 3; ++k) directions[size_t(t) * 3 + size_t(k)] = -n[k];
     }
+  if (o.texelScatter > 0.0f) {  // its own generator: the coefficients' draws stay as they were
+    std::mt19937 rng(o.seed + 7919u);
+    std::uniform_real_distribution<float> uniform(-o.texelScatter, o.texelScatter);
+    for (float& d : directions) d += uniform(rng);
+  }
   if (o.emptyAndGutters)
     for (uint32_t x = 0; x + 2 < o.width; ++x) {
       const uint32_t y = o.height - 1;

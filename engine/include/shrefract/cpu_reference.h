@@ -134,6 +134,12 @@ struct LookupDerivatives {
   float cosViewDx = 0.0f, cosViewDy = 0.0f;  // the cosine between the view and the interpolated normal
 };
 
+// How far four texels' exits (unit vectors; zero for an empty texel, which agrees with every
+// other) still spread once one jump may split them into two groups, in radians: the widest angle
+// within a group, for the split that makes it narrowest (object_field_body.glsl; gpu_layout.h
+// kSpatialScatterThreshold says what the raster pass does with it).
+float scatterAfterOneJump(const std::array<Vec3, 4>& exits);
+
 // The share of its pixel the fragment at `point` (object space, as `eye`) covers at a smooth
 // silhouette, from the cosine between the view and the interpolated normal and its screen
 // derivatives (object_field_body.glsl silhouetteCoverage; RendererCreateInfo::silhouetteCoverage):

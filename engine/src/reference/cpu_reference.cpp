@@ -159,6 +159,21 @@ float directionFootprint(const Vec3& ddx, const Vec3& ddy) {
   return 2.0f * std::asin(std::min(0.5f * chord, 1.0f));
 }
 
+float scatterAfterOneJump(const std::array<Vec3, 4>& exits) {
+  constexpr int kFirst[6] = {0, 0, 0, 1, 1, 2}, kSecond[6] = {1, 2, 3, 2, 3, 3};  // ab ac ad bc bd cd
+  const glm::vec3 zero(0.0f);
+  float c[6];
+  for (int q = 0; q < 6; ++q) {
+    const glm::vec3 a = toGlm(exits[kFirst[q]]), b = toGlm(exits[kSecond[q]]);
+    c[q] = a == zero || b == zero ? 1.0f : glm::dot(a, b);
+  }
+  using std::max, std::min;
+  float best = max(max(min(c[0], c[5]), min(c[1], c[4])), min(c[2], c[3]));       // ab|cd, ac|bd, ad|bc
+  best = max(best, max(min(min(c[3], c[4]), c[5]), min(min(c[1], c[2]), c[5])));  // a|bcd, b|acd
+  best = max(best, max(min(min(c[0], c[2]), c[4]), min(min(c[0], c[1]), c[3])));  // c|abd, d|abc
+  return std::acos(std::clamp(best, -1.0f, 1.0f));
+}
+
 float environmentLevel(float footprint, float texelAngle, float maxLevel, float extraBias) {
   return std::clamp(std::log2(std::max(footprint, 1e-30f) / texelAngle) + (gpu::kEnvironmentLevelBias + extraBias), 0.0f,
                     maxLevel);
@@ -266,6 +281,7 @@ struct TexelCell {
   std::array<glm::vec3, 4> exit{};  // unit, object space; zero where the texel is empty
   std::array<float, 4> weight{};
   float jump = 0.0f;
+  float scatter = 0.0f;  // scatterAfterOneJump of the exits
 };
 
 TexelCell readCell(const DistortionImage& distortion, glm::vec2 uv) {
@@ -284,6 +300,9 @@ TexelCell readCell(const DistortionImage& distortion, glm::vec2 uv) {
         minCos = std::min(minCos, glm::dot(cell.exit[a], cell.exit[c]));
   cell.jump = std::clamp((gpu::kSpatialAgreeCosine - minCos) / (gpu::kSpatialAgreeCosine - gpu::kSpatialSplitCosine),
                          0.0f, 1.0f);
+  std::array<Vec3, 4> exits;
+  for (int k = 0; k < 4; ++k) exits[k] = fromGlm(cell.exit[k]);
+  cell.scatter = scatterAfterOneJump(exits);
   return cell;
 }
 
@@ -341,7 +360,8 @@ Vec3 transmittedOverPixel(const DistortionImage& distortion, const LatLongImage&
   if (cell.jump == 0.0f) return fromGlm(directionsOverPixel(distortion, env, f, d, worldFromObject));
   const float n = float(std::clamp(env.tapsPerAxis, 1u, kMaxEnvironmentTapsPerAxis));
   const float footprint = directionFootprint(fromGlm(toGlm(d.exitDx) / n), fromGlm(toGlm(d.exitDy) / n));
-  const glm::vec4 colours = cellColours(cell, env, footprint, worldFromObject);
+  const float blur = gpu::kSpatialScatterBlur * std::max(cell.scatter - gpu::kSpatialScatterThreshold, 0.0f);
+  const glm::vec4 colours = cellColours(cell, env, std::sqrt(footprint * footprint + blur * blur), worldFromObject);
   const float t = cell.jump * colours.w;
   if (t == 1.0f) return fromGlm(glm::vec3(colours));  // the direction taps would weigh nothing
   const glm::vec3 directions = directionsOverPixel(distortion, env, f, d, worldFromObject);
