@@ -80,16 +80,31 @@ vec4 cellColours(TexelCell cell, float footprint) {
   return weight > 0.0 ? vec4(sum / weight, 1.0) : vec4(0.0);
 }
 
+// How much wider than the pixel's share a lookup at a bilinearly filtered exit reads, in radians:
+// the distortion image holds unit exits (without a throughput channel), so a filtered exit
+// shorter than 1 blends texels that point apart, by about acos(length) (Toksvig's measure for
+// filtered normals); beyond kFilteredExitSpreadThreshold the lookup widens by
+// kFilteredExitSpreadBlur times the excess (gpu_layout.h). 0 for a field with throughput, whose
+// length is the throughput. Mirrored by cpu_reference.cpp filteredExitBlur.
+float filteredExitBlur(float len2) {
+  if (pc.tint.a > 0.5 || !(len2 > kMinDirectionLength2)) return 0.0;
+  return kFilteredExitSpreadBlur * max(acos(min(sqrt(len2), 1.0)) - kFilteredExitSpreadThreshold, 0.0);
+}
+
 // The transmitted light over the pixel, interpolating directions: the taps of
 // lookupEnvironmentOverPixel, but each at the exit the distortion image holds at the tap's own
 // place in the pixel (the field coordinate moved by the tap's offset along its derivatives), where
 // it holds one, instead of the centre's exit moved linearly: near a silhouette or a jump the exit
 // turns faster than linearly across a pixel.
-// Mirrored by cpu_reference.cpp directionsOverPixel.
-vec3 directionsOverPixel(vec3 exitWorld, vec3 ddx, vec3 ddy, vec2 uv, vec2 uvDx, vec2 uvDy) {
+// Each lookup widened by filteredExitBlur of its exit (exitBlur: the centre's). Mirrored by
+// cpu_reference.cpp directionsOverPixel.
+vec3 directionsOverPixel(vec3 exitWorld, float exitBlur, vec3 ddx, vec3 ddy, vec2 uv, vec2 uvDx, vec2 uvDy) {
   // No derivatives or one tap: nothing but the centre's exit is read.
-  if ((ddx == vec3(0.0) && ddy == vec3(0.0)) || ENVIRONMENT_TAPS == 1u)
-    return lookupEnvironmentOverPixel(exitWorld, ddx, ddy);
+  if ((ddx == vec3(0.0) && ddy == vec3(0.0)) || ENVIRONMENT_TAPS == 1u) {
+    if (exitBlur == 0.0) return lookupEnvironmentOverPixel(exitWorld, ddx, ddy);
+    float one = ddx == vec3(0.0) && ddy == vec3(0.0) ? 0.0 : directionFootprint(ddx, ddy) * kOneTapFootprintScale;
+    return lookupEnvironment(exitWorld, sqrt(one * one + exitBlur * exitBlur));
+  }
   float n = float(ENVIRONMENT_TAPS);
   float footprint = directionFootprint(ddx / n, ddy / n);
   vec3 sum = vec3(0.0);
@@ -100,7 +115,8 @@ vec3 directionsOverPixel(vec3 exitWorld, vec3 ddx, vec3 ddy, vec2 uv, vec2 uvDx,
       float len2 = dot(d.xyz, d.xyz);
       vec3 tap = len2 > kMinDirectionLength2 ? rotateByQuaternion(pc.worldFromObjectRotation, d.xyz * inversesqrt(len2))
                                              : exitWorld + a * ddx + b * ddy;
-      sum += lookupEnvironment(dot(tap, tap) > 1e-12 ? tap : exitWorld, footprint);
+      float blur = filteredExitBlur(len2);
+      sum += lookupEnvironment(dot(tap, tap) > 1e-12 ? tap : exitWorld, sqrt(footprint * footprint + blur * blur));
     }
   }
   return sum / (n * n);
@@ -112,15 +128,15 @@ vec3 directionsOverPixel(vec3 exitWorld, vec3 ddx, vec3 ddy, vec2 uv, vec2 uvDx,
 // between (TexelCell.jump). Once per pixel, not per tap: at 4x4 supersampling the same images
 // (within 0.01 dB), at 1 spp 0.06 dB less, for a quarter of the lookups (docs/encodings.md
 // "Jumps across texels").
-vec3 transmittedOverPixel(vec3 exitWorld, vec3 ddx, vec3 ddy, vec2 uv, vec2 uvDx, vec2 uvDy) {
+vec3 transmittedOverPixel(vec3 exitWorld, float exitBlur, vec3 ddx, vec3 ddy, vec2 uv, vec2 uvDx, vec2 uvDy) {
   TexelCell cell = readCell(uv);
-  if (cell.jump == 0.0) return directionsOverPixel(exitWorld, ddx, ddy, uv, uvDx, uvDy);
+  if (cell.jump == 0.0) return directionsOverPixel(exitWorld, exitBlur, ddx, ddy, uv, uvDx, uvDy);
   float footprint = directionFootprint(ddx / float(ENVIRONMENT_TAPS), ddy / float(ENVIRONMENT_TAPS));
   float blur = kSpatialScatterBlur * max(cell.scatter - kSpatialScatterThreshold, 0.0);
   vec4 colours = cellColours(cell, sqrt(footprint * footprint + blur * blur));
   float t = cell.jump * colours.w;
   if (t == 1.0) return colours.rgb;  // the direction taps would weigh nothing
-  return mix(directionsOverPixel(exitWorld, ddx, ddy, uv, uvDx, uvDy), colours.rgb, t);
+  return mix(directionsOverPixel(exitWorld, exitBlur, ddx, ddy, uv, uvDx, uvDy), colours.rgb, t);
 }
 
 // The share of its pixel a fragment covers where the surface turns away from the eye: one sample
@@ -166,7 +182,7 @@ void main() {
   // filtered length is the throughput, blended as the direction is. Others store unit lengths,
   // which bilinear filtering shortens between diverging texels: they must not be scaled.
   if (pc.tint.a > 0.5) transmittance *= min(sqrt(len2), 1.0);
-  vec3 color = (1.0 - fresnel) * transmittance * pc.tint.rgb * transmittedOverPixel(exitWorld, exitDx, exitDy, inFieldUv, uvDx, uvDy);
+  vec3 color = (1.0 - fresnel) * transmittance * pc.tint.rgb * transmittedOverPixel(exitWorld, filteredExitBlur(len2), exitDx, exitDy, inFieldUv, uvDx, uvDy);
   if (pc.medium.z > 0.5)
     color += fresnel * lookupEnvironmentOverPixel(reflectedWorld, reflectedDx, reflectedDy);
   outColor = vec4(color * pc.eyeObject.w, coverage);

@@ -425,6 +425,46 @@ TEST(CpuReference, ScatteredTexelsReadABlurrierLevel) {
   EXPECT_NEAR(sharp[0], 1.0f, 1e-5f);
 }
 
+// A filtered exit shorter than 1 blends texels that point apart (gpu_layout.h
+// kFilteredExitSpreadThreshold): its lookup reads a coarser level by how far beyond the threshold
+// acos(length) is. One texel (so the lookup reads it as stored), no derivatives, over the striped
+// environment of the test above: level 0 reads red 1 at a red column, the coarse levels 0.5.
+TEST(CpuReference, ShortFilteredExitsReadABlurrierLevel) {
+  constexpr uint32_t kW = 64, kH = 32;
+  std::vector<float> envPixels(size_t(kW) * kH * 4);
+  for (uint32_t row = 0; row < kH; ++row)
+    for (uint32_t col = 0; col < kW; ++col) {
+      float* p = &envPixels[(size_t(row) * kW + col) * 4];
+      p[0] = (col / 8) % 2 == 0 ? 1.0f : 0.0f;
+      p[1] = 0.5f;
+      p[2] = 0.0f;
+      p[3] = 1.0f;
+    }
+  reference::LatLongImage env{kW, kH, envPixels.data()};
+  const std::vector<std::vector<float>> chain = reference::environmentLevels(env);
+  env.levels = &chain;
+  const float theta = 12.5f / float(kH) * std::numbers::pi_v<float>;
+  const float phi = (20.5f / float(kW) - 0.5f) * 2.0f * std::numbers::pi_v<float>;  // column 20: red
+  const reference::Vec3 red{std::sin(theta) * std::sin(phi), std::cos(theta), -std::sin(theta) * std::cos(phi)};
+  ASSERT_NEAR(reference::sampleLatLong(env, red, 0.0f)[0], 1.0f, 1e-5f);
+  reference::DistortionImage distortion;
+  distortion.width = distortion.height = 1;
+  reference::SurfacePoint p;
+  p.normal = {0, 0, 1};
+  p.uv = {0.5f, 0.5f};
+  p.frontIor = 1.0f;  // no reflection
+  auto shade = [&](float length) {
+    distortion.rgba = {length * red[0], length * red[1], length * red[2], 0.0f};
+    return reference::shadeField(distortion, env, p, {0, 0, 4}, ObjectShading{});
+  };
+  EXPECT_NEAR(shade(1.0f)[0], 1.0f, 1e-5f) << "a unit exit reads level 0";
+  EXPECT_NEAR(shade(std::cos(0.05f))[0], 1.0f, 1e-5f) << "below the threshold: level 0";
+  EXPECT_NEAR(shade(std::cos(0.3f))[0], 0.5f, 0.05f) << "0.3 rad apart: 16 x 0.22 rad wider, the coarse levels";
+  // With a throughput channel the length is the throughput, not a spread: level 0, scaled by it.
+  distortion.throughput = true;
+  EXPECT_NEAR(shade(std::cos(0.3f))[0], std::cos(0.3f), 1e-4f);
+}
+
 TEST(CpuReference, RenderHitsFrontFacesOnly) {
   // A quad at z = 0 facing +z; the camera on +z sees it in the middle of the image.
   FieldMesh mesh;

@@ -303,11 +303,19 @@ TEST_F(FieldRender, FilteredLookupsMatchCpuMirror) {
   }
 }
 
-// Texels whose exits scatter (a chaotic field: each texel's direction moved at random) read their
-// colour blend's lookups at a footprint widened by the scatter beyond kSpatialScatterThreshold;
-// the GPU matches the CPU mirror (same tolerance as above) on a field where most cells scatter.
+// Texels whose exits scatter (a chaotic field: each texel's direction moved at random in every
+// other block of 4 columns) read their colour blend's lookups at a footprint widened by the
+// scatter beyond kSpatialScatterThreshold, and taps between texels that point apart read theirs
+// widened by kFilteredExitSpreadBlur; the GPU matches the CPU mirror at 2 taps per axis (each tap
+// weighs a quarter of the pixel) over stripes with bright ones among them.
 TEST_F(FieldRender, ScatteredTexelsMatchCpuMirror) {
-  const bake::Image env = stripesEnvironment();
+  // The stripes with one in eight 20 times as bright: a tap that reads a blurrier level near one
+  // changes the pixel by much more than the tolerance.
+  bake::Image env = stripesEnvironment();
+  for (uint32_t y = 0; y < env.height; ++y)
+    for (uint32_t x = 0; x < env.width; ++x)
+      if ((x / 4) % 8 == 0)
+        for (int k = 0; k < 3; ++k) env.rgba[(size_t(y) * env.width + x) * 4 + k] *= 20.0f;
   auto gpuEnv = offscreen::uploadEnvironment(*session, env);
   ASSERT_TRUE(gpuEnv.ok()) << gpuEnv.error().message;
   testing::SyntheticFieldOptions a;
@@ -326,6 +334,7 @@ TEST_F(FieldRender, ScatteredTexelsMatchCpuMirror) {
   frame.camera.eye = {0.2f, 0.6f, 4.0f};
   frame.camera.verticalFovDegrees = 45.0f;
   frame.mode = ShadingMode::Field;
+  frame.environmentTapsPerAxis = 2;
   const reference::DistortionImage distortion = reference::decompress(field, frame.camera.eye);
   // The share of the image's cells that scatter beyond the threshold: the case under test.
   uint32_t cells = 0, scattered = 0;
@@ -341,10 +350,11 @@ TEST_F(FieldRender, ScatteredTexelsMatchCpuMirror) {
       if (reference::scatterAfterOneJump(exits) > gpu::kSpatialScatterThreshold) ++scattered;
     }
   std::printf("%u of %u texel cells scatter beyond %.2f rad\n", scattered, cells, double(gpu::kSpatialScatterThreshold));
-  EXPECT_GT(scattered, cells / 2);
+  EXPECT_GT(scattered, cells / 3);
   auto gpu = offscreen::renderFrame(*session, *gpuEnv.value(), {object.value().get()}, frame);
   ASSERT_TRUE(gpu.ok()) << gpu.error().message;
-  const reference::LatLongImage cpuEnv{env.width, env.height, env.rgba.data()};
+  reference::LatLongImage cpuEnv{env.width, env.height, env.rgba.data()};
+  cpuEnv.tapsPerAxis = frame.environmentTapsPerAxis;
   const reference::RenderedImage cpu = reference::render({{&field.mesh, &distortion, object.value()->shading}}, cpuEnv,
                                                          frame.camera, frame.width, frame.height);
   bake::Image diff;
@@ -352,7 +362,10 @@ TEST_F(FieldRender, ScatteredTexelsMatchCpuMirror) {
   std::printf("scattered texels: %u of %u object pixels outside tolerance against the CPU mirror (max |diff| %.4f)\n",
               mirror.failed, mirror.pixels, double(mirror.maxDiff));
   EXPECT_GT(mirror.pixels, 3000u);
-  const bool pass = float(mirror.failed) <= kFieldTolerance.failFraction * float(mirror.pixels);
+  // Tighter than kFieldTolerance's fraction: measured 9 of 3234 pixels (near the bright stripes,
+  // where a level's rounding shows); with the CPU mirror's filtered-exit widening left out, 26.
+  constexpr float kScatterFailFraction = 0.004f;
+  const bool pass = float(mirror.failed) <= kScatterFailFraction * float(mirror.pixels);
   EXPECT_TRUE(pass) << mirror.failed << " of " << mirror.pixels << " object pixels outside tolerance";
   if (!pass || std::getenv("SHREFRACT_WRITE_TEST_IMAGES")) {
     writeForInspection("scattered_gpu.png", gpu.value());

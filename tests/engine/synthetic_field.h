@@ -49,8 +49,9 @@ struct SyntheticFieldOptions {
   bool jumpDistance = false;
   // Channels 0..2 are read as exits in each sample's frame (EncodingShape::sampleFrameExits).
   bool sampleFrameExits = false;
-  // > 0: each texel's dominant direction moved by a pseudo-random vector of components up to this
-  // (per texel, from the seed), so that neighbouring texels disagree as a chaotic field's do.
+  // > 0: the dominant direction of each texel in every other block of 4 columns moved by a
+  // pseudo-random vector of components up to this (per texel, from the seed): there neighbouring
+  // texels disagree as a chaotic field's do, and they meet smooth texels along many edges.
   float texelScatter = 0.0f;
   uint32_t seed = 1;
   float radius = 1.0f;
@@ -291,7 +292,11 @@ inline Field makeSyntheticField(const SyntheticFieldOptions& o) {
   if (o.texelScatter > 0.0f) {  // its own generator: the coefficients' draws stay as they were
     std::mt19937 rng(o.seed + 7919u);
     std::uniform_real_distribution<float> uniform(-o.texelScatter, o.texelScatter);
-    for (float& d : directions) d += uniform(rng);
+    for (uint32_t t = 0; t < texels; ++t)
+      for (uint32_t k = 0; k < 3; ++k) {
+        const float move = uniform(rng);  // drawn for every texel, so that a block's moves do not depend on the others
+        if ((t % o.width) / 4 % 2 == 1) directions[size_t(t) * 3 + k] += move;
+      }
   }
   if (o.emptyAndGutters)
     for (uint32_t x = 0; x + 2 < o.width; ++x) {

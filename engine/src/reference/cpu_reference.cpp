@@ -322,6 +322,14 @@ glm::vec4 cellColours(const TexelCell& cell, const LatLongImage& env, float foot
   return weight > 0.0f ? glm::vec4(sum / weight, 1.0f) : glm::vec4(0.0f);
 }
 
+// How much wider a lookup at a bilinearly filtered exit of squared length len2 reads
+// (object_field_body.glsl filteredExitBlur; gpu_layout.h kFilteredExitSpreadThreshold).
+float filteredExitBlur(const DistortionImage& distortion, float len2) {
+  if (distortion.throughput || !(len2 > gpu::kMinDirectionLength2)) return 0.0f;
+  return gpu::kFilteredExitSpreadBlur *
+         std::max(std::acos(std::min(std::sqrt(len2), 1.0f)) - gpu::kFilteredExitSpreadThreshold, 0.0f);
+}
+
 // The transmitted light over the pixel, interpolating directions (object_field_body.glsl
 // directionsOverPixel): the taps of sampleLatLongOverPixel, each at the exit the distortion image
 // holds at the tap's own place in the pixel, where it holds one (else the centre's exit moved along
@@ -331,8 +339,14 @@ glm::vec3 directionsOverPixel(const DistortionImage& distortion, const LatLongIm
   const glm::vec3 dir = f.exitWorld, dx = toGlm(d.exitDx), dy = toGlm(d.exitDy);
   const uint32_t taps = std::clamp(env.tapsPerAxis, 1u, kMaxEnvironmentTapsPerAxis);
   // No derivatives or one tap: nothing but the centre's exit is read.
-  if ((dx == glm::vec3(0.0f) && dy == glm::vec3(0.0f)) || taps == 1)
-    return toGlm(sampleLatLongOverPixel(env, fromGlm(dir), d.exitDx, d.exitDy));
+  if ((dx == glm::vec3(0.0f) && dy == glm::vec3(0.0f)) || taps == 1) {
+    const float exitBlur = filteredExitBlur(distortion, f.len2);
+    if (exitBlur == 0.0f) return toGlm(sampleLatLongOverPixel(env, fromGlm(dir), d.exitDx, d.exitDy));
+    const float one = dx == glm::vec3(0.0f) && dy == glm::vec3(0.0f)
+                          ? 0.0f
+                          : directionFootprint(d.exitDx, d.exitDy) * gpu::kOneTapFootprintScale;
+    return toGlm(sampleLatLong(env, fromGlm(dir), std::sqrt(one * one + exitBlur * exitBlur)));
+  }
   const float n = float(taps);
   const float footprint = directionFootprint(fromGlm(dx / n), fromGlm(dy / n));
   const glm::vec2 uvDx(d.uvDx[0], d.uvDx[1]), uvDy(d.uvDy[0], d.uvDy[1]);
@@ -347,7 +361,9 @@ glm::vec3 directionsOverPixel(const DistortionImage& distortion, const LatLongIm
       const glm::vec3 tap = len2 > gpu::kMinDirectionLength2
                                 ? toGlm(rotateDirection(worldFromObject, fromGlm(exit / std::sqrt(len2))))
                                 : dir + a * dx + b * dy;
-      sum += toGlm(sampleLatLong(env, fromGlm(glm::dot(tap, tap) > 1e-12f ? tap : dir), footprint));
+      const float blur = filteredExitBlur(distortion, len2);
+      sum += toGlm(sampleLatLong(env, fromGlm(glm::dot(tap, tap) > 1e-12f ? tap : dir),
+                                 std::sqrt(footprint * footprint + blur * blur)));
     }
   return sum / (n * n);
 }

@@ -242,6 +242,16 @@ SHR_CONSTF(kSpatialSplitCosine, 0.98480775f)  // cos 10 deg
 // degrees nearly everywhere and read sharp structure.
 SHR_CONSTF(kSpatialScatterThreshold, 0.15f)
 SHR_CONSTF(kSpatialScatterBlur, 4.0f)
+// A bilinearly filtered exit shorter than 1 blends texels that point apart (object_field_body.glsl
+// filteredExitBlur): where acos(length) exceeds kFilteredExitSpreadThreshold (radians) its lookup
+// reads a footprint widened by kFilteredExitSpreadBlur times the excess. The threshold stays above
+// what binary16 rounding of unit exits reads (without one every lookup blurred: the cube 29.09 ->
+// 17.85 dB); the factor makes a tap between texels far apart read the coarse levels. Measured
+// (64x64 fields, linear PSNR against the 4x4 full tree, 1 spp; docs/antialiasing.md "Filtered exits
+// that point apart"): sphere 30.94 -> 31.24, cube 27.26 -> 27.33, glass of water 22.71 -> 22.77,
+// torus 24.30 -> 24.32; 4x4 within +0.02 dB; 0.05 lost 0.2 dB on the torus.
+SHR_CONSTF(kFilteredExitSpreadThreshold, 0.08f)
+SHR_CONSTF(kFilteredExitSpreadBlur, 16.0f)
 // The colour blend weighs each texel's colour c by its bilinear weight / (1 + luma(c)) (Rec. 709
 // luma), a firefly-robust average: a texel whose decoded exit strays onto a bright part of the
 // sky would otherwise light its whole cell (torus, blending from 10 to 25 deg: 23.08 dB with plain
