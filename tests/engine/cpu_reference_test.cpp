@@ -365,10 +365,38 @@ TEST(CpuReference, TexelsAcrossAJumpBlendTheirColours) {
   for (int k = 0; k < 3; ++k) EXPECT_EQ(empty[k], 0.0f) << k;
 }
 
+// A 64 x 32 lat-long environment of vertical stripes, red in every other 8 columns, green 0.5
+// everywhere, with its level chain: level 0 reads red 1 at a red column's centre, the chain's
+// coarse levels average the stripes to 0.5.
+struct RedStripes {
+  static constexpr uint32_t kW = 64, kH = 32;
+  std::vector<float> pixels = makePixels();
+  std::vector<std::vector<float>> chain = reference::environmentLevels(reference::LatLongImage{kW, kH, pixels.data()});
+  reference::LatLongImage env{kW, kH, pixels.data(), &chain};
+
+  static std::vector<float> makePixels() {
+    std::vector<float> out(size_t(kW) * kH * 4);
+    for (uint32_t row = 0; row < kH; ++row)
+      for (uint32_t col = 0; col < kW; ++col) {
+        float* p = &out[(size_t(row) * kW + col) * 4];
+        p[0] = (col / 8) % 2 == 0 ? 1.0f : 0.0f;
+        p[1] = 0.5f;
+        p[2] = 0.0f;
+        p[3] = 1.0f;
+      }
+    return out;
+  }
+  // The direction at the centre of texel (col, row) (environment.glsl's convention).
+  static reference::Vec3 at(float col, float row) {
+    const float theta = (row + 0.5f) / float(kH) * std::numbers::pi_v<float>;
+    const float phi = ((col + 0.5f) / float(kW) - 0.5f) * 2.0f * std::numbers::pi_v<float>;
+    return {std::sin(theta) * std::sin(phi), std::cos(theta), -std::sin(theta) * std::cos(phi)};
+  }
+};
+
 // Scatter in a jump cell (gpu_layout.h kSpatialScatterThreshold): the spread four exits keep once
-// one jump may split them in two, in closed form, and what the shading does with it. An
-// environment of vertical stripes, red in every other 8 columns, green 0.5 everywhere: level 0
-// reads red 1 at a red column's centre, the chain's coarse levels average the stripes to 0.5.
+// one jump may split them in two, in closed form, and what the shading does with it over
+// RedStripes.
 TEST(CpuReference, ScatteredTexelsReadABlurrierLevel) {
   using reference::Vec3;
   const Vec3 x{1, 0, 0}, y{0, 1, 0}, z{0, 0, 1}, minusX{-1, 0, 0}, none{0, 0, 0};
@@ -382,26 +410,11 @@ TEST(CpuReference, ScatteredTexelsReadABlurrierLevel) {
   const Vec3 tilted{std::sin(a), 0.0f, std::cos(a)}, tilted2{0.0f, std::sin(a), std::cos(a)};
   EXPECT_NEAR(reference::scatterAfterOneJump({z, tilted, tilted2, z}), a, 1e-3f) << "a smooth cell: its own spread";
 
-  constexpr uint32_t kW = 64, kH = 32;
-  std::vector<float> envPixels(size_t(kW) * kH * 4);
-  for (uint32_t row = 0; row < kH; ++row)
-    for (uint32_t col = 0; col < kW; ++col) {
-      float* p = &envPixels[(size_t(row) * kW + col) * 4];
-      p[0] = (col / 8) % 2 == 0 ? 1.0f : 0.0f;
-      p[1] = 0.5f;
-      p[2] = 0.0f;
-      p[3] = 1.0f;
-    }
-  reference::LatLongImage env{kW, kH, envPixels.data()};
-  const std::vector<std::vector<float>> chain = reference::environmentLevels(env);
-  env.levels = &chain;
-  // The direction at the centre of texel (col, row): red columns 4, 20, 36 and 52, rows far apart.
-  auto at = [&](float col, float row) {
-    const float theta = (row + 0.5f) / float(kH) * std::numbers::pi_v<float>;
-    const float phi = ((col + 0.5f) / float(kW) - 0.5f) * 2.0f * std::numbers::pi_v<float>;
-    return Vec3{std::sin(theta) * std::sin(phi), std::cos(theta), -std::sin(theta) * std::cos(phi)};  // environment.glsl
-  };
-  const std::array<Vec3, 4> scattered{at(4, 8), at(20, 24), at(36, 12), at(52, 20)};
+  const RedStripes stripes;
+  const reference::LatLongImage& env = stripes.env;
+  // Red columns 4, 20, 36 and 52, rows far apart.
+  const std::array<Vec3, 4> scattered{RedStripes::at(4, 8), RedStripes::at(20, 24), RedStripes::at(36, 12),
+                                      RedStripes::at(52, 20)};
   for (const Vec3& d : scattered) ASSERT_NEAR(reference::sampleLatLong(env, d, 0.0f)[0], 1.0f, 1e-5f) << "a red column";
   ASSERT_GT(reference::scatterAfterOneJump(scattered), 0.5f);
   reference::DistortionImage distortion;
@@ -427,25 +440,11 @@ TEST(CpuReference, ScatteredTexelsReadABlurrierLevel) {
 
 // A filtered exit shorter than 1 blends texels that point apart (gpu_layout.h
 // kFilteredExitSpreadThreshold): its lookup reads a coarser level by how far beyond the threshold
-// acos(length) is. One texel (so the lookup reads it as stored), no derivatives, over the striped
-// environment of the test above: level 0 reads red 1 at a red column, the coarse levels 0.5.
+// acos(length) is. One texel (so the lookup reads it as stored), no derivatives, over RedStripes.
 TEST(CpuReference, ShortFilteredExitsReadABlurrierLevel) {
-  constexpr uint32_t kW = 64, kH = 32;
-  std::vector<float> envPixels(size_t(kW) * kH * 4);
-  for (uint32_t row = 0; row < kH; ++row)
-    for (uint32_t col = 0; col < kW; ++col) {
-      float* p = &envPixels[(size_t(row) * kW + col) * 4];
-      p[0] = (col / 8) % 2 == 0 ? 1.0f : 0.0f;
-      p[1] = 0.5f;
-      p[2] = 0.0f;
-      p[3] = 1.0f;
-    }
-  reference::LatLongImage env{kW, kH, envPixels.data()};
-  const std::vector<std::vector<float>> chain = reference::environmentLevels(env);
-  env.levels = &chain;
-  const float theta = 12.5f / float(kH) * std::numbers::pi_v<float>;
-  const float phi = (20.5f / float(kW) - 0.5f) * 2.0f * std::numbers::pi_v<float>;  // column 20: red
-  const reference::Vec3 red{std::sin(theta) * std::sin(phi), std::cos(theta), -std::sin(theta) * std::cos(phi)};
+  const RedStripes stripes;
+  const reference::LatLongImage& env = stripes.env;
+  const reference::Vec3 red = RedStripes::at(20, 12);  // column 20: red
   ASSERT_NEAR(reference::sampleLatLong(env, red, 0.0f)[0], 1.0f, 1e-5f);
   reference::DistortionImage distortion;
   distortion.width = distortion.height = 1;

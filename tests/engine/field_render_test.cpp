@@ -226,28 +226,39 @@ bake::Image stripesEnvironment() {
   return env;
 }
 
-TEST_F(FieldRender, FilteredLookupsMatchCpuMirror) {
-  const bake::Image env = stripesEnvironment();
-  auto gpuEnv = offscreen::uploadEnvironment(*session, env);
-  ASSERT_TRUE(gpuEnv.ok()) << gpuEnv.error().message;
+// The band the filtered-lookup tests draw (48 x 24 texels, radius 0.9, binary16) and the frame
+// they see it in (160 x 120, the band a good part of it).
+testing::SyntheticFieldOptions bandOptions() {
   testing::SyntheticFieldOptions a;
-  a.order = 4;
   a.quantization = Quantization::F16;
-  a.channels = 4;
   a.radius = 0.9f;
   a.width = 48;
   a.height = 24;
-  a.seed = 5;
-  const Field field = testing::makeSyntheticField(a);
-  auto object = offscreen::uploadField(*session, field);
-  ASSERT_TRUE(object.ok()) << object.error().message;
-  object.value()->shading.reflection = true;
+  return a;
+}
+
+offscreen::FrameSettings bandFrame() {
   offscreen::FrameSettings frame;
   frame.width = 160;
   frame.height = 120;
   frame.camera.eye = {0.2f, 0.6f, 4.0f};
   frame.camera.verticalFovDegrees = 45.0f;
   frame.mode = ShadingMode::Field;
+  return frame;
+}
+
+TEST_F(FieldRender, FilteredLookupsMatchCpuMirror) {
+  const bake::Image env = stripesEnvironment();
+  auto gpuEnv = offscreen::uploadEnvironment(*session, env);
+  ASSERT_TRUE(gpuEnv.ok()) << gpuEnv.error().message;
+  testing::SyntheticFieldOptions a = bandOptions();
+  a.order = 4;
+  a.seed = 5;
+  const Field field = testing::makeSyntheticField(a);
+  auto object = offscreen::uploadField(*session, field);
+  ASSERT_TRUE(object.ok()) << object.error().message;
+  object.value()->shading.reflection = true;
+  offscreen::FrameSettings frame = bandFrame();
 
   const reference::DistortionImage distortion = reference::decompress(field, frame.camera.eye);
   const std::vector<reference::RenderObject> cpuObjects{{&field.mesh, &distortion, object.value()->shading}};
@@ -318,22 +329,12 @@ TEST_F(FieldRender, ScatteredTexelsMatchCpuMirror) {
         for (int k = 0; k < 3; ++k) env.rgba[(size_t(y) * env.width + x) * 4 + k] *= 20.0f;
   auto gpuEnv = offscreen::uploadEnvironment(*session, env);
   ASSERT_TRUE(gpuEnv.ok()) << gpuEnv.error().message;
-  testing::SyntheticFieldOptions a;
-  a.order = 2;
-  a.quantization = Quantization::F16;
-  a.radius = 0.9f;
-  a.width = 48;
-  a.height = 24;
+  testing::SyntheticFieldOptions a = bandOptions();
   a.texelScatter = 0.3f;
   const Field field = testing::makeSyntheticField(a);
   auto object = offscreen::uploadField(*session, field);
   ASSERT_TRUE(object.ok()) << object.error().message;
-  offscreen::FrameSettings frame;
-  frame.width = 160;
-  frame.height = 120;
-  frame.camera.eye = {0.2f, 0.6f, 4.0f};
-  frame.camera.verticalFovDegrees = 45.0f;
-  frame.mode = ShadingMode::Field;
+  offscreen::FrameSettings frame = bandFrame();
   frame.environmentTapsPerAxis = 2;
   const reference::DistortionImage distortion = reference::decompress(field, frame.camera.eye);
   // The share of the image's cells that scatter beyond the threshold: the case under test.
