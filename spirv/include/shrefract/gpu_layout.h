@@ -247,9 +247,9 @@ SHR_CONSTF(kSpatialScatterBlur, 4.0f)
 // reads a footprint widened by kFilteredExitSpreadBlur times the excess. The threshold stays above
 // what binary16 rounding of unit exits reads (without one every lookup blurred: the cube 29.09 ->
 // 17.85 dB); the factor makes a tap between texels far apart read the coarse levels. Measured
-// (64x64 fields, linear PSNR against the 4x4 full tree, 1 spp; docs/antialiasing.md "Filtered exits
-// that point apart"): sphere 30.94 -> 31.24, cube 27.26 -> 27.33, glass of water 22.71 -> 22.77,
-// torus 24.30 -> 24.32; 4x4 within +0.02 dB; 0.05 lost 0.2 dB on the torus.
+// (64x64 fields, linear PSNR against the 4x4 full tree, 1 spp; docs/antialiasing.md "Taps
+// between texels that point apart"): sphere 30.94 -> 31.24, cube 27.26 -> 27.33, glass of water
+// 22.71 -> 22.77, torus 24.30 -> 24.32; 4x4 within +0.02 dB; 0.05 lost 0.2 dB on the torus.
 SHR_CONSTF(kFilteredExitSpreadThreshold, 0.08f)
 SHR_CONSTF(kFilteredExitSpreadBlur, 16.0f)
 // The colour blend weighs each texel's colour c by its bilinear weight / (1 + luma(c)) (Rec. 709
