@@ -23,7 +23,6 @@ struct TexelCell {
   vec3 exit[4];  // unit, object space; zero where the texel is empty
   float weight[4];
   float jump;
-  float scatter;  // scatterAfterOneJump of the exits
 };
 
 // How far the four exits still spread once one jump may split them into two groups, in radians:
@@ -61,7 +60,6 @@ TexelCell readCell(vec2 uv) {
     for (int c = a + 1; c < 4; ++c)
       if (cell.exit[a] != vec3(0.0) && cell.exit[c] != vec3(0.0)) minCos = min(minCos, dot(cell.exit[a], cell.exit[c]));
   cell.jump = clamp((kSpatialAgreeCosine - minCos) / (kSpatialAgreeCosine - kSpatialSplitCosine), 0.0, 1.0);
-  cell.scatter = scatterAfterOneJump(cell.exit);
   return cell;
 }
 
@@ -79,6 +77,10 @@ vec4 cellColours(TexelCell cell, float footprint) {
   }
   return weight > 0.0 ? vec4(sum / weight, 1.0) : vec4(0.0);
 }
+
+// A lookup's footprint widened by `blur` radians of uncertainty in its direction (added in
+// quadrature: independent spreads). Mirrored by cpu_reference.cpp widenedFootprint.
+float widenedFootprint(float footprint, float blur) { return sqrt(footprint * footprint + blur * blur); }
 
 // How much wider than the pixel's share a lookup at a bilinearly filtered exit reads, in radians:
 // the distortion image holds unit exits (without a throughput channel), so a filtered exit
@@ -103,7 +105,7 @@ vec3 directionsOverPixel(vec3 exitWorld, float exitBlur, vec3 ddx, vec3 ddy, vec
   if ((ddx == vec3(0.0) && ddy == vec3(0.0)) || ENVIRONMENT_TAPS == 1u) {
     if (exitBlur == 0.0) return lookupEnvironmentOverPixel(exitWorld, ddx, ddy);
     float one = ddx == vec3(0.0) && ddy == vec3(0.0) ? 0.0 : directionFootprint(ddx, ddy) * kOneTapFootprintScale;
-    return lookupEnvironment(exitWorld, sqrt(one * one + exitBlur * exitBlur));
+    return lookupEnvironment(exitWorld, widenedFootprint(one, exitBlur));
   }
   float n = float(ENVIRONMENT_TAPS);
   float footprint = directionFootprint(ddx / n, ddy / n);
@@ -116,7 +118,7 @@ vec3 directionsOverPixel(vec3 exitWorld, float exitBlur, vec3 ddx, vec3 ddy, vec
       vec3 tap = len2 > kMinDirectionLength2 ? rotateByQuaternion(pc.worldFromObjectRotation, d.xyz * inversesqrt(len2))
                                              : exitWorld + a * ddx + b * ddy;
       float blur = filteredExitBlur(len2);
-      sum += lookupEnvironment(dot(tap, tap) > 1e-12 ? tap : exitWorld, sqrt(footprint * footprint + blur * blur));
+      sum += lookupEnvironment(dot(tap, tap) > 1e-12 ? tap : exitWorld, widenedFootprint(footprint, blur));
     }
   }
   return sum / (n * n);
@@ -132,8 +134,9 @@ vec3 transmittedOverPixel(vec3 exitWorld, float exitBlur, vec3 ddx, vec3 ddy, ve
   TexelCell cell = readCell(uv);
   if (cell.jump == 0.0) return directionsOverPixel(exitWorld, exitBlur, ddx, ddy, uv, uvDx, uvDy);
   float footprint = directionFootprint(ddx / float(ENVIRONMENT_TAPS), ddy / float(ENVIRONMENT_TAPS));
-  float blur = kSpatialScatterBlur * max(cell.scatter - kSpatialScatterThreshold, 0.0);
-  vec4 colours = cellColours(cell, sqrt(footprint * footprint + blur * blur));
+  // Only here: a cell whose texels agree has no scatter to measure.
+  float blur = kSpatialScatterBlur * max(scatterAfterOneJump(cell.exit) - kSpatialScatterThreshold, 0.0);
+  vec4 colours = cellColours(cell, widenedFootprint(footprint, blur));
   float t = cell.jump * colours.w;
   if (t == 1.0) return colours.rgb;  // the direction taps would weigh nothing
   return mix(directionsOverPixel(exitWorld, exitBlur, ddx, ddy, uv, uvDx, uvDy), colours.rgb, t);

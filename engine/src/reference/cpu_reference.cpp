@@ -281,7 +281,6 @@ struct TexelCell {
   std::array<glm::vec3, 4> exit{};  // unit, object space; zero where the texel is empty
   std::array<float, 4> weight{};
   float jump = 0.0f;
-  float scatter = 0.0f;  // scatterAfterOneJump of the exits
 };
 
 TexelCell readCell(const DistortionImage& distortion, glm::vec2 uv) {
@@ -300,9 +299,6 @@ TexelCell readCell(const DistortionImage& distortion, glm::vec2 uv) {
         minCos = std::min(minCos, glm::dot(cell.exit[a], cell.exit[c]));
   cell.jump = std::clamp((gpu::kSpatialAgreeCosine - minCos) / (gpu::kSpatialAgreeCosine - gpu::kSpatialSplitCosine),
                          0.0f, 1.0f);
-  std::array<Vec3, 4> exits;
-  for (int k = 0; k < 4; ++k) exits[k] = fromGlm(cell.exit[k]);
-  cell.scatter = scatterAfterOneJump(exits);
   return cell;
 }
 
@@ -321,6 +317,9 @@ glm::vec4 cellColours(const TexelCell& cell, const LatLongImage& env, float foot
   }
   return weight > 0.0f ? glm::vec4(sum / weight, 1.0f) : glm::vec4(0.0f);
 }
+
+// A lookup's footprint widened by `blur` radians (object_field_body.glsl widenedFootprint).
+float widenedFootprint(float footprint, float blur) { return std::sqrt(footprint * footprint + blur * blur); }
 
 // How much wider a lookup at a bilinearly filtered exit of squared length len2 reads
 // (object_field_body.glsl filteredExitBlur; gpu_layout.h kFilteredExitSpreadThreshold).
@@ -345,7 +344,7 @@ glm::vec3 directionsOverPixel(const DistortionImage& distortion, const LatLongIm
     const float one = dx == glm::vec3(0.0f) && dy == glm::vec3(0.0f)
                           ? 0.0f
                           : directionFootprint(d.exitDx, d.exitDy) * gpu::kOneTapFootprintScale;
-    return toGlm(sampleLatLong(env, fromGlm(dir), std::sqrt(one * one + exitBlur * exitBlur)));
+    return toGlm(sampleLatLong(env, fromGlm(dir), widenedFootprint(one, exitBlur)));
   }
   const float n = float(taps);
   const float footprint = directionFootprint(fromGlm(dx / n), fromGlm(dy / n));
@@ -362,8 +361,7 @@ glm::vec3 directionsOverPixel(const DistortionImage& distortion, const LatLongIm
                                 ? toGlm(rotateDirection(worldFromObject, fromGlm(exit / std::sqrt(len2))))
                                 : dir + a * dx + b * dy;
       const float blur = filteredExitBlur(distortion, len2);
-      sum += toGlm(sampleLatLong(env, fromGlm(glm::dot(tap, tap) > 1e-12f ? tap : dir),
-                                 std::sqrt(footprint * footprint + blur * blur)));
+      sum += toGlm(sampleLatLong(env, fromGlm(glm::dot(tap, tap) > 1e-12f ? tap : dir), widenedFootprint(footprint, blur)));
     }
   return sum / (n * n);
 }
@@ -376,8 +374,10 @@ Vec3 transmittedOverPixel(const DistortionImage& distortion, const LatLongImage&
   if (cell.jump == 0.0f) return fromGlm(directionsOverPixel(distortion, env, f, d, worldFromObject));
   const float n = float(std::clamp(env.tapsPerAxis, 1u, kMaxEnvironmentTapsPerAxis));
   const float footprint = directionFootprint(fromGlm(toGlm(d.exitDx) / n), fromGlm(toGlm(d.exitDy) / n));
-  const float blur = gpu::kSpatialScatterBlur * std::max(cell.scatter - gpu::kSpatialScatterThreshold, 0.0f);
-  const glm::vec4 colours = cellColours(cell, env, std::sqrt(footprint * footprint + blur * blur), worldFromObject);
+  const std::array<Vec3, 4> exits{fromGlm(cell.exit[0]), fromGlm(cell.exit[1]), fromGlm(cell.exit[2]),
+                                  fromGlm(cell.exit[3])};
+  const float blur = gpu::kSpatialScatterBlur * std::max(scatterAfterOneJump(exits) - gpu::kSpatialScatterThreshold, 0.0f);
+  const glm::vec4 colours = cellColours(cell, env, widenedFootprint(footprint, blur), worldFromObject);
   const float t = cell.jump * colours.w;
   if (t == 1.0f) return fromGlm(glm::vec3(colours));  // the direction taps would weigh nothing
   const glm::vec3 directions = directionsOverPixel(distortion, env, f, d, worldFromObject);
