@@ -50,7 +50,7 @@ std::vector<FlagSpec> renderFlags() {
       {"tree-depth", true, "full-tree mode: depth of the Fresnel tree (default 8)", K::Integer, {1, 16}},
       {"filtered", false, "exact and full-tree modes: read the environment at the level of each lookup's pixel "
                           "footprint, as the engine does, and blend across path discontinuities (docs/antialiasing.md; 5x "
-                          "the rays)"},
+                          "the rays, more at discontinuities)"},
       {"env-taps", true, "taps per axis of each filtered environment lookup (1 is one trilinear lookup, cheaper "
                          "and blurrier): GPU modes and exact and full-tree with --filtered (default 4) "
                          "(docs/antialiasing.md)", K::Integer, {1, kMaxEnvironmentTapsPerAxis}},

@@ -120,6 +120,54 @@ struct PixelAccumulator {
   }
 };
 
+// The filtered renderers' four probes around a sample: +x, -x, +y, -y.
+constexpr float kAroundX[4] = {1.0f, -1.0f, 0.0f, 0.0f}, kAroundY[4] = {0.0f, 0.0f, 1.0f, -1.0f};
+
+// The area of the unit box [-1/2, 1/2]^2 where dot(normal, p) > offset (Sutherland-Hodgman
+// against the one half-plane, then the shoelace formula).
+float boxAreaBeyond(glm::vec2 normal, float offset) {
+  const glm::vec2 box[4] = {{-0.5f, -0.5f}, {0.5f, -0.5f}, {0.5f, 0.5f}, {-0.5f, 0.5f}};
+  std::array<glm::vec2, 5> kept;
+  size_t count = 0;
+  for (size_t i = 0; i < 4; ++i) {
+    const glm::vec2 a = box[i], b = box[(i + 1) % 4];
+    const float fa = glm::dot(normal, a) - offset, fb = glm::dot(normal, b) - offset;
+    if (fa > 0.0f) kept[count++] = a;
+    if ((fa > 0.0f) != (fb > 0.0f)) kept[count++] = a + (b - a) * (fa / (fa - fb));
+  }
+  float twice = 0.0f;
+  for (size_t i = 0; i < count; ++i) {
+    const glm::vec2 a = kept[i], b = kept[(i + 1) % count];
+    twice += a.x * b.y - a.y * b.x;
+  }
+  return 0.5f * std::abs(twice);
+}
+
+}  // namespace
+
+std::array<float, 4> shareBeyondCrossings(const std::array<float, 4>& crossing) {
+  std::array<float, 4> share{};
+  const bool across[4] = {crossing[0] > 0.0f, crossing[1] > 0.0f, crossing[2] > 0.0f, crossing[3] > 0.0f};
+  const int xs = int(across[0]) + int(across[1]), ys = int(across[2]) + int(across[3]);
+  if (xs == 2 || ys == 2) {
+    // Across on both sides of an axis: a feature thinner than the cell, or two discontinuities,
+    // whose sides one probe each does not tell apart; the expected share, 1/4 per probe.
+    const float beyond = 1.0f - (1.0f - 0.25f * float(xs)) * (1.0f - 0.25f * float(ys));
+    for (size_t k = 0; k < 4; ++k) share[k] = across[k] ? beyond / float(xs + ys) : 0.0f;
+  } else if (xs == 1 && ys == 1) {
+    // One edge through (X, 0) and (0, Y): beyond it x / X + y / Y > 1.
+    const size_t kx = across[0] ? 0 : 1, ky = across[2] ? 2 : 3;
+    const float X = kAroundX[kx] * crossing[kx], Y = kAroundY[ky] * crossing[ky];
+    share[kx] = share[ky] = 0.5f * boxAreaBeyond({1.0f / X, 1.0f / Y}, 1.0f);
+  } else {
+    for (size_t k = 0; k < 4; ++k)
+      if (across[k]) share[k] = 0.5f - std::min(crossing[k], 0.5f);  // at right angles to its axis
+  }
+  return share;
+}
+
+namespace {
+
 ReferenceImage emptyImage(uint32_t width, uint32_t height) {
   ReferenceImage out;
   const size_t pixels = size_t(width) * height;
@@ -329,8 +377,9 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
   };
 
   // Filtered, one sub-sample and four probes at the midpoints of its cell's edges, half a cell
-  // away along +-x and +-y, each traced in full (5x the rays): a discontinuity on either side of
-  // the sample is seen (one probe per axis, toward the quad neighbour, missed half of them).
+  // away along +-x and +-y, each traced in full (5x the rays, and the bisections below): a
+  // discontinuity on either side of the sample is seen (one probe per axis, toward the quad
+  // neighbour, missed half of them).
   // Per lookup and axis, the derivative is the central difference where both probes went the same
   // way for that lookup (same surface, same key), the one-sided difference where one did: the
   // engine's fine derivatives, measured inside the cell. Where neither did, a discontinuity lies
@@ -338,12 +387,16 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
   // it, a tree of the same size) stays the derivative, so the lookup spreads over the directions
   // the cell sees, as the engine's quad derivatives do, where a point lookup would sparkle.
   // A probe that went another way (a silhouette, another highest-energy branch, another number of
-  // interfaces) has a discontinuity between it and the sample, at distance t uniform in [0, 1/2]:
-  // the box filter over the cell sees the probe's side over 1/2 - t of that axis, 1/4 on average,
-  // so the probe's colour enters with that share; the two axes combine as independent (the
-  // sample keeps (1 - c_x / 4)(1 - c_y / 4) for c probes across per axis).
+  // interfaces) has a discontinuity between it and the sample. Where it lies is found by
+  // bisection (kCrossingBisections traces, to 1/16 of a cell): at distance t, the box filter over
+  // the cell sees the probe's side over 1/2 - t of that axis, and the probe's colour enters with
+  // that share (shareBeyondCrossings: where crossings on one x and one y half-axis fix a straight
+  // edge, the box's area beyond it; with probes across on both sides of an axis, the expected
+  // share 1/4 each). Without the bisection every probe across took the expected share, 1/4,
+  // blending a pixel the edge barely touches as much as one it halves (docs/antialiasing.md,
+  // "Where the discontinuity lies").
   constexpr float kProbeOffset = 0.5f;
-  constexpr float kAcrossDiscontinuity = 0.25f;
+  constexpr int kCrossingBisections = 3;
   struct Probe {
     glm::vec3 d{0.0f};
     Traced t;
@@ -353,6 +406,8 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
   struct Neighbourhood {
     Probe self;
     std::array<Probe, 4> around;  // +x, -x, +y, -y
+    Probe between;                // scratch: a bisection's probe
+    float x = 0.0f, y = 0.0f;     // the sample, in sub-pixels
     std::vector<Derivatives> derivatives;
     std::vector<Derivatives> footprints;  // scratch: a probe's, in blendAcross
   };
@@ -378,27 +433,45 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
     if (b || alike(before)) return (self.dirs[i] - before.dirs[i]) / kProbeOffset;
     return glm::vec3(0.0f);
   };
+  // Where between the sample and probe k, which went another way, the way changes: its distance
+  // from the sample in cells, in (0, kProbeOffset).
+  auto crossingDistance = [&](Neighbourhood& n, size_t k, uint64_t& rays) {
+    float inside = 0.0f, beyond = kProbeOffset;
+    for (int b = 0; b < kCrossingBisections; ++b) {
+      const float mid = 0.5f * (inside + beyond);
+      probeAt(n.x + mid * kAroundX[k], n.y + mid * kAroundY[k], n.between, rays);
+      (sameWay(n.self, n.between) ? inside : beyond) = mid;
+    }
+    return 0.5f * (inside + beyond);
+  };
   // The sample's colour with the probes across a discontinuity blended in, each shaded with this
   // sample's footprints (the same pixel-scale spread; level 0 would sparkle) where their lookups
   // correspond: all of them in a probe with as many lookups, else those of the same key.
-  auto blendAcross = [&](Neighbourhood& n, glm::vec3 own) {
-    float acrossX = 0.0f, acrossY = 0.0f;
-    glm::vec3 acrossSum(0.0f);
+  auto blendAcross = [&](Neighbourhood& n, glm::vec3 own, uint64_t& rays) {
+    std::array<float, 4> crossing{};  // distance to the discontinuity toward probe k; 0: none
+    std::array<glm::vec3, 4> colour{};
     for (size_t k = 0; k < n.around.size(); ++k) {
       const Probe& p = n.around[k];
       if (sameWay(n.self, p)) continue;
-      (k < 2 ? acrossX : acrossY) += 1.0f;
       n.footprints.assign(p.dirs.size(), Derivatives{});
       for (size_t i = 0; i < p.dirs.size() && i < n.self.dirs.size(); ++i)
         if (p.dirs.size() == n.self.dirs.size() || p.keys[i] == n.self.keys[i]) n.footprints[i] = n.derivatives[i];
-      acrossSum += shade(p.d, p.t, p.dirs, n.footprints).color;
+      colour[k] = shade(p.d, p.t, p.dirs, n.footprints).color;
+      crossing[k] = crossingDistance(n, k, rays);
     }
-    if (acrossX + acrossY == 0.0f) return own;
-    const float keep = (1.0f - kAcrossDiscontinuity * acrossX) * (1.0f - kAcrossDiscontinuity * acrossY);
-    return keep * own + (1.0f - keep) / (acrossX + acrossY) * acrossSum;
+    const std::array<float, 4> share = shareBeyondCrossings(crossing);
+    float keep = 1.0f;
+    glm::vec3 acrossSum(0.0f);
+    for (size_t k = 0; k < 4; ++k) {
+      keep -= share[k];
+      acrossSum += share[k] * colour[k];
+    }
+    return keep * own + acrossSum;
   };
   auto filteredSample = [&](uint32_t bx, uint32_t by, Neighbourhood& n, uint64_t& rays) {
     const float x = float(bx), y = float(by), h = kProbeOffset;
+    n.x = x;
+    n.y = y;
     probeAt(x, y, n.self, rays);
     probeAt(x + h, y, n.around[0], rays);
     probeAt(x - h, y, n.around[1], rays);
@@ -409,7 +482,7 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
       n.derivatives.push_back({axisDerivative(n.self, n.around[0], n.around[1], i),
                                axisDerivative(n.self, n.around[2], n.around[3], i)});
     Sample sample = shade(n.self.d, n.self.t, n.self.dirs, n.derivatives);
-    sample.color = blendAcross(n, sample.color);
+    sample.color = blendAcross(n, sample.color, rays);
     return sample;
   };
 

@@ -35,6 +35,7 @@
 
 #include <glm/vec3.hpp>
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <vector>
@@ -78,9 +79,9 @@ struct ReferenceOptions {
   // with each lookup direction's derivatives taken from four probes half a sub-sample cell away
   // (+-x, +-y), traced as well (5x the rays). A probe that hits another surface, misses, or went
   // another way (another number of interfaces or leaves) gives no derivative on its side: a path
-  // discontinuity lies between them, and the probe's colour is blended in with the mean share of
-  // the cell beyond such a discontinuity (1/4 per axis). The background stays at level 0 away
-  // from the object. False: level 0 everywhere (bake::sampleLatLong), as the physical reference
+  // discontinuity lies between them, found by bisection (3 more traces per such probe), and the
+  // probe's colour is blended in with the share of the cell beyond it (shareBeyondCrossings).
+  // The background stays at level 0 away from the object. False: level 0 everywhere (bake::sampleLatLong), as the physical reference
   // is rendered.
   bool filtered = false;
   // filtered: taps per axis of each lookup, as RendererCreateInfo::environmentTapsPerAxis (1..4).
@@ -119,6 +120,16 @@ glm::vec3 pixelDirection(const Camera& camera, uint32_t width, uint32_t height, 
 // 1..kMaxSamplesPerAxis or a supersampled size beyond 65536 per axis, an empty environment.
 Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene, const Image& environment,
                                        const ReferenceOptions& options);
+
+// Filtered renders (ReferenceOptions::filtered) across a path discontinuity: the share of a
+// sub-sample's cell, the box [-1/2, 1/2]^2 around it, beyond the discontinuities found toward its
+// four probes (+x, -x, +y, -y). crossing[k]: the discontinuity's distance from the sample toward
+// probe k, in cells, within (0, 1/2]; 0 where probe k went the sample's way. One crossing: 1/2 - t
+// (an edge at right angles to its axis); one on an x and one on a y half-axis: the box's area
+// beyond the straight edge through both, split evenly between the two; probes across on both
+// sides of an axis (a feature thinner than the cell, or two discontinuities): the expected share
+// 1/4 per probe, the axes combined as independent, split evenly. The sample keeps 1 - the sum.
+std::array<float, 4> shareBeyondCrossings(const std::array<float, 4>& crossing);
 
 // The mean of every samplesPerAxis x samplesPerAxis block of `image` (its size must be a
 // multiple of samplesPerAxis per axis; alpha averaged too), summed in row-major order within the
