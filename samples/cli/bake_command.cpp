@@ -53,7 +53,9 @@ std::vector<FlagSpec> bakeFlags() {
       {"direction-sampling", true, "directions traced per sample: nodes (default for pca: the tables' own "
                                    "node directions, exact at every node; also for table) or grid (--directions, "
                                    "fitted; default for table, the only one for sh)"},
-      {"path-rule", true, "branch followed at every interface: highest-energy (default) or first-refraction"},
+      {"path-rule", true, "branch followed at every interface: first-refraction (default: refract unless totally "
+                          "reflected; its fields render closer to the physical reference, docs/encodings.md \"Path "
+                          "rule\") or highest-energy (the paper's)"},
       {"throughput", false, "store the path's Fresnel throughput as a channel"},
       {"no-jump-distance", false, "table and pca traced at their nodes (N >= 12): do not store each node's "
                                   "distance to the nearest jump (the decode then places jumps midway between "
@@ -204,7 +206,7 @@ int bakeCommand(int argc, char** argv) {
   const uint32_t pcaTableSize = s.directionSampling == DirectionSampling::Nodes ? bake::kDefaultPcaTableSize
                                                                                 : bake::kDefaultGridPcaTableSize;
   s.tableSize = tableSize.value() ? static_cast<uint32_t>(*tableSize.value()) : s.encoding == Encoding::Pca ? pcaTableSize : 9u;
-  const std::string rule = args.get("path-rule").value_or("highest-energy");
+  const std::string rule = args.get("path-rule").value_or("first-refraction");
   if (rule == "highest-energy") s.pathRule = PathRule::HighestEnergy;
   else if (rule == "first-refraction") s.pathRule = PathRule::FirstRefraction;
   else return fail("shrefract bake: --path-rule must be highest-energy or first-refraction, got '" + rule + "'", 2);

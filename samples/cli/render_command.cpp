@@ -44,8 +44,9 @@ std::vector<FlagSpec> renderFlags() {
       {"scene", true, "exact and full-tree modes of a field: the baked scene file, where it was moved to"},
       {"max-bounces", true, "exact mode: cap on interactions (default 16)", K::Integer,
        {1, double(bake::kMaxBakeBounces)}},
-      {"path-rule", true, "exact mode: branch a path follows at every interface: highest-energy (default) or "
-                          "first-refraction (refract unless totally reflected)"},
+      {"path-rule", true, "exact mode: branch a path follows at every interface: highest-energy or "
+                          "first-refraction (refract unless totally reflected); default: a field's own rule, "
+                          "highest-energy for a scene"},
       {"throughput", false, "exact mode: weight the transmitted light by the path's Fresnel throughput"},
       {"tree-depth", true, "full-tree mode: depth of the Fresnel tree (default 8)", K::Integer, {1, 16}},
       {"filtered", false, "exact and full-tree modes: read the environment at the level of each lookup's pixel "
@@ -332,7 +333,9 @@ int renderCpu(const Args& args, const Request& r, const Inputs& in, const Camera
   ro.maxBounces = r.maxBounces.value_or(ro.maxBounces);
   ro.treeDepth = r.treeDepth.value_or(ro.treeDepth);
   ro.threads = r.threads.value_or(0u);
-  ro.pathRule = r.pathRule;
+  // A field's exact render follows the rule the field was baked with unless --path-rule says
+  // otherwise: "the exact render of the same path rule" is its ceiling.
+  ro.pathRule = in.field && !args.get("path-rule") ? in.field->settings.pathRule : r.pathRule;
   ro.throughput = args.has("throughput");
   ro.filtered = args.has("filtered");
   ro.environmentTapsPerAxis = r.environmentTaps.value_or(ro.environmentTapsPerAxis);
@@ -352,7 +355,7 @@ int renderCpu(const Args& args, const Request& r, const Inputs& in, const Camera
                 "\"spp\": %u, \"path_rule\": %s, \"throughput\": %s, \"filtered\": %s, \"env_taps\": %s, "
                 "\"env_level_bias\": %s, \"rays\": %llu, \"cpu_seconds\": %.4f}\n",
                 jsonString(r.output).c_str(), jsonString(r.input).c_str(), jsonString(r.mode).c_str(), ro.width,
-                ro.height, r.samplesPerAxis * r.samplesPerAxis, jsonString(toString(r.pathRule)).c_str(),
+                ro.height, r.samplesPerAxis * r.samplesPerAxis, jsonString(toString(ro.pathRule)).c_str(),
                 ro.throughput ? "true" : "false", ro.filtered ? "true" : "false",
                 ro.filtered ? std::to_string(ro.environmentTapsPerAxis).c_str() : "null",  // unfiltered: no taps
                 ro.filtered ? jsonNumber(ro.environmentLevelBias).c_str() : "null",
