@@ -71,6 +71,31 @@ if(NOT rc EQUAL 0)
 endif()
 file(REMOVE ${WORK_DIR}/out.png)
 
+# A field's exact render follows the rule the field was baked with (the tool's default bake:
+# first-refraction) unless --path-rule says otherwise. Planted once: render's default rule kept
+# for fields (highest-energy) fails the first check.
+execute_process(COMMAND ${SHREFRACT} bake builtin:sphere --tessellation 1 --samples 200 --encoding sh --order 2
+                        --directions 8x16 -o ${WORK_DIR}/tiny.shrf --json
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0 OR NOT out MATCHES "\"path_rule\": \"first-refraction\"")
+  message(FATAL_ERROR "the default bake is not first-refraction (${rc}): ${err}${out}")
+endif()
+foreach(rule "" highest-energy)
+  set(flags)
+  set(expect first-refraction)
+  if(rule)
+    set(flags --path-rule ${rule})
+    set(expect ${rule})
+  endif()
+  execute_process(COMMAND ${SHREFRACT} render ${WORK_DIR}/tiny.shrf --mode exact --size 16x12 ${flags} --json
+                          -o ${WORK_DIR}/out.png
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0 OR NOT out MATCHES "\"path_rule\": \"${expect}\"")
+    message(FATAL_ERROR "exact render of a first-refraction field with '${flags}': expected ${expect} (${rc}): ${err}${out}")
+  endif()
+  file(REMOVE ${WORK_DIR}/out.png)
+endforeach()
+
 # A GPU mode.
 execute_process(COMMAND ${SHREFRACT} ${base} --size 16x12 --spp 16 --env-taps 3 --json RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT rc EQUAL 0)
