@@ -327,7 +327,6 @@ FidelityRow baseRow(const SceneContext& c, const std::string& kind, const std::s
   return row;
 }
 
-// The default field and its renders, kept for the decomposition.
 // The default field's path rule: the decomposition and the side by side compare it with the exact
 // render of that rule.
 PathRule defaultRule(const Profile& p) {
@@ -336,6 +335,7 @@ PathRule defaultRule(const Profile& p) {
   return PathRule::HighestEnergy;
 }
 
+// The default field and its renders, kept for the decomposition.
 struct DefaultField {
   std::optional<Field> f16;
   std::optional<GpuRender> gpuF16, gpuU8;
@@ -803,8 +803,9 @@ std::string markdownOf(const Profile& p, const std::vector<FidelityScene>& scene
     const std::string name = "fidelity_" + sanitize(sceneTitle(sc.scene));
     md += "\n![error vs bytes per sample](" + name + "_psnr_vs_bytes.png)\n";
     md += "![error vs frame time](" + name + "_psnr_vs_frame_time.png)\n\n";
-    md += "Side by side (physical | exact render of the default field's path rule | exact paths at the sample texels | default u8 field on the "
-          "GPU | heat map of the field against the physical reference, |diff| summed over RGB, white = 0.5):\n\n";
+    md += "Side by side (physical | exact render of the default field's path rule | exact paths at the sample "
+          "texels | default u8 field on the GPU | heat map of the field against the physical reference, |diff| "
+          "summed over RGB, white = 0.5):\n\n";
     md += "![" + name + "_compare.png](" + name + "_compare.png)\n\n";
   }
   return md;
