@@ -448,16 +448,21 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
   // sample's footprints (the same pixel-scale spread; level 0 would sparkle) where their lookups
   // correspond: all of them in a probe with as many lookups, else those of the same key.
   auto blendAcross = [&](Neighbourhood& n, glm::vec3 own, uint64_t& rays) {
+    std::array<bool, 4> across{};
+    for (size_t k = 0; k < n.around.size(); ++k) across[k] = !sameWay(n.self, n.around[k]);
+    // With both probes of an axis across, shareBeyondCrossings takes the expected share whatever
+    // the distances: nothing to bisect.
+    const bool bisect = !(across[0] && across[1]) && !(across[2] && across[3]);
     std::array<float, 4> crossing{};  // distance to the discontinuity toward probe k; 0: none
     std::array<glm::vec3, 4> colour{};
     for (size_t k = 0; k < n.around.size(); ++k) {
+      if (!across[k]) continue;
       const Probe& p = n.around[k];
-      if (sameWay(n.self, p)) continue;
       n.footprints.assign(p.dirs.size(), Derivatives{});
       for (size_t i = 0; i < p.dirs.size() && i < n.self.dirs.size(); ++i)
         if (p.dirs.size() == n.self.dirs.size() || p.keys[i] == n.self.keys[i]) n.footprints[i] = n.derivatives[i];
       colour[k] = shade(p.d, p.t, p.dirs, n.footprints).color;
-      crossing[k] = crossingDistance(n, k, rays);
+      crossing[k] = bisect ? crossingDistance(n, k, rays) : kProbeOffset;
     }
     const std::array<float, 4> share = shareBeyondCrossings(crossing);
     float keep = 1.0f;

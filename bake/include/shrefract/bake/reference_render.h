@@ -81,8 +81,8 @@ struct ReferenceOptions {
   // another way (another number of interfaces or leaves) gives no derivative on its side: a path
   // discontinuity lies between them, found by bisection (3 more traces per such probe), and the
   // probe's colour is blended in with the share of the cell beyond it (shareBeyondCrossings).
-  // The background stays at level 0 away from the object. False: level 0 everywhere (bake::sampleLatLong), as the physical reference
-  // is rendered.
+  // The background stays at level 0 away from the object. False: level 0 everywhere
+  // (bake::sampleLatLong), as the physical reference is rendered.
   bool filtered = false;
   // filtered: taps per axis of each lookup, as RendererCreateInfo::environmentTapsPerAxis (1..4).
   // 4, not the engine's default 2: offline the 16 lookups per direction cost little (the torus's
