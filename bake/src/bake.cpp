@@ -334,6 +334,10 @@ struct BakePlan {
   std::vector<FieldMedium> media;
   uint64_t sceneHash = 0;
   std::function<void(const std::string&)> note;  // BakeOptions::note (none for a merge)
+  std::function<void(const std::string&)> stage;  // BakeOptions::stage
+  void begin(const std::string& what) const {
+    if (stage) stage(what);
+  }
 };
 
 // The jump distance channel of one sample (jump_distance.h): the nodes as traced, bisections traced
@@ -596,8 +600,10 @@ Result<double> candidateFrameDegrees(const EncodingShape& shape, const std::vect
 Result<bool> keepSampleFrame(const BakePlan& plan, const EncodingShape& shape, const std::vector<float>& tables) {
   const SampleAtlas& atlas = plan.atlas;
   const size_t dim = size_t(shape.tableSize) * shape.tableSize * shape.channels;
-  const FrameChoiceViews views = traceFrameChoiceViews(plan);
   const std::vector<size_t> trainingSamples = frameChoiceTrainingSamples(atlas.samples.size());
+  plan.begin("choosing the exit frame: bases of " + std::to_string(shape.components) + " components in each frame from " +
+             std::to_string(trainingSamples.size()) + " samples");
+  const FrameChoiceViews views = traceFrameChoiceViews(plan);
   std::vector<float> training = gatherTables(tables, trainingSamples, dim), viewTables = gatherTables(tables, views.samples, dim);
   auto sample = candidateFrameDegrees(shape, training, trainingSamples.size(), viewTables, atlas, views,
                                       plan.settings.threads);
@@ -638,6 +644,8 @@ Result<void> learnBasisInItsFrame(const BakePlan& plan, EncodingShape& shape, st
       shape.sampleFrameExits = false;
     }
   }
+  plan.begin("learning the pca basis: " + std::to_string(shape.components) + " components from " + std::to_string(n) +
+             " samples of " + std::to_string(size_t(shape.tableSize) * shape.tableSize * shape.channels) + " values");
   auto learned = learnBasis(shape, coeffs, n, plan.settings.threads);
   if (!learned) return learned.error();
   basis = std::move(learned.value().basis);
@@ -890,6 +898,7 @@ Result<BakePlan> planBake(const Scene& scene, const BakeOptions& options, bool c
   BakeSettings& settings = plan.settings;
   settings = options.settings;
   plan.note = options.note;
+  plan.stage = options.stage;
   if (auto ok = checkSettings(settings); !ok) return ok.error();
   if (auto ok = checkEncoding(settings); !ok) return ok.error();
   if (auto ok = validateScene(scene); !ok) return ok.error();
@@ -1151,6 +1160,7 @@ Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
                          size_t(shape.tableSize) * shape.tableSize * shape.channels, refined);
   }
   std::vector<SampleError> errors(sampleCount);
+  plan.begin("checking the fit against the traced directions");
   measureFit(shape, basis, coeffs, atlas, grid, g.checks, held, settings.threads, errors);
 
   Field field;
@@ -1177,6 +1187,7 @@ Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
     const auto rows = sampleRows(atlas.samples[atlas.texelSample[t]]);
     std::copy(rows.begin(), rows.end(), &field.frames[t * 12]);
   }
+  plan.begin("quantizing " + std::to_string(sampleCount) + " samples");
   if (auto encoded = encodeWithRefinement(field, atlas, shape, coeffs, refined); !encoded) return encoded.error();
   measureQuantization(field, atlas, basis, coeffs, grid, settings.threads, field.statistics);
   field.media = plan.media;
@@ -1216,10 +1227,12 @@ Result<BakePart> bakePart(const Scene& scene, const BakeOptions& options, Shard 
   return tracePart(plan.value(), options, shard, start);
 }
 
-Result<Field> mergeParts(const Scene& scene, std::vector<BakePart> parts) {
+Result<Field> mergeParts(const Scene& scene, std::vector<BakePart> parts,
+                         const std::function<void(const std::string&)>& stage) {
   if (auto ok = checkParts(parts); !ok) return ok.error();
   BakeOptions options;
   options.settings = parts.front().settings;
+  options.stage = stage;
   options.heldOutDirections = parts.front().heldOutDirections;
   auto plan = planBake(scene, options, false);
   if (!plan) return plan.error();

@@ -236,6 +236,7 @@ int bakeCommand(int argc, char** argv) {
   if (heldOut.value()) options.heldOutDirections = static_cast<uint32_t>(*heldOut.value());
   Progress progress("bake", stderr);
   options.note = [&](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+  options.stage = [&](const std::string& what) { progress.stage(what); };
   options.progress = [&](const bake::BakeProgress& p) {
     progress.update(p.samplesDone, p.samplesTotal, p.seconds, p.seconds > 0 ? double(p.rays) / p.seconds : 0.0,
                     "rays/s");

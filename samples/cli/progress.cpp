@@ -40,4 +40,11 @@ void Progress::finish() {
   drawn_ = false;
 }
 
+void Progress::stage(const std::string& what) {
+  finish();
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  std::fprintf(out_, "%s: %s (%.0f s in)\n", label_.c_str(), what.c_str(), seconds);
+  std::fflush(out_);
+}
+
 }  // namespace shrefract::cli

@@ -11,6 +11,7 @@
 #include "cli/args.h"
 #include "cli/commands.h"
 #include "cli/field_summary.h"
+#include "cli/progress.h"
 #include "cli/scene_source.h"
 
 namespace shrefract::cli {
@@ -95,7 +96,8 @@ int mergeCommand(int argc, char** argv) {
   auto scene = loadScene(source, {}, &warnings);
   if (!scene) return fail(scene.error().message);
   for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
-  auto field = bake::mergeParts(scene.value(), std::move(parts));
+  Progress progress("merge", stderr);
+  auto field = bake::mergeParts(scene.value(), std::move(parts), [&](const std::string& what) { progress.stage(what); });
   if (!field) return fail(source + ": " + field.error().message);
   return writeFieldAndSummary(field.value(), *output, args.has("json"));
 }

@@ -179,14 +179,25 @@ TEST_F(SceneCli, ExactModeOfAFieldWorksFromAnotherDirectoryAndWithScene) {
 // docs/sample-layouts.md, "Choosing a layout").
 TEST_F(SceneCli, DefaultBakeTracesTheTableNodesAndAGridSizeAsksForTheGrid) {
   const std::vector<std::string> base{"bake", "builtin:sphere?tessellation=1", "--samples", "100", "--components", "8"};
+  std::string bakeErr;
   auto bakeAndInfo = [&](std::vector<std::string> args, const std::string& out) {
     args.insert(args.end(), {"-o", out});
     const ToolRun bake = run(".", args);
     EXPECT_EQ(bake.exit, 0) << bake.err;
+    bakeErr = bake.err;
     return run(".", {"info", out, "--json"});
   };
   const ToolRun nodes = bakeAndInfo(base, "nodes.shrf");
   ASSERT_EQ(nodes.exit, 0) << nodes.err;
+  // The stages after the tracing, which take minutes on the default 64x64 tables, each say so as
+  // they begin, in order (a line each, with the seconds since the start).
+  size_t at = 0;
+  for (const char* stage : {"bake: choosing the exit frame: bases of 8 components", "bake: learning the pca basis: 8 "
+                            "components from", "bake: checking the fit", "bake: quantizing"}) {
+    const size_t found = bakeErr.find(stage, at);
+    EXPECT_NE(found, std::string::npos) << stage << " after offset " << at << " in:\n" << bakeErr;
+    if (found != std::string::npos) at = found;
+  }
   EXPECT_NE(nodes.out.find("\"direction_sampling\": \"nodes\""), std::string::npos) << nodes.out;
   EXPECT_NE(nodes.out.find("\"layout\": \"charts\""), std::string::npos) << nodes.out;
   std::vector<std::string> gridArgs = base;

@@ -156,6 +156,11 @@ TEST(Shard, MergedPartsAreTheSingleProcessBake) {
     const Outcome m = tool(dir, merge);
     ASSERT_EQ(m.exitCode, 0) << m.err;
     expectSameField(dir / "one.shrf", dir / "merged.shrf");
+    // The merge learns the Pca basis and quantizes: its stages say so, as the bake's do.
+    if (b == 0) {
+      EXPECT_NE(m.err.find("merge: learning the pca basis: 24 components"), std::string::npos) << m.err;
+    }
+    EXPECT_NE(m.err.find("merge: quantizing"), std::string::npos) << m.err;
   }
 }
 

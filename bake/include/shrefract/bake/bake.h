@@ -31,6 +31,10 @@ struct BakeOptions {
   std::function<void(const BakeProgress&)> progress;
   // One-line notes on choices the bake made (the --max-error selection), for the tool to print.
   std::function<void(const std::string&)> note;
+  // Called from the calling thread as each stage after the tracing begins (choosing the exit
+  // frame, learning a Pca basis, checking the fit, quantizing), with what it does: on 64x64
+  // tables these take minutes that `progress` alone would leave silent.
+  std::function<void(const std::string&)> stage;
 };
 
 // settings.maxErrorDegrees > 0 ("--max-error"): before the bake, the smallest SH order (0 up to
