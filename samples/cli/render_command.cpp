@@ -39,8 +39,9 @@ std::vector<FlagSpec> renderFlags() {
       {"up", true, "up vector x,y,z (default 0,1,0); not parallel to the view"},
       {"fov", true, "vertical field of view in degrees (default 40)", K::Real, {0, 180, true, true}},
       {"size", true, "image size WxH (default 640x480)", K::Size, {1, 16384}, {1, 16384}},
-      {"mode", true, "sh (default for .shrf; also 'field'), single-interface (default for scenes), "
-                     "exact or full-tree (CPU references traced with Embree; fields and scenes)"},
+      {"mode", true, "field (default for .shrf, whatever its encoding; also 'sh', its name before fields had other "
+                     "encodings), single-interface (default for scenes), exact or full-tree (CPU references traced "
+                     "with Embree; fields and scenes)"},
       {"scene", true, "exact and full-tree modes of a field: the baked scene file, where it was moved to"},
       {"max-bounces", true, "exact mode: cap on interactions (default 16)", K::Integer,
        {1, double(bake::kMaxBakeBounces)}},
@@ -159,12 +160,13 @@ Result<void> checkApplicability(const Args& args, const Request& r) {
   if (cpu && !args.has("filtered") && args.has("env-taps"))
     return usage("shrefract render: --env-taps applies to --mode exact and full-tree with --filtered only");
   if (cpu && args.has("msaa"))
-    return usage("shrefract render: --msaa applies to the GPU modes (sh, single-interface) only; the CPU modes "
+    return usage("shrefract render: --msaa applies to the GPU modes (field, single-interface) only; the CPU modes "
                  "supersample with --spp");
   if (args.has("env-level-bias") && !(cpu && args.has("filtered")))
     return usage("shrefract render: --env-level-bias applies to --mode exact and full-tree with --filtered only");
-  if (r.scene && r.mode == "sh")
-    return usage("shrefract render: " + r.input + " is a scene and --mode sh needs a refraction field; bake one "
+  if (r.scene && r.mode == "field")
+    return usage("shrefract render: " + r.input + " is a scene and --mode " + args.get("mode").value_or("field") +
+                 " needs a refraction field; bake one "
                  "(shrefract bake " + r.input + " -o FIELD.shrf) and render FIELD.shrf, or use --mode "
                  "single-interface, exact or full-tree");
   if (!r.scene && (args.has("ior") || args.has("tessellation") || args.has("allow-open")))
@@ -217,10 +219,13 @@ Result<Request> readRequest(const Args& args) {
   auto spa = samplesPerAxisOf(args);
   if (!spa) return spa.error();
   r.samplesPerAxis = spa.value();
-  r.mode = args.get("mode").value_or(r.scene ? "single-interface" : "sh");
-  if (r.mode == "field") r.mode = "sh";
-  if (r.mode != "single-interface" && r.mode != "sh" && r.mode != "exact" && r.mode != "full-tree")
-    return usage("shrefract render: unknown --mode '" + r.mode + "' (available: sh, single-interface, exact, full-tree)");
+  // A field renders by its own encoding (sh, table or pca): "field" names the mode, "sh" is kept
+  // for the command lines written before fields had other encodings.
+  r.mode = args.get("mode").value_or(r.scene ? "single-interface" : "field");
+  if (r.mode == "sh") r.mode = "field";
+  if (r.mode != "single-interface" && r.mode != "field" && r.mode != "exact" && r.mode != "full-tree")
+    return usage("shrefract render: unknown --mode '" + r.mode +
+                 "' (available: field, single-interface, exact, full-tree)");
   if (const auto rule = args.get("path-rule")) {
     if (*rule == "first-refraction") r.pathRule = PathRule::FirstRefraction;
     else if (*rule != "highest-energy")
@@ -376,8 +381,9 @@ void printGpuSummary(const Args& args, const Request& r, const Inputs& in, const
   double wallMean = 0.0;
   for (double w : wall) wallMean += w / double(wall.size());
   if (!args.has("json")) {
+    const std::string mode = in.field && r.mode == "field" ? "field, " + std::string(toString(in.field->encoding)) : r.mode;
     std::printf("rendered %s (%ux%u, %s, %s) in %.2f s -> %s\n", r.input.c_str(), frame.width, frame.height,
-                r.mode.c_str(), deviceName.c_str(), seconds, r.output.c_str());
+                mode.c_str(), deviceName.c_str(), seconds, r.output.c_str());
     return;
   }
   std::printf("{\"output\": %s, \"scene\": %s, \"mode\": %s, \"environment\": %s, \"width\": %u, "
@@ -387,9 +393,10 @@ void printGpuSummary(const Args& args, const Request& r, const Inputs& in, const
               r.samplesPerAxis * r.samplesPerAxis, r.msaa, frame.environmentTapsPerAxis, jsonString(deviceName).c_str(),
               timings.wallMs.size());
   if (in.field)
-    std::printf("\"field\": {\"order\": %u, \"width\": %u, \"height\": %u, \"quantization\": %s, "
-                "\"triangles\": %zu}, ",
-                in.field->order, in.field->width, in.field->height,
+    std::printf("\"field\": {\"encoding\": %s, \"order\": %u, \"table_size\": %u, \"components\": %u, "
+                "\"width\": %u, \"height\": %u, \"quantization\": %s, \"triangles\": %zu}, ",
+                jsonString(toString(in.field->encoding)).c_str(), in.field->order, in.field->tableSize,
+                in.field->components, in.field->width, in.field->height,
                 jsonString(toString(in.field->quantization)).c_str(), in.field->mesh.indices.size() / 3);
   if (timings.gpuTimestamps)
     std::printf("\"gpu_ms\": {\"decompression\": %.4f, \"raster\": %.4f}, ", timings.decompressionMs,
@@ -437,7 +444,7 @@ int renderGpu(const Args& args, const Request& r, const Inputs& in, const Camera
     frame.height = (*r.size)[1];
   }
   frame.exposure = r.exposure.value_or(frame.exposure);
-  frame.mode = r.mode == "sh" ? ShadingMode::Field : ShadingMode::SingleInterface;
+  frame.mode = r.mode == "field" ? ShadingMode::Field : ShadingMode::SingleInterface;
   frame.frames = r.frames;
   frame.samplesPerAxis = r.samplesPerAxis;
   frame.environmentTapsPerAxis = r.environmentTaps.value_or(frame.environmentTapsPerAxis);

@@ -31,13 +31,21 @@ run(0 render tiny.shrf -o field.png --size 96x72 --frames 3 --absorption 0.5 --j
 if(SKIP)
   return()
 endif()
-foreach(key "\"mode\": \"sh\"" "\"frames\": 3" "\"gpu_ms\"" "\"wall_ms\"" "\"order\": 2")
+# "field" names the mode of every encoding; the field's own encoding is in its object.
+foreach(key "\"mode\": \"field\"" "\"encoding\": \"sh\"" "\"frames\": 3" "\"gpu_ms\"" "\"wall_ms\"" "\"order\": 2")
   string(FIND "${OUT}" "${key}" at)
   if(at EQUAL -1)
     message(FATAL_ERROR "render --json output lacks ${key}: ${OUT}")
   endif()
 endforeach()
 run(0 render tiny.shrf -o field_cube.exr --size 96x72 --cube-env)
+# "sh", the mode's name before fields had other encodings, still renders a field; the summary
+# names the encoding.
+run(0 render tiny.shrf -o field_sh.png --size 96x72 --mode sh)
+string(FIND "${OUT}" "(96x72, field, sh," at)
+if(at EQUAL -1)
+  message(FATAL_ERROR "render's summary does not name the field's encoding: ${OUT}")
+endif()
 run(0 render tiny.shrf -o field_si.png --size 96x72 --mode single-interface --eye 0,0.5,4 --target 0,0,0)
 run(0 render builtin:sphere -o scene.png --size 96x72)
 foreach(image field.png field_cube.exr field_si.png scene.png)
