@@ -934,6 +934,29 @@ TEST_P(FieldEncodings, BytesPerSampleCountsTheStoredCoefficients) {
   EXPECT_EQ(f.bytesPerSample(), expected);
 }
 
+// dequantizeSample holds fieldCoefficient's values in evaluateCoefficients' order, so a sample
+// dequantized once decodes at every direction as evaluateSample does, bit for bit (the bake's
+// quantization check relies on it).
+TEST_P(FieldEncodings, DequantizedOnceDecodesAsEvaluateSample) {
+  const Field f = field();
+  std::vector<float> a;
+  for (uint64_t texel = 0; texel < f.texelCount(); ++texel) {
+    if (f.texelKinds[texel] != kTexelSample) continue;
+    dequantizeSample(f, texel, a);
+    ASSERT_EQ(a.size(), size_t(f.layerCount()) * f.valuesPerLayer());
+    for (uint32_t i = 0; i < f.layerCount(); ++i)
+      for (uint32_t v = 0; v < f.valuesPerLayer(); ++v)
+        ASSERT_EQ(a[size_t(i) * f.valuesPerLayer() + v], fieldCoefficient(f, i, texel, v)) << i << " " << v;
+    for (const std::array<float, 3>& w : {std::array<float, 3>{0.3f, -0.2f, 0.93f}, std::array<float, 3>{0.0f, 0.0f, 1.0f},
+                                          std::array<float, 3>{-0.7f, 0.7f, 0.1f}}) {
+      float once[kMaxFieldChannels] = {}, each[kMaxFieldChannels] = {};
+      evaluateCoefficients(f.shape(), a.data(), f.basis.data(), w, once, &f.frames[texel * 12]);
+      evaluateSample(f, texel, w, each);
+      for (uint32_t c = 0; c < f.decodedChannels(); ++c) EXPECT_EQ(once[c], each[c]) << "texel " << texel << " channel " << c;
+    }
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Encodings, FieldEncodings,
                          ::testing::Values(EncodedVariant{Encoding::Table, Quantization::U8, false},
                                            EncodedVariant{Encoding::Table, Quantization::F16, true},

@@ -302,6 +302,11 @@ inline constexpr uint32_t kMaxEncodedChannels = kMaxFieldChannels + 1;
 void evaluateCoefficients(const EncodingShape& shape, const float* coefficients, const float* basis,
                           const std::array<float, 3>& localDirection, float* out, const float* frameRows = nullptr);
 
+// One sample's dequantized coefficients (texel of kind kTexelSample), as evaluateCoefficients reads
+// them: out[layer * valuesPerLayer() + value], layerCount() * valuesPerLayer() floats. A caller that
+// decodes one sample at many directions dequantizes it once. Preconditions as evaluateSample's.
+void dequantizeSample(const Field& field, uint64_t texel, std::vector<float>& out);
+
 // Decoded channels at a local direction of one sample (texel of kind kTexelSample): its dequantized
 // coefficients through evaluateCoefficients. `order` below an SH field's order sums its first
 // (order + 1)^2 bands only (Object::setDecodeOrder). Preconditions: validateField(field)

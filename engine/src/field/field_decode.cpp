@@ -226,14 +226,19 @@ void evaluateCoefficients(const EncodingShape& shape, const float* a, const floa
   for (int c = 0; c < 3; ++c) out[c] = x * frameRows[c] + y * frameRows[4 + c] + z * frameRows[8 + c];
 }
 
+void dequantizeSample(const Field& field, uint64_t texel, std::vector<float>& out) {
+  const uint32_t layers = field.layerCount(), values = field.valuesPerLayer();
+  out.resize(size_t(layers) * values);
+  for (uint32_t i = 0; i < layers; ++i)
+    for (uint32_t v = 0; v < values; ++v) out[size_t(i) * values + v] = fieldCoefficient(field, i, texel, v);
+}
+
 void evaluateSample(const Field& field, uint64_t texel, const std::array<float, 3>& w, float* out, uint32_t order) {
   EncodingShape shape = field.shape();
+  // A lower SH order reads the first (order + 1)^2 layers, which lead the array.
   if (shape.encoding == Encoding::Sh) shape.order = std::min(shape.order, order);
-  const uint32_t layers = shape.layerCount(), values = shape.valuesPerLayer();
   thread_local std::vector<float> a;
-  a.resize(size_t(layers) * values);
-  for (uint32_t i = 0; i < layers; ++i)
-    for (uint32_t v = 0; v < values; ++v) a[size_t(i) * values + v] = fieldCoefficient(field, i, texel, v);
+  dequantizeSample(field, texel, a);
   evaluateCoefficients(shape, a.data(), field.basis.data(), w, out, &field.frames[texel * 12]);
 }
 
