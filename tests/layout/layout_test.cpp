@@ -526,6 +526,53 @@ TEST(ChartsLayout, SeamsAreMeasurable) {
   EXPECT_GT(jumps.edgesAbove, result->sharedEdges.size() / 2);
 }
 
+// The worst error, over points of every render triangle (its edges included), of a smooth
+// function of position filtered bilinearly from the atlas against its value at the point.
+double worstFilteredError(const SampleAtlas& atlas) {
+  const std::vector<double> values = texelValues(atlas);
+  const FieldMesh& mesh = atlas.mesh;
+  double worst = 0.0;
+  for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+    std::array<glm::dvec3, 3> p;
+    std::array<glm::dvec2, 3> q;
+    for (size_t c = 0; c < 3; ++c) {
+      const uint32_t v = mesh.indices[t + c];
+      p[c] = glm::dvec3(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]);
+      q[c] = meshTexels(atlas, v);
+    }
+    for (int i = 0; i <= 8; ++i)
+      for (int j = 0; i + j <= 8; ++j) {
+        const double a = i / 8.0, b = j / 8.0, c = 1.0 - a - b;
+        const glm::dvec2 texel = a * q[0] + b * q[1] + c * q[2];
+        const glm::vec3 position(a * p[0] + b * p[1] + c * p[2]);
+        worst = std::max(worst, std::abs(filter(atlas, values, texel.x, texel.y) - smooth(position)));
+      }
+  }
+  return worst;
+}
+
+// Gutter texels beside a smooth seam hold the surface beyond it: with copies of the nearest
+// sample, the filtered value froze over the last half texel of every chart, and a refracted edge
+// of the environment broke into sawteeth along the seams (the sphere's default field at 960x720).
+// Measured against the copies on the same atlas (LayoutOptions::extendSmoothSeams = false).
+TEST(ChartsLayout, FilteringFollowsTheSurfaceAcrossSmoothSeams) {
+  for (const char* sceneName : {"sphere", "torus"}) {
+    SCOPED_TRACE(sceneName);
+    const Scene scene = builtin(sceneName);
+    LayoutOptions copies;
+    copies.extendSmoothSeams = false;
+    Result<SampleAtlas> extended = buildChartsLayout(scene, {}), copied = buildChartsLayout(scene, copies);
+    ASSERT_TRUE(extended.ok() && copied.ok());
+    EXPECT_EQ(extended->width, copied->width);
+    EXPECT_GT(extended->samples.size(), copied->samples.size()) << "no gutter texel holds its own point";
+    const double withExtension = worstFilteredError(extended.value()), withCopies = worstFilteredError(copied.value());
+    std::printf("[layout] charts %s: filtered smooth function, worst error %.5f (copies in the gutters: %.5f), "
+                "%zu samples (%zu)\n",
+                sceneName, withExtension, withCopies, extended->samples.size(), copied->samples.size());
+    EXPECT_LT(withExtension, 0.8 * withCopies);
+  }
+}
+
 TEST(ChartsLayout, DensityLandsNearTheTarget) {
   const Scene scene = builtin("torus");
   LayoutOptions options;

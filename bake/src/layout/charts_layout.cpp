@@ -246,8 +246,9 @@ bool boxMeetsTriangle(glm::dvec2 c, double half, const Tri2& q) {
 }
 
 // Fills the texels within kGutter texels of each chart (and not inside one) with the sample of the
-// nearest texel of that chart; where two charts reach a texel, the nearer sample wins.
-void fillGutters(const FrontMesh& front, const Placement& placement, Raster& raster) {
+// nearest texel of that chart; where two charts reach a texel, the nearer sample wins. Returns,
+// per texel, the squared distance in texels to the sample it copies (infinity where none).
+std::vector<double> fillGutters(const FrontMesh& front, const Placement& placement, Raster& raster) {
   const uint32_t width = placement.width, height = placement.height;
   std::vector<std::vector<uint32_t>> chartTriangles(placement.chartCount);
   for (uint32_t t = 0; t < front.triangles.size(); ++t) chartTriangles[placement.chartOf[t]].push_back(t);
@@ -308,6 +309,101 @@ void fillGutters(const FrontMesh& front, const Placement& placement, Raster& ras
         }
       }
     }
+  }
+  return assigned;
+}
+
+// The atlas triangle of `across`, a triangle welded to the chart triangle `t` along one edge, as
+// t's part of the atlas would map it if the chart went on: `across` unfolded about the shared edge
+// into t's plane (lengths kept), then placed by the affine map that carries t's corners to its
+// atlas corners. Corners in `across`'s own vertex order. False where the edge is not shared.
+bool unfoldAcross(const Scene& scene, const FrontMesh& front, const Placement& placement, uint32_t t,
+                  uint32_t across, Tri2& out) {
+  const FrontTriangle& a = front.triangles[t];
+  const FrontTriangle& b = front.triangles[across];
+  const auto position = [&](const FrontTriangle& tri, int c) {
+    return glm::dvec3(scene.surfaces[tri.surface].positions[tri.vertex[c]]);
+  };
+  std::array<int, 3> match{-1, -1, -1};  // b's corner -> a's corner with the same welded id
+  int shared = 0, free = -1;
+  for (int c = 0; c < 3; ++c) {
+    for (int d = 0; d < 3; ++d)
+      if (b.weld[c] == a.weld[d]) match[c] = d;
+    if (match[c] >= 0) ++shared; else free = c;
+  }
+  if (shared != 2) return false;
+  const std::array<glm::dvec3, 3> p{position(a, 0), position(a, 1), position(a, 2)};
+  int i = -1, j = -1;
+  for (int c = 0; c < 3; ++c)
+    if (match[c] >= 0) (i < 0 ? i : j) = match[c];
+  const int k = 3 - i - j;  // a's corner off the shared edge
+  const glm::dvec3 e = p[j] - p[i];
+  const double e2 = glm::dot(e, e);
+  if (!(e2 > 0.0)) return false;
+  const glm::dvec3 r = position(b, free) - p[i];
+  const glm::dvec3 foot = p[i] + (glm::dot(r, e) / e2) * e;
+  glm::dvec3 away = (p[k] - p[i]) - (glm::dot(p[k] - p[i], e) / e2) * e;  // toward a's third corner
+  const double awayLength = glm::length(away);
+  if (!(awayLength > 0.0)) return false;
+  const glm::dvec3 unfolded = foot - (glm::length(position(b, free) - foot) / awayLength) * away;
+  // Affine coordinates of the unfolded corner on a's edges (in a's plane), then a's atlas map.
+  const glm::dvec3 u = p[1] - p[0], v = p[2] - p[0], w = unfolded - p[0];
+  const double uu = glm::dot(u, u), uv = glm::dot(u, v), vv = glm::dot(v, v), det = uu * vv - uv * uv;
+  if (!(std::abs(det) > 0.0)) return false;
+  const double su = (vv * glm::dot(w, u) - uv * glm::dot(w, v)) / det;
+  const double sv = (uu * glm::dot(w, v) - uv * glm::dot(w, u)) / det;
+  const Tri2& q = placement.corners[t];
+  for (int c = 0; c < 3; ++c)
+    out[c] = match[c] >= 0 ? q[match[c]] : q[0] + su * (q[1] - q[0]) + sv * (q[2] - q[0]);
+  return true;
+}
+
+// Gutter texels beside a smooth seam (an edge whose two triangles share welded vertices, so the
+// surface and its normals go on across it) hold the surface beyond the seam instead of a copy of
+// the nearest sample. Bilinear filtering inside a chart reads the gutter texels next to its
+// border; with copies, the exit held still over the last half texel before a seam and changed
+// in steps along a seam that runs across the texel grid: refracted edges of the environment broke
+// into sawteeth there (the sphere's default field at 960x720). Each texel next to a chart's own
+// texels (squared distance <= 2) whose centre lies in the unfolded image of a triangle welded to
+// a chart triangle gets its own sample on that triangle; the others keep their copies (a sharp
+// edge, a cube's, has nothing beyond it to hold).
+void extendAcrossSmoothSeams(const Scene& scene, const FrontMesh& front, const Placement& placement,
+                             const std::vector<EdgeUse>& uses, const std::vector<double>& assigned, Raster& raster) {
+  std::vector<uint8_t> extended(raster.texelSample.size(), 0);
+  const auto clampTexel = [](double v, uint32_t size) {
+    return static_cast<uint32_t>(std::clamp(v, 0.0, double(size - 1)));
+  };
+  for (size_t k = 0; k < uses.size();) {
+    size_t end = k + 1;
+    while (end < uses.size() && uses[end].key == uses[k].key) ++end;
+    for (size_t m = k; m < end; ++m)
+      for (size_t n = k; n < end; ++n) {
+        const uint32_t t = uses[m].triangle, across = uses[n].triangle;
+        const uint32_t chart = placement.chartOf[t];
+        if (t == across || placement.chartOf[across] == chart) continue;
+        Tri2 q;
+        if (!unfoldAcross(scene, front, placement, t, across, q)) continue;
+        const double area2 = signedArea2(q);
+        if (!(std::abs(area2) > 1e-12)) continue;
+        const glm::dvec2 lo = glm::min(q[0], glm::min(q[1], q[2])), hi = glm::max(q[0], glm::max(q[1], q[2]));
+        for (uint32_t y = clampTexel(std::floor(lo.y - 0.5), placement.height);
+             y <= clampTexel(std::ceil(hi.y - 0.5), placement.height); ++y)
+          for (uint32_t x = clampTexel(std::floor(lo.x - 0.5), placement.width);
+               x <= clampTexel(std::ceil(hi.x - 0.5), placement.width); ++x) {
+            const uint32_t texel = y * placement.width + x;
+            if (raster.primary[texel] || extended[texel] || raster.texelChart[texel] != chart || assigned[texel] > 2.0)
+              continue;
+            const glm::dvec2 c(x + 0.5, y + 0.5);
+            glm::dvec3 w(cross2(q[2] - q[1], c - q[1]), cross2(q[0] - q[2], c - q[2]), cross2(q[1] - q[0], c - q[0]));
+            w /= area2;
+            if (w.x < -1e-9 || w.y < -1e-9 || w.z < -1e-9) continue;
+            w = glm::max(w, glm::dvec3(0.0));
+            raster.samples.push_back(interpolate(scene, front.triangles[across], w / (w.x + w.y + w.z)));
+            raster.texelSample[texel] = static_cast<uint32_t>(raster.samples.size() - 1);
+            extended[texel] = 1;
+          }
+      }
+    k = end;
   }
 }
 
@@ -620,7 +716,8 @@ Result<SampleAtlas> buildChartsLayout(const Scene& scene, const LayoutOptions& o
       scale *= std::sqrt(ratio);
     }
   }
-  fillGutters(front, placement, raster);
+  const std::vector<double> assigned = fillGutters(front, placement, raster);
+  if (options.extendSmoothSeams) extendAcrossSmoothSeams(scene, front, placement, uses, assigned, raster);
 
   SampleAtlas atlas;
   atlas.width = placement.width;

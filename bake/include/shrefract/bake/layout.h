@@ -37,6 +37,10 @@ struct LayoutOptions {
   float samplesPerUnitArea = 0.0f;
   // Largest atlas width and height, in texels.
   uint32_t maxAtlasSize = 8192;
+  // charts: the gutter texels beside a smooth seam hold the surface beyond it (docs/sample-layouts.md,
+  // "Gutters beside smooth seams"); false: they copy the nearest sample of their chart, as every
+  // gutter texel did before 2026-11-27 (kept to measure the difference).
+  bool extendSmoothSeams = true;
 };
 
 struct SampleAtlas {
