@@ -19,6 +19,7 @@
 #include <limits>
 #include <map>
 #include <numeric>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -156,6 +157,19 @@ SurfacePoint interpolate(const Scene& scene, const FrontTriangle& tri, glm::dvec
   return point;
 }
 
+// Barycentric weights (sum 1) of texel (x, y)'s centre in the atlas triangle q of signed doubled
+// area area2, or nothing where the centre lies outside it. A little slack so that no centre falls
+// through the crack between two triangles.
+std::optional<glm::dvec3> centreWeights(const Tri2& q, double area2, uint32_t x, uint32_t y) {
+  const glm::dvec2 c(x + 0.5, y + 0.5);
+  glm::dvec3 w(cross2(q[2] - q[1], c - q[1]), cross2(q[0] - q[2], c - q[2]), cross2(q[1] - q[0], c - q[0]));
+  w /= area2;
+  constexpr double kSlack = -1e-9;
+  if (w.x < kSlack || w.y < kSlack || w.z < kSlack) return std::nullopt;
+  w = glm::max(w, glm::dvec3(0.0));
+  return w / (w.x + w.y + w.z);
+}
+
 // Samples at every texel centre inside a triangle (the first triangle wins a centre on a shared
 // edge). A chart that covers no texel centre gets one sample, at the centroid of its largest
 // triangle, in the texel under that centroid when the texel is free.
@@ -191,14 +205,8 @@ Raster rasterize(const Scene& scene, const FrontMesh& front, const Placement& pl
       for (uint32_t x = x0; x <= x1; ++x) {
         const uint32_t texel = y * placement.width + x;
         if (raster.primary[texel]) continue;
-        const glm::dvec2 c(x + 0.5, y + 0.5);
-        glm::dvec3 w(cross2(q[2] - q[1], c - q[1]), cross2(q[0] - q[2], c - q[2]), cross2(q[1] - q[0], c - q[0]));
-        w /= area2;
-        // A little slack so that no centre falls through the crack between two triangles.
-        constexpr double kSlack = -1e-9;
-        if (w.x < kSlack || w.y < kSlack || w.z < kSlack) continue;
-        w = glm::max(w, glm::dvec3(0.0));
-        claim(texel, t, w / (w.x + w.y + w.z));
+        const std::optional<glm::dvec3> w = centreWeights(q, area2, x, y);
+        if (w) claim(texel, t, *w);
       }
     }
   }
@@ -393,12 +401,9 @@ void extendAcrossSmoothSeams(const Scene& scene, const FrontMesh& front, const P
             const uint32_t texel = y * placement.width + x;
             if (raster.primary[texel] || extended[texel] || raster.texelChart[texel] != chart || assigned[texel] > 2.0)
               continue;
-            const glm::dvec2 c(x + 0.5, y + 0.5);
-            glm::dvec3 w(cross2(q[2] - q[1], c - q[1]), cross2(q[0] - q[2], c - q[2]), cross2(q[1] - q[0], c - q[0]));
-            w /= area2;
-            if (w.x < -1e-9 || w.y < -1e-9 || w.z < -1e-9) continue;
-            w = glm::max(w, glm::dvec3(0.0));
-            raster.samples.push_back(interpolate(scene, front.triangles[across], w / (w.x + w.y + w.z)));
+            const std::optional<glm::dvec3> w = centreWeights(q, area2, x, y);
+            if (!w) continue;
+            raster.samples.push_back(interpolate(scene, front.triangles[across], *w));
             raster.texelSample[texel] = static_cast<uint32_t>(raster.samples.size() - 1);
             extended[texel] = 1;
           }

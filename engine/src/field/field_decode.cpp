@@ -226,19 +226,27 @@ void evaluateCoefficients(const EncodingShape& shape, const float* a, const floa
   for (int c = 0; c < 3; ++c) out[c] = x * frameRows[c] + y * frameRows[4 + c] + z * frameRows[8 + c];
 }
 
-void dequantizeSample(const Field& field, uint64_t texel, std::vector<float>& out) {
-  const uint32_t layers = field.layerCount(), values = field.valuesPerLayer();
+namespace {
+// The first `layers` layers of a sample, dequantized (dequantizeSample's layout).
+void dequantizeLayers(const Field& field, uint64_t texel, uint32_t layers, std::vector<float>& out) {
+  const uint32_t values = field.valuesPerLayer();
   out.resize(size_t(layers) * values);
   for (uint32_t i = 0; i < layers; ++i)
     for (uint32_t v = 0; v < values; ++v) out[size_t(i) * values + v] = fieldCoefficient(field, i, texel, v);
 }
+}  // namespace
+
+void dequantizeSample(const Field& field, uint64_t texel, std::vector<float>& out) {
+  dequantizeLayers(field, texel, field.layerCount(), out);
+}
 
 void evaluateSample(const Field& field, uint64_t texel, const std::array<float, 3>& w, float* out, uint32_t order) {
   EncodingShape shape = field.shape();
-  // A lower SH order reads the first (order + 1)^2 layers, which lead the array.
+  // A lower SH order reads only the first (order + 1)^2 layers, which lead the array: only those
+  // are dequantized (this runs per texel in the CPU reference's decompression).
   if (shape.encoding == Encoding::Sh) shape.order = std::min(shape.order, order);
   thread_local std::vector<float> a;
-  dequantizeSample(field, texel, a);
+  dequantizeLayers(field, texel, shape.layerCount(), a);
   evaluateCoefficients(shape, a.data(), field.basis.data(), w, out, &field.frames[texel * 12]);
 }
 
