@@ -4,6 +4,7 @@
 #include <string>
 
 #include "cli/commands.h"
+#include "cli/interrupt.h"
 
 namespace {
 
@@ -29,6 +30,8 @@ int main(int argc, char** argv) {
     printUsage(stderr);
     return 2;
   }
+  // Before any thread starts (cli/interrupt.h): an interrupt then removes staged output.
+  shrefract::cli::installInterruptCleanup();
   const std::string command = argv[1];
   if (command == "render") return shrefract::cli::renderCommand(argc, argv);
   if (command == "bake") return shrefract::cli::bakeCommand(argc, argv);

@@ -8,6 +8,7 @@
 
 #include "cli/args.h"
 #include "cli/commands.h"
+#include "cli/interrupt.h"
 #include "cli/scene_source.h"
 #include "report/report.h"
 
@@ -134,10 +135,13 @@ int reportCommand(int argc, char** argv) {
     return 1;
   }
   // Written beside DIR and moved into place once complete: a failed run leaves nothing behind.
+  // An interrupt removes it as well (the report runs for hours).
   const fs::path staging = *out + ".partial-" + std::to_string(getpid());
+  const RemoveOnInterrupt removeStaging(staging);
   options.outputDirectory = staging.string();
   auto result = report::runReport(options);
   if (result) {
+    const auto held = holdInterrupts();
     if (auto moved = publish(staging, *out); !moved) result = moved.error();
   }
   if (!result) {

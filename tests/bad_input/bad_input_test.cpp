@@ -17,6 +17,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <csignal>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -56,8 +57,8 @@ std::string slurp(const fs::path& p) {
   return s.str();
 }
 
-// Runs the tool with `args` in `dir`, stdin from /dev/null, stdout and stderr captured.
-Outcome runTool(const fs::path& dir, const std::vector<std::string>& args) {
+// Starts the tool with `args` in `dir`, stdin from /dev/null, stdout and stderr to files there.
+pid_t startTool(const fs::path& dir, const std::vector<std::string>& args) {
   const fs::path outPath = dir / ".stdout", errPath = dir / ".stderr";
   const std::string exe = tool();
   std::vector<std::string> argStrings{exe};
@@ -78,16 +79,27 @@ Outcome runTool(const fs::path& dir, const std::vector<std::string>& args) {
     execv(exe.c_str(), argv.data());
     _exit(127);
   }
+  return pid;
+}
+
+// Waits for the tool started by startTool in `dir` and collects its outcome (removing the files
+// its output went to).
+Outcome finishTool(const fs::path& dir, pid_t pid) {
   Outcome o;
   int status = 0;
   if (pid < 0 || waitpid(pid, &status, 0) != pid) return o;
   if (WIFEXITED(status)) o.exitCode = WEXITSTATUS(status);
   if (WIFSIGNALED(status)) o.signal = WTERMSIG(status);
-  o.out = slurp(outPath);
-  o.err = slurp(errPath);
-  fs::remove(outPath);
-  fs::remove(errPath);
+  o.out = slurp(dir / ".stdout");
+  o.err = slurp(dir / ".stderr");
+  fs::remove(dir / ".stdout");
+  fs::remove(dir / ".stderr");
   return o;
+}
+
+// Runs the tool with `args` in `dir`, stdin from /dev/null, stdout and stderr captured.
+Outcome runTool(const fs::path& dir, const std::vector<std::string>& args) {
+  return finishTool(dir, startTool(dir, args));
 }
 
 // --- inputs -------------------------------------------------------------------------------------
@@ -577,6 +589,53 @@ TEST(BadInput, EveryCaseFailsWithOneLineAndNoOutput) {
   }
   // Leave the inputs for a look when something failed.
   if (!HasFailure()) fs::remove_all(root);
+}
+
+// An interrupted report (Ctrl-C, or SIGTERM from a scheduler) removes its stage and leaves an
+// earlier report in DIR as it was, as a failed run does (samples/cli/interrupt.h): the report
+// runs for hours, and its DIR.partial-PID beside DIR was left behind by every interrupt before.
+TEST(BadInput, InterruptedReportLeavesNoPartialOutput) {
+  ASSERT_FALSE(tool().empty()) << "SHREFRACT_TOOL is not set (ctest sets it to the shrefract binary)";
+  for (const int signal : {SIGINT, SIGTERM}) {
+    SCOPED_TRACE(strsignal(signal));
+    const fs::path dir = fs::current_path() / "interrupt_work" / std::to_string(signal);
+    fs::remove_all(dir);
+    fs::create_directories(dir / "rep");
+    const std::string earlier = "an earlier report\n";
+    writeBytes(dir / "rep" / "report.md", earlier);
+    const pid_t pid = startTool(dir, {"report", "--smoke", "--threads", "1", "-o", "rep"});
+    ASSERT_GT(pid, 0);
+    // Interrupted once the report has written into its stage; polled without reaping the child.
+    const fs::path staging = dir / ("rep.partial-" + std::to_string(pid));
+    bool ended = false, staged = false;
+    for (int i = 0; i < 30000 && !ended && !staged; ++i) {
+      siginfo_t info{};
+      ended = waitid(P_PID, id_t(pid), &info, WEXITED | WNOHANG | WNOWAIT) == 0 && info.si_pid == pid;
+      std::error_code ec;
+      staged = fs::is_directory(staging, ec) && !fs::is_empty(staging, ec);
+      if (!ended && !staged) usleep(10000);
+    }
+    if (!staged) kill(pid, SIGKILL);  // a report still running after 5 minutes without a stage
+    if (staged) kill(pid, signal);
+    const Outcome o = finishTool(dir, pid);
+    if (!staged && o.exitCode == 3 && !SHREFRACT_REQUIRE_GPU) {  // kExitNoDevice
+      std::printf("skipped (no Vulkan device): %s", o.err.c_str());
+      return;
+    }
+    ASSERT_TRUE(staged) << "the report never wrote into " << staging << "; exit " << o.exitCode << ", stderr:\n"
+                        << o.err;
+    EXPECT_EQ(o.signal, 0) << "killed by the signal, not exited";
+    EXPECT_EQ(o.exitCode, 128 + signal);
+    std::string last = o.err.substr(0, o.err.size() - 1);
+    last = last.substr(last.find_last_of('\n') + 1);
+    EXPECT_NE(last.find("interrupted"), std::string::npos) << last;
+    EXPECT_NE(last.find(staging.filename().string()), std::string::npos) << "the line does not name the stage: " << last;
+    std::vector<std::string> left = listFiles(dir);
+    std::sort(left.begin(), left.end());
+    EXPECT_EQ(left, std::vector<std::string>({"rep", "rep/report.md"}));
+    EXPECT_EQ(slurp(dir / "rep" / "report.md"), earlier);
+  }
+  if (!HasFailure()) fs::remove_all(fs::current_path() / "interrupt_work");
 }
 
 }  // namespace
