@@ -16,8 +16,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <csignal>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -615,8 +615,7 @@ TEST(BadInput, InterruptedReportLeavesNoPartialOutput) {
       staged = fs::is_directory(staging, ec) && !fs::is_empty(staging, ec);
       if (!ended && !staged) usleep(10000);
     }
-    if (!staged) kill(pid, SIGKILL);  // a report still running after 5 minutes without a stage
-    if (staged) kill(pid, signal);
+    kill(pid, staged ? signal : SIGKILL);  // without a stage: ended, or still running after 5 minutes
     const Outcome o = finishTool(dir, pid);
     if (!staged && o.exitCode == 3 && !SHREFRACT_REQUIRE_GPU) {  // kExitNoDevice
       std::printf("skipped (no Vulkan device): %s", o.err.c_str());
