@@ -175,11 +175,15 @@ SHR_CONST(kJumpMinTableSize, 12u)
 // 25.60 dB at this scale, 25.21 at half of it, 24.68 at 1 per cell). The decode interpolates the
 // corners' distances, signed by which side of the cell's jump each corner is on: zero on the jump,
 // exact for a straight one. A view of the cell counts in full where that interpolated distance
-// puts the eye on its side by kJumpDistanceSoftness cells, linearly from the jump (probe on the
-// cube: 25.60, 25.46, 24.72 dB for 0.05, 0.1, 0.2 cells; the torus 20.14, -, 20.31).
+// puts the eye on its side by kJumpDistanceSoftness cells, linearly from the jump. Within the ramp
+// the decode blends the two sides' exits, a direction no path takes, so the ramp is kept about as
+// narrow as the channel is accurate (bisected to 1/32 cell; the Pca reconstructs it to 0.013 to
+// 0.019 cells RMS at the cube's default view): default fields (64x64 nodes), linear measure at
+// 4x4, cube 30.25 / 30.50 / 30.52 dB for 0.1 / 0.05 / 0.02 cells, torus 25.30 / 25.30 / 25.33,
+// glass of water 23.25 / 23.28 / 23.29 (docs/encodings.md "The ramp across a jump").
 SHR_CONSTF(kJumpDistanceScale, 3.14159265f)
 SHR_CONSTF(kJumpDistanceMaxCells, 1.0f)
-SHR_CONSTF(kJumpDistanceSoftness, 0.1f)
+SHR_CONSTF(kJumpDistanceSoftness, 0.02f)
 // A side's estimate at w (interpolateCorners): a plane through its corners' values, least
 // squares over the corners at their offsets from w (in cells), each weighted by kept_j keep_j^4
 // (the 4th power: corners only partly on the side barely tilt it) with this ridge on the two
