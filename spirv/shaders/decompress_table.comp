@@ -105,6 +105,10 @@ void interpolateCorners(uint s, HemiOctBilinear b, vec3 w, float v[4][6], inout 
   float distance[4] = float[4](0.0, 0.0, 0.0, 0.0);
   float estimate[5] = float[5](0.0, 0.0, 0.0, 0.0, 0.0);
   float dominance = 0.0, discounted = 0.0;
+  // field_decode.cpp jumpCosines: the reference angles, scaled down for finer cells, floored.
+  float scale = TABLE_SIZE > kJumpReferenceTableSize ? float(kJumpReferenceTableSize) / float(TABLE_SIZE) : 1.0;
+  float cosineFull = cos(radians(max(kJumpFullDegrees * scale, kJumpFullMinDegrees)));
+  float cosineNone = cos(radians(max(kJumpNoneDegrees * scale, kJumpNoneMinDegrees)));
   for (int j = 0; j < 4; ++j) len[j] = sqrt(e[j].x * e[j].x + e[j].y * e[j].y + e[j].z * e[j].z);
   if (JUMP_DISTANCE)
     for (int j = 0; j < 4; ++j)
@@ -117,7 +121,7 @@ void interpolateCorners(uint s, HemiOctBilinear b, vec3 w, float v[4][6], inout 
     for (int j = 0; j < 4; ++j) {
       float dotJ = e[j].x * e[m].x + e[j].y * e[m].y + e[j].z * e[m].z;
       float cosine = len[j] * len[m] > kMinDirectionLength2 ? dotJ / (len[j] * len[m]) : 1.0;
-      keep[j] = clamp((cosine - kJumpCosineNone) / (kJumpCosineFull - kJumpCosineNone), 0.0, 1.0);
+      keep[j] = clamp((cosine - cosineNone) / (cosineFull - cosineNone), 0.0, 1.0);
       kept[j] = b.weight[j] * keep[j];
       signedDistance += b.weight[j] * distance[j] * (2.0 * keep[j] - 1.0);
     }

@@ -1,12 +1,14 @@
 // bake::jumpDistances (jump_distance.h) against closed forms: exit functions of the grid coordinates
 // with straight jumps at known places, whose distance to each node is known exactly.
 #include <shrefract/bake/jump_distance.h>
+#include <shrefract/field.h>
 #include <shrefract/gpu_layout.h>
 
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
 
 #include <cmath>
+#include <numbers>
 #include <functional>
 #include <vector>
 
@@ -34,6 +36,43 @@ struct LineField {
     return jumpDistances(kN, nodes, [this](float x, float y) { return at(x, y); });
   }
 };
+
+float cosDegrees(float degrees) { return std::cos(degrees * std::numbers::pi_v<float> / 180.0f); }
+
+TEST(JumpDistance, ThresholdsScaleWithTheCellDownToTheirFloors) {
+  // Up to 16 nodes a side the angles chosen at 16x16 (25 and 45 deg); finer tables scale them by
+  // 16 / N, not under 16 and 28 deg (gpu_layout.h kJumpFullDegrees).
+  const struct {
+    uint32_t n;
+    float full, none;
+  } cases[] = {{2, 25, 45}, {12, 25, 45}, {16, 25, 45}, {20, 20, 36}, {25, 16, 28.8f}, {32, 16, 28}, {64, 16, 28}};
+  for (const auto& c : cases) {
+    const JumpCosines j = jumpCosines(c.n);
+    EXPECT_NEAR(j.full, cosDegrees(c.full), 1e-6f) << c.n;
+    EXPECT_NEAR(j.none, cosDegrees(c.none), 1e-6f) << c.n;
+  }
+}
+
+TEST(JumpDistance, ASmallerJumpIsFoundInAFinerTable) {
+  // A 30 deg jump across x = 4.6 is under the 35 deg midway of a 16x16 table's thresholds, and over
+  // the 22 deg of a 64x64 table's.
+  auto distances = [](uint32_t n) {
+    auto at = [](float x, float) {
+      const float a = x < 4.6f ? 0.0f : 30.0f * std::numbers::pi_v<float> / 180.0f;
+      return TracedView{glm::vec3(std::sin(a), 0.0f, std::cos(a)), glm::vec3(0.0f, 0.0f, -1.0f)};
+    };
+    std::vector<TracedView> nodes;
+    for (uint32_t j = 0; j < n; ++j)
+      for (uint32_t i = 0; i < n; ++i) nodes.push_back(at(float(i), float(j)));
+    return jumpDistances(n, nodes, at);
+  };
+  const std::vector<float> coarse = distances(16), fine = distances(64);
+  EXPECT_EQ(coarse[4], gpu::kJumpDistanceMaxCells);
+  EXPECT_EQ(coarse[5], gpu::kJumpDistanceMaxCells);
+  EXPECT_NEAR(fine[4], 0.6f, kTolerance);
+  EXPECT_NEAR(fine[5], 0.4f, kTolerance);
+  EXPECT_EQ(fine[3], gpu::kJumpDistanceMaxCells);
+}
 
 TEST(JumpDistance, DiagonalJumpIsItsPerpendicularDistance) {
   LineField f{[](float x, float y) { return x + y - 7.3f; }};

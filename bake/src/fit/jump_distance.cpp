@@ -1,4 +1,5 @@
 #include <shrefract/bake/jump_distance.h>
+#include <shrefract/field.h>
 #include <shrefract/gpu_layout.h>
 
 #include <algorithm>
@@ -39,7 +40,8 @@ float crossing(const TracedView& a, const TracedView& b, glm::vec2 at, glm::vec2
 std::vector<float> jumpDistances(uint32_t n, std::span<const TracedView> nodes,
                                  const std::function<TracedView(float x, float y)>& trace) {
   constexpr float kNone = std::numeric_limits<float>::infinity();
-  const float split = 0.5f * (gpu::kJumpCosineFull + gpu::kJumpCosineNone);
+  const JumpCosines cosines = jumpCosines(n);
+  const float split = 0.5f * (cosines.full + cosines.none);
   // Nearest crossing along the node's row (x) and column (y), either way.
   std::vector<float> alongX(size_t(n) * n, kNone), alongY(size_t(n) * n, kNone);
   for (uint32_t j = 0; j < n; ++j)

@@ -111,6 +111,14 @@ struct HemiOctBilinear {
   std::array<float, 4> weight{};
 };
 HemiOctBilinear hemiOctBilinear(float x, float y, float z, uint32_t n);
+// The cosines below which the jump-aware decode of an N x N table starts to discount a corner
+// (full) and leaves it out (none), gpu_layout.h kJumpFullDegrees; the bake bisects between them.
+// Mirrored by decompress_table.comp.
+struct JumpCosines {
+  float full = 1.0f;
+  float none = 1.0f;
+};
+JumpCosines jumpCosines(uint32_t n);
 
 struct FieldMedium {
   std::string name;

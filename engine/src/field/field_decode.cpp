@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <vector>
 
 namespace shrefract {
@@ -56,6 +57,15 @@ HemiOctBilinear hemiOctBilinear(float x, float y, float z, uint32_t n) {
   b.node = {j * n + i, j * n + i + 1, (j + 1) * n + i, (j + 1) * n + i + 1};
   b.weight = {(1.0f - tx) * (1.0f - ty), tx * (1.0f - ty), (1.0f - tx) * ty, tx * ty};
   return b;
+}
+
+JumpCosines jumpCosines(uint32_t n) {
+  // Up to the reference size the angles chosen at 16x16; finer cells, whose corners differ less
+  // where the exit is smooth, tell smaller jumps apart, down to the floors.
+  const float scale = n > gpu::kJumpReferenceTableSize ? float(gpu::kJumpReferenceTableSize) / float(n) : 1.0f;
+  const float radians = std::numbers::pi_v<float> / 180.0f;
+  return {std::cos(std::max(gpu::kJumpFullDegrees * scale, gpu::kJumpFullMinDegrees) * radians),
+          std::cos(std::max(gpu::kJumpNoneDegrees * scale, gpu::kJumpNoneMinDegrees) * radians)};
 }
 
 namespace {
@@ -110,7 +120,7 @@ std::array<float, 4> sideCoefficients(const HemiOctBilinear& b, const float* kep
 // interpolation across a jump of the exit direction makes a direction no path takes. Each corner
 // estimates the exit at w as its own exit moved by the change of the straight-through direction
 // from its node to w; seen from a corner m, a corner whose estimate is far from m's is discounted
-// (fully beyond acos(kJumpCosineNone), linearly in the cosine from acos(kJumpCosineFull)) and the
+// (fully beyond jumpCosines(n).none, linearly in the cosine from its .full) and the
 // others' estimates give the side's value at w (sideCoefficients: the plane through them). The
 // four views are averaged with weights w_m^p, which picks the side of the jump holding most of the weight, steeply but without a step (a step
 // flickers as the eye moves). Where no corner is discounted this is plain bilinear
@@ -150,6 +160,7 @@ void interpolateCorners(const HemiOctBilinear& b, const EncodingShape& shape, co
   }
   // Each corner m in turn as the reference side: its agreeing corners' blended estimate, weighted
   // by w_m^p (p = kJumpDominancePower), so the side with the most weight wins without a step.
+  const JumpCosines cosines = jumpCosines(n);
   float length[4], distance[4] = {}, estimate[kMaxFieldChannels] = {}, dominance = 0.0f, discounted = 0.0f;
   for (int j = 0; j < 4; ++j) length[j] = std::sqrt(e[j][0] * e[j][0] + e[j][1] * e[j][1] + e[j][2] * e[j][2]);
   if (shape.jumpDistance)
@@ -163,7 +174,7 @@ void interpolateCorners(const HemiOctBilinear& b, const EncodingShape& shape, co
     for (int j = 0; j < 4; ++j) {
       const float dot = e[j][0] * e[m][0] + e[j][1] * e[m][1] + e[j][2] * e[m][2];
       const float cosine = length[j] * length[m] > gpu::kMinDirectionLength2 ? dot / (length[j] * length[m]) : 1.0f;
-      keep[j] = std::clamp((cosine - gpu::kJumpCosineNone) / (gpu::kJumpCosineFull - gpu::kJumpCosineNone), 0.0f, 1.0f);
+      keep[j] = std::clamp((cosine - cosines.none) / (cosines.full - cosines.none), 0.0f, 1.0f);
       kept[j] = b.weight[j] * keep[j];
       signedDistance += b.weight[j] * distance[j] * (2.0f * keep[j] - 1.0f);
     }

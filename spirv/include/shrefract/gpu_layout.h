@@ -145,14 +145,24 @@ SHR_CONSTF(kMinDirectionLength2, 1e-20f)
 SHR_CONSTF(kMaxOpticalDepth, 65504.0f)
 
 // Jump-aware interpolation of the Table and Pca cells (decompress_table.comp, field_decode.cpp
-// interpolateCorners, docs/encodings.md "Jumps"): a corner whose estimate of the exit is more than
-// acos(kJumpCosineNone) = 45 deg from the dominant corner's is left out, one within
-// acos(kJumpCosineFull) = 25 deg kept, linearly in the cosine between; the result replaces the
-// bilinear one by min(1, kJumpBlendGain x the weight left out). Measured on the built-in scenes
-// (docs/encodings.md): hard thresholds of 30 or 40 deg and a 30..50 deg ramp did as well; a gain
-// of 4 kept half the gain on the cube (19.95 against 21.31 dB at 16 and 21.46 for a step).
-SHR_CONSTF(kJumpCosineFull, 0.906307787f)
-SHR_CONSTF(kJumpCosineNone, 0.707106781f)
+// interpolateCorners and jumpCosines, docs/encodings.md "Jumps"): a corner whose estimate of the
+// exit is more than an angle `none` from the dominant corner's is left out, one within `full`
+// kept, linearly in the cosine between; the result replaces the bilinear one by
+// min(1, kJumpBlendGain x the weight left out). The bake bisects the edges whose corners are more
+// than midway apart. The angles scale with the cell: up to kJumpReferenceTableSize nodes a side
+// they are kJumpFullDegrees and kJumpNoneDegrees (chosen at 16x16: hard thresholds of 30 or 40 deg
+// and a 30..50 deg ramp did as well; a gain of 4 kept half the gain on the cube, 19.95 against
+// 21.31 dB at 16 and 21.46 for a step); above, times kJumpReferenceTableSize / N, but not under
+// kJumpFullMinDegrees and kJumpNoneMinDegrees. At the default 64x64 (16 and 28 deg; a cell spans
+// 2.8 deg) the cube's and glass's jumps of 25 to 40 deg had been decoded half-kept, to directions
+// between the sides: fields baked with 16 / 28 deg read (linear measure, 4x4) glass of water 23.96
+// dB against 23.29, cube 30.52 and torus 25.35 against 30.52 and 25.33; 12 / 20 deg lost the torus
+// 0.2 dB (docs/encodings.md "The ramp across a jump").
+SHR_CONST(kJumpReferenceTableSize, 16u)
+SHR_CONSTF(kJumpFullDegrees, 25.0f)
+SHR_CONSTF(kJumpNoneDegrees, 45.0f)
+SHR_CONSTF(kJumpFullMinDegrees, 16.0f)
+SHR_CONSTF(kJumpNoneMinDegrees, 28.0f)
 SHR_CONSTF(kJumpBlendGain, 16.0f)
 // The side of a jump is chosen by weighting each corner's view of the cell by its bilinear
 // weight to this power: a soft argmax. Steeper is sharper and flickers more as the eye moves
@@ -166,7 +176,7 @@ SHR_CONSTF(kJumpDominancePower, 4.0f)
 // on the cube in tests/bake/encoding_test.cpp) of at least this many nodes a side. A corner's estimate moves the exit by the
 // change of the straight-through direction across the cell, so a field constant in the view
 // direction has estimates as far apart as the cell's corners: at N = 12 a cell spans under about
-// 17 deg, inside kJumpCosineFull; coarser cells span as much as the jumps they would have to find.
+// 17 deg, inside kJumpFullDegrees; coarser cells span as much as the jumps they would have to find.
 SHR_CONST(kJumpMinTableSize, 12u)
 // Fields with the jump distance channel (field.h EncodingShape::jumpDistance): each node stores its
 // distance d in grid cells to the nearest jump (bisected by the bake, at most

@@ -31,8 +31,8 @@ struct TracedView {
 //
 // A grid edge whose nodes were both traced to an exit (neither trapped) holds a jump where they
 // disagree as the decode judges corners (one node's exit, moved by the change of the
-// straight-through direction to the other node, more than midway between acos(kJumpCosineFull)
-// and acos(kJumpCosineNone) from the other's exit); the crossing is bisected, each traced point
+// straight-through direction to the other node, more than midway between the angles of
+// jumpCosines(n) from the other's exit); the crossing is bisected, each traced point
 // going to the side whose moved exit it is nearer. A node with crossings at tx along its row and ty
 // along its column is sqrt(1 / (1/tx^2 + 1/ty^2)) from a straight jump through both, tx or ty with
 // one, kJumpDistanceMaxCells with none.
