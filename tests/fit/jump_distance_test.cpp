@@ -8,8 +8,8 @@
 #include <glm/geometric.hpp>
 
 #include <cmath>
-#include <numbers>
 #include <functional>
+#include <numbers>
 #include <vector>
 
 namespace shrefract::bake {
