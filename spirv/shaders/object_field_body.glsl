@@ -142,6 +142,30 @@ vec3 transmittedOverPixel(vec3 exitWorld, float exitBlur, vec3 ddx, vec3 ddy, ve
   return mix(directionsOverPixel(exitWorld, exitBlur, ddx, ddy, uv, uvDx, uvDy), colours.rgb, t);
 }
 
+// The world exit the distortion image holds at `uv`; zero where it holds none.
+vec3 exitWorldAt(vec2 uv) {
+  vec3 d = textureLod(distortionMap, uv, 0.0).xyz;
+  float len2 = dot(d, d);
+  return len2 > kMinDirectionLength2 ? rotateByQuaternion(pc.worldFromObjectRotation, d * inversesqrt(len2)) : vec3(0.0);
+}
+
+// The exit's change across one pixel along the screen axis whose field coordinate step is uvD,
+// for the lookups' footprints: of the two one-sided differences to the exits the distortion image
+// holds one pixel away (uv - uvD, uv + uvD), the gentler. Beside a jump the fine derivative
+// (`fine`, kept where neither neighbour holds an exit) may span it and widen every lookup of the
+// pixel to tens of degrees, which lit the cube's face-change lines with the sky's sun; the side
+// away from the jump is the slope. On smooth glass the gentler side is the slower half of the
+// divergence, which measured better than the central difference everywhere but on the bunny
+// (docs/antialiasing.md, "The exit's derivative beside a jump"). Mirrored by cpu_reference.cpp
+// exitDerivative.
+vec3 exitDerivative(vec3 exitWorld, vec3 fine, vec2 uv, vec2 uvD) {
+  vec3 ahead = exitWorldAt(uv + uvD), behind = exitWorldAt(uv - uvD);
+  if (ahead == vec3(0.0)) return behind == vec3(0.0) ? fine : exitWorld - behind;
+  if (behind == vec3(0.0)) return ahead - exitWorld;
+  vec3 forward = ahead - exitWorld, backward = exitWorld - behind;
+  return dot(forward, forward) < dot(backward, backward) ? forward : backward;
+}
+
 // The share of its pixel a fragment covers where the surface turns away from the eye: one sample
 // per pixel shades a pixel the silhouette crosses as if it were all glass (gpu_layout.h
 // kSilhouetteCoverageScale says why c / |grad c| measures the distance). 1 on faces seen at an
@@ -176,6 +200,10 @@ void main() {
   vec3 exitDx = dFdxFine(exitWorld), exitDy = dFdyFine(exitWorld);
   vec2 uvDx = dFdxFine(inFieldUv), uvDy = dFdyFine(inFieldUv);
   vec3 reflectedDx = dFdxFine(reflectedWorld), reflectedDy = dFdyFine(reflectedWorld);
+  if (len2 > kMinDirectionLength2) {
+    exitDx = exitDerivative(exitWorld, exitDx, inFieldUv, uvDx);
+    exitDy = exitDerivative(exitWorld, exitDy, inFieldUv, uvDy);
+  }
   if (uint(pc.medium.w) == kModeFieldExitDirection) {  // the measured quantity itself
     outColor = vec4(exitWorld, d.w);
     return;

@@ -464,6 +464,49 @@ TEST(CpuReference, ShortFilteredExitsReadABlurrierLevel) {
   EXPECT_NEAR(shade(std::cos(0.3f))[0], std::cos(0.3f), 1e-4f);
 }
 
+// A jump between the pixel and its neighbour (object_field_body.glsl exitDerivative): the fine
+// derivative spans it, the gentler one-sided difference does not. A row of four texels, exits A A
+// B B (A 90 deg from B), the fragment at texel 1's centre, one texel per pixel. A sits at a
+// stripe's edge of RedStripes (column 16 of the red 16..23), so that any footprint of a level
+// above 0 reads the black stripe beside it too, as the jump's share of a tap would (about 0.36
+// rad, level 1.9), while the slope's (zero: A A) reads level 0, red.
+TEST(CpuReference, AJumpBesideThePixelDoesNotWidenItsLookups) {
+  using reference::Vec3;
+  const RedStripes stripes;
+  const Vec3 a = RedStripes::at(16, 16), b{0.0f, 1.0f, 0.0f};
+  ASSERT_NEAR(reference::sampleLatLong(stripes.env, a, 0.0f)[0], 1.0f, 1e-5f);
+  ASSERT_NEAR(a[0] * b[0] + a[1] * b[1] + a[2] * b[2], 0.0f, 0.1f);
+  reference::DistortionImage distortion;
+  distortion.width = 4;
+  distortion.height = 1;
+  for (const Vec3& e : {a, a, b, b}) distortion.rgba.insert(distortion.rgba.end(), {e[0], e[1], e[2], 0.0f});
+  reference::SurfacePoint p;
+  p.normal = {0, 0, 1};
+  p.uv = {1.5f / 4.0f, 0.5f};
+  p.frontIor = 1.0f;  // no reflection
+  reference::LookupDerivatives d;
+  d.uvDx = {0.25f, 0.0f};
+  d.exitDx = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};  // the neighbour ahead, across the jump
+  EXPECT_NEAR(reference::shadeField(distortion, stripes.env, p, {0, 0, 4}, ObjectShading{}, 1.0f, {}, d)[0], 1.0f, 1e-4f)
+      << "the slope behind (none) sets the footprint: level 0";
+  // The same fine derivative with the neighbour behind across the jump (B B A A, texel 2's centre).
+  distortion.rgba.clear();
+  for (const Vec3& e : {b, b, a, a}) distortion.rgba.insert(distortion.rgba.end(), {e[0], e[1], e[2], 0.0f});
+  p.uv = {2.5f / 4.0f, 0.5f};
+  d.exitDx = {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+  EXPECT_NEAR(reference::shadeField(distortion, stripes.env, p, {0, 0, 4}, ObjectShading{}, 1.0f, {}, d)[0], 1.0f, 1e-4f);
+  // A slope keeps its footprint: exits turning 0.8 rad a texel about the vertical, on both sides
+  // alike, read level 1 (a tap's share, about 0.2 rad), where column 16 blends the black stripe.
+  distortion.rgba.clear();
+  const float step = 0.8f, phi = std::atan2(a[0], -a[2]), r = std::sqrt(a[0] * a[0] + a[2] * a[2]);
+  for (int k = 0; k < 4; ++k) {
+    const float angle = phi + step * float(k - 2);
+    distortion.rgba.insert(distortion.rgba.end(), {r * std::sin(angle), a[1], -r * std::cos(angle), 0.0f});
+  }
+  d.exitDx = {};
+  EXPECT_LT(reference::shadeField(distortion, stripes.env, p, {0, 0, 4}, ObjectShading{}, 1.0f, {}, d)[0], 0.95f);
+}
+
 TEST(CpuReference, RenderHitsFrontFacesOnly) {
   // A quad at z = 0 facing +z; the camera on +z sees it in the middle of the image.
   FieldMesh mesh;

@@ -159,7 +159,9 @@ Vec3 overBackground(const Vec3& colour, const SurfacePoint& point, const Vec3& e
 // `point` and `eye` are in the object's space; the exit and reflection directions are turned to
 // world space with worldFromObject's rotation before the lookups, and the optical depth scaled by
 // its scale, as the object pass does. `derivatives` filter the two lookups (sampleLatLongOverPixel);
-// render() computes them as the GPU's fine derivatives do (pixelDerivatives).
+// render() computes them as the GPU's fine derivatives do (pixelDerivatives). As the object pass,
+// the exit's are then replaced by the gentler of its one-sided differences to the exits the
+// distortion image holds one pixel away (uv -/+ uvDx, uvDy; object_field_body.glsl exitDerivative).
 Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environment, const SurfacePoint& point,
                 const Vec3& eye, const ObjectShading& shading, float exposure = 1.0f,
                 const Transform& worldFromObject = Transform{}, const LookupDerivatives& derivatives = {});

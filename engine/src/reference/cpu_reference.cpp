@@ -384,21 +384,49 @@ Vec3 transmittedOverPixel(const DistortionImage& distortion, const LatLongImage&
   return fromGlm(directions + t * (glm::vec3(colours) - directions));
 }
 
+// The world exit the distortion image holds at `uv`; zero where it holds none
+// (object_field_body.glsl exitWorldAt).
+glm::vec3 exitWorldAt(const DistortionImage& distortion, glm::vec2 uv, const Transform& worldFromObject) {
+  const Vec4 t = sampleBilinear(distortion, uv.x, uv.y);
+  const glm::vec3 d(t[0], t[1], t[2]);
+  const float len2 = glm::dot(d, d);
+  return len2 > gpu::kMinDirectionLength2 ? toGlm(rotateDirection(worldFromObject, fromGlm(d / std::sqrt(len2))))
+                                          : glm::vec3(0.0f);
+}
+
+// The exit's change across one pixel along the screen axis whose field coordinate step is uvD: the
+// gentler of the two one-sided differences to the exits one pixel away (object_field_body.glsl
+// exitDerivative says why); `fine` where neither neighbour holds an exit.
+glm::vec3 exitDerivative(const DistortionImage& distortion, const glm::vec3& exitWorld, const glm::vec3& fine,
+                         glm::vec2 uv, glm::vec2 uvD, const Transform& worldFromObject) {
+  const glm::vec3 ahead = exitWorldAt(distortion, uv + uvD, worldFromObject);
+  const glm::vec3 behind = exitWorldAt(distortion, uv - uvD, worldFromObject);
+  if (ahead == glm::vec3(0.0f)) return behind == glm::vec3(0.0f) ? fine : exitWorld - behind;
+  if (behind == glm::vec3(0.0f)) return ahead - exitWorld;
+  const glm::vec3 forward = ahead - exitWorld, backward = exitWorld - behind;
+  return glm::dot(forward, forward) < glm::dot(backward, backward) ? forward : backward;
+}
+
 }  // namespace
 
 Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environment, const SurfacePoint& point,
                 const Vec3& eyeArray, const ObjectShading& shading, float exposure, const Transform& worldFromObject,
                 const LookupDerivatives& derivatives) {
   const FieldFragment f = fieldFragment(distortion, point, eyeArray, worldFromObject);
+  LookupDerivatives d = derivatives;
+  if (f.len2 > gpu::kMinDirectionLength2) {
+    const glm::vec2 uvDx(d.uvDx[0], d.uvDx[1]), uvDy(d.uvDy[0], d.uvDy[1]);
+    d.exitDx = fromGlm(exitDerivative(distortion, f.exitWorld, toGlm(d.exitDx), f.uv, uvDx, worldFromObject));
+    d.exitDy = fromGlm(exitDerivative(distortion, f.exitWorld, toGlm(d.exitDy), f.uv, uvDy, worldFromObject));
+  }
   const float ior = point.frontIor > 0.0f ? point.frontIor : shading.ior;
   const float fresnel = fresnelDielectric(f.cosI, 1.0f / ior);
   float transmittance = std::exp(-std::max(f.d[3], 0.0f) * (shading.absorptionScale * worldFromObject.scale));
   if (distortion.throughput) transmittance *= std::min(std::sqrt(f.len2), 1.0f);
   glm::vec3 color = (1.0f - fresnel) * transmittance * toGlm(shading.tint) *
-                    toGlm(transmittedOverPixel(distortion, environment, f, derivatives, worldFromObject));
+                    toGlm(transmittedOverPixel(distortion, environment, f, d, worldFromObject));
   if (shading.reflection)
-    color += fresnel * toGlm(sampleLatLongOverPixel(environment, fromGlm(f.reflectedWorld), derivatives.reflectedDx,
-                                                          derivatives.reflectedDy));
+    color += fresnel * toGlm(sampleLatLongOverPixel(environment, fromGlm(f.reflectedWorld), d.reflectedDx, d.reflectedDy));
   return fromGlm(color * exposure);
 }
 
