@@ -11,7 +11,11 @@ layout(location = 0) in vec3 inPosition;
 layout(location = 1) in vec3 inNormal;
 layout(location = 2) in vec2 inFieldUv;
 layout(location = 3) in float inFrontIor;
+layout(location = 4) flat in uint inTriangle;  // the index of the fragment's triangle
 layout(location = 0) out vec4 outColor;
+layout(std430, set = 1, binding = kBindingTriangleEdges) readonly buffer TriangleEdgesBuffer {
+  TriangleEdges triangleEdges[];
+};
 // true: the alpha written is the fragment's silhouette coverage, blended over what is drawn (the
 // pipeline's blend state); false: 1, or the optical depth in kModeFieldExitDirection.
 layout(constant_id = kSpecSilhouetteCoverage) const bool SILHOUETTE_COVERAGE = false;
@@ -175,12 +179,34 @@ float silhouetteCoverage(float cosView) {
   return g > 0.0 ? clamp(0.5 + kSilhouetteCoverageScale * cosView / g, 0.0, 1.0) : 1.0;
 }
 
+// The share of its pixel a fragment covers beside its triangle's silhouette edges: an edge whose
+// neighbour the eye sees from behind (or an open edge) bounds the glass, and a straight edge at
+// distance d (pixels, along its normal; the fragment's centre is inside) covers about 0.5 + d of
+// the pixel. The distance is the edge's in-plane distance over its change across the pixel
+// (|d/dx| + |d/dy|: the pixel's width along the edge's normal). The least over the edges; 1
+// without a silhouette edge. Flat faces give the cosine of silhouetteCoverage nothing to follow:
+// this covers faceted glass (docs/antialiasing.md, "Polygon silhouettes"). dPdx, dPdy: the
+// position's fine derivatives. Mirrored by cpu_reference.cpp polygonCoverage.
+float polygonCoverage(vec3 dPdx, vec3 dPdy) {
+  TriangleEdges t = triangleEdges[inTriangle];
+  float coverage = 1.0;
+  for (int k = 0; k < 3; ++k) {
+    vec4 across = t.neighbour[k];
+    if (dot(across.xyz, pc.eyeObject.xyz) - across.w > 0.0) continue;  // the neighbour faces the eye
+    vec4 edge = t.edge[k];
+    float g = abs(dot(edge.xyz, dPdx)) + abs(dot(edge.xyz, dPdy));
+    if (g > 0.0) coverage = min(coverage, clamp(0.5 + (dot(edge.xyz, inPosition) - edge.w) / g, 0.0, 1.0));
+  }
+  return coverage;
+}
+
 void main() {
   vec3 n = normalize(inNormal);
   vec3 v = normalize(inPosition - pc.eyeObject.xyz);
   // Interpolated normals can face away near silhouettes; bend them back toward the viewer.
   float cosI = -dot(v, n);
-  float coverage = SILHOUETTE_COVERAGE ? silhouetteCoverage(cosI) : 1.0;
+  vec3 dPdx = dFdxFine(inPosition), dPdy = dFdyFine(inPosition);
+  float coverage = SILHOUETTE_COVERAGE ? min(silhouetteCoverage(cosI), polygonCoverage(dPdx, dPdy)) : 1.0;
   if (cosI < 1e-4) {
     n = normalize(n + (1e-4 - cosI) * -v);
     cosI = -dot(v, n);

@@ -507,6 +507,87 @@ TEST(CpuReference, AJumpBesideThePixelDoesNotWidenItsLookups) {
   EXPECT_LT(reference::shadeField(distortion, stripes.env, p, {0, 0, 4}, ObjectShading{}, 1.0f, {}, d)[0], 0.95f);
 }
 
+// The edge records of the polygon silhouette coverage (shrefract/object.h TriangleEdges): a cube
+// whose faces have their own vertices (split normals) finds every edge's neighbour across the
+// split; a lone quad's border is open; a degenerate triangle's edges are never silhouettes; a seam
+// whose sides differ by float noise still joins.
+TEST(CpuReference, TriangleEdgesFindTheirNeighbours) {
+  // The cube [-1, 1]^3, 4 vertices per face, counter-clockwise seen from outside.
+  std::vector<float> positions;
+  std::vector<uint32_t> indices;
+  const std::array<std::array<float, 3>, 6> normals{{{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}}};
+  for (const auto& n : normals) {
+    // Two axes u, v of the face with u x v = n.
+    const std::array<float, 3> u = n[0] != 0.0f ? std::array<float, 3>{0, n[0], 0} : n[1] != 0.0f ? std::array<float, 3>{0, 0, n[1]} : std::array<float, 3>{n[2], 0, 0};
+    const std::array<float, 3> v{n[1] * u[2] - n[2] * u[1], n[2] * u[0] - n[0] * u[2], n[0] * u[1] - n[1] * u[0]};
+    const uint32_t base = uint32_t(positions.size() / 3);
+    for (const auto& [a, b] : std::array<std::pair<float, float>, 4>{{{-1, -1}, {1, -1}, {1, 1}, {-1, 1}}})
+      for (int k = 0; k < 3; ++k) positions.push_back(n[size_t(k)] + a * u[size_t(k)] + b * v[size_t(k)]);
+    indices.insert(indices.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
+  }
+  const std::vector<TriangleEdges> edges =
+      triangleEdges(positions.data(), uint32_t(positions.size() / 3), indices.data(), uint32_t(indices.size()));
+  ASSERT_EQ(edges.size(), 12u);
+  for (uint32_t t = 0; t < 12; ++t) {
+    const auto& own = normals[t / 2];
+    for (size_t k = 0; k < 3; ++k) {
+      const auto& across = edges[t].neighbour[k];
+      const float cosine = across[0] * own[0] + across[1] * own[1] + across[2] * own[2];
+      const float length = std::sqrt(across[0] * across[0] + across[1] * across[1] + across[2] * across[2]);
+      EXPECT_NEAR(length, 1.0f, 1e-6f) << "triangle " << t << " edge " << k << ": a neighbour, never open";
+      // The diagonal's neighbour is the face's other triangle; the border's, the next face.
+      EXPECT_TRUE(std::fabs(cosine - 1.0f) < 1e-6f || std::fabs(cosine) < 1e-6f) << t << " " << k;
+      // The edge's inward normal: the opposite corner lies inside.
+      const uint32_t opposite = indices[3 * t + (k + 2) % 3];
+      const auto& e = edges[t].edge[k];
+      EXPECT_GT(e[0] * positions[3 * opposite] + e[1] * positions[3 * opposite + 1] + e[2] * positions[3 * opposite + 2] - e[3], 0.5f);
+    }
+  }
+  // A lone quad: its diagonal joins, its border is open; noise of 1e-7 on a shared corner still joins.
+  std::vector<float> quad{-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, -1, 0, 1, 1, 0, -1, 1, 0};
+  quad[12] += 1e-7f;
+  const std::vector<uint32_t> quadIndices{0, 1, 2, 3, 4, 5};
+  const std::vector<TriangleEdges> q = triangleEdges(quad.data(), 6, quadIndices.data(), 6);
+  EXPECT_EQ(q[0].neighbour[0], (std::array<float, 4>{0, 0, 0, 1})) << "open";
+  EXPECT_NEAR(q[0].neighbour[2][2], 1.0f, 1e-6f) << "the diagonal (2 -> 0) finds the other triangle";
+  EXPECT_NEAR(q[1].neighbour[0][2], 1.0f, 1e-6f) << "the diagonal (3 -> 4) finds the first triangle";
+  const std::vector<float> line{0, 0, 0, 1, 0, 0, 2, 0, 0};
+  const std::vector<TriangleEdges> d = triangleEdges(line.data(), 3, quadIndices.data(), 3);
+  for (size_t k = 0; k < 3; ++k) EXPECT_EQ(d[0].neighbour[k][3], -1.0f) << "degenerate: never a silhouette";
+}
+
+// polygonCoverage in closed form: a triangle in the plane z = 0 seen from +z, one pixel = s along
+// x and y. Beside an open edge along x (inward normal +y), a point d inside covers 0.5 + d / s;
+// beside an edge whose neighbour faces the eye it covers the whole pixel.
+TEST(CpuReference, PolygonCoverageRampsAcrossSilhouetteEdges) {
+  TriangleEdges edges;
+  edges.edge[0] = {0, 1, 0, 0};               // y >= 0 inside
+  edges.neighbour[0] = {0, 0, 0, 1};          // open
+  edges.edge[1] = {-1, 0, 0, -10};            // x <= 10 inside
+  edges.neighbour[1] = {0, 0, 1, 0};          // a coplanar neighbour: faces the eye
+  edges.edge[2] = {0.6f, -0.8f, 0, -10};      // far away
+  edges.neighbour[2] = {0, 0, -1, 0};         // a neighbour seen from behind, 10 inside: 1
+  reference::SurfacePoint p;
+  p.normal = {0, 0, 1};
+  reference::LookupDerivatives d;
+  const float s = 0.02f;
+  d.positionDx = {s, 0, 0};
+  d.positionDy = {0, -s, 0};
+  const reference::Vec3 eye{0, 0, 5};
+  for (float inside : {0.0f, 0.1f, 0.25f, 0.5f, 0.8f}) {
+    p.position = {0.0f, inside * s, 0.0f};
+    EXPECT_NEAR(reference::polygonCoverage(edges, p, eye, d), std::min(0.5f + inside, 1.0f), 1e-5f) << inside;
+  }
+  p.position = {9.999f, 0.5f, 0.0f};  // beside the edge whose neighbour faces the eye
+  EXPECT_EQ(reference::polygonCoverage(edges, p, eye, d), 1.0f);
+  // The eye below the plane sees the coplanar neighbour from behind: that edge bounds the glass.
+  EXPECT_NEAR(reference::polygonCoverage(edges, p, {0, 0, -5}, d), 0.5f + 0.001f / s, 1e-3f);
+  // A 45 degree edge: the pixel is sqrt 2 wide along its normal.
+  edges.edge[0] = {std::numbers::sqrt2_v<float> / 2, std::numbers::sqrt2_v<float> / 2, 0, 0};
+  p.position = {0.1f * s, 0.1f * s, 0.0f};  // 0.1 sqrt 2 s inside
+  EXPECT_NEAR(reference::polygonCoverage(edges, p, eye, d), 0.5f + 0.1f, 1e-5f);
+}
+
 TEST(CpuReference, RenderHitsFrontFacesOnly) {
   // A quad at z = 0 facing +z; the camera on +z sees it in the middle of the image.
   FieldMesh mesh;

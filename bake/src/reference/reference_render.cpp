@@ -708,6 +708,8 @@ Result<ReferenceImage> renderDistortion(const FieldMesh& mesh, const reference::
       reference::environmentLevels(reference::LatLongImage{env.width, env.height, env.rgba.data()});
   const reference::LatLongImage latLong{env.width, env.height, env.rgba.data(), &levels};
   const reference::RenderObject object{&mesh, &distortion, o.shading, Transform{}};
+  const std::vector<TriangleEdges> edges = triangleEdges(mesh.positions.data(), uint32_t(mesh.positions.size() / 3),
+                                                         mesh.indices.data(), uint32_t(mesh.indices.size()));
 
   // One sub-sample: reference::render's per-pixel operations for pixel (bx, by) of the big image.
   auto shade = [&](uint32_t bx, uint32_t by) {
@@ -736,7 +738,8 @@ Result<ReferenceImage> renderDistortion(const FieldMesh& mesh, const reference::
         reference::shadeField(distortion, latLong, point, o.camera.eye, o.shading, o.exposure, Transform{}, derivatives);
     // Blended with the background by its silhouette coverage, as reference::render does by default.
     const reference::Vec3 covered =
-        reference::overBackground(c, point, o.camera.eye, derivatives, latLong, {rayF.x, rayF.y, rayF.z});
+        reference::overBackground(c, point, o.camera.eye, derivatives, latLong, {rayF.x, rayF.y, rayF.z},
+                                  &edges[bestTriangle / 3]);
     sample.color = glm::vec3(covered[0], covered[1], covered[2]);
     sample.hit = true;
     const reference::Vec3 dir = reference::shadedExitDirection(distortion, point, o.camera.eye);

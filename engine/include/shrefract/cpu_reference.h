@@ -14,6 +14,7 @@
 #pragma once
 
 #include <shrefract/field.h>
+#include <shrefract/object.h>
 #include <shrefract/renderer.h>
 
 #include <array>
@@ -132,6 +133,7 @@ struct LookupDerivatives {
   Vec3 reflectedDx{}, reflectedDy{};  // the front reflection
   std::array<float, 2> uvDx{}, uvDy{};  // the field coordinate
   float cosViewDx = 0.0f, cosViewDy = 0.0f;  // the cosine between the view and the interpolated normal
+  Vec3 positionDx{}, positionDy{};  // the surface point, in the space of SurfacePoint::position
 };
 
 // How far four texels' exits (unit vectors; zero for an empty texel, which agrees with every
@@ -146,11 +148,21 @@ float scatterAfterOneJump(const std::array<Vec3, 4>& exits);
 // 1 where the cosine changes slowly.
 float silhouetteCoverage(const SurfacePoint& point, const Vec3& eye, const LookupDerivatives& derivatives);
 
+// The share of its pixel the fragment at `point` of a triangle with edge records `edges` covers
+// beside the triangle's silhouette edges (object_field_body.glsl polygonCoverage): for each edge
+// whose neighbour the eye sees from behind (or open), the distance inside it over its change
+// across the pixel (|d/dx| + |d/dy|, the width of the pixel along the edge's normal), 0.5 at the
+// edge and 1 half a pixel inside; the least of them, 1 without a silhouette edge. `point` and
+// `eye` in the space of the mesh, as `edges` (triangleEdges).
+float polygonCoverage(const TriangleEdges& edges, const SurfacePoint& point, const Vec3& eye,
+                      const LookupDerivatives& derivatives);
+
 // A shaded fragment's colour as the object pass leaves it at one sample per pixel: blended by its
-// silhouette coverage over the background the pixel's ray `ray` (world space) reads there, the
+// silhouette coverage (the smooth surface's, and where `edges` is given its triangle's polygon
+// coverage: the lesser) over the background the pixel's ray `ray` (world space) reads there, the
 // environment's level 0 (render() and the bake's renderDistortion both).
 Vec3 overBackground(const Vec3& colour, const SurfacePoint& point, const Vec3& eye, const LookupDerivatives& derivatives,
-                    const LatLongImage& environment, const Vec3& ray);
+                    const LatLongImage& environment, const Vec3& ray, const TriangleEdges* edges = nullptr);
 
 // ShadingMode::Field for one fragment (see renderer.h), before the colour attachment's format
 // conversion. `distortion` must be decompressed for the same eye. When distortion.throughput is

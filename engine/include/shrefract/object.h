@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace shrefract {
 
@@ -27,6 +28,24 @@ struct MeshDesc {
   const uint32_t* indices = nullptr;  // triangle list, indexCount / 3 triangles
   uint32_t indexCount = 0;
 };
+
+// One triangle's edges as the field's object pass reads them for polygon silhouette coverage
+// (RendererCreateInfo::silhouetteCoverage; gpu_layout.h TriangleEdges, the same bytes). Edge k
+// runs from corner k to corner k + 1 (mod 3) of the triangle as indexed. edge[k] = (m, m . a): the
+// unit normal of the edge in the triangle's plane, pointing into the triangle, and its offset, so
+// that m . p - w is p's distance inside the edge. neighbour[k] = (n', n' . a): the unit normal of
+// the triangle across the edge (its corners' positions equal, traversed the other way) and its
+// offset, so that an eye e with n' . e - w <= 0 sees that triangle from behind and the edge as a
+// silhouette; (0, 0, 0, 1) for an open edge (always a silhouette), (0, 0, 0, -1) for the edges of a
+// degenerate triangle (never).
+struct TriangleEdges {
+  std::array<std::array<float, 4>, 3> edge{};
+  std::array<std::array<float, 4>, 3> neighbour{};
+};
+// The records of a triangle list, one per triangle in index order (corners welded by equal
+// positions, so that split normals and atlas seams still find their neighbours).
+std::vector<TriangleEdges> triangleEdges(const float* positions, uint32_t vertexCount, const uint32_t* indices,
+                                         uint32_t indexCount);
 
 // Run-time shading parameters of an object; cheap to change every frame.
 struct ObjectShading {
@@ -60,7 +79,11 @@ struct ObjectImpl;
 
 class Object {
  public:
-  // Creates the vertex and index buffers and records their upload into `cmd` (see Environment).
+  // Creates the vertex and index buffers and the triangles' edge records (TriangleEdges, 96 bytes
+  // a triangle, for the field pass's polygon silhouette coverage) and records their upload into
+  // `cmd` (see Environment). The index buffer turns each triangle's corners (winding kept) so that
+  // its first corner starts no other triangle, appending copies of vertices where needed: each
+  // vertex carries the index of the triangle it starts.
   static Result<std::unique_ptr<Object>> create(Context& context, const MeshDesc& mesh, VkCommandBuffer cmd);
 
   // Creates an object from a refraction field: the render mesh (field.mesh, with its atlas
@@ -131,7 +154,7 @@ class Object {
   std::array<float, 3> objectBoundsMin() const;
   std::array<float, 3> objectBoundsMax() const;
   // Device memory the object allocated: the sum of the memory requirements of its buffers and
-  // images (mesh; for a field also coefficients, scale/bias, frames, sample texel indices, gutter
+  // images (mesh and its triangle edges; for a field also coefficients, scale/bias, frames, sample texel indices, gutter
   // rules, the Pca basis and the distortion image; for an instance its distortion image only).
   // Staging memory of the upload is not counted (released after it).
   uint64_t gpuMemoryBytes() const;

@@ -87,10 +87,12 @@ struct RendererCreateInfo {
   // (framebufferColorSampleCounts / framebufferDepthSampleCounts), else Renderer::create fails with
   // Unsupported.
   VkSampleCountFlagBits sampleCount = VK_SAMPLE_COUNT_1_BIT;
-  // At one sample per pixel, a field fragment where a smooth surface turns away from the eye
-  // writes the share of its pixel it covers as alpha, and the object pass blends it over what the
-  // attachment holds (the background, or the host's scene drawn before): a silhouette's pixels
-  // are no longer all glass or all background (docs/antialiasing.md, "Silhouette coverage"). The
+  // At one sample per pixel, a field fragment where a smooth surface turns away from the eye, or
+  // beside an edge of its triangle whose neighbour faces away (faceted glass; Object's
+  // TriangleEdges), writes the share of its pixel it covers as alpha, and the object pass blends it
+  // over what the attachment holds (the background, or the host's scene drawn before): a
+  // silhouette's pixels are no longer all glass or all background (docs/antialiasing.md,
+  // "Silhouette coverage", "Polygon silhouettes"). The
   // colour format must support blending (VK_FORMAT_FEATURE_COLOR_ATTACHMENT_BLEND_BIT, else
   // Renderer::create fails with Unsupported); such a fragment still writes depth. Ignored with
   // MSAA (the samples cover the silhouette) and in ShadingMode::FieldExitDirection (its alpha is

@@ -48,9 +48,11 @@ bool shScaleBiasStorage(uint32_t order, uint32_t channels) {
 }
 
 Result<VkDescriptorSetLayout> createDistortionSetLayout(ContextImpl& c) {
-  const VkDescriptorSetLayoutBinding binding{gpu::kBindingDistortion, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1,
-                                             VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
-  return createLayout(c, &binding, 1);
+  const std::array<VkDescriptorSetLayoutBinding, 2> bindings{{
+      {gpu::kBindingDistortion, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+      {gpu::kBindingTriangleEdges, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+  }};
+  return createLayout(c, bindings.data(), uint32_t(bindings.size()));
 }
 
 }  // namespace shrefract

@@ -217,11 +217,12 @@ void recordUploadsVisible(ContextImpl& c, VkCommandBuffer cmd, VkImage image) {
 }
 
 // Allocates and writes the decompression set (every binding of createDecompressSetLayout) and the
-// raster pass's distortion set of `f`, whose buffers, views, image and sampler exist.
-Result<void> createDescriptorSets(ContextImpl& c, FieldResources& f) {
+// raster pass's distortion set of `f`, whose buffers, views, image and sampler exist, with the
+// mesh's triangle edges (`triangleEdges`).
+Result<void> createDescriptorSets(ContextImpl& c, FieldResources& f, VkBuffer triangleEdges) {
   const std::array<VkDescriptorPoolSize, 5> sizes{{
       {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1},
-      {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 6},
+      {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 7},
       {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 1},
       {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
       {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1},
@@ -271,7 +272,7 @@ Result<void> createDescriptorSets(ContextImpl& c, FieldResources& f) {
     writes.push_back(w);
     return writes.back();
   };
-  writes.reserve(10);
+  writes.reserve(11);
   write(f.decompressSet, gpu::kBindingDistortionOut, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE).pImageInfo = &storageInfo;
   write(f.decompressSet, gpu::kBindingCoefficients, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER).pTexelBufferView =
       &f.coefficientWords;
@@ -280,6 +281,8 @@ Result<void> createDescriptorSets(ContextImpl& c, FieldResources& f) {
   write(f.decompressSet, gpu::kBindingScaleBias, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER).pBufferInfo = &scaleBiasUniform;
   write(f.distortionSet, gpu::kBindingDistortion, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER).pImageInfo =
       &sampledInfo;
+  const VkDescriptorBufferInfo edgesInfo{triangleEdges, 0, VK_WHOLE_SIZE};
+  write(f.distortionSet, gpu::kBindingTriangleEdges, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER).pBufferInfo = &edgesInfo;
   c.vk.vkUpdateDescriptorSets(c.device(), static_cast<uint32_t>(writes.size()), writes.data(), 0, nullptr);
   return {};
 }
@@ -313,7 +316,7 @@ Result<void> createFieldInstance(ContextImpl& c, ObjectImpl& object, VkCommandBu
   countMemory(object, f.distortion);
   recordClear(c, cmd, f.distortion.image);
   recordUploadsVisible(c, cmd, f.distortion.image);
-  return createDescriptorSets(c, f);
+  return createDescriptorSets(c, f, object.triangleEdges.buffer);
 }
 
 bool Object::hasField() const { return impl_->field != nullptr; }

@@ -5,11 +5,13 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <string>
 #include <vector>
 
 #include "core/context_impl.h"
 #include "object/object_impl.h"
+#include "shrefract/gpu_layout.h"
 
 namespace shrefract {
 
@@ -48,6 +50,7 @@ ObjectImpl::~ObjectImpl() {
   if (source || !context) return;  // an instance's mesh and field data are its source's
   context->destroyBuffer(vertices);
   context->destroyBuffer(indices);
+  context->destroyBuffer(triangleEdges);
   context->destroyBlock(meshBlock);
   if (field) destroyFieldShared(*context, *field);
 }
@@ -75,6 +78,41 @@ void Object::invalidateDistortion() {
 // ---------------------------------------------------------------------------------------------
 // Creation.
 
+namespace {
+
+// The index buffer with each triangle's corners turned (its winding kept) so that its first corner,
+// the provoking vertex whose flat attributes the fragment reads, starts no other triangle; where
+// all three already do, a copy of the first corner is appended (copyOf: the vertex each appended
+// vertex copies). triangleOf[v]: the triangle vertex v starts (0 where it starts none).
+struct ProvokingVertices {
+  std::vector<uint32_t> indices, copyOf, triangleOf;
+};
+
+ProvokingVertices assignProvokingVertices(const uint32_t* indices, uint32_t indexCount, uint32_t vertexCount) {
+  ProvokingVertices out;
+  out.indices.assign(indices, indices + indexCount);
+  out.triangleOf.assign(vertexCount, 0u);
+  std::vector<bool> starts(vertexCount, false);
+  for (uint32_t t = 0; 3 * t < indexCount; ++t) {
+    uint32_t* corner = &out.indices[3 * size_t(t)];
+    int startable = -1;
+    for (int k = 0; k < 3 && startable < 0; ++k)
+      if (!starts[corner[k]]) startable = k;
+    if (startable > 0) std::rotate(corner, corner + startable, corner + 3);
+    if (startable < 0) {  // a copy of the first corner
+      out.copyOf.push_back(corner[0]);
+      corner[0] = static_cast<uint32_t>(starts.size());
+      starts.push_back(false);
+      out.triangleOf.push_back(0u);
+    }
+    starts[corner[0]] = true;
+    out.triangleOf[corner[0]] = t;
+  }
+  return out;
+}
+
+}  // namespace
+
 Result<void> createMeshBuffers(ContextImpl& c, const MeshDesc& mesh, VkCommandBuffer cmd, ObjectImpl& o) {
   if (!mesh.positions || !mesh.normals || !mesh.indices || mesh.vertexCount == 0 || mesh.indexCount == 0 ||
       mesh.indexCount % 3 != 0)
@@ -82,21 +120,29 @@ Result<void> createMeshBuffers(ContextImpl& c, const MeshDesc& mesh, VkCommandBu
   for (uint32_t i = 0; i < mesh.indexCount; ++i)
     if (mesh.indices[i] >= mesh.vertexCount)
       return makeError(ErrorCode::InvalidArgument, "Object::create: index " + std::to_string(i) + " is out of range");
-  std::vector<float> interleaved(size_t(mesh.vertexCount) * kVertexFloats);
-  for (uint32_t v = 0; v < mesh.vertexCount; ++v) {
-    float* out = &interleaved[size_t(v) * kVertexFloats];
-    for (int k = 0; k < 3; ++k) out[k] = mesh.positions[3 * v + k];
-    for (int k = 0; k < 3; ++k) out[3 + k] = mesh.normals[3 * v + k];
-    out[6] = mesh.fieldUvs ? mesh.fieldUvs[2 * v] : 0.0f;
-    out[7] = mesh.fieldUvs ? mesh.fieldUvs[2 * v + 1] : 0.0f;
-    out[8] = mesh.frontIor ? mesh.frontIor[v] : 0.0f;
-    for (uint32_t k = 0; k < kVertexFloats; ++k)
+  const ProvokingVertices provoking = assignProvokingVertices(mesh.indices, mesh.indexCount, mesh.vertexCount);
+  const size_t vertexCount = provoking.triangleOf.size();
+  std::vector<float> interleaved(vertexCount * kVertexFloats);
+  for (size_t v = 0; v < vertexCount; ++v) {
+    // A copy reads its source's attributes.
+    const uint32_t from = v < mesh.vertexCount ? uint32_t(v) : provoking.copyOf[v - mesh.vertexCount];
+    float* out = &interleaved[v * kVertexFloats];
+    for (int k = 0; k < 3; ++k) out[k] = mesh.positions[3 * from + uint32_t(k)];
+    for (int k = 0; k < 3; ++k) out[3 + k] = mesh.normals[3 * from + uint32_t(k)];
+    out[6] = mesh.fieldUvs ? mesh.fieldUvs[2 * from] : 0.0f;
+    out[7] = mesh.fieldUvs ? mesh.fieldUvs[2 * from + 1] : 0.0f;
+    out[8] = mesh.frontIor ? mesh.frontIor[from] : 0.0f;
+    std::memcpy(&out[kVertexTriangleWord], &provoking.triangleOf[v], sizeof(uint32_t));
+    for (uint32_t k = 0; k < kVertexTriangleWord; ++k)
       if (!std::isfinite(out[k]))
-        return makeError(ErrorCode::InvalidArgument, "Object::create: vertex " + std::to_string(v) + " is not finite");
+        return makeError(ErrorCode::InvalidArgument, "Object::create: vertex " + std::to_string(from) + " is not finite");
     if (mesh.frontIor && !(out[8] > 0.0f))
       return makeError(ErrorCode::InvalidArgument,
-                       "Object::create: frontIor of vertex " + std::to_string(v) + " is not positive");
+                       "Object::create: frontIor of vertex " + std::to_string(from) + " is not positive");
   }
+  const std::vector<TriangleEdges> edges =
+      triangleEdges(mesh.positions, mesh.vertexCount, mesh.indices, mesh.indexCount);
+  static_assert(sizeof(TriangleEdges) == sizeof(gpu::TriangleEdges));
   o.indexCount = mesh.indexCount;
   for (uint32_t v = 0; v < mesh.vertexCount; ++v)
     for (int k = 0; k < 3; ++k) {
@@ -106,23 +152,30 @@ Result<void> createMeshBuffers(ContextImpl& c, const MeshDesc& mesh, VkCommandBu
     }
   const VkDeviceSize vbytes = interleaved.size() * sizeof(float);
   const VkDeviceSize ibytes = VkDeviceSize(mesh.indexCount) * sizeof(uint32_t);
+  const VkDeviceSize ebytes = edges.size() * sizeof(TriangleEdges);
   auto vb = c.createUnboundBuffer(vbytes, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT);
   if (!vb) return vb.error();
   o.vertices = vb.value();
   auto ib = c.createUnboundBuffer(ibytes, VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT);
   if (!ib) return ib.error();
   o.indices = ib.value();
-  auto block = c.bindBlock({&o.vertices, &o.indices});
+  auto eb = c.createUnboundBuffer(ebytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+  if (!eb) return eb.error();
+  o.triangleEdges = eb.value();
+  auto block = c.bindBlock({&o.vertices, &o.indices, &o.triangleEdges});
   if (!block) return block.error();
   o.meshBlock = block.value();
   countMemory(o, o.meshBlock);
   if (auto r = c.recordBufferUpload(cmd, o.vertices.buffer, interleaved.data(), vbytes); !r) return r.error();
-  if (auto r = c.recordBufferUpload(cmd, o.indices.buffer, mesh.indices, ibytes); !r) return r.error();
+  if (auto r = c.recordBufferUpload(cmd, o.indices.buffer, provoking.indices.data(), ibytes); !r) return r.error();
+  if (auto r = c.recordBufferUpload(cmd, o.triangleEdges.buffer, edges.data(), ebytes); !r) return r.error();
   VkMemoryBarrier2 barrier{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
   barrier.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
   barrier.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  barrier.dstStageMask = VK_PIPELINE_STAGE_2_VERTEX_INPUT_BIT | VK_PIPELINE_STAGE_2_INDEX_INPUT_BIT;
-  barrier.dstAccessMask = VK_ACCESS_2_VERTEX_ATTRIBUTE_READ_BIT | VK_ACCESS_2_INDEX_READ_BIT;
+  barrier.dstStageMask =
+      VK_PIPELINE_STAGE_2_VERTEX_INPUT_BIT | VK_PIPELINE_STAGE_2_INDEX_INPUT_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+  barrier.dstAccessMask =
+      VK_ACCESS_2_VERTEX_ATTRIBUTE_READ_BIT | VK_ACCESS_2_INDEX_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
   VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
   dep.memoryBarrierCount = 1;
   dep.pMemoryBarriers = &barrier;
@@ -151,6 +204,7 @@ Result<std::unique_ptr<Object>> Object::createInstance(Context& context, const O
   impl->source = source;
   impl->vertices = source->vertices;
   impl->indices = source->indices;
+  impl->triangleEdges = source->triangleEdges;
   impl->indexCount = source->indexCount;
   impl->boundsMin = source->boundsMin;
   impl->boundsMax = source->boundsMax;

@@ -13,8 +13,11 @@
 
 namespace shrefract {
 
-// Interleaved vertex: position (3), normal (3), field uv (2), frontIor (1; 0 = ObjectShading::ior).
-inline constexpr uint32_t kVertexFloats = 9;
+// Interleaved vertex: position (3), normal (3), field uv (2), frontIor (1; 0 = ObjectShading::ior),
+// and the index of the triangle whose first corner it is (uint32 bits; gpu_layout.h
+// kBindingTriangleEdges), so 10 words.
+inline constexpr uint32_t kVertexFloats = 10;
+inline constexpr uint32_t kVertexTriangleWord = 9;
 
 // GPU layouts of the buffers: spirv/include/shrefract/gpu_layout.h (decompression bindings).
 // Shared by instances: everything but the "per instance" members.
@@ -68,7 +71,8 @@ struct ObjectImpl {
   std::shared_ptr<const ObjectImpl> source;
   BufferAllocation vertices;
   BufferAllocation indices;
-  MemoryBlock meshBlock;  // the memory of vertices and indices (one allocation)
+  BufferAllocation triangleEdges;  // TriangleEdges per triangle (the field pass's silhouette coverage)
+  MemoryBlock meshBlock;  // the memory of vertices, indices and triangle edges (one allocation)
   uint32_t indexCount = 0;
   // Object-space axis-aligned bounds of the mesh's vertices.
   std::array<float, 3> boundsMin{};

@@ -91,11 +91,12 @@ Result<VkPipeline> createGraphicsPipeline(ContextImpl& c, const RendererCreateIn
   stages[1].pSpecializationInfo = &specialization;
 
   VkVertexInputBindingDescription binding{0, kVertexFloats * sizeof(float), VK_VERTEX_INPUT_RATE_VERTEX};
-  std::array<VkVertexInputAttributeDescription, 4> attributes{{
+  std::array<VkVertexInputAttributeDescription, 5> attributes{{
       {0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0},
       {1, 0, VK_FORMAT_R32G32B32_SFLOAT, 3 * sizeof(float)},
       {2, 0, VK_FORMAT_R32G32_SFLOAT, 6 * sizeof(float)},
       {3, 0, VK_FORMAT_R32_SFLOAT, 8 * sizeof(float)},
+      {4, 0, VK_FORMAT_R32_UINT, kVertexTriangleWord * sizeof(float)},
   }};
   VkPipelineVertexInputStateCreateInfo vertexInput{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
   if (objectPass) {

@@ -437,9 +437,25 @@ float silhouetteCoverage(const SurfacePoint& point, const Vec3& eye, const Looku
   return g > 0.0f ? std::clamp(0.5f + gpu::kSilhouetteCoverageScale * cosView / g, 0.0f, 1.0f) : 1.0f;
 }
 
+float polygonCoverage(const TriangleEdges& edges, const SurfacePoint& point, const Vec3& eye,
+                      const LookupDerivatives& derivatives) {
+  const glm::vec3 p = toGlm(point.position), e = toGlm(eye);
+  const glm::vec3 dPdx = toGlm(derivatives.positionDx), dPdy = toGlm(derivatives.positionDy);
+  float coverage = 1.0f;
+  for (size_t k = 0; k < 3; ++k) {
+    const glm::vec4 across(edges.neighbour[k][0], edges.neighbour[k][1], edges.neighbour[k][2], edges.neighbour[k][3]);
+    if (glm::dot(glm::vec3(across), e) - across.w > 0.0f) continue;  // the neighbour faces the eye
+    const glm::vec3 m(edges.edge[k][0], edges.edge[k][1], edges.edge[k][2]);
+    const float g = std::fabs(glm::dot(m, dPdx)) + std::fabs(glm::dot(m, dPdy));
+    if (g > 0.0f) coverage = std::min(coverage, std::clamp(0.5f + (glm::dot(m, p) - edges.edge[k][3]) / g, 0.0f, 1.0f));
+  }
+  return coverage;
+}
+
 Vec3 overBackground(const Vec3& colour, const SurfacePoint& point, const Vec3& eye, const LookupDerivatives& derivatives,
-                    const LatLongImage& environment, const Vec3& ray) {
-  const float coverage = silhouetteCoverage(point, eye, derivatives);
+                    const LatLongImage& environment, const Vec3& ray, const TriangleEdges* edges) {
+  float coverage = silhouetteCoverage(point, eye, derivatives);
+  if (edges) coverage = std::min(coverage, polygonCoverage(*edges, point, eye, derivatives));
   if (coverage >= 1.0f) return colour;
   const Vec3 background = sampleLatLong(environment, ray);
   Vec3 out{};
@@ -530,10 +546,12 @@ LookupDerivatives pixelDerivatives(const RenderObject& object, uint32_t first, c
     const glm::dvec3 qv = glm::cross(tv, e1);
     TriangleHit hit{0.0, 0.0, 0.0};
     if (std::fabs(det) > 1e-300) hit = TriangleHit{glm::dot(e2, qv) / det, glm::dot(tv, pv) / det, glm::dot(ray, qv) / det};
-    return fieldFragment(*object.distortion, surfacePointAt(mesh, first, hit), eyeObject, placed);
+    const SurfacePoint point = surfacePointAt(mesh, first, hit);
+    return std::pair{fieldFragment(*object.distortion, point, eyeObject, placed), toGlm(point.position)};
   };
-  const FieldFragment self = fragmentAt(x, y);
-  const FieldFragment nx = fragmentAt(x ^ 1u, y), ny = fragmentAt(x, y ^ 1u);
+  const auto [self, selfPosition] = fragmentAt(x, y);
+  const auto [nx, nxPosition] = fragmentAt(x ^ 1u, y);
+  const auto [ny, nyPosition] = fragmentAt(x, y ^ 1u);
   // Fine derivatives: odd column minus even column, odd row minus even row.
   const float sx = (x & 1u) ? 1.0f : -1.0f, sy = (y & 1u) ? 1.0f : -1.0f;
   LookupDerivatives out;
@@ -543,6 +561,8 @@ LookupDerivatives pixelDerivatives(const RenderObject& object, uint32_t first, c
   out.reflectedDy = fromGlm(sy * (self.reflectedWorld - ny.reflectedWorld));
   out.cosViewDx = sx * (self.cosView - nx.cosView);
   out.cosViewDy = sy * (self.cosView - ny.cosView);
+  out.positionDx = fromGlm(sx * (selfPosition - nxPosition));
+  out.positionDy = fromGlm(sy * (selfPosition - nyPosition));
   for (int k = 0; k < 2; ++k) {
     out.uvDx[size_t(k)] = sx * (self.uv[k] - nx.uv[k]);
     out.uvDy[size_t(k)] = sy * (self.uv[k] - ny.uv[k]);
@@ -579,6 +599,10 @@ RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImag
   // ray are divided by the same scale), so hits of different objects compare as they are.
   std::vector<Vec3> objectEyes;
   for (const RenderObject& object : objects) objectEyes.push_back(inverseTransformPoint(object.worldFromObject, camera.eye));
+  std::vector<std::vector<TriangleEdges>> edges;  // the object pass's polygon coverage
+  for (const RenderObject& object : objects)
+    edges.push_back(triangleEdges(object.mesh->positions.data(), uint32_t(object.mesh->positions.size() / 3),
+                                  object.mesh->indices.data(), uint32_t(object.mesh->indices.size())));
   auto toDouble = [](const Vec3& v) { return std::array<double, 3>{v[0], v[1], v[2]}; };
   for (uint32_t py = 0; py < height; ++py)
     for (uint32_t px = 0; px < width; ++px) {
@@ -613,7 +637,9 @@ RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImag
       const LookupDerivatives derivatives = pixelDerivatives(object, bestTriangle, camera, width, height, px, py);
       const Vec3 c = shadeField(*object.distortion, filtered, point, eye, object.shading, exposure,
                                 object.worldFromObject, derivatives);
-      const Vec3 covered = silhouetteCoverage ? overBackground(c, point, eye, derivatives, environment, rayF) : c;
+      const Vec3 covered = silhouetteCoverage ? overBackground(c, point, eye, derivatives, environment, rayF,
+                                                               &edges[size_t(bestObject)][bestTriangle / 3])
+                                              : c;
       for (int k = 0; k < 3; ++k) out[k] = covered[size_t(k)];
       image.object[size_t(py) * width + px] = bestObject;
       const Vec3 dir = rotateDirection(object.worldFromObject, shadedExitDirection(*object.distortion, point, eye));

@@ -25,6 +25,18 @@ SHR_CONST(kBindingEnvironment, 0u)
 // Descriptor set 1 of the field raster pipeline: the object's distortion image (RGBA16F,
 // bilinear, clamp to edge), sampled at the mesh's field texture coordinates.
 SHR_CONST(kBindingDistortion, 0u)
+// Set 1, also: the mesh's TriangleEdges, one per triangle in index order (storage buffer, fragment
+// stage), read by the polygon silhouette coverage. Each vertex carries the index of the triangle it
+// is the first corner of (the provoking vertex: the object pass reads it flat), so that no
+// triangle needs gl_PrimitiveID (which would need the geometryShader feature).
+SHR_CONST(kBindingTriangleEdges, 1u)
+// shrefract/object.h TriangleEdges says what the members hold: edge[k] = (m, m . a), the edge's
+// inward unit normal in the triangle's plane and its offset; neighbour[k] = (n', n' . a), the
+// normal of the triangle across it and its offset.
+struct TriangleEdges {
+  vec4 edge[3];
+  vec4 neighbour[3];
+};
 
 // Environment encodings.
 SHR_CONST(kEnvironmentLatLong, 0u)
