@@ -111,20 +111,13 @@ ProvokingVertices assignProvokingVertices(const uint32_t* indices, uint32_t inde
   return out;
 }
 
-}  // namespace
-
-Result<void> createMeshBuffers(ContextImpl& c, const MeshDesc& mesh, VkCommandBuffer cmd, ObjectImpl& o) {
-  if (!mesh.positions || !mesh.normals || !mesh.indices || mesh.vertexCount == 0 || mesh.indexCount == 0 ||
-      mesh.indexCount % 3 != 0)
-    return makeError(ErrorCode::InvalidArgument, "Object::create: a mesh needs positions, normals and a triangle list");
-  for (uint32_t i = 0; i < mesh.indexCount; ++i)
-    if (mesh.indices[i] >= mesh.vertexCount)
-      return makeError(ErrorCode::InvalidArgument, "Object::create: index " + std::to_string(i) + " is out of range");
-  const ProvokingVertices provoking = assignProvokingVertices(mesh.indices, mesh.indexCount, mesh.vertexCount);
+// The interleaved vertices (kVertexFloats words each) of `mesh` in the order of `provoking`'s
+// vertices (a copy reads its source's attributes), each with the triangle it starts; an error names
+// the first vertex that is not finite or has a frontIor that is not positive.
+Result<std::vector<float>> interleaveVertices(const MeshDesc& mesh, const ProvokingVertices& provoking) {
   const size_t vertexCount = provoking.triangleOf.size();
   std::vector<float> interleaved(vertexCount * kVertexFloats);
   for (size_t v = 0; v < vertexCount; ++v) {
-    // A copy reads its source's attributes.
     const uint32_t from = v < mesh.vertexCount ? uint32_t(v) : provoking.copyOf[v - mesh.vertexCount];
     float* out = &interleaved[v * kVertexFloats];
     for (int k = 0; k < 3; ++k) out[k] = mesh.positions[3 * from + uint32_t(k)];
@@ -140,6 +133,22 @@ Result<void> createMeshBuffers(ContextImpl& c, const MeshDesc& mesh, VkCommandBu
       return makeError(ErrorCode::InvalidArgument,
                        "Object::create: frontIor of vertex " + std::to_string(from) + " is not positive");
   }
+  return interleaved;
+}
+
+}  // namespace
+
+Result<void> createMeshBuffers(ContextImpl& c, const MeshDesc& mesh, VkCommandBuffer cmd, ObjectImpl& o) {
+  if (!mesh.positions || !mesh.normals || !mesh.indices || mesh.vertexCount == 0 || mesh.indexCount == 0 ||
+      mesh.indexCount % 3 != 0)
+    return makeError(ErrorCode::InvalidArgument, "Object::create: a mesh needs positions, normals and a triangle list");
+  for (uint32_t i = 0; i < mesh.indexCount; ++i)
+    if (mesh.indices[i] >= mesh.vertexCount)
+      return makeError(ErrorCode::InvalidArgument, "Object::create: index " + std::to_string(i) + " is out of range");
+  const ProvokingVertices provoking = assignProvokingVertices(mesh.indices, mesh.indexCount, mesh.vertexCount);
+  auto vertices = interleaveVertices(mesh, provoking);
+  if (!vertices) return vertices.error();
+  const std::vector<float>& interleaved = vertices.value();
   const std::vector<TriangleEdges> edges =
       triangleEdges(mesh.positions, mesh.vertexCount, mesh.indices, mesh.indexCount);
   static_assert(sizeof(TriangleEdges) == sizeof(gpu::TriangleEdges));

@@ -38,7 +38,12 @@ std::vector<uint32_t> weld(const float* positions, uint32_t vertexCount) {
     for (uint32_t c = 0; c < 3; ++c) extent = std::max(extent, std::fabs(positions[3 * v + c] - positions[c]));
   const float tolerance = std::max(kWeldTolerance * extent, std::numeric_limits<float>::min());
   // Grid cells of the tolerance's size: a match lies in one of the 27 cells around a position.
-  auto cellOf = [&](float x) { return static_cast<int64_t>(std::floor(double(x) / double(tolerance))); };
+  // A coordinate that is not finite, or too far for an int64 cell, goes to cell 0 (the reference
+  // mirrors unvalidated meshes; such a vertex joins only what it equals within the tolerance).
+  auto cellOf = [&](float x) {
+    const double cell = std::floor(double(x) / double(tolerance));
+    return std::fabs(cell) < 4e18 ? static_cast<int64_t>(cell) : int64_t{0};
+  };
   std::map<std::array<int64_t, 3>, std::vector<uint32_t>> cells;  // cell -> representatives
   std::vector<uint32_t> out(vertexCount), representative;
   for (uint32_t v = 0; v < vertexCount; ++v) {
