@@ -9,6 +9,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <numbers>
 #include <vector>
 
@@ -554,6 +555,12 @@ TEST(CpuReference, TriangleEdgesFindTheirNeighbours) {
   const std::vector<float> line{0, 0, 0, 1, 0, 0, 2, 0, 0};
   const std::vector<TriangleEdges> d = triangleEdges(line.data(), 3, quadIndices.data(), 3);
   for (size_t k = 0; k < 3; ++k) EXPECT_EQ(d[0].neighbour[k][3], -1.0f) << "degenerate: never a silhouette";
+  // Unvalidated meshes (the CPU reference reads them): a NaN and coordinates near the float limit
+  // weld without undefined behaviour (UBSan in the sanitizer build) and make no silhouette.
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const std::vector<float> extreme{nan, 0, 0, 3e38f, 0, 0, 0, 3e38f, 0};
+  const std::vector<TriangleEdges> x = triangleEdges(extreme.data(), 3, quadIndices.data(), 3);
+  for (size_t k = 0; k < 3; ++k) EXPECT_EQ(x[0].neighbour[k][3], -1.0f);
 }
 
 // polygonCoverage in closed form: a triangle in the plane z = 0 seen from +z, one pixel = s along
