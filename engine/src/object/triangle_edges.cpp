@@ -3,12 +3,13 @@
 // fuzz targets link it with the CPU reference).
 #include <shrefract/object.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
-#include <algorithm>
 #include <cstdint>
 #include <limits>
 #include <map>
+#include <vector>
 
 namespace shrefract {
 
