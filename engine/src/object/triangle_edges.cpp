@@ -11,21 +11,18 @@
 #include <map>
 #include <vector>
 
+#include <glm/glm.hpp>
+#include <glm/gtc/type_ptr.hpp>
+
 namespace shrefract {
 
 namespace {
 
-using Vec3 = std::array<float, 3>;
-
-Vec3 sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-Vec3 cross(const Vec3& a, const Vec3& b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-float dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-bool normalize(Vec3& v) {
-  const float n = std::sqrt(dot(v, v));
+// Scales v to unit length; false (v unchanged) where it has none or is not finite.
+bool unit(glm::vec3& v) {
+  const float n = glm::length(v);
   if (!(n > 0.0f) || !std::isfinite(n)) return false;
-  for (float& c : v) c /= n;
+  v /= n;
   return true;
 }
 
@@ -35,7 +32,7 @@ constexpr float kWeldTolerance = 1e-5f;
 
 std::vector<uint32_t> weld(const float* positions, uint32_t vertexCount) {
   float extent = 0.0f;
-  for (uint32_t v = 0; v + 1 < vertexCount; ++v)
+  for (uint32_t v = 1; v < vertexCount; ++v)
     for (uint32_t c = 0; c < 3; ++c) extent = std::max(extent, std::fabs(positions[3 * v + c] - positions[c]));
   const float tolerance = std::max(kWeldTolerance * extent, std::numeric_limits<float>::min());
   // Grid cells of the tolerance's size: a match lies in one of the 27 cells around a position.
@@ -75,9 +72,7 @@ std::vector<uint32_t> weld(const float* positions, uint32_t vertexCount) {
   return out;
 }
 
-Vec3 corner(const float* positions, uint32_t vertex) {
-  return {positions[3 * vertex], positions[3 * vertex + 1], positions[3 * vertex + 2]};
-}
+glm::vec3 corner(const float* positions, uint32_t vertex) { return glm::make_vec3(&positions[3 * vertex]); }
 
 }  // namespace
 
@@ -87,13 +82,13 @@ std::vector<TriangleEdges> triangleEdges(const float* positions, uint32_t vertex
   const std::vector<uint32_t> welded = weld(positions, vertexCount);
   // Directed welded edge (a, b) -> the first triangle that runs along it, and the unit normals.
   std::map<std::pair<uint32_t, uint32_t>, uint32_t> edgeOwner;
-  std::vector<Vec3> normals(triangles);
+  std::vector<glm::vec3> normals(triangles);
   std::vector<bool> valid(triangles);
   for (uint32_t t = 0; t < triangles; ++t) {
-    const Vec3 p0 = corner(positions, indices[3 * t]), p1 = corner(positions, indices[3 * t + 1]),
-               p2 = corner(positions, indices[3 * t + 2]);
-    normals[t] = cross(sub(p1, p0), sub(p2, p0));
-    valid[t] = normalize(normals[t]);
+    const glm::vec3 p0 = corner(positions, indices[3 * t]), p1 = corner(positions, indices[3 * t + 1]),
+                    p2 = corner(positions, indices[3 * t + 2]);
+    normals[t] = glm::cross(p1 - p0, p2 - p0);
+    valid[t] = unit(normals[t]);
     if (!valid[t]) continue;
     for (uint32_t k = 0; k < 3; ++k)
       edgeOwner.emplace(std::pair{welded[indices[3 * t + k]], welded[indices[3 * t + (k + 1) % 3]]}, t);
@@ -107,20 +102,20 @@ std::vector<TriangleEdges> triangleEdges(const float* positions, uint32_t vertex
         r.neighbour[k] = {0.0f, 0.0f, 0.0f, -1.0f};
         continue;
       }
-      const Vec3 a = corner(positions, ia), b = corner(positions, ib);
-      Vec3 m = cross(normals[t], sub(b, a));
-      if (!normalize(m)) {
+      const glm::vec3 a = corner(positions, ia), b = corner(positions, ib);
+      glm::vec3 m = glm::cross(normals[t], b - a);
+      if (!unit(m)) {
         r.neighbour[k] = {0.0f, 0.0f, 0.0f, -1.0f};
         continue;
       }
-      r.edge[k] = {m[0], m[1], m[2], dot(m, a)};
+      r.edge[k] = {m.x, m.y, m.z, glm::dot(m, a)};
       const auto across = edgeOwner.find({welded[ib], welded[ia]});
       if (across == edgeOwner.end()) {
         r.neighbour[k] = {0.0f, 0.0f, 0.0f, 1.0f};
         continue;
       }
-      const Vec3& n = normals[across->second];
-      r.neighbour[k] = {n[0], n[1], n[2], dot(n, a)};
+      const glm::vec3& n = normals[across->second];
+      r.neighbour[k] = {n.x, n.y, n.z, glm::dot(n, a)};
     }
   }
   return out;
