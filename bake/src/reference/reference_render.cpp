@@ -244,8 +244,9 @@ Image boxFilter(const Image& image, uint32_t s) {
   return out;
 }
 
-Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene, const Image& env,
-                                       const ReferenceOptions& o) {
+namespace {
+
+Result<void> checkReferenceOptions(const Image& env, const ReferenceOptions& o) {
   if (auto r = checkSize("reference render", o.width, o.height, o.samplesPerAxis); !r) return r.error();
   if (env.width == 0 || env.rgba.size() != size_t(env.width) * env.height * 4)
     return makeError(ErrorCode::InvalidArgument, "reference render: empty environment");
@@ -257,255 +258,311 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
     return makeError(ErrorCode::InvalidArgument, "reference render: environmentLevelBias " +
                                                      std::to_string(o.environmentLevelBias) + " is outside +-" +
                                                      std::to_string(kMaxEnvironmentLevelBias));
+  return {};
+}
+
+// One sub-sample's trace: the eye ray along d and, in FullTree mode, its tree's leaves.
+struct Traced {
+  EyeRayResult hit;
+  std::vector<PathResult> leaves;
+};
+
+// A traced ray and the directions it looks up: [0] the front reflection, then the transmitted
+// ones (SingleInterface: the refracted ray; Exact: the path's exit; FullTree: every leaf's exit).
+// keys[i]: the path's number of interfaces (the reflection: 0); a neighbour's lookup with another
+// key went another way through the object, and its direction is no derivative of this one.
+struct Probe {
+  glm::vec3 d{0.0f};
+  Traced t;
+  std::vector<glm::vec3> dirs;
+  std::vector<uint32_t> keys;
+};
+
+// Filtered, one sub-sample and four probes at the midpoints of its cell's edges, half a cell
+// away along +-x and +-y, each traced in full (5x the rays, and the bisections below): a
+// discontinuity on either side of the sample is seen (one probe per axis, toward the quad
+// neighbour, missed half of them).
+// Per lookup and axis, the derivative is the central difference where both probes went the same
+// way for that lookup (same surface, same key), the one-sided difference where one did: the
+// engine's fine derivatives, measured inside the cell. Where neither did, a discontinuity lies
+// inside the cell; the difference to a probe with as many lookups (the exact path's exit beyond
+// it, a tree of the same size) stays the derivative, so the lookup spreads over the directions
+// the cell sees, as the engine's quad derivatives do, where a point lookup would sparkle.
+// A probe that went another way (a silhouette, another highest-energy branch, another number of
+// interfaces) has a discontinuity between it and the sample. Where it lies is found by
+// bisection (kCrossingBisections traces, to 1/16 of a cell): at distance t, the box filter over
+// the cell sees the probe's side over 1/2 - t of that axis, and the probe's colour enters with
+// that share (shareBeyondCrossings: where crossings on one x and one y half-axis fix a straight
+// edge, the box's area beyond it; with probes across on both sides of an axis, the expected
+// share 1/4 each). Without the bisection every probe across took the expected share, 1/4,
+// blending a pixel the edge barely touches as much as one it halves (docs/antialiasing.md,
+// "Where the discontinuity lies").
+constexpr float kProbeOffset = 0.5f;
+constexpr int kCrossingBisections = 3;
+
+// A sub-sample, its probes and scratch space, reused across the sub-samples of one row.
+struct Neighbourhood {
+  Probe self;
+  std::array<Probe, 4> around;  // +x, -x, +y, -y
+  Probe between;                // scratch: a bisection's probe
+  float x = 0.0f, y = 0.0f;     // the sample, in sub-pixels
+  std::vector<Derivatives> derivatives;
+  std::vector<Derivatives> footprints;  // scratch: a probe's, in blendAcross
+};
+
+// The sub-samples of a reference render: traces, lookups and shading for one image's options.
+// Immutable after construction; sample() may be called from any thread, each with its own
+// Neighbourhood.
+class SubSampler {
+ public:
+  SubSampler(const Tracer& tracer, const Scene& scene, const Image& env, const ReferenceOptions& o)
+      : tracer_(tracer), scene_(scene), env_(env), o_(o), bigWidth_(o.width * o.samplesPerAxis),
+        bigHeight_(o.height * o.samplesPerAxis), dirFromClip_(directionFromClip(o.camera, bigWidth_, bigHeight_)),
+        eye_(toVec(o.camera.eye)), filteredEnv_{env.width, env.height, env.rgba.data()} {
+    settings_.maxBounces = o.mode == ReferenceMode::FullTree ? o.treeDepth : o.maxBounces;
+    settings_.pathRule = o.pathRule;
+    // Filtered lookups (o.filtered, docs/antialiasing.md): the engine's level chain, built once.
+    if (o.filtered) {
+      levels_ = reference::environmentLevels(filteredEnv_);
+      filteredEnv_.levels = &levels_;
+      filteredEnv_.tapsPerAxis = o.environmentTapsPerAxis;
+      filteredEnv_.levelBias = o.environmentLevelBias;
+    }
+  }
+  SubSampler(const SubSampler&) = delete;  // filteredEnv_ points at levels_
+  SubSampler& operator=(const SubSampler&) = delete;
+
+  // Sub-sample (bx, by) of the supersampled image.
+  Sample sample(uint32_t bx, uint32_t by, Neighbourhood& n, uint64_t& rays) const {
+    if (o_.filtered) return filteredSample(bx, by, n, rays);
+    probeAt(float(bx), float(by), n.self, rays);
+    n.derivatives.clear();
+    return shade(n.self, n.derivatives);
+  }
+
+ private:
+  glm::vec3 lookup(glm::vec3 dir, const Derivatives& dd) const;
+  void trace(glm::vec3 d, Traced& t, uint64_t& rays) const;
+  void lookups(Probe& p) const;
+  Sample shade(const Probe& p, const std::vector<Derivatives>& derivatives) const;
+  glm::vec3 transmitted(const Probe& p, const std::vector<Derivatives>& derivatives, Sample& sample) const;
+  void probeAt(float bx, float by, Probe& p, uint64_t& rays) const;
+  static bool sameWay(const Probe& a, const Probe& b);
+  static glm::vec3 axisDerivative(const Probe& self, const Probe& after, const Probe& before, size_t i);
+  float crossingDistance(Neighbourhood& n, size_t k, uint64_t& rays) const;
+  glm::vec3 blendAcross(Neighbourhood& n, glm::vec3 own, uint64_t& rays) const;
+  Sample filteredSample(uint32_t bx, uint32_t by, Neighbourhood& n, uint64_t& rays) const;
+
+  const Tracer& tracer_;
+  const Scene& scene_;
+  const Image& env_;
+  const ReferenceOptions& o_;
+  uint32_t bigWidth_, bigHeight_;
+  glm::mat4 dirFromClip_;
+  glm::vec3 eye_;
+  TraceSettings settings_;
+  std::vector<std::vector<float>> levels_;
+  reference::LatLongImage filteredEnv_;
+};
+
+// Level 0 (bake::sampleLatLong) unless filtered: then averaged over the pixel as the engine does.
+glm::vec3 SubSampler::lookup(glm::vec3 dir, const Derivatives& dd) const {
+  if (!o_.filtered) return sampleLatLong(env_, dir);
+  const reference::Vec3 c = reference::sampleLatLongOverPixel(filteredEnv_, {dir.x, dir.y, dir.z},
+                                                               {dd.dx.x, dd.dx.y, dd.dx.z}, {dd.dy.x, dd.dy.y, dd.dy.z});
+  return glm::vec3(c[0], c[1], c[2]);
+}
+
+void SubSampler::trace(glm::vec3 d, Traced& t, uint64_t& rays) const {
+  t.hit = tracer_.traceEyeRay(eye_, d, settings_);
+  rays += t.hit.rays;
+  t.leaves.clear();
+  if (!t.hit.hit || o_.mode != ReferenceMode::FullTree) return;
+  SurfacePoint point;
+  point.position = t.hit.position;
+  point.shadingNormal = t.hit.shadingNormal;
+  point.geometricNormal = t.hit.shadingNormal;
+  point.surface = t.hit.surface;
+  point.triangle = t.hit.triangle;
+  tracer_.traceTree(point, d, o_.treeDepth, t.leaves);
+  rays += t.leaves.size();
+}
+
+// p.dirs and p.keys from p's trace (see Probe).
+void SubSampler::lookups(Probe& p) const {
+  p.dirs.clear();
+  p.keys.clear();
+  const Traced& t = p.t;
+  if (!t.hit.hit) return;
+  p.dirs.push_back(t.hit.reflectedDirection);
+  p.keys.push_back(0);
+  if (o_.mode == ReferenceMode::SingleInterface) {
+    const Surface& surface = scene_.surfaces[t.hit.surface];
+    const float eta = scene_.media[surface.outerMedium].ior / scene_.media[surface.innerMedium].ior;
+    glm::vec3 r = glm::refract(p.d, t.hit.shadingNormal, eta);
+    if (glm::dot(r, r) == 0.0f) r = t.hit.reflectedDirection;
+    p.dirs.push_back(glm::normalize(r));
+    p.keys.push_back(0);
+  } else if (o_.mode == ReferenceMode::Exact) {
+    p.dirs.push_back(t.hit.transmitted.exitDirection);
+    p.keys.push_back(t.hit.transmitted.interactions);
+  } else {
+    for (const PathResult& leaf : t.leaves) {
+      p.dirs.push_back(leaf.exitDirection);
+      p.keys.push_back(leaf.interactions);
+    }
+  }
+}
+
+// One sub-sample's colour: p traced and its lookups found; derivatives[i] (filtered) for lookup i.
+Sample SubSampler::shade(const Probe& p, const std::vector<Derivatives>& derivatives) const {
+  Sample sample;
+  const EyeRayResult& hit = p.t.hit;
+  if (!hit.hit) {
+    sample.color = sampleLatLong(env_, p.d) * o_.exposure;
+    return sample;
+  }
+  sample.hit = true;
+  const Surface& surface = scene_.surfaces[hit.surface];
+  float f = hit.frontFresnel;
+  if (o_.mode == ReferenceMode::SingleInterface) {
+    const float eta = scene_.media[surface.outerMedium].ior / scene_.media[surface.innerMedium].ior;
+    f = fresnelDielectric(std::clamp(-glm::dot(p.d, hit.shadingNormal), 0.0f, 1.0f), eta);
+  }
+  // One colour model in every mode (docs/scenes.md): the colour of the medium behind the front
+  // surface tints all the light transmitted through it.
+  glm::vec3 color = (1.0f - f) * transmitted(p, derivatives, sample) * scene_.media[surface.innerMedium].color;
+  if (o_.reflection)
+    color += f * lookup(hit.reflectedDirection, derivatives.empty() ? Derivatives{} : derivatives[0]);
+  sample.color = color * o_.exposure;
+  return sample;
+}
+
+// The light transmitted through the front surface, by mode; sets sample.direction.
+glm::vec3 SubSampler::transmitted(const Probe& p, const std::vector<Derivatives>& derivatives, Sample& sample) const {
+  auto derivativesOf = [&](size_t i) { return i < derivatives.size() ? derivatives[i] : Derivatives{}; };
+  const EyeRayResult& hit = p.t.hit;
+  if (o_.mode == ReferenceMode::SingleInterface) {
+    sample.direction = p.dirs[1];
+    return lookup(sample.direction, derivativesOf(1));
+  }
+  if (o_.mode == ReferenceMode::Exact) {
+    const PathResult& path = hit.transmitted;
+    sample.direction = path.exitDirection;
+    glm::vec3 light = lookup(path.exitDirection, derivativesOf(1)) * std::exp(-path.opticalDepth * o_.absorptionScale);
+    if (o_.throughput) light *= path.energy;
+    return light;
+  }
+  glm::vec3 sum(0.0f), dirSum(0.0f);
+  for (size_t i = 0; i < p.t.leaves.size(); ++i) {
+    const PathResult& leaf = p.t.leaves[i];
+    sum += leaf.energy * lookup(leaf.exitDirection, derivativesOf(i + 1)) *
+           std::exp(-leaf.opticalDepth * o_.absorptionScale);
+    dirSum += leaf.energy * leaf.exitDirection;
+  }
+  sample.direction = glm::dot(dirSum, dirSum) > 0.0f ? glm::normalize(dirSum) : hit.transmitted.exitDirection;
+  return sum;
+}
+
+void SubSampler::probeAt(float bx, float by, Probe& p, uint64_t& rays) const {
+  p.d = glm::normalize(rayAt(dirFromClip_, bigWidth_, bigHeight_, bx, by));
+  trace(p.d, p.t, rays);
+  lookups(p);
+}
+
+bool SubSampler::sameWay(const Probe& a, const Probe& b) {
+  return a.t.hit.hit == b.t.hit.hit && (!a.t.hit.hit || a.t.hit.surface == b.t.hit.surface) && a.keys == b.keys;
+}
+
+// Lookup i's derivative along one axis from the probes half a cell before and after the sample.
+glm::vec3 SubSampler::axisDerivative(const Probe& self, const Probe& after, const Probe& before, size_t i) {
+  auto same = [&](const Probe& p) {
+    return p.t.hit.hit && p.t.hit.surface == self.t.hit.surface && p.dirs.size() == self.dirs.size() &&
+           p.keys[i] == self.keys[i];
+  };
+  const bool a = same(after), b = same(before);
+  if (a && b) return (after.dirs[i] - before.dirs[i]) / (2.0f * kProbeOffset);
+  auto alike = [&](const Probe& p) { return p.dirs.size() == self.dirs.size(); };
+  if (a || (!b && alike(after))) return (after.dirs[i] - self.dirs[i]) / kProbeOffset;
+  if (b || alike(before)) return (self.dirs[i] - before.dirs[i]) / kProbeOffset;
+  return glm::vec3(0.0f);
+}
+
+// Where between the sample and probe k, which went another way, the way changes: its distance
+// from the sample in cells, in (0, kProbeOffset).
+float SubSampler::crossingDistance(Neighbourhood& n, size_t k, uint64_t& rays) const {
+  float inside = 0.0f, beyond = kProbeOffset;
+  for (int b = 0; b < kCrossingBisections; ++b) {
+    const float mid = 0.5f * (inside + beyond);
+    probeAt(n.x + mid * kAroundX[k], n.y + mid * kAroundY[k], n.between, rays);
+    (sameWay(n.self, n.between) ? inside : beyond) = mid;
+  }
+  return 0.5f * (inside + beyond);
+}
+
+// The sample's colour with the probes across a discontinuity blended in, each shaded with this
+// sample's footprints (the same pixel-scale spread; level 0 would sparkle) where their lookups
+// correspond: all of them in a probe with as many lookups, else those of the same key.
+glm::vec3 SubSampler::blendAcross(Neighbourhood& n, glm::vec3 own, uint64_t& rays) const {
+  std::array<bool, 4> across{};
+  for (size_t k = 0; k < n.around.size(); ++k) across[k] = !sameWay(n.self, n.around[k]);
+  // With both probes of an axis across, shareBeyondCrossings takes the expected share whatever
+  // the distances: nothing to bisect.
+  const bool bisect = !(across[0] && across[1]) && !(across[2] && across[3]);
+  std::array<float, 4> crossing{};  // distance to the discontinuity toward probe k; 0: none
+  std::array<glm::vec3, 4> colour{};
+  for (size_t k = 0; k < n.around.size(); ++k) {
+    if (!across[k]) continue;
+    const Probe& p = n.around[k];
+    n.footprints.assign(p.dirs.size(), Derivatives{});
+    for (size_t i = 0; i < p.dirs.size() && i < n.self.dirs.size(); ++i)
+      if (p.dirs.size() == n.self.dirs.size() || p.keys[i] == n.self.keys[i]) n.footprints[i] = n.derivatives[i];
+    colour[k] = shade(p, n.footprints).color;
+    crossing[k] = bisect ? crossingDistance(n, k, rays) : kProbeOffset;
+  }
+  const std::array<float, 4> share = shareBeyondCrossings(crossing);
+  float keep = 1.0f;
+  glm::vec3 acrossSum(0.0f);
+  for (size_t k = 0; k < 4; ++k) {
+    keep -= share[k];
+    acrossSum += share[k] * colour[k];
+  }
+  return keep * own + acrossSum;
+}
+
+Sample SubSampler::filteredSample(uint32_t bx, uint32_t by, Neighbourhood& n, uint64_t& rays) const {
+  const float x = float(bx), y = float(by), h = kProbeOffset;
+  n.x = x;
+  n.y = y;
+  probeAt(x, y, n.self, rays);
+  probeAt(x + h, y, n.around[0], rays);
+  probeAt(x - h, y, n.around[1], rays);
+  probeAt(x, y + h, n.around[2], rays);
+  probeAt(x, y - h, n.around[3], rays);
+  n.derivatives.clear();
+  for (size_t i = 0; i < n.self.dirs.size(); ++i)
+    n.derivatives.push_back({axisDerivative(n.self, n.around[0], n.around[1], i),
+                             axisDerivative(n.self, n.around[2], n.around[3], i)});
+  Sample sample = shade(n.self, n.derivatives);
+  sample.color = blendAcross(n, sample.color, rays);
+  return sample;
+}
+
+}  // namespace
+
+Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene, const Image& env,
+                                       const ReferenceOptions& o) {
+  if (auto r = checkReferenceOptions(env, o); !r) return r.error();
   const auto start = Clock::now();
   ReferenceImage out = emptyImage(o.width, o.height);
+  const SubSampler sampler(tracer, scene, env, o);
   const uint32_t s = o.samplesPerAxis;
-  const uint32_t bigWidth = o.width * s, bigHeight = o.height * s;
-  const glm::mat4 dirFromClip = directionFromClip(o.camera, bigWidth, bigHeight);
-  const glm::vec3 eye = toVec(o.camera.eye);
-  TraceSettings ts;
-  ts.maxBounces = o.mode == ReferenceMode::FullTree ? o.treeDepth : o.maxBounces;
-  ts.pathRule = o.pathRule;
-
-  // Filtered lookups (o.filtered, docs/antialiasing.md): the engine's level chain, built once.
-  std::vector<std::vector<float>> levels;
-  reference::LatLongImage filteredEnv{env.width, env.height, env.rgba.data()};
-  if (o.filtered) {
-    levels = reference::environmentLevels(filteredEnv);
-    filteredEnv.levels = &levels;
-    filteredEnv.tapsPerAxis = o.environmentTapsPerAxis;
-    filteredEnv.levelBias = o.environmentLevelBias;
-  }
-  // Level 0 (bake::sampleLatLong) unless filtered: then averaged over the pixel as the engine does.
-  auto lookup = [&](glm::vec3 dir, const Derivatives& dd) {
-    if (!o.filtered) return sampleLatLong(env, dir);
-    const reference::Vec3 c = reference::sampleLatLongOverPixel(filteredEnv, {dir.x, dir.y, dir.z},
-                                                                 {dd.dx.x, dd.dx.y, dd.dx.z}, {dd.dy.x, dd.dy.y, dd.dy.z});
-    return glm::vec3(c[0], c[1], c[2]);
-  };
-
-  // One sub-sample's trace: the eye ray along d and, in FullTree mode, its tree's leaves.
-  struct Traced {
-    EyeRayResult hit;
-    std::vector<PathResult> leaves;
-  };
-  auto trace = [&](glm::vec3 d, Traced& t, uint64_t& rays) {
-    t.hit = tracer.traceEyeRay(eye, d, ts);
-    rays += t.hit.rays;
-    t.leaves.clear();
-    if (!t.hit.hit || o.mode != ReferenceMode::FullTree) return;
-    SurfacePoint point;
-    point.position = t.hit.position;
-    point.shadingNormal = t.hit.shadingNormal;
-    point.geometricNormal = t.hit.shadingNormal;
-    point.surface = t.hit.surface;
-    point.triangle = t.hit.triangle;
-    tracer.traceTree(point, d, o.treeDepth, t.leaves);
-    rays += t.leaves.size();
-  };
-  // The directions a sub-sample looks up: [0] the front reflection, then the transmitted ones
-  // (SingleInterface: the refracted ray; Exact: the path's exit; FullTree: every leaf's exit).
-  // keys[i]: the path's number of interfaces (the reflection: 0); a neighbour's lookup with another
-  // key went another way through the object, and its direction is no derivative of this one.
-  auto lookups = [&](glm::vec3 d, const Traced& t, std::vector<glm::vec3>& dirs, std::vector<uint32_t>& keys) {
-    dirs.clear();
-    keys.clear();
-    if (!t.hit.hit) return;
-    dirs.push_back(t.hit.reflectedDirection);
-    keys.push_back(0);
-    if (o.mode == ReferenceMode::SingleInterface) {
-      const Surface& surface = scene.surfaces[t.hit.surface];
-      const float eta = scene.media[surface.outerMedium].ior / scene.media[surface.innerMedium].ior;
-      glm::vec3 r = glm::refract(d, t.hit.shadingNormal, eta);
-      if (glm::dot(r, r) == 0.0f) r = t.hit.reflectedDirection;
-      dirs.push_back(glm::normalize(r));
-      keys.push_back(0);
-    } else if (o.mode == ReferenceMode::Exact) {
-      dirs.push_back(t.hit.transmitted.exitDirection);
-      keys.push_back(t.hit.transmitted.interactions);
-    } else {
-      for (const PathResult& leaf : t.leaves) {
-        dirs.push_back(leaf.exitDirection);
-        keys.push_back(leaf.interactions);
-      }
-    }
-  };
-
-  // One sub-sample: the eye ray along d, traced as `t`; derivatives[i] (filtered) for lookup i.
-  auto shade = [&](glm::vec3 d, const Traced& t, const std::vector<glm::vec3>& dirs,
-                   const std::vector<Derivatives>& derivatives) {
-    Sample sample;
-    const EyeRayResult& hit = t.hit;
-    if (!hit.hit) {
-      sample.color = sampleLatLong(env, d) * o.exposure;
-      return sample;
-    }
-    auto derivativesOf = [&](size_t i) { return i < derivatives.size() ? derivatives[i] : Derivatives{}; };
-    sample.hit = true;
-    const Surface& surface = scene.surfaces[hit.surface];
-    const float eta = scene.media[surface.outerMedium].ior / scene.media[surface.innerMedium].ior;
-    const glm::vec3 n = hit.shadingNormal;
-    const float cosI = std::clamp(-glm::dot(d, n), 0.0f, 1.0f);
-    float f = hit.frontFresnel;
-    glm::vec3 transmitted(0.0f);
-    if (o.mode == ReferenceMode::SingleInterface) {
-      f = fresnelDielectric(cosI, eta);
-      sample.direction = dirs[1];
-      transmitted = lookup(sample.direction, derivativesOf(1));
-    } else if (o.mode == ReferenceMode::Exact) {
-      const PathResult& path = hit.transmitted;
-      sample.direction = path.exitDirection;
-      transmitted = lookup(path.exitDirection, derivativesOf(1)) * std::exp(-path.opticalDepth * o.absorptionScale);
-      if (o.throughput) transmitted *= path.energy;
-    } else {
-      glm::vec3 sum(0.0f), dirSum(0.0f);
-      for (size_t i = 0; i < t.leaves.size(); ++i) {
-        const PathResult& leaf = t.leaves[i];
-        sum += leaf.energy * lookup(leaf.exitDirection, derivativesOf(i + 1)) *
-               std::exp(-leaf.opticalDepth * o.absorptionScale);
-        dirSum += leaf.energy * leaf.exitDirection;
-      }
-      transmitted = sum;
-      sample.direction = glm::dot(dirSum, dirSum) > 0.0f ? glm::normalize(dirSum) : hit.transmitted.exitDirection;
-    }
-    // One colour model in every mode (docs/scenes.md): the colour of the medium behind the front
-    // surface tints all the light transmitted through it.
-    glm::vec3 color = (1.0f - f) * transmitted * scene.media[surface.innerMedium].color;
-    if (o.reflection) color += f * lookup(hit.reflectedDirection, derivativesOf(0));
-    sample.color = color * o.exposure;
-    return sample;
-  };
-
-  // Filtered, one sub-sample and four probes at the midpoints of its cell's edges, half a cell
-  // away along +-x and +-y, each traced in full (5x the rays, and the bisections below): a
-  // discontinuity on either side of the sample is seen (one probe per axis, toward the quad
-  // neighbour, missed half of them).
-  // Per lookup and axis, the derivative is the central difference where both probes went the same
-  // way for that lookup (same surface, same key), the one-sided difference where one did: the
-  // engine's fine derivatives, measured inside the cell. Where neither did, a discontinuity lies
-  // inside the cell; the difference to a probe with as many lookups (the exact path's exit beyond
-  // it, a tree of the same size) stays the derivative, so the lookup spreads over the directions
-  // the cell sees, as the engine's quad derivatives do, where a point lookup would sparkle.
-  // A probe that went another way (a silhouette, another highest-energy branch, another number of
-  // interfaces) has a discontinuity between it and the sample. Where it lies is found by
-  // bisection (kCrossingBisections traces, to 1/16 of a cell): at distance t, the box filter over
-  // the cell sees the probe's side over 1/2 - t of that axis, and the probe's colour enters with
-  // that share (shareBeyondCrossings: where crossings on one x and one y half-axis fix a straight
-  // edge, the box's area beyond it; with probes across on both sides of an axis, the expected
-  // share 1/4 each). Without the bisection every probe across took the expected share, 1/4,
-  // blending a pixel the edge barely touches as much as one it halves (docs/antialiasing.md,
-  // "Where the discontinuity lies").
-  constexpr float kProbeOffset = 0.5f;
-  constexpr int kCrossingBisections = 3;
-  struct Probe {
-    glm::vec3 d{0.0f};
-    Traced t;
-    std::vector<glm::vec3> dirs;
-    std::vector<uint32_t> keys;
-  };
-  struct Neighbourhood {
-    Probe self;
-    std::array<Probe, 4> around;  // +x, -x, +y, -y
-    Probe between;                // scratch: a bisection's probe
-    float x = 0.0f, y = 0.0f;     // the sample, in sub-pixels
-    std::vector<Derivatives> derivatives;
-    std::vector<Derivatives> footprints;  // scratch: a probe's, in blendAcross
-  };
-  auto sameWay = [&](const Probe& a, const Probe& b) {
-    return a.t.hit.hit == b.t.hit.hit && (!a.t.hit.hit || a.t.hit.surface == b.t.hit.surface) && a.keys == b.keys;
-  };
-  auto ray = [&](float bx, float by) { return glm::normalize(rayAt(dirFromClip, bigWidth, bigHeight, bx, by)); };
-  auto probeAt = [&](float bx, float by, Probe& p, uint64_t& rays) {
-    p.d = ray(bx, by);
-    trace(p.d, p.t, rays);
-    lookups(p.d, p.t, p.dirs, p.keys);
-  };
-  // Lookup i's derivative along one axis from the probes half a cell before and after the sample.
-  auto axisDerivative = [&](const Probe& self, const Probe& after, const Probe& before, size_t i) {
-    auto same = [&](const Probe& p) {
-      return p.t.hit.hit && p.t.hit.surface == self.t.hit.surface && p.dirs.size() == self.dirs.size() &&
-             p.keys[i] == self.keys[i];
-    };
-    const bool a = same(after), b = same(before);
-    if (a && b) return (after.dirs[i] - before.dirs[i]) / (2.0f * kProbeOffset);
-    auto alike = [&](const Probe& p) { return p.dirs.size() == self.dirs.size(); };
-    if (a || (!b && alike(after))) return (after.dirs[i] - self.dirs[i]) / kProbeOffset;
-    if (b || alike(before)) return (self.dirs[i] - before.dirs[i]) / kProbeOffset;
-    return glm::vec3(0.0f);
-  };
-  // Where between the sample and probe k, which went another way, the way changes: its distance
-  // from the sample in cells, in (0, kProbeOffset).
-  auto crossingDistance = [&](Neighbourhood& n, size_t k, uint64_t& rays) {
-    float inside = 0.0f, beyond = kProbeOffset;
-    for (int b = 0; b < kCrossingBisections; ++b) {
-      const float mid = 0.5f * (inside + beyond);
-      probeAt(n.x + mid * kAroundX[k], n.y + mid * kAroundY[k], n.between, rays);
-      (sameWay(n.self, n.between) ? inside : beyond) = mid;
-    }
-    return 0.5f * (inside + beyond);
-  };
-  // The sample's colour with the probes across a discontinuity blended in, each shaded with this
-  // sample's footprints (the same pixel-scale spread; level 0 would sparkle) where their lookups
-  // correspond: all of them in a probe with as many lookups, else those of the same key.
-  auto blendAcross = [&](Neighbourhood& n, glm::vec3 own, uint64_t& rays) {
-    std::array<bool, 4> across{};
-    for (size_t k = 0; k < n.around.size(); ++k) across[k] = !sameWay(n.self, n.around[k]);
-    // With both probes of an axis across, shareBeyondCrossings takes the expected share whatever
-    // the distances: nothing to bisect.
-    const bool bisect = !(across[0] && across[1]) && !(across[2] && across[3]);
-    std::array<float, 4> crossing{};  // distance to the discontinuity toward probe k; 0: none
-    std::array<glm::vec3, 4> colour{};
-    for (size_t k = 0; k < n.around.size(); ++k) {
-      if (!across[k]) continue;
-      const Probe& p = n.around[k];
-      n.footprints.assign(p.dirs.size(), Derivatives{});
-      for (size_t i = 0; i < p.dirs.size() && i < n.self.dirs.size(); ++i)
-        if (p.dirs.size() == n.self.dirs.size() || p.keys[i] == n.self.keys[i]) n.footprints[i] = n.derivatives[i];
-      colour[k] = shade(p.d, p.t, p.dirs, n.footprints).color;
-      crossing[k] = bisect ? crossingDistance(n, k, rays) : kProbeOffset;
-    }
-    const std::array<float, 4> share = shareBeyondCrossings(crossing);
-    float keep = 1.0f;
-    glm::vec3 acrossSum(0.0f);
-    for (size_t k = 0; k < 4; ++k) {
-      keep -= share[k];
-      acrossSum += share[k] * colour[k];
-    }
-    return keep * own + acrossSum;
-  };
-  auto filteredSample = [&](uint32_t bx, uint32_t by, Neighbourhood& n, uint64_t& rays) {
-    const float x = float(bx), y = float(by), h = kProbeOffset;
-    n.x = x;
-    n.y = y;
-    probeAt(x, y, n.self, rays);
-    probeAt(x + h, y, n.around[0], rays);
-    probeAt(x - h, y, n.around[1], rays);
-    probeAt(x, y + h, n.around[2], rays);
-    probeAt(x, y - h, n.around[3], rays);
-    n.derivatives.clear();
-    for (size_t i = 0; i < n.self.dirs.size(); ++i)
-      n.derivatives.push_back({axisDerivative(n.self, n.around[0], n.around[1], i),
-                               axisDerivative(n.self, n.around[2], n.around[3], i)});
-    Sample sample = shade(n.self.d, n.self.t, n.self.dirs, n.derivatives);
-    sample.color = blendAcross(n, sample.color, rays);
-    return sample;
-  };
-
   out.rays = forEachRow(o.height, threadCount(o.threads), start, o.progress, [&](uint32_t y, uint64_t& rays) {
     Neighbourhood n;
     for (uint32_t x = 0; x < o.width; ++x) {
       PixelAccumulator pixel;
       for (uint32_t j = 0; j < s; ++j)
-        for (uint32_t i = 0; i < s; ++i) {
-          const uint32_t bx = x * s + i, by = y * s + j;
-          if (o.filtered) {
-            pixel.add(filteredSample(bx, by, n, rays));
-            continue;
-          }
-          probeAt(float(bx), float(by), n.self, rays);
-          n.derivatives.clear();
-          pixel.add(shade(n.self.d, n.self.t, n.self.dirs, n.derivatives));
-        }
+        for (uint32_t i = 0; i < s; ++i) pixel.add(sampler.sample(x * s + i, y * s + j, n, rays));
       pixel.store(out, size_t(y) * o.width + x, s * s);
     }
   });
@@ -515,14 +572,101 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
 
 // -------------------------------------------------------------------------------------------------
 
-Result<ExactDistortion> exactDistortion(const Tracer& tracer, const Field& field, glm::vec3 eye,
-                                        const ExactDistortionOptions& options) {
+namespace {
+
+Result<void> checkExactDistortionInput(const Field& field) {
   const uint64_t texels = field.texelCount();
   if (field.frames.size() != texels * 12 || field.texelKinds.size() != texels)
     return makeError(ErrorCode::InvalidArgument, "exact distortion: frames or texel kinds disagree with the atlas size");
   for (const GutterTexel& g : field.gutters)
     if (g.target >= texels || g.a >= texels || g.b >= texels || g.c >= texels)
       return makeError(ErrorCode::InvalidArgument, "exact distortion: a gutter rule names a texel outside the atlas");
+  return {};
+}
+
+// A sample texel's frame (field.frames, 3x4 rows: the sample's tangent, bitangent and normal with
+// the translation that takes world to local), as a surface point and the direction from `eye`.
+struct SampleView {
+  glm::vec3 axis[3];
+  glm::vec3 position;
+  glm::vec3 normal;
+  glm::vec3 incident;
+};
+
+SampleView sampleView(const float* m, glm::vec3 eye) {
+  SampleView v;
+  v.axis[0] = {m[0], m[1], m[2]};
+  v.axis[1] = {m[4], m[5], m[6]};
+  v.axis[2] = {m[8], m[9], m[10]};
+  v.position = -(v.axis[0] * m[3] + v.axis[1] * m[7] + v.axis[2] * m[11]);
+  v.normal = glm::normalize(v.axis[2]);
+  // The view direction the engine decodes for (reference::decodeTexel's operations).
+  float w[3];
+  for (int k = 0; k < 3; ++k) w[k] = m[4 * k] * eye[0] + m[4 * k + 1] * eye[1] + m[4 * k + 2] * eye[2] + m[4 * k + 3];
+  w[2] = std::max(w[2], 0.0f);
+  glm::vec3 local(w[0], w[1], w[2]);
+  const float len2 = glm::dot(local, local);
+  local = len2 > 0.0f ? local / std::sqrt(len2) : glm::vec3(0.0f, 0.0f, 1.0f);
+  v.incident = -(v.axis[0] * local.x + v.axis[1] * local.y + v.axis[2] * local.z);
+  return v;
+}
+
+// The scene surface a sample texel lies on: looked for from `lift` outside along its normal and
+// accepted within `accept` of the recovered point. False where no hit is that close (the point
+// then keeps the frame's normal and an out-of-range triangle, and the surface of the first hit).
+bool findSampleSurface(const Tracer& tracer, const SampleView& v, float lift, float accept, SurfacePoint& point) {
+  point.position = v.position;
+  point.shadingNormal = v.normal;
+  point.geometricNormal = v.normal;
+  point.triangle = std::numeric_limits<uint32_t>::max();  // out of range: use the normal given
+  // Straight down the normal first; a sample on an edge or corner of a flat-shaded mesh (a
+  // cube's) lies in the plane of the face across it, where a ray along the edge can miss
+  // both: then rays tilted a quarter toward the 8 tangent directions around the normal, one
+  // of which crosses the sample's own face.
+  static constexpr float kTilts[9][2] = {{0, 0}, {1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {-1, 1}, {1, -1}, {-1, -1}};
+  std::optional<SurfacePoint> found;  // the first hit within `accept`, else the first hit
+  bool matched = false;
+  for (int probe = 0; probe < 9 && !matched; ++probe) {
+    const glm::vec3 tilt = 0.25f * (kTilts[probe][0] * v.axis[0] + kTilts[probe][1] * v.axis[1]);
+    const std::optional<SurfacePoint> hit = tracer.firstHit(v.position + lift * v.normal, tilt - v.normal);
+    if (!hit) continue;
+    matched = glm::distance(hit->position, v.position) <= accept;
+    if (matched || !found) found = hit;
+  }
+  if (found) point.surface = found->surface;
+  if (matched) {
+    point.triangle = found->triangle;
+    point.geometricNormal = found->geometricNormal;
+  }
+  return matched;
+}
+
+// A texel of the distortion image from its traced path: the exit direction (scaled by the
+// throughput if asked) and the optical depth, rounded as the engine stores them.
+void storeExactTexel(const PathResult& path, bool throughput, bool depth, float* texel) {
+  const glm::vec3 e = path.exitDirection;
+  const float elen2 = glm::dot(e, e);
+  if (elen2 > kMinDirectionLength2 && std::isfinite(elen2)) {
+    const float scale = throughput ? std::clamp(path.energy, 0.0f, 1.0f) : 1.0f;
+    for (int k = 0; k < 3; ++k) texel[k] = reference::roundToBinary16(e[k] / std::sqrt(elen2) * scale);
+  }
+  texel[3] = reference::roundToBinary16(depth ? std::clamp(path.opticalDepth, -kMaxOpticalDepth, kMaxOpticalDepth) : 0.0f);
+}
+
+// The gutter rules of reference::decompress: they read sample texels only, so order is free.
+void applyGutters(const Field& field, std::vector<float>& rgba) {
+  for (const GutterTexel& g : field.gutters)
+    for (size_t c = 0; c < 4; ++c)
+      rgba[size_t(g.target) * 4 + c] = reference::roundToBinary16(rgba[size_t(g.a) * 4 + c] + rgba[size_t(g.b) * 4 + c] -
+                                                                   rgba[size_t(g.c) * 4 + c]);
+}
+
+}  // namespace
+
+Result<ExactDistortion> exactDistortion(const Tracer& tracer, const Field& field, glm::vec3 eye,
+                                        const ExactDistortionOptions& options) {
+  if (auto r = checkExactDistortionInput(field); !r) return r.error();
+  const uint64_t texels = field.texelCount();
   const auto start = Clock::now();
   ExactDistortion out;
   out.image.width = field.width;
@@ -542,65 +686,16 @@ Result<ExactDistortion> exactDistortion(const Tracer& tracer, const Field& field
   constexpr uint64_t kChunk = 256;
   auto worker = [&]() {
     uint64_t localSamples = 0, localUnmatched = 0, localRays = 0;
-    for (;;) {
-      const uint64_t begin = next.fetch_add(kChunk);
-      if (begin >= texels) break;
-      const uint64_t end = std::min(texels, begin + kChunk);
-      for (uint64_t t = begin; t < end; ++t) {
+    for (uint64_t begin; (begin = next.fetch_add(kChunk)) < texels;) {
+      for (uint64_t t = begin; t < std::min(texels, begin + kChunk); ++t) {
         if (field.texelKinds[t] != kTexelSample) continue;
         ++localSamples;
-        const float* m = &field.frames[t * 12];
-        const glm::vec3 axis[3] = {{m[0], m[1], m[2]}, {m[4], m[5], m[6]}, {m[8], m[9], m[10]}};
-        const glm::vec3 p = -(axis[0] * m[3] + axis[1] * m[7] + axis[2] * m[11]);
-        const glm::vec3 n = glm::normalize(axis[2]);
-        // The view direction the engine decodes for (reference::decodeTexel's operations).
-        float w[3];
-        for (int k = 0; k < 3; ++k)
-          w[k] = m[4 * k] * eye[0] + m[4 * k + 1] * eye[1] + m[4 * k + 2] * eye[2] + m[4 * k + 3];
-        w[2] = std::max(w[2], 0.0f);
-        glm::vec3 local(w[0], w[1], w[2]);
-        const float len2 = glm::dot(local, local);
-        local = len2 > 0.0f ? local / std::sqrt(len2) : glm::vec3(0.0f, 0.0f, 1.0f);
-        const glm::vec3 incident = -(axis[0] * local.x + axis[1] * local.y + axis[2] * local.z);
-
+        const SampleView view = sampleView(&field.frames[t * 12], eye);
         SurfacePoint point;
-        point.position = p;
-        point.shadingNormal = n;
-        point.geometricNormal = n;
-        point.triangle = std::numeric_limits<uint32_t>::max();  // out of range: use the normal given
-        // Straight down the normal first; a sample on an edge or corner of a flat-shaded mesh (a
-        // cube's) lies in the plane of the face across it, where a ray along the edge can miss
-        // both: then rays tilted a quarter toward the 8 tangent directions around the normal, one
-        // of which crosses the sample's own face.
-        static constexpr float kTilts[9][2] = {{0, 0},  {1, 0},  {-1, 0}, {0, 1},  {0, -1},
-                                               {1, 1},  {-1, 1}, {1, -1}, {-1, -1}};
-        std::optional<SurfacePoint> found;  // the first hit within `accept`, else the first hit
-        bool matched = false;
-        for (int probe = 0; probe < 9 && !matched; ++probe) {
-          const glm::vec3 tilt = 0.25f * (kTilts[probe][0] * axis[0] + kTilts[probe][1] * axis[1]);
-          const std::optional<SurfacePoint> hit = tracer.firstHit(p + lift * n, tilt - n);
-          if (!hit) continue;
-          matched = glm::distance(hit->position, p) <= accept;
-          if (matched || !found) found = hit;
-        }
-        if (found) point.surface = found->surface;
-        if (matched) {
-          point.triangle = found->triangle;
-          point.geometricNormal = found->geometricNormal;
-        } else {
-          ++localUnmatched;
-        }
-        const PathResult path = tracer.traceFromSurface(point, incident, ts);
+        if (!findSampleSurface(tracer, view, lift, accept, point)) ++localUnmatched;
+        const PathResult path = tracer.traceFromSurface(point, view.incident, ts);
         localRays += path.rays + 1;
-        float* texel = &out.image.rgba[t * 4];
-        const glm::vec3 e = path.exitDirection;
-        const float elen2 = glm::dot(e, e);
-        if (elen2 > kMinDirectionLength2 && std::isfinite(elen2)) {
-          const float scale = options.throughput ? std::clamp(path.energy, 0.0f, 1.0f) : 1.0f;
-          for (int k = 0; k < 3; ++k) texel[k] = reference::roundToBinary16(e[k] / std::sqrt(elen2) * scale);
-        }
-        texel[3] = reference::roundToBinary16(
-            depth ? std::clamp(path.opticalDepth, -kMaxOpticalDepth, kMaxOpticalDepth) : 0.0f);
+        storeExactTexel(path, options.throughput, depth, &out.image.rgba[t * 4]);
       }
     }
     samples.fetch_add(localSamples);
@@ -611,12 +706,7 @@ Result<ExactDistortion> exactDistortion(const Tracer& tracer, const Field& field
   for (uint32_t t = 1; t < threadCount(options.threads); ++t) pool.emplace_back(worker);
   worker();
   for (auto& t : pool) t.join();
-  // The gutter rules of reference::decompress: they read sample texels only, so order is free.
-  for (const GutterTexel& g : field.gutters)
-    for (size_t c = 0; c < 4; ++c)
-      out.image.rgba[size_t(g.target) * 4 + c] =
-          reference::roundToBinary16(out.image.rgba[size_t(g.a) * 4 + c] + out.image.rgba[size_t(g.b) * 4 + c] -
-                                     out.image.rgba[size_t(g.c) * 4 + c]);
+  applyGutters(field, out.image.rgba);
   out.samples = samples.load();
   out.unmatched = unmatched.load();
   out.rays = rays.load();
@@ -685,8 +775,10 @@ TriangleBins binTriangles(const FieldMesh& mesh, const Camera& camera, uint32_t 
 
 }  // namespace
 
-Result<ReferenceImage> renderDistortion(const FieldMesh& mesh, const reference::DistortionImage& distortion,
-                                        const Image& env, const DistortionRenderOptions& o) {
+namespace {
+
+Result<void> checkDistortionInput(const FieldMesh& mesh, const reference::DistortionImage& distortion,
+                                  const Image& env, const DistortionRenderOptions& o) {
   if (auto r = checkSize("distortion render", o.width, o.height, o.samplesPerAxis); !r) return r.error();
   if (env.width == 0 || env.rgba.size() != size_t(env.width) * env.height * 4)
     return makeError(ErrorCode::InvalidArgument, "distortion render: empty environment");
@@ -697,61 +789,88 @@ Result<ReferenceImage> renderDistortion(const FieldMesh& mesh, const reference::
     if (size_t(index) * 3 + 2 >= mesh.positions.size() || size_t(index) * 3 + 2 >= mesh.normals.size() ||
         size_t(index) * 2 + 1 >= mesh.uvs.size() || (!mesh.frontIor.empty() && index >= mesh.frontIor.size()))
       return makeError(ErrorCode::InvalidArgument, "distortion render: a mesh index is out of range");
+  return {};
+}
+
+// What renderDistortion's sub-samples share: the supersampled camera, the binned mesh and the
+// filtered environment, built once.
+struct DistortionScene {
+  DistortionScene(const FieldMesh& m, const reference::DistortionImage& d, const Image& env,
+                  const DistortionRenderOptions& options)
+      : o(options), mesh(m), distortion(d), bigWidth(options.width * options.samplesPerAxis),
+        bigHeight(options.height * options.samplesPerAxis),
+        dirFromClip(directionFromClip(options.camera, bigWidth, bigHeight)),
+        bins(binTriangles(m, options.camera, bigWidth, bigHeight)),
+        // reference::render's filtered lookups: the engine's level chain, built once.
+        levels(reference::environmentLevels(reference::LatLongImage{env.width, env.height, env.rgba.data()})),
+        latLong{env.width, env.height, env.rgba.data(), &levels}, object{&m, &d, options.shading, Transform{}},
+        edges(triangleEdges(m.positions.data(), uint32_t(m.positions.size() / 3), m.indices.data(),
+                            uint32_t(m.indices.size()))) {}
+  DistortionScene(const DistortionScene&) = delete;  // latLong points at levels
+  DistortionScene& operator=(const DistortionScene&) = delete;
+
+  const DistortionRenderOptions& o;
+  const FieldMesh& mesh;
+  const reference::DistortionImage& distortion;
+  uint32_t bigWidth, bigHeight;
+  glm::mat4 dirFromClip;
+  TriangleBins bins;
+  std::vector<std::vector<float>> levels;
+  reference::LatLongImage latLong;
+  reference::RenderObject object;
+  std::vector<TriangleEdges> edges;
+};
+
+// One sub-sample: reference::render's per-pixel operations for pixel (bx, by) of the big image.
+Sample distortionSample(const DistortionScene& c, uint32_t bx, uint32_t by) {
+  Sample sample;
+  const DistortionRenderOptions& o = c.o;
+  const glm::vec3 rayF = rayThrough(c.dirFromClip, c.bigWidth, c.bigHeight, bx, by);
+  const std::array<double, 3> eyeD{o.camera.eye[0], o.camera.eye[1], o.camera.eye[2]};
+  const std::array<double, 3> ray{rayF.x, rayF.y, rayF.z};
+  std::optional<reference::TriangleHit> best;
+  uint32_t bestTriangle = 0;
+  for (uint32_t t : c.bins.tiles[size_t(by / kTile) * c.bins.tilesX + bx / kTile]) {
+    const std::optional<reference::TriangleHit> hit = reference::hitTriangle(c.mesh, t, eyeD, ray);
+    if (!hit || (best && hit->t >= best->t)) continue;
+    best = hit;
+    bestTriangle = t;
+  }
+  if (!best) {
+    const reference::Vec3 env = reference::sampleLatLong(c.latLong, {rayF.x, rayF.y, rayF.z});
+    sample.color = glm::vec3(env[0], env[1], env[2]);
+    return sample;
+  }
+  // reference::render's per-sample operations, through its own functions.
+  const reference::SurfacePoint point = reference::surfacePointAt(c.mesh, bestTriangle, *best);
+  const reference::LookupDerivatives derivatives =
+      reference::pixelDerivatives(c.object, bestTriangle, o.camera, c.bigWidth, c.bigHeight, bx, by);
+  const reference::Vec3 shaded =
+      reference::shadeField(c.distortion, c.latLong, point, o.camera.eye, o.shading, o.exposure, Transform{}, derivatives);
+  // Blended with the background by its silhouette coverage, as reference::render does by default.
+  const reference::Vec3 covered = reference::overBackground(shaded, point, o.camera.eye, derivatives, c.latLong,
+                                                            {rayF.x, rayF.y, rayF.z}, &c.edges[bestTriangle / 3]);
+  sample.color = glm::vec3(covered[0], covered[1], covered[2]);
+  sample.hit = true;
+  const reference::Vec3 dir = reference::shadedExitDirection(c.distortion, point, o.camera.eye);
+  sample.direction = glm::vec3(dir[0], dir[1], dir[2]);
+  return sample;
+}
+
+}  // namespace
+
+Result<ReferenceImage> renderDistortion(const FieldMesh& mesh, const reference::DistortionImage& distortion,
+                                        const Image& env, const DistortionRenderOptions& o) {
+  if (auto r = checkDistortionInput(mesh, distortion, env, o); !r) return r.error();
   const auto start = Clock::now();
   ReferenceImage out = emptyImage(o.width, o.height);
   const uint32_t s = o.samplesPerAxis;
-  const uint32_t bigWidth = o.width * s, bigHeight = o.height * s;
-  const glm::mat4 dirFromClip = directionFromClip(o.camera, bigWidth, bigHeight);
-  const TriangleBins bins = binTriangles(mesh, o.camera, bigWidth, bigHeight);
-  // reference::render's filtered lookups: the engine's level chain, built once.
-  const std::vector<std::vector<float>> levels =
-      reference::environmentLevels(reference::LatLongImage{env.width, env.height, env.rgba.data()});
-  const reference::LatLongImage latLong{env.width, env.height, env.rgba.data(), &levels};
-  const reference::RenderObject object{&mesh, &distortion, o.shading, Transform{}};
-  const std::vector<TriangleEdges> edges = triangleEdges(mesh.positions.data(), uint32_t(mesh.positions.size() / 3),
-                                                         mesh.indices.data(), uint32_t(mesh.indices.size()));
-
-  // One sub-sample: reference::render's per-pixel operations for pixel (bx, by) of the big image.
-  auto shade = [&](uint32_t bx, uint32_t by) {
-    Sample sample;
-    const glm::vec3 rayF = rayThrough(dirFromClip, bigWidth, bigHeight, bx, by);
-    const std::array<double, 3> eyeD{o.camera.eye[0], o.camera.eye[1], o.camera.eye[2]};
-    const std::array<double, 3> ray{rayF.x, rayF.y, rayF.z};
-    std::optional<reference::TriangleHit> best;
-    uint32_t bestTriangle = 0;
-    for (uint32_t t : bins.tiles[size_t(by / kTile) * bins.tilesX + bx / kTile]) {
-      const std::optional<reference::TriangleHit> hit = reference::hitTriangle(mesh, t, eyeD, ray);
-      if (!hit || (best && hit->t >= best->t)) continue;
-      best = hit;
-      bestTriangle = t;
-    }
-    if (!best) {
-      const reference::Vec3 c = reference::sampleLatLong(latLong, {rayF.x, rayF.y, rayF.z});
-      sample.color = glm::vec3(c[0], c[1], c[2]);
-      return sample;
-    }
-    // reference::render's per-sample operations, through its own functions.
-    const reference::SurfacePoint point = reference::surfacePointAt(mesh, bestTriangle, *best);
-    const reference::LookupDerivatives derivatives =
-        reference::pixelDerivatives(object, bestTriangle, o.camera, bigWidth, bigHeight, bx, by);
-    const reference::Vec3 c =
-        reference::shadeField(distortion, latLong, point, o.camera.eye, o.shading, o.exposure, Transform{}, derivatives);
-    // Blended with the background by its silhouette coverage, as reference::render does by default.
-    const reference::Vec3 covered =
-        reference::overBackground(c, point, o.camera.eye, derivatives, latLong, {rayF.x, rayF.y, rayF.z},
-                                  &edges[bestTriangle / 3]);
-    sample.color = glm::vec3(covered[0], covered[1], covered[2]);
-    sample.hit = true;
-    const reference::Vec3 dir = reference::shadedExitDirection(distortion, point, o.camera.eye);
-    sample.direction = glm::vec3(dir[0], dir[1], dir[2]);
-    return sample;
-  };
-
+  const DistortionScene scene(mesh, distortion, env, o);
   out.rays = forEachRow(o.height, threadCount(o.threads), start, {}, [&](uint32_t y, uint64_t& rays) {
     for (uint32_t x = 0; x < o.width; ++x) {
       PixelAccumulator pixel;
       for (uint32_t j = 0; j < s; ++j)
-        for (uint32_t i = 0; i < s; ++i) pixel.add(shade(x * s + i, y * s + j));
+        for (uint32_t i = 0; i < s; ++i) pixel.add(distortionSample(scene, x * s + i, y * s + j));
       pixel.store(out, size_t(y) * o.width + x, s * s);
     }
     rays += uint64_t(o.width) * s * s;
