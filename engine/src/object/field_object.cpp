@@ -336,22 +336,17 @@ VkExtent2D Object::fieldExtent() const {
 }
 VkImage Object::distortionImage() const { return impl_->field ? impl_->field->distortion.image : VK_NULL_HANDLE; }
 
-Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const Field& field, VkCommandBuffer cmd) {
-  if (auto valid = validateField(field); !valid) return valid.error();
-  ContextImpl& c = ContextAccess::impl(context);
-  const VkPhysicalDeviceLimits& limits = c.properties.limits;
-  if (field.width > limits.maxImageDimension2D || field.height > limits.maxImageDimension2D)
-    return makeError(ErrorCode::Unsupported, "field atlas " + std::to_string(field.width) + "x" +
-                                                 std::to_string(field.height) + " exceeds the device's 2D image limit " +
-                                                 std::to_string(limits.maxImageDimension2D));
-  // Samples, in texel order; only they are stored and decompressed.
+namespace {
+
+// Samples, in texel order; only they are stored and decompressed.
+std::vector<uint32_t> sampleTexelsOf(const Field& field) {
   std::vector<uint32_t> sampleTexels;
   for (uint64_t t = 0; t < field.texelCount(); ++t)
     if (field.texelKinds[t] == kTexelSample) sampleTexels.push_back(static_cast<uint32_t>(t));
-  auto sized = fieldBufferSizes(field, sampleTexels.size(), limits);
-  if (!sized) return sized.error();
-  const FieldBufferSizes sizes = sized.value();
-  const FieldMesh& m = field.mesh;
+  return sampleTexels;
+}
+
+MeshDesc meshDescOf(const FieldMesh& m) {
   MeshDesc mesh;
   mesh.positions = m.positions.data();
   mesh.normals = m.normals.data();
@@ -360,15 +355,11 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   mesh.vertexCount = static_cast<uint32_t>(m.positions.size() / 3);
   mesh.indices = m.indices.data();
   mesh.indexCount = static_cast<uint32_t>(m.indices.size());
+  return mesh;
+}
 
-  auto impl = std::make_shared<ObjectImpl>();
-  impl->context = &c;
-  // From here on the object's destructor retires whatever has been created (`cmd` may reference it).
-  auto object = ObjectAccess::wrap(impl);
-  if (auto r = createMeshBuffers(c, mesh, cmd, *impl); !r) return r.error();
-  object->shading.tint = frontMediumColor(field);  // one colour model in every mode
-  impl->field = std::make_unique<FieldResources>();
-  FieldResources& f = *impl->field;
+// The field's description as the passes read it; its Vulkan objects are created after.
+void describeField(const Field& field, uint32_t sampleCount, const FieldBufferSizes& sizes, FieldResources& f) {
   f.width = field.width;
   f.height = field.height;
   f.encoding = field.encoding;
@@ -381,46 +372,58 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   f.channels = field.channels;
   f.throughput = field.throughput;
   f.quantization = field.quantization;
-  f.sampleCount = static_cast<uint32_t>(sampleTexels.size());
+  f.sampleCount = sampleCount;
   // Sh: a uniform buffer when the table fits (gpu_layout.h, kSpecScaleBiasStorage); the Table and
   // Pca shader always reads the storage binding.
   f.scaleBiasStorage = field.encoding == Encoding::Sh && shScaleBiasStorage(field.order, field.channels);
   f.coefficientsStorage = sizes.coefficientsStorage;
   f.gutterCount = static_cast<uint32_t>(field.gutters.size());
+}
 
-  // Buffers.
-  std::vector<float> scaleBias = scaleBiasTable(field);
-  scaleBias.resize(std::max<size_t>(scaleBias.size(), 4), 0.0f);  // one vec4 at least (a Pca table of K = 1)
-  std::vector<float> frames(size_t(sizes.frames / sizeof(float)), 0.0f);
+// The small buffers' contents on the host, kept until their uploads are recorded.
+struct HostTables {
+  std::vector<float> scaleBias;
+  std::vector<float> frames;
+  std::vector<uint32_t> sampleTexels;
+  std::vector<uint32_t> gutters;
+};
+
+HostTables hostTables(const Field& field, const std::vector<uint32_t>& sampleTexels, const FieldBufferSizes& sizes) {
+  HostTables h;
+  h.scaleBias = scaleBiasTable(field);
+  h.scaleBias.resize(std::max<size_t>(h.scaleBias.size(), 4), 0.0f);  // one vec4 at least (a Pca table of K = 1)
+  h.frames.assign(size_t(sizes.frames / sizeof(float)), 0.0f);
   for (size_t s = 0; s < sampleTexels.size(); ++s)
-    std::memcpy(&frames[s * 12], &field.frames[size_t(sampleTexels[s]) * 12], 12 * sizeof(float));
-  const std::vector<uint32_t> samplesOnly = sampleTexels;
-  if (sampleTexels.empty()) sampleTexels.push_back(0);  // never read: sampleCount is 0
-  std::vector<uint32_t> gutters(std::max<size_t>(field.gutters.size(), 1) * 4, 0u);
+    std::memcpy(&h.frames[s * 12], &field.frames[size_t(sampleTexels[s]) * 12], 12 * sizeof(float));
+  h.sampleTexels = sampleTexels;
+  if (h.sampleTexels.empty()) h.sampleTexels.push_back(0);  // never read: sampleCount is 0
+  h.gutters.assign(std::max<size_t>(field.gutters.size(), 1) * 4, 0u);
   for (size_t g = 0; g < field.gutters.size(); ++g) {
     const GutterTexel& r = field.gutters[g];
-    gutters[g * 4 + 0] = r.target;
-    gutters[g * 4 + 1] = r.a;
-    gutters[g * 4 + 2] = r.b;
-    gutters[g * 4 + 3] = r.c;
+    h.gutters[g * 4 + 0] = r.target;
+    h.gutters[g * 4 + 1] = r.a;
+    h.gutters[g * 4 + 2] = r.b;
+    h.gutters[g * 4 + 3] = r.c;
   }
-  const float placeholder[4] = {0.0f, 0.0f, 0.0f, 0.0f};  // the basis binding of a field without one
-  const VkBufferUsageFlags storage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
-  struct Upload {
-    BufferAllocation* target;
-    const void* data;
-    VkDeviceSize bytes;
-  };
-  const std::array<Upload, 5> uploads{{
-      {&f.scaleBias, scaleBias.data(), scaleBias.size() * sizeof(float)},
-      {&f.frames, frames.data(), frames.size() * sizeof(float)},
-      {&f.sampleTexels, sampleTexels.data(), sampleTexels.size() * sizeof(uint32_t)},
-      {&f.gutters, gutters.data(), gutters.size() * sizeof(uint32_t)},
-      {&f.basis, field.basis.empty() ? placeholder : field.basis.data(), sizes.basis},
-  }};
+  return h;
+}
+
+struct Upload {
+  BufferAllocation* target;
+  const void* data;
+  VkDeviceSize bytes;
+};
+
+// The field's buffers, created unbound and bound in one memory block, and the coefficients' texel
+// view.
+Result<void> createFieldBuffers(ContextImpl& c, const std::array<Upload, 5>& uploads, const FieldBufferSizes& sizes,
+                                ObjectImpl& object) {
+  FieldResources& f = *object.field;
   for (const Upload& u : uploads) {
     // The scale/bias table is read as a uniform buffer when it fits (gpu_layout.h).
-    auto b = createDeviceBuffer(c, u.bytes, storage | (u.target == &f.scaleBias ? VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT : 0));
+    auto b = createDeviceBuffer(c, u.bytes,
+                                VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
+                                    (u.target == &f.scaleBias ? VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT : 0));
     if (!b) return b.error();
     *u.target = b.value();
   }
@@ -432,37 +435,42 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   auto block = c.bindBlock({&f.coefficients, &f.scaleBias, &f.frames, &f.sampleTexels, &f.gutters, &f.basis});
   if (!block) return block.error();
   f.block = block.value();
-  countMemory(*impl, f.block);
-  {
-    // Read through a texel buffer when the device's limit allows (gpu_layout.h,
-    // kSpecCoefficientsStorage); otherwise the view covers a prefix and is not read.
-    const VkDeviceSize words = sizes.coefficients / sizeof(uint32_t);
-    VkBufferViewCreateInfo bvci{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
-    bvci.buffer = f.coefficients.buffer;
-    bvci.format = VK_FORMAT_R32_UINT;
-    bvci.range = std::min<VkDeviceSize>(words, limits.maxTexelBufferElements) * sizeof(uint32_t);
-    const VkResult vr = c.vk.vkCreateBufferView(c.device(), &bvci, c.alloc(), &f.coefficientWords);
-    if (vr != VK_SUCCESS) return vulkanError("vkCreateBufferView", vr);
-  }
+  countMemory(object, f.block);
+  // Read through a texel buffer when the device's limit allows (gpu_layout.h,
+  // kSpecCoefficientsStorage); otherwise the view covers a prefix and is not read.
+  const VkDeviceSize words = sizes.coefficients / sizeof(uint32_t);
+  VkBufferViewCreateInfo bvci{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
+  bvci.buffer = f.coefficients.buffer;
+  bvci.format = VK_FORMAT_R32_UINT;
+  bvci.range = std::min<VkDeviceSize>(words, c.properties.limits.maxTexelBufferElements) * sizeof(uint32_t);
+  const VkResult vr = c.vk.vkCreateBufferView(c.device(), &bvci, c.alloc(), &f.coefficientWords);
+  if (vr != VK_SUCCESS) return vulkanError("vkCreateBufferView", vr);
+  return {};
+}
 
-  // Coefficient staging, written in place (the largest upload: no intermediate copy).
+// Records the copies of the coefficients (staged, written in place: the largest upload, no
+// intermediate copy) and of the small buffers.
+Result<void> recordFieldUploads(ContextImpl& c, VkCommandBuffer cmd, const Field& field,
+                                const std::vector<uint32_t>& sampleTexels, const FieldBufferSizes& sizes,
+                                const std::array<Upload, 5>& uploads, const FieldResources& f) {
   auto staging = c.createBuffer(sizes.coefficients, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
   if (!staging) return staging.error();
   BufferAllocation st = staging.value();
   c.retire([&c, st]() mutable { c.destroyBuffer(st); });
   std::memset(st.mapped, 0, sizes.coefficients);
   if (field.quantization == Quantization::U8)
-    packCoefficients(field, field.coefficientsU8, samplesOnly, st.mapped);
+    packCoefficients(field, field.coefficientsU8, sampleTexels, st.mapped);
   else
-    packCoefficients(field, field.coefficientsF16, samplesOnly, st.mapped);
-
-  // Record the buffer copies; then the sampler and set layouts every instance shares, and the
-  // distortion image (cleared: empty texels stay zero from here on), made visible to the passes
-  // with the copies, and the descriptor sets.
+    packCoefficients(field, field.coefficientsF16, sampleTexels, st.mapped);
   const VkBufferCopy whole{0, 0, sizes.coefficients};
   c.vk.vkCmdCopyBuffer(cmd, st.buffer, f.coefficients.buffer, 1, &whole);
   for (const Upload& u : uploads)
     if (auto r = c.recordBufferUpload(cmd, u.target->buffer, u.data, u.bytes); !r) return r.error();
+  return {};
+}
+
+// The sampler and set layouts every instance of the field shares.
+Result<void> createFieldShared(ContextImpl& c, FieldResources& f) {
   VkSamplerCreateInfo sci{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
   sci.magFilter = VK_FILTER_LINEAR;
   sci.minFilter = VK_FILTER_LINEAR;
@@ -476,6 +484,48 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   auto distortionLayout = createDistortionSetLayout(c);
   if (!distortionLayout) return distortionLayout.error();
   f.distortionSetLayout = distortionLayout.value();
+  return {};
+}
+
+}  // namespace
+
+Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const Field& field, VkCommandBuffer cmd) {
+  if (auto valid = validateField(field); !valid) return valid.error();
+  ContextImpl& c = ContextAccess::impl(context);
+  const VkPhysicalDeviceLimits& limits = c.properties.limits;
+  if (field.width > limits.maxImageDimension2D || field.height > limits.maxImageDimension2D)
+    return makeError(ErrorCode::Unsupported, "field atlas " + std::to_string(field.width) + "x" +
+                                                 std::to_string(field.height) + " exceeds the device's 2D image limit " +
+                                                 std::to_string(limits.maxImageDimension2D));
+  const std::vector<uint32_t> sampleTexels = sampleTexelsOf(field);
+  auto sized = fieldBufferSizes(field, sampleTexels.size(), limits);
+  if (!sized) return sized.error();
+  const FieldBufferSizes sizes = sized.value();
+
+  auto impl = std::make_shared<ObjectImpl>();
+  impl->context = &c;
+  // From here on the object's destructor retires whatever has been created (`cmd` may reference it).
+  auto object = ObjectAccess::wrap(impl);
+  if (auto r = createMeshBuffers(c, meshDescOf(field.mesh), cmd, *impl); !r) return r.error();
+  object->shading.tint = frontMediumColor(field);  // one colour model in every mode
+  impl->field = std::make_unique<FieldResources>();
+  FieldResources& f = *impl->field;
+  describeField(field, static_cast<uint32_t>(sampleTexels.size()), sizes, f);
+
+  const HostTables host = hostTables(field, sampleTexels, sizes);
+  const float placeholder[4] = {0.0f, 0.0f, 0.0f, 0.0f};  // the basis binding of a field without one
+  const std::array<Upload, 5> uploads{{
+      {&f.scaleBias, host.scaleBias.data(), host.scaleBias.size() * sizeof(float)},
+      {&f.frames, host.frames.data(), host.frames.size() * sizeof(float)},
+      {&f.sampleTexels, host.sampleTexels.data(), host.sampleTexels.size() * sizeof(uint32_t)},
+      {&f.gutters, host.gutters.data(), host.gutters.size() * sizeof(uint32_t)},
+      {&f.basis, field.basis.empty() ? placeholder : field.basis.data(), sizes.basis},
+  }};
+  if (auto r = createFieldBuffers(c, uploads, sizes, *impl); !r) return r.error();
+  if (auto r = recordFieldUploads(c, cmd, field, sampleTexels, sizes, uploads, f); !r) return r.error();
+  // Then the distortion image (cleared: empty texels stay zero from here on), made visible to the
+  // passes with the copies, and the descriptor sets.
+  if (auto r = createFieldShared(c, f); !r) return r.error();
   if (auto created = createFieldInstance(c, *impl, cmd); !created) return created.error();
   return object;
 }
