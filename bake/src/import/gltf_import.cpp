@@ -398,6 +398,9 @@ class Importer {
                                             size_t vertexCount) const;
   void reportRepairs(const Volume& volume, const Repairs& repairs);
   Result<void> finalize(Volume& volume);
+  Result<void> checkClosed(Volume& volume);
+  void orientOutward(Volume& volume);
+  void settleNormals(Volume& volume);
   Result<Medium> mediumOf(int materialIndex);
   glm::dvec3 interiorPoint(const Volume& volume) const;
   bool contains(const Volume& container, const glm::dvec3& point) const;
@@ -949,8 +952,7 @@ void Importer::reportRepairs(const Volume& volume, const Repairs& repairs) {
   }
 }
 
-Result<void> Importer::finalize(Volume& volume) {
-  reportRepairs(volume, repairVolume(volume));
+double totalArea(const Volume& volume) {
   const size_t triangleCount = volume.indices.size() / 3;
   double area = 0.0;
   for (size_t t = 0; t < triangleCount; ++t) {
@@ -959,14 +961,11 @@ Result<void> Importer::finalize(Volume& volume) {
     const glm::dvec3 c(volume.positions[volume.indices[3 * t + 2]]);
     area += glm::length(glm::cross(b - a, c - a));
   }
-  if (!(area > 0.0)) {
-    return fail(ErrorCode::InvalidArgument,
-                volume.label + " has zero area (" +
-                    std::to_string(triangleCount + volume.degenerate) +
-                    " triangles, all degenerate)");
-  }
+  return area;
+}
 
-  // Keep only the vertices that triangles use.
+// Keep only the vertices that triangles use, in the order they are first used.
+void compactVertices(Volume& volume) {
   std::vector<uint32_t> remap(volume.positions.size(), std::numeric_limits<uint32_t>::max());
   Volume compact;
   for (uint32_t& index : volume.indices) {
@@ -983,8 +982,74 @@ Result<void> Importer::finalize(Volume& volume) {
   volume.normals = std::move(compact.normals);
   volume.normalFromFile = std::move(compact.normalFromFile);
   volume.uvs = std::move(compact.uvs);
+}
 
-  // Topology, with the winding as read (after mirroring).
+// Signed volume (divergence theorem): positive when the winding is outward.
+double enclosedVolume(const Volume& volume) {
+  double sum = 0.0;
+  for (size_t t = 0; t + 2 < volume.indices.size(); t += 3) {
+    sum += glm::dot(glm::dvec3(volume.positions[volume.indices[t]]),
+                    glm::cross(glm::dvec3(volume.positions[volume.indices[t + 1]]),
+                               glm::dvec3(volume.positions[volume.indices[t + 2]])));
+  }
+  return sum / 6.0;
+}
+
+// Per vertex, the sum of its triangles' area-weighted face normals; `agreement`, the sum over
+// corners with a normal from the file of that normal's dot product with its face's.
+std::vector<glm::dvec3> accumulateFaceNormals(const Volume& volume, double& agreement) {
+  std::vector<glm::dvec3> accumulated(volume.positions.size(), glm::dvec3(0.0));
+  agreement = 0.0;
+  for (size_t t = 0; t + 2 < volume.indices.size(); t += 3) {
+    const uint32_t ia = volume.indices[t];
+    const uint32_t ib = volume.indices[t + 1];
+    const uint32_t ic = volume.indices[t + 2];
+    const glm::dvec3 a(volume.positions[ia]);
+    const glm::dvec3 b(volume.positions[ib]);
+    const glm::dvec3 c(volume.positions[ic]);
+    const glm::dvec3 face = glm::cross(b - a, c - a);  // length = twice the area
+    for (uint32_t i : {ia, ib, ic}) {
+      accumulated[i] += face;
+      if (volume.normalFromFile[i] != 0) {
+        agreement += glm::dot(face, glm::dvec3(volume.normals[i]));
+      }
+    }
+  }
+  return accumulated;
+}
+
+Result<void> Importer::finalize(Volume& volume) {
+  reportRepairs(volume, repairVolume(volume));
+  if (!(totalArea(volume) > 0.0)) {
+    return fail(ErrorCode::InvalidArgument,
+                volume.label + " has zero area (" +
+                    std::to_string(volume.indices.size() / 3 + volume.degenerate) +
+                    " triangles, all degenerate)");
+  }
+  compactVertices(volume);
+  if (auto closed = checkClosed(volume); !closed) {
+    return closed.error();
+  }
+  orientOutward(volume);
+  settleNormals(volume);
+
+  if (!volume.anyUvs) {
+    volume.uvs.clear();
+  } else if (volume.missingUvs) {
+    warn(volume.label + ": some primitives have no TEXCOORD_0; their uvs are (0, 0)");
+  }
+
+  volume.boundsMin = glm::dvec3(volume.positions.front());
+  volume.boundsMax = volume.boundsMin;
+  for (const glm::vec3& p : volume.positions) {
+    volume.boundsMin = glm::min(volume.boundsMin, glm::dvec3(p));
+    volume.boundsMax = glm::max(volume.boundsMax, glm::dvec3(p));
+  }
+  return {};
+}
+
+// Topology, with the winding as read (after mirroring): an open volume fails unless allowed.
+Result<void> Importer::checkClosed(Volume& volume) {
   Surface probe;
   probe.positions = volume.positions;
   probe.indices = volume.indices;
@@ -1002,18 +1067,12 @@ Result<void> Importer::finalize(Volume& volume) {
     }
     warn(problem + "; kept as is");
   }
+  return {};
+}
 
-  // Signed volume (divergence theorem); a closed volume that is inside out is turned outward.
-  auto enclosedVolume = [&volume] {
-    double sum = 0.0;
-    for (size_t t = 0; t + 2 < volume.indices.size(); t += 3) {
-      sum += glm::dot(glm::dvec3(volume.positions[volume.indices[t]]),
-                      glm::cross(glm::dvec3(volume.positions[volume.indices[t + 1]]),
-                                 glm::dvec3(volume.positions[volume.indices[t + 2]])));
-    }
-    return sum / 6.0;
-  };
-  volume.volume = enclosedVolume();
+// A closed volume that is inside out is turned outward.
+void Importer::orientOutward(Volume& volume) {
+  volume.volume = enclosedVolume(volume);
   if (volume.closed && volume.volume < 0.0) {
     for (size_t t = 0; t + 2 < volume.indices.size(); t += 3) {
       std::swap(volume.indices[t + 1], volume.indices[t + 2]);
@@ -1021,26 +1080,13 @@ Result<void> Importer::finalize(Volume& volume) {
     volume.volume = -volume.volume;
     warn(volume.label + " is wound inside out (clockwise seen from outside); winding reversed");
   }
+}
 
-  // Area-weighted face normals: computed normals for vertices without a usable one, and the
-  // check that the file's normals agree with the (now outward) winding.
-  std::vector<glm::dvec3> accumulated(volume.positions.size(), glm::dvec3(0.0));
+// Area-weighted face normals: computed normals for vertices without a usable one, and the
+// check that the file's normals agree with the (now outward) winding.
+void Importer::settleNormals(Volume& volume) {
   double agreement = 0.0;
-  for (size_t t = 0; t + 2 < volume.indices.size(); t += 3) {
-    const uint32_t ia = volume.indices[t];
-    const uint32_t ib = volume.indices[t + 1];
-    const uint32_t ic = volume.indices[t + 2];
-    const glm::dvec3 a(volume.positions[ia]);
-    const glm::dvec3 b(volume.positions[ib]);
-    const glm::dvec3 c(volume.positions[ic]);
-    const glm::dvec3 face = glm::cross(b - a, c - a);  // length = twice the area
-    for (uint32_t i : {ia, ib, ic}) {
-      accumulated[i] += face;
-      if (volume.normalFromFile[i] != 0) {
-        agreement += glm::dot(face, glm::dvec3(volume.normals[i]));
-      }
-    }
-  }
+  const std::vector<glm::dvec3> accumulated = accumulateFaceNormals(volume, agreement);
   if (agreement < 0.0) {
     for (size_t i = 0; i < volume.normals.size(); ++i) {
       if (volume.normalFromFile[i] != 0) {
@@ -1069,20 +1115,6 @@ Result<void> Importer::finalize(Volume& volume) {
          (fallback > 0 ? " (" + std::to_string(fallback) + " on zero-area triangles only)"
                        : std::string()));
   }
-
-  if (!volume.anyUvs) {
-    volume.uvs.clear();
-  } else if (volume.missingUvs) {
-    warn(volume.label + ": some primitives have no TEXCOORD_0; their uvs are (0, 0)");
-  }
-
-  volume.boundsMin = glm::dvec3(volume.positions.front());
-  volume.boundsMax = volume.boundsMin;
-  for (const glm::vec3& p : volume.positions) {
-    volume.boundsMin = glm::min(volume.boundsMin, glm::dvec3(p));
-    volume.boundsMax = glm::max(volume.boundsMax, glm::dvec3(p));
-  }
-  return {};
 }
 
 Result<Medium> Importer::mediumOf(int materialIndex) {
