@@ -217,14 +217,17 @@ void dispatchGrid(ContextImpl& c, VkCommandBuffer cmd, uint32_t groups) {
   c.vk.vkCmdDispatch(cmd, x, (groups + x - 1) / x, 1);
 }
 
-// Both record() overloads; `frustum` null: no culling.
-Result<void> recordFields(DecompressorImpl& d, VkCommandBuffer cmd, const std::array<float, 3>& eye,
-                          const ViewFrustum* frustum, std::span<Object* const> objects) {
-  ContextImpl& c = *d.context;
-  d.lastStats = DecompressStats{};
-  DecompressStats stats;
+// The fields a record() decodes, with the eye in each one's object space.
+struct FieldsToDecode {
   std::vector<FieldResources*> fields;
-  std::vector<std::array<float, 3>> eyes;  // per field: the eye in its object space
+  std::vector<std::array<float, 3>> eyes;
+};
+
+// The distinct field objects among `objects` that are in the frustum (null: no culling) and not
+// already decoded for this eye and order (when skipping is on); counts the others in `stats`.
+FieldsToDecode fieldsToDecode(const DecompressorImpl& d, const std::array<float, 3>& eye, const ViewFrustum* frustum,
+                              std::span<Object* const> objects, DecompressStats& stats) {
+  FieldsToDecode out;
   std::vector<const ObjectImpl*> seen;
   for (Object* o : objects) {
     if (!o) continue;
@@ -244,57 +247,54 @@ Result<void> recordFields(DecompressorImpl& d, VkCommandBuffer cmd, const std::a
       ++stats.unchanged;
       continue;
     }
-    fields.push_back(f);
-    eyes.push_back(objectEye);
+    out.fields.push_back(f);
+    out.eyes.push_back(objectEye);
   }
-  std::vector<VkPipeline> pipelines;
-  for (FieldResources* f : fields) {
-    auto p = d.variant(*f);
-    if (!p) return p.error();
-    pipelines.push_back(p.value());
-  }
-  stats.decompressed = static_cast<uint32_t>(fields.size());
-  if (fields.empty()) {
-    d.lastStats = stats;
-    return {};
-  }
+  return out;
+}
 
-  auto imageBarrier = [](const FieldResources& f) {
-    VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
-    b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b.image = f.distortion.image;
-    b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-    return b;
-  };
-  auto submitBarriers = [&](const std::vector<VkImageMemoryBarrier2>& barriers) {
-    VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-    dep.imageMemoryBarrierCount = static_cast<uint32_t>(barriers.size());
-    dep.pImageMemoryBarriers = barriers.data();
-    c.vk.vkCmdPipelineBarrier2(cmd, &dep);
-  };
-
-  // 1. Wait for earlier reads (the previous frame's raster pass, earlier decompressions) and make
-  //    the images writable by the compute shader. Their contents are kept: only sample and gutter
-  //    texels are rewritten, the empty ones keep the zero of createFromField's clear.
+// One pipeline barrier over the distortion images of `fields` (those with gutters only, if
+// `gutteredOnly`), every one with the stages, accesses and layouts of `like`.
+void recordImageBarriers(ContextImpl& c, VkCommandBuffer cmd, const std::vector<FieldResources*>& fields,
+                         bool gutteredOnly, const VkImageMemoryBarrier2& like) {
   std::vector<VkImageMemoryBarrier2> barriers;
   for (const FieldResources* f : fields) {
-    VkImageMemoryBarrier2 b = imageBarrier(*f);
-    b.srcStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-    b.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-    b.dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-    b.oldLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
-    b.newLayout = VK_IMAGE_LAYOUT_GENERAL;
+    if (gutteredOnly && !f->gutterCount) continue;
+    VkImageMemoryBarrier2 b = like;
+    b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.image = f->distortion.image;
+    b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
     barriers.push_back(b);
   }
-  submitBarriers(barriers);
+  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+  dep.imageMemoryBarrierCount = static_cast<uint32_t>(barriers.size());
+  dep.pImageMemoryBarriers = barriers.data();
+  c.vk.vkCmdPipelineBarrier2(cmd, &dep);
+}
 
-  // 2. One dispatch per object.
+VkImageMemoryBarrier2 imageBarrier(VkPipelineStageFlags2 srcStage, VkAccessFlags2 srcAccess,
+                                   VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess, VkImageLayout oldLayout,
+                                   VkImageLayout newLayout) {
+  VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
+  b.srcStageMask = srcStage;
+  b.srcAccessMask = srcAccess;
+  b.dstStageMask = dstStage;
+  b.dstAccessMask = dstAccess;
+  b.oldLayout = oldLayout;
+  b.newLayout = newLayout;
+  return b;
+}
+
+// One decompression dispatch per field, binding a pipeline only when it changes.
+void recordDecodeDispatches(DecompressorImpl& d, VkCommandBuffer cmd, const FieldsToDecode& work,
+                            const std::vector<VkPipeline>& pipelines, DecompressStats& stats) {
+  ContextImpl& c = *d.context;
   gpu::DecompressPushConstants push{};
   VkPipeline bound = VK_NULL_HANDLE;
-  for (size_t k = 0; k < fields.size(); ++k) {
-    const FieldResources* f = fields[k];
+  for (size_t k = 0; k < work.fields.size(); ++k) {
+    const FieldResources* f = work.fields[k];
     if (!f->sampleCount) continue;
-    push.eyeObject = {eyes[k][0], eyes[k][1], eyes[k][2], 1.0f};
+    push.eyeObject = {work.eyes[k][0], work.eyes[k][1], work.eyes[k][2], 1.0f};
     if (pipelines[k] != bound) {
       c.vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelines[k]);
       bound = pipelines[k];
@@ -308,52 +308,69 @@ Result<void> recordFields(DecompressorImpl& d, VkCommandBuffer cmd, const std::a
     dispatchGrid(c, cmd, (invocations + gpu::kDecompressLocalSize - 1) / gpu::kDecompressLocalSize);
     ++stats.dispatches;
   }
+}
 
-  // 3. Gutter rules read what step 2 wrote.
-  bool anyGutters = false;
-  barriers.clear();
-  for (const FieldResources* f : fields) {
+// The gutter rules of the fields that have any, after a barrier on what the decode wrote (gutter.comp
+// reads the push constants' size only).
+void recordGutterDispatches(DecompressorImpl& d, VkCommandBuffer cmd, const FieldsToDecode& work,
+                            DecompressStats& stats) {
+  ContextImpl& c = *d.context;
+  if (std::none_of(work.fields.begin(), work.fields.end(), [](const FieldResources* f) { return f->gutterCount; }))
+    return;
+  recordImageBarriers(c, cmd, work.fields, true,
+                      imageBarrier(VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                                   VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                                   VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                                   VK_IMAGE_LAYOUT_GENERAL, VK_IMAGE_LAYOUT_GENERAL));
+  c.vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, d.gutter);
+  gpu::DecompressPushConstants push{};
+  for (const FieldResources* f : work.fields) {
     if (!f->gutterCount) continue;
-    anyGutters = true;
-    VkImageMemoryBarrier2 b = imageBarrier(*f);
-    b.srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-    b.srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-    b.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-    b.dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-    b.oldLayout = b.newLayout = VK_IMAGE_LAYOUT_GENERAL;
-    barriers.push_back(b);
+    c.vk.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, d.layout, 0, 1, &f->decompressSet, 0, nullptr);
+    push.size = {f->width, f->height, f->gutterCount, f->sampleCount};
+    c.vk.vkCmdPushConstants(cmd, d.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+    dispatchGrid(c, cmd, (f->gutterCount + gpu::kGutterLocalSize - 1) / gpu::kGutterLocalSize);
+    ++stats.dispatches;
   }
-  if (anyGutters) {
-    submitBarriers(barriers);
-    c.vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, d.gutter);
-    for (const FieldResources* f : fields) {
-      if (!f->gutterCount) continue;
-      c.vk.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, d.layout, 0, 1, &f->decompressSet, 0,
-                                   nullptr);
-      push.size = {f->width, f->height, f->gutterCount, f->sampleCount};
-      c.vk.vkCmdPushConstants(cmd, d.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-      dispatchGrid(c, cmd, (f->gutterCount + gpu::kGutterLocalSize - 1) / gpu::kGutterLocalSize);
-      ++stats.dispatches;
-    }
-  }
+}
 
-  // 4. Hand the images to the raster pass.
-  barriers.clear();
-  for (const FieldResources* f : fields) {
-    VkImageMemoryBarrier2 b = imageBarrier(*f);
-    b.srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-    b.srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-    b.dstStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
-    b.dstAccessMask = VK_ACCESS_2_SHADER_SAMPLED_READ_BIT;
-    b.oldLayout = VK_IMAGE_LAYOUT_GENERAL;
-    b.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
-    barriers.push_back(b);
+// Both record() overloads; `frustum` null: no culling.
+Result<void> recordFields(DecompressorImpl& d, VkCommandBuffer cmd, const std::array<float, 3>& eye,
+                          const ViewFrustum* frustum, std::span<Object* const> objects) {
+  ContextImpl& c = *d.context;
+  d.lastStats = DecompressStats{};
+  DecompressStats stats;
+  const FieldsToDecode work = fieldsToDecode(d, eye, frustum, objects, stats);
+  std::vector<VkPipeline> pipelines;
+  for (FieldResources* f : work.fields) {
+    auto p = d.variant(*f);
+    if (!p) return p.error();
+    pipelines.push_back(p.value());
   }
-  submitBarriers(barriers);
-  for (size_t k = 0; k < fields.size(); ++k) {
-    fields[k]->decoded = true;
-    fields[k]->decodedEye = eyes[k];
-    fields[k]->decodedOrder = fields[k]->order;
+  stats.decompressed = static_cast<uint32_t>(work.fields.size());
+  if (work.fields.empty()) {
+    d.lastStats = stats;
+    return {};
+  }
+  // 1. Wait for earlier reads (the previous frame's raster pass, earlier decompressions) and make
+  //    the images writable by the compute shader. Their contents are kept: only sample and gutter
+  //    texels are rewritten, the empty ones keep the zero of createFromField's clear.
+  recordImageBarriers(c, cmd, work.fields, false,
+                      imageBarrier(VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                                   0, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                                   VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_IMAGE_LAYOUT_GENERAL));
+  // 2. One dispatch per object; 3. gutter rules read what step 2 wrote.
+  recordDecodeDispatches(d, cmd, work, pipelines, stats);
+  recordGutterDispatches(d, cmd, work, stats);
+  // 4. Hand the images to the raster pass.
+  recordImageBarriers(c, cmd, work.fields, false,
+                      imageBarrier(VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                                   VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+                                   VK_IMAGE_LAYOUT_GENERAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL));
+  for (size_t k = 0; k < work.fields.size(); ++k) {
+    work.fields[k]->decoded = true;
+    work.fields[k]->decodedEye = work.eyes[k];
+    work.fields[k]->decodedOrder = work.fields[k]->order;
   }
   d.lastStats = stats;
   return {};
