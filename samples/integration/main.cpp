@@ -271,12 +271,36 @@ class Host {
   // Records with `record` into frames[0]'s command buffer, submits and waits: for one-off setup.
   template <class F>
   void submitNow(F&& record);
+
+ private:
+  void createInstance(const shrefract::DeviceRequirements& req);  // and the debug messenger
+  void pickPhysicalDevice(const shrefract::DeviceRequirements& req);
+  void createDevice(const shrefract::DeviceRequirements& req);  // and gets its queue
+  void createFrames();  // the command pool, and each frame's command buffer and fence
 };
 
+// The messenger's settings: validation warnings and errors, to onDebugMessage.
+VkDebugUtilsMessengerCreateInfoEXT messengerCreateInfo() {
+  VkDebugUtilsMessengerCreateInfoEXT messengerInfo{VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
+  messengerInfo.messageSeverity =
+      VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+  messengerInfo.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+                              VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT;
+  messengerInfo.pfnUserCallback = onDebugMessage;
+  return messengerInfo;
+}
+
 Host::Host() {
+  const shrefract::DeviceRequirements req = shrefract::deviceRequirements();
+  createInstance(req);
+  pickPhysicalDevice(req);
+  createDevice(req);
+  createFrames();
+}
+
+void Host::createInstance(const shrefract::DeviceRequirements& req) {
   // Instance: Vulkan 1.3, validation layer and debug messenger (a host ships without them; a
   // sample and its test keep them on so that misuse of the engine's contract is reported).
-  const shrefract::DeviceRequirements req = shrefract::deviceRequirements();
   uint32_t loaderVersion = 0;
   if (vkEnumerateInstanceVersion(&loaderVersion) != VK_SUCCESS || loaderVersion < req.apiVersion)
     throw Failure{"the Vulkan loader does not offer Vulkan 1.3", 77};
@@ -285,12 +309,7 @@ Host::Host() {
   app.apiVersion = req.apiVersion;
   const char* layer = "VK_LAYER_KHRONOS_validation";
   const char* debugUtils = VK_EXT_DEBUG_UTILS_EXTENSION_NAME;
-  VkDebugUtilsMessengerCreateInfoEXT messengerInfo{VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
-  messengerInfo.messageSeverity =
-      VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
-  messengerInfo.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
-                              VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT;
-  messengerInfo.pfnUserCallback = onDebugMessage;
+  const VkDebugUtilsMessengerCreateInfoEXT messengerInfo = messengerCreateInfo();
   // Synchronization validation too: a missing or too-narrow barrier is a counted message.
   const VkValidationFeatureEnableEXT syncValidation = VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT;
   VkValidationFeaturesEXT validationFeatures{VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT};
@@ -313,7 +332,9 @@ Host::Host() {
       vkGetInstanceProcAddr(instance, "vkCreateDebugUtilsMessengerEXT"));
   if (!createMessenger) throw Failure{"vkCreateDebugUtilsMessengerEXT is missing"};
   check(createMessenger(instance, &messengerInfo, nullptr, &messenger), "vkCreateDebugUtilsMessengerEXT");
+}
 
+void Host::pickPhysicalDevice(const shrefract::DeviceRequirements& req) {
   // Physical device: Vulkan 1.3, the features shrefract lists, and one queue family with the
   // flags it needs (graphics + compute), which the host also uses for its own drawing.
   uint32_t count = 0;
@@ -343,7 +364,9 @@ Host::Host() {
     if (physicalDevice) break;
   }
   if (!physicalDevice) throw Failure{"no Vulkan 1.3 device with the features shrefract needs", 77};
+}
 
+void Host::createDevice(const shrefract::DeviceRequirements& req) {
   // Device: exactly what deviceRequirements() lists (plus whatever the host itself needs).
   float priority = 1.0f;
   VkDeviceQueueCreateInfo qci{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
@@ -364,7 +387,9 @@ Host::Host() {
   dci.ppEnabledExtensionNames = req.deviceExtensions.data();
   check(vkCreateDevice(physicalDevice, &dci, nullptr, &device), "vkCreateDevice");
   vkGetDeviceQueue(device, queueFamily, 0, &queue);
+}
 
+void Host::createFrames() {
   VkCommandPoolCreateInfo pci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
   pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
   pci.queueFamilyIndex = queueFamily;
@@ -613,11 +638,7 @@ Options parseOptions(int argc, char** argv) {
   return o;
 }
 
-void run(const Options& options) {
-  Host host;
-  const VkExtent2D extent = options.extent;
-
-  // --- 1. The engine borrows the host's handles. ------------------------------------------------
+std::unique_ptr<shrefract::Context> createContext(const Host& host) {
   shrefract::ContextCreateInfo info;
   info.instance = host.instance;
   info.physicalDevice = host.physicalDevice;
@@ -626,7 +647,217 @@ void run(const Options& options) {
   info.queue = host.queue;
   info.getInstanceProcAddr = vkGetInstanceProcAddr;  // every engine call goes through this
   info.framesInFlight = kFramesInFlight;
-  std::unique_ptr<shrefract::Context> context = take(shrefract::Context::create(info), "shrefract::Context::create");
+  return take(shrefract::Context::create(info), "shrefract::Context::create");
+}
+
+// The host-visible buffer the last frame's colour target is copied into.
+struct Readback {
+  VkBuffer buffer = VK_NULL_HANDLE;
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+};
+
+Readback createReadback(const Host& host, VkExtent2D extent) {
+  Readback readback;
+  VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+  bci.size = VkDeviceSize(extent.width) * extent.height * 4;
+  bci.usage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+  check(vkCreateBuffer(host.device, &bci, nullptr, &readback.buffer), "vkCreateBuffer");
+  VkMemoryRequirements req{};
+  vkGetBufferMemoryRequirements(host.device, readback.buffer, &req);
+  VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+  mai.allocationSize = req.size;
+  mai.memoryTypeIndex =
+      host.memoryType(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
+  check(vkAllocateMemory(host.device, &mai, nullptr, &readback.memory), "vkAllocateMemory");
+  check(vkBindBufferMemory(host.device, readback.buffer, readback.memory, 0), "vkBindBufferMemory");
+  return readback;
+}
+
+// The engine's objects the frames draw with. Declared in creation order, so that a failure part
+// way destroys them in reverse; the teardown in run() orders them itself.
+struct EngineObjects {
+  std::unique_ptr<shrefract::Environment> environment;
+  std::unique_ptr<shrefract::Object> glass;
+  std::unique_ptr<shrefract::Renderer> renderer;
+  std::unique_ptr<shrefract::Decompressor> decompressor;
+};
+
+EngineObjects createEngineObjects(Host& host, shrefract::Context& context, const Options& options) {
+  // The create calls only record copies and barriers into `cmd`; the host decides when to submit.
+  // Staging buffers are retired through the context and released by later beginFrame() calls.
+  const shrefract::Field field =
+      options.fieldPath.empty() ? makeLensField() : take(shrefract::readField(options.fieldPath), "readField");
+  const uint32_t envWidth = 512, envHeight = 256;
+  const std::vector<float> envPixels = makeEnvironment(envWidth, envHeight);
+  EngineObjects e;
+  host.submitNow([&](VkCommandBuffer cmd) {
+    e.environment = take(shrefract::Environment::createLatLong(context, {envWidth, envHeight, envPixels.data()}, cmd),
+                         "Environment::createLatLong");
+    e.glass = take(shrefract::Object::createFromField(context, field, cmd), "Object::createFromField");
+  });
+  e.glass->shading.tint = {0.85f, 0.95f, 1.0f};  // a faint cyan glass
+  // A field from a file was baked at whatever scale it was modelled in (the bunny: a few
+  // centimetres, off the origin): place it where the host's camera looks, 1.6 units across. Only
+  // worldFromObject changes; the field is decoded for the eye in its own space.
+  if (!options.fieldPath.empty()) e.glass->worldFromObject = fitInto(*e.glass, 1.6f);
+
+  shrefract::RendererCreateInfo rci;
+  rci.colorFormat = kColorFormat;  // the engine's pipelines are built for the host's formats
+  rci.depthFormat = kDepthFormat;
+  e.renderer = take(shrefract::Renderer::create(context, rci), "Renderer::create");
+  e.decompressor = take(shrefract::Decompressor::create(context), "Decompressor::create");
+  // Optional: build the pipeline now rather than on the first record() (no hitch in frame 1).
+  require(e.decompressor->prepare(e.glass->fieldOrder()), "Decompressor::prepare");
+  return e;
+}
+
+shrefract::Camera sceneCamera() {
+  shrefract::Camera camera;
+  camera.eye = {0.0f, 0.0f, 4.0f};
+  camera.target = {0.0f, 0.0f, 0.0f};
+  camera.verticalFovDegrees = 45.0f;
+  camera.nearPlane = 0.05f;
+  camera.farPlane = 100.0f;
+  return camera;
+}
+
+// What every frame draws, and into what.
+struct FrameScene {
+  VkExtent2D extent{};
+  const Image& color;
+  const Image& depth;
+  const BoxPipeline& boxes;
+  const std::array<BoxPush, 2>& boxList;
+  const shrefract::Camera& camera;
+  const std::vector<shrefract::Object*>& drawList;
+  const EngineObjects& engine;
+};
+
+// (b) The host's targets become attachments (contents discarded: both are cleared). The source
+//     stages order this frame's writes after the previous frame's (same targets, same queue).
+void recordAttachmentBarriers(VkCommandBuffer cmd, const FrameScene& s) {
+  imageBarrier(cmd, s.color.image, VK_IMAGE_ASPECT_COLOR_BIT,
+               VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_NONE,
+               VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+               VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
+  imageBarrier(cmd, s.depth.image, VK_IMAGE_ASPECT_DEPTH_BIT,
+               VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+               VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+               VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+               VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+               VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+}
+
+// (c) One dynamic rendering scope for everything: host opaque geometry first (it fills depth),
+//     then the engine's background (drawn at the far plane, so only where nothing was drawn),
+//     then the glass (depth-tested: hidden behind the red box, covering the green one).
+void recordDrawing(VkCommandBuffer cmd, const FrameScene& s) {
+  VkRenderingAttachmentInfo colorAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  colorAttachment.imageView = s.color.view;
+  colorAttachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  colorAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  colorAttachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  VkRenderingAttachmentInfo depthAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  depthAttachment.imageView = s.depth.view;
+  depthAttachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depthAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  depthAttachment.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  depthAttachment.clearValue.depthStencil = {1.0f, 0};  // the engine expects LESS against 1.0
+  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+  ri.renderArea = {{0, 0}, s.extent};
+  ri.layerCount = 1;
+  ri.colorAttachmentCount = 1;
+  ri.pColorAttachments = &colorAttachment;
+  ri.pDepthAttachment = &depthAttachment;
+  vkCmdBeginRendering(cmd, &ri);
+  const VkViewport viewport{0.0f, 0.0f, float(s.extent.width), float(s.extent.height), 0.0f, 1.0f};
+  const VkRect2D scissor{{0, 0}, s.extent};
+  vkCmdSetViewport(cmd, 0, 1, &viewport);  // dynamic state the engine's pipelines use too
+  vkCmdSetScissor(cmd, 0, 1, &scissor);
+
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, s.boxes.pipeline);
+  for (const BoxPush& box : s.boxList) {
+    vkCmdPushConstants(cmd, s.boxes.layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
+                       sizeof(BoxPush), &box);
+    vkCmdDraw(cmd, 36, 1, 0, 0);
+  }
+  // The engine binds its own pipelines, descriptor sets and push constants; a host drawing after
+  // these calls must bind its own state again.
+  s.engine.renderer->recordBackground(cmd, *s.engine.environment, s.camera, s.extent);
+  s.engine.renderer->recordObjects(cmd, *s.engine.environment, s.camera, s.extent, s.drawList,
+                                   shrefract::ShadingMode::Field);
+  vkCmdEndRendering(cmd);
+}
+
+// (d) Last frame: copy the colour target into the host-visible buffer.
+void recordReadback(VkCommandBuffer cmd, const FrameScene& s, VkBuffer readback) {
+  imageBarrier(cmd, s.color.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+               VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT,
+               VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+  VkBufferImageCopy region{};
+  region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+  region.imageExtent = {s.extent.width, s.extent.height, 1};
+  vkCmdCopyImageToBuffer(cmd, s.color.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback, 1, &region);
+  VkBufferMemoryBarrier2 toHost{VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2};
+  toHost.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+  toHost.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  toHost.dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT;
+  toHost.dstAccessMask = VK_ACCESS_2_HOST_READ_BIT;
+  toHost.srcQueueFamilyIndex = toHost.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  toHost.buffer = readback;
+  toHost.size = VK_WHOLE_SIZE;
+  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+  dep.bufferMemoryBarrierCount = 1;
+  dep.pBufferMemoryBarriers = &toHost;
+  vkCmdPipelineBarrier2(cmd, &dep);
+}
+
+// One frame in `frame`'s slot, submitted; with `readback`, the last one, which copies its image
+// there.
+void drawFrame(Host& host, Frame& frame, shrefract::Context& context, const FrameScene& s, VkBuffer readback) {
+  // Wait until the GPU is done with this slot's previous frame, then tell the engine: it releases
+  // what it retired kFramesInFlight frames ago (here: the upload's staging buffers).
+  check(vkWaitForFences(host.device, 1, &frame.fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+  context.beginFrame();
+  check(vkResetFences(host.device, 1, &frame.fence), "vkResetFences");
+  check(vkResetCommandBuffer(frame.cmd, 0), "vkResetCommandBuffer");
+  VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+  bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+  check(vkBeginCommandBuffer(frame.cmd, &bi), "vkBeginCommandBuffer");
+  VkCommandBuffer cmd = frame.cmd;
+
+  // (a) Decompression: a compute pass, so it must be recorded outside dynamic rendering. It
+  //     brings its own barriers (waits for last frame's fragment reads, hands the distortion
+  //     image to this frame's fragment shaders). Pass the eye the raster pass will use.
+  require(s.engine.decompressor->record(cmd, s.camera.eye, s.drawList), "Decompressor::record");
+  recordAttachmentBarriers(cmd, s);
+  recordDrawing(cmd, s);
+  if (readback) recordReadback(cmd, s, readback);
+  check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
+  VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+  si.commandBufferCount = 1;
+  si.pCommandBuffers = &cmd;
+  check(vkQueueSubmit(host.queue, 1, &si, frame.fence), "vkQueueSubmit");
+}
+
+// RGBA8 sRGB texels -> binary PPM (RGB).
+void writePpm(const Host& host, const Readback& readback, VkExtent2D extent, const std::string& path) {
+  void* mapped = nullptr;
+  check(vkMapMemory(host.device, readback.memory, 0, VK_WHOLE_SIZE, 0, &mapped), "vkMapMemory");
+  const auto* texels = static_cast<const uint8_t*>(mapped);
+  std::ofstream out(path, std::ios::binary);
+  out << "P6\n" << extent.width << " " << extent.height << "\n255\n";
+  for (size_t i = 0; i < size_t(extent.width) * extent.height; ++i) out.write(reinterpret_cast<const char*>(texels + 4 * i), 3);
+  vkUnmapMemory(host.device, readback.memory);
+  if (!out) throw Failure{path + ": cannot write"};
+}
+
+void run(const Options& options) {
+  Host host;
+  const VkExtent2D extent = options.extent;
+
+  // --- 1. The engine borrows the host's handles. ------------------------------------------------
+  std::unique_ptr<shrefract::Context> context = createContext(host);
 
   // --- 2. Host render targets: colour (copied out at the end) and depth, shared with the engine.
   Image color = host.createImage(extent, kColorFormat,
@@ -634,192 +865,44 @@ void run(const Options& options) {
                                  VK_IMAGE_ASPECT_COLOR_BIT);
   Image depth = host.createImage(extent, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
                                  VK_IMAGE_ASPECT_DEPTH_BIT);
-  VkBuffer readback = VK_NULL_HANDLE;
-  VkDeviceMemory readbackMemory = VK_NULL_HANDLE;
-  {
-    VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
-    bci.size = VkDeviceSize(extent.width) * extent.height * 4;
-    bci.usage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-    check(vkCreateBuffer(host.device, &bci, nullptr, &readback), "vkCreateBuffer");
-    VkMemoryRequirements req{};
-    vkGetBufferMemoryRequirements(host.device, readback, &req);
-    VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-    mai.allocationSize = req.size;
-    mai.memoryTypeIndex =
-        host.memoryType(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
-    check(vkAllocateMemory(host.device, &mai, nullptr, &readbackMemory), "vkAllocateMemory");
-    check(vkBindBufferMemory(host.device, readback, readbackMemory, 0), "vkBindBufferMemory");
-  }
+  const Readback readback = createReadback(host, extent);
   BoxPipeline boxes = createBoxPipeline(host.device);
 
   // --- 3. Engine resources, uploaded through a host command buffer. -----------------------------
-  // The create calls only record copies and barriers into `cmd`; the host decides when to submit.
-  // Staging buffers are retired through the context and released by later beginFrame() calls.
-  const shrefract::Field field =
-      options.fieldPath.empty() ? makeLensField() : take(shrefract::readField(options.fieldPath), "readField");
-  const uint32_t envWidth = 512, envHeight = 256;
-  const std::vector<float> envPixels = makeEnvironment(envWidth, envHeight);
-  std::unique_ptr<shrefract::Environment> environment;
-  std::unique_ptr<shrefract::Object> glass;
-  host.submitNow([&](VkCommandBuffer cmd) {
-    environment = take(shrefract::Environment::createLatLong(*context, {envWidth, envHeight, envPixels.data()}, cmd),
-                       "Environment::createLatLong");
-    glass = take(shrefract::Object::createFromField(*context, field, cmd), "Object::createFromField");
-  });
-  glass->shading.tint = {0.85f, 0.95f, 1.0f};  // a faint cyan glass
-  // A field from a file was baked at whatever scale it was modelled in (the bunny: a few
-  // centimetres, off the origin): place it where the host's camera looks, 1.6 units across. Only
-  // worldFromObject changes; the field is decoded for the eye in its own space.
-  if (!options.fieldPath.empty()) glass->worldFromObject = fitInto(*glass, 1.6f);
-
-  shrefract::RendererCreateInfo rci;
-  rci.colorFormat = kColorFormat;  // the engine's pipelines are built for the host's formats
-  rci.depthFormat = kDepthFormat;
-  std::unique_ptr<shrefract::Renderer> renderer = take(shrefract::Renderer::create(*context, rci), "Renderer::create");
-  std::unique_ptr<shrefract::Decompressor> decompressor =
-      take(shrefract::Decompressor::create(*context), "Decompressor::create");
-  // Optional: build the pipeline now rather than on the first record() (no hitch in frame 1).
-  require(decompressor->prepare(glass->fieldOrder()), "Decompressor::prepare");
+  EngineObjects engine = createEngineObjects(host, *context, options);
 
   // --- 4. The scene: camera, the host's boxes, the glass. ---------------------------------------
-  shrefract::Camera camera;
-  camera.eye = {0.0f, 0.0f, 4.0f};
-  camera.target = {0.0f, 0.0f, 0.0f};
-  camera.verticalFovDegrees = 45.0f;
-  camera.nearPlane = 0.05f;
-  camera.farPlane = 100.0f;
+  const shrefract::Camera camera = sceneCamera();
   const Mat4 clip = clipFromWorld(camera, extent);
   // Red box in front of the glass, overlapping its lower-left corner; green box behind it,
   // half behind the glass's right edge.
   const std::array<BoxPush, 2> boxList = {BoxPush{clip, {-0.75f, -0.55f, 1.2f, 0.35f}, {0.85f, 0.08f, 0.06f, 1.0f}},
                                           BoxPush{clip, {1.1f, 0.7f, -1.5f, 0.5f}, {0.08f, 0.75f, 0.12f, 1.0f}}};
-  const std::vector<shrefract::Object*> drawList = options.glass ? std::vector<shrefract::Object*>{glass.get()}
+  const std::vector<shrefract::Object*> drawList = options.glass ? std::vector<shrefract::Object*>{engine.glass.get()}
                                                                  : std::vector<shrefract::Object*>{};
+  const FrameScene scene{extent, color, depth, boxes, boxList, camera, drawList, engine};
 
   // --- 5. Frames. -------------------------------------------------------------------------------
-  for (uint32_t frameIndex = 0; frameIndex < options.frames; ++frameIndex) {
-    Frame& frame = host.frames[frameIndex % kFramesInFlight];
-    // Wait until the GPU is done with this slot's previous frame, then tell the engine: it releases
-    // what it retired kFramesInFlight frames ago (here: the upload's staging buffers).
-    check(vkWaitForFences(host.device, 1, &frame.fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
-    context->beginFrame();
-    check(vkResetFences(host.device, 1, &frame.fence), "vkResetFences");
-    check(vkResetCommandBuffer(frame.cmd, 0), "vkResetCommandBuffer");
-    VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
-    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-    check(vkBeginCommandBuffer(frame.cmd, &bi), "vkBeginCommandBuffer");
-    VkCommandBuffer cmd = frame.cmd;
-
-    // (a) Decompression: a compute pass, so it must be recorded outside dynamic rendering. It
-    //     brings its own barriers (waits for last frame's fragment reads, hands the distortion
-    //     image to this frame's fragment shaders). Pass the eye the raster pass will use.
-    require(decompressor->record(cmd, camera.eye, drawList), "Decompressor::record");
-
-    // (b) The host's targets become attachments (contents discarded: both are cleared). The source
-    //     stages order this frame's writes after the previous frame's (same targets, same queue).
-    imageBarrier(cmd, color.image, VK_IMAGE_ASPECT_COLOR_BIT,
-                 VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_NONE,
-                 VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
-                 VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
-    imageBarrier(cmd, depth.image, VK_IMAGE_ASPECT_DEPTH_BIT,
-                 VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-                 VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-                 VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-                 VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-                 VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
-
-    // (c) One dynamic rendering scope for everything: host opaque geometry first (it fills depth),
-    //     then the engine's background (drawn at the far plane, so only where nothing was drawn),
-    //     then the glass (depth-tested: hidden behind the red box, covering the green one).
-    VkRenderingAttachmentInfo colorAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-    colorAttachment.imageView = color.view;
-    colorAttachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-    colorAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    colorAttachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    VkRenderingAttachmentInfo depthAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-    depthAttachment.imageView = depth.view;
-    depthAttachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-    depthAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    depthAttachment.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-    depthAttachment.clearValue.depthStencil = {1.0f, 0};  // the engine expects LESS against 1.0
-    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-    ri.renderArea = {{0, 0}, extent};
-    ri.layerCount = 1;
-    ri.colorAttachmentCount = 1;
-    ri.pColorAttachments = &colorAttachment;
-    ri.pDepthAttachment = &depthAttachment;
-    vkCmdBeginRendering(cmd, &ri);
-    const VkViewport viewport{0.0f, 0.0f, float(extent.width), float(extent.height), 0.0f, 1.0f};
-    const VkRect2D scissor{{0, 0}, extent};
-    vkCmdSetViewport(cmd, 0, 1, &viewport);  // dynamic state the engine's pipelines use too
-    vkCmdSetScissor(cmd, 0, 1, &scissor);
-
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, boxes.pipeline);
-    for (const BoxPush& box : boxList) {
-      vkCmdPushConstants(cmd, boxes.layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
-                         sizeof(BoxPush), &box);
-      vkCmdDraw(cmd, 36, 1, 0, 0);
-    }
-    // The engine binds its own pipelines, descriptor sets and push constants; a host drawing after
-    // these calls must bind its own state again.
-    renderer->recordBackground(cmd, *environment, camera, extent);
-    renderer->recordObjects(cmd, *environment, camera, extent, drawList, shrefract::ShadingMode::Field);
-    vkCmdEndRendering(cmd);
-
-    // (d) Last frame: copy the colour target into the host-visible buffer.
-    if (frameIndex + 1 == options.frames) {
-      imageBarrier(cmd, color.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-                   VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT,
-                   VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
-      VkBufferImageCopy region{};
-      region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-      region.imageExtent = {extent.width, extent.height, 1};
-      vkCmdCopyImageToBuffer(cmd, color.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback, 1, &region);
-      VkBufferMemoryBarrier2 toHost{VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2};
-      toHost.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-      toHost.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-      toHost.dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT;
-      toHost.dstAccessMask = VK_ACCESS_2_HOST_READ_BIT;
-      toHost.srcQueueFamilyIndex = toHost.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-      toHost.buffer = readback;
-      toHost.size = VK_WHOLE_SIZE;
-      VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-      dep.bufferMemoryBarrierCount = 1;
-      dep.pBufferMemoryBarriers = &toHost;
-      vkCmdPipelineBarrier2(cmd, &dep);
-    }
-    check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
-    VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
-    si.commandBufferCount = 1;
-    si.pCommandBuffers = &cmd;
-    check(vkQueueSubmit(host.queue, 1, &si, frame.fence), "vkQueueSubmit");
-  }
+  for (uint32_t frameIndex = 0; frameIndex < options.frames; ++frameIndex)
+    drawFrame(host, host.frames[frameIndex % kFramesInFlight], *context, scene,
+              frameIndex + 1 == options.frames ? readback.buffer : VK_NULL_HANDLE);
   check(vkDeviceWaitIdle(host.device), "vkDeviceWaitIdle");
 
   // --- 6. The image: RGBA8 sRGB texels -> binary PPM (RGB). ------------------------------------
-  {
-    void* mapped = nullptr;
-    check(vkMapMemory(host.device, readbackMemory, 0, VK_WHOLE_SIZE, 0, &mapped), "vkMapMemory");
-    const auto* texels = static_cast<const uint8_t*>(mapped);
-    std::ofstream out(options.output, std::ios::binary);
-    out << "P6\n" << extent.width << " " << extent.height << "\n255\n";
-    for (size_t i = 0; i < size_t(extent.width) * extent.height; ++i) out.write(reinterpret_cast<const char*>(texels + 4 * i), 3);
-    vkUnmapMemory(host.device, readbackMemory);
-    if (!out) throw Failure{options.output + ": cannot write"};
-  }
+  writePpm(host, readback, extent, options.output);
 
   // --- 7. Teardown. The engine's destructors retire their Vulkan objects; with the device idle,
   //        releaseDeferred() frees them now. The context goes before the device it borrows.
-  glass.reset();
-  environment.reset();
-  decompressor.reset();
-  renderer.reset();
+  engine.glass.reset();
+  engine.environment.reset();
+  engine.decompressor.reset();
+  engine.renderer.reset();
   context->releaseDeferred();
   context.reset();
   vkDestroyPipeline(host.device, boxes.pipeline, nullptr);
   vkDestroyPipelineLayout(host.device, boxes.layout, nullptr);
-  vkDestroyBuffer(host.device, readback, nullptr);
-  vkFreeMemory(host.device, readbackMemory, nullptr);
+  vkDestroyBuffer(host.device, readback.buffer, nullptr);
+  vkFreeMemory(host.device, readback.memory, nullptr);
   host.destroy(color);
   host.destroy(depth);
 }

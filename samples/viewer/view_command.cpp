@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -52,12 +53,12 @@ int fail(const std::string& message, int code) {
   return code;
 }
 
-}  // namespace
+// The steps of viewCommand() return the exit code to stop with (its line already printed), or
+// nothing to go on.
+using Exit = std::optional<int>;
 
-int viewCommand(int argc, char** argv) {
-  // --env is repeatable, which Args does not support: take every occurrence out first.
-  std::vector<std::string> envSpecs;
-  std::vector<char*> rest;
+// --env is repeatable, which Args does not support: take every occurrence out first.
+Exit takeEnvFlags(int argc, char** argv, std::vector<std::string>& envSpecs, std::vector<char*>& rest) {
   for (int i = 0; i < argc; ++i) {
     const std::string a = argv[i];
     if (i >= 2 && a == "--env") {
@@ -69,29 +70,21 @@ int viewCommand(int argc, char** argv) {
       rest.push_back(argv[i]);
     }
   }
-  const std::vector<FlagSpec> kFlags = viewFlags();
-  auto parsed = Args::parse("view", static_cast<int>(rest.size()), rest.data(), 2, kFlags);
-  if (!parsed) return fail(parsed.error().message, 2);
-  const Args& args = parsed.value();
-  if (args.has("help")) {
-    std::printf("usage: shrefract view FIELD.shrf [FIELD2.shrf] | SCENE [flags]\n"
-                "  FIELD.shrf: a baked refraction field (SH and single-interface modes)\n"
-                "  SCENE: builtin:NAME or a .gltf/.glb file (single-interface shading only; --allow-open as in bake)\n"
-                "  The window title shows the frame time and the GPU decompression and raster times.\n%s%s",
-                usageLines(kFlags).c_str(), viewer::keyHelp());
-    return 0;
-  }
+  return std::nullopt;
+}
 
-  std::vector<std::string> inputs = args.positional();
-  if (auto second = args.get("field2")) inputs.push_back(*second);
-  if (inputs.empty() || inputs.size() > 2)
-    return fail("shrefract view: expected FIELD.shrf [FIELD2.shrf] (or --field2) or one SCENE", 2);
-  const bool scene = isSceneInput(inputs[0]);
-  if (scene && inputs.size() != 1)
-    return fail("shrefract view: a SCENE is shown alone (single-interface); a second field needs a first field", 2);
-  if (!scene && inputs.size() == 2 && isSceneInput(inputs[1]))
-    return fail("shrefract view: " + inputs[1] + " is a scene; only two fields can be shown together", 2);
+int printHelp(const std::vector<FlagSpec>& flags) {
+  std::printf("usage: shrefract view FIELD.shrf [FIELD2.shrf] | SCENE [flags]\n"
+              "  FIELD.shrf: a baked refraction field (SH and single-interface modes)\n"
+              "  SCENE: builtin:NAME or a .gltf/.glb file (single-interface shading only; --allow-open as in bake)\n"
+              "  The window title shows the frame time and the GPU decompression and raster times.\n%s%s",
+              usageLines(flags).c_str(), viewer::keyHelp());
+  return 0;
+}
 
+// The numeric flags, all checked (--ior and --tessellation too, which scenes read later) before
+// any is used.
+Exit readNumericFlags(const Args& args, viewer::ViewerOptions& options) {
   auto size = args.size("size");
   auto fov = args.number("fov");
   auto exposure = args.number("exposure");
@@ -112,7 +105,6 @@ int viewCommand(int argc, char** argv) {
                          device.ok() ? nullptr : &device.error()})
     if (e) return fail(e->message, 2);
 
-  viewer::ViewerOptions options;
   if (size.value()) {
     options.width = (*size.value())[0];
     options.height = (*size.value())[1];
@@ -129,6 +121,12 @@ int viewCommand(int argc, char** argv) {
     options.msaa = static_cast<VkSampleCountFlagBits>(n);  // 1, 2, 4, 8 are the flag bits
   }
   if (frames.value()) options.frames = static_cast<uint32_t>(*frames.value());
+  options.deviceIndex = device.value() ? static_cast<int>(*device.value()) : -1;
+  return std::nullopt;
+}
+
+// How the run goes: --no-vsync, --screenshot, --keys, --no-validation.
+Exit readRunFlags(const Args& args, viewer::ViewerOptions& options) {
   if (args.has("no-vsync")) options.vsync = false;
   if (auto shot = args.get("screenshot")) {
     if (!hasExtension(*shot, ".png") && !hasExtension(*shot, ".exr"))
@@ -142,42 +140,54 @@ int viewCommand(int argc, char** argv) {
     if (!viewer::actionForCharacter(static_cast<char>(std::tolower(static_cast<unsigned char>(c)))))
       return fail(std::string("shrefract view: --keys: '") + c + "' is not a key of the viewer (see --help)", 2);
   for (char& c : options.keys) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  options.deviceIndex = device.value() ? static_cast<int>(*device.value()) : -1;
   options.validation = !args.has("no-validation");
+  return std::nullopt;
+}
+
+// --mode, and the flags that apply to one kind of input only. `first` is the first input.
+Exit readShading(const Args& args, bool scene, const std::string& first, viewer::ViewerOptions& options) {
   const std::string mode = args.get("mode").value_or(scene ? "single-interface" : "field");
   if (mode != "field" && mode != "single-interface")
     return fail("shrefract view: unknown --mode '" + mode + "' (available: field, single-interface)", 2);
   if (scene && mode == "field")
-    return fail("shrefract view: " + inputs[0] + " has no refraction field; bake one first (shrefract bake " +
-                    inputs[0] + " -o FIELD.shrf) and view FIELD.shrf", 2);
+    return fail("shrefract view: " + first + " has no refraction field; bake one first (shrefract bake " +
+                    first + " -o FIELD.shrf) and view FIELD.shrf", 2);
   options.mode = mode == "field" ? ShadingMode::Field : ShadingMode::SingleInterface;
-  if (!scene && (ior.value() || tess.value() || args.has("allow-open")))
+  // The values were checked by readNumericFlags().
+  if (!scene && (args.number("ior").value() || args.integer("tessellation").value() || args.has("allow-open")))
     return fail("shrefract view: --ior, --tessellation and --allow-open apply to scenes only; a field's geometry and "
                 "media are baked", 2);
+  return std::nullopt;
+}
 
-  // Load everything from disk before opening a window, so that input errors come first.
-  if (scene) {
-    const SceneOverrides overrides = sceneOverridesFrom(args, false);
-    std::vector<std::string> warnings;
-    if (tess.value() && inputs[0].rfind("builtin:", 0) != 0)
-      return fail("shrefract view: --tessellation applies to built-in scenes only, not " + inputs[0], 2);
-    auto loaded = loadScene(inputs[0], overrides, &warnings);
-    // On failure the error alone: one line naming the file (the warnings led up to it).
-    if (!loaded) return fail(loaded.error().message, 1);
-    for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
-    options.scene = std::move(loaded).value();
-    options.sceneName = inputs[0];
-  } else {
-    for (const std::string& path : inputs) {
-      auto field = readField(path);
-      if (!field) return fail(field.error().message, 1);
-      options.fields.push_back(std::move(field).value());
-      options.fieldNames.push_back(path);
-    }
-    if (options.order && *options.order > options.fields[0].order)
-      return fail("shrefract view: --order " + std::to_string(*options.order) + " is above " + inputs[0] +
-                      "'s baked order " + std::to_string(options.fields[0].order), 2);
+Exit loadSceneInput(const Args& args, const std::string& input, viewer::ViewerOptions& options) {
+  const SceneOverrides overrides = sceneOverridesFrom(args, false);
+  std::vector<std::string> warnings;
+  if (args.integer("tessellation").value() && input.rfind("builtin:", 0) != 0)
+    return fail("shrefract view: --tessellation applies to built-in scenes only, not " + input, 2);
+  auto loaded = loadScene(input, overrides, &warnings);
+  // On failure the error alone: one line naming the file (the warnings led up to it).
+  if (!loaded) return fail(loaded.error().message, 1);
+  for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  options.scene = std::move(loaded).value();
+  options.sceneName = input;
+  return std::nullopt;
+}
+
+Exit loadFields(const std::vector<std::string>& inputs, viewer::ViewerOptions& options) {
+  for (const std::string& path : inputs) {
+    auto field = readField(path);
+    if (!field) return fail(field.error().message, 1);
+    options.fields.push_back(std::move(field).value());
+    options.fieldNames.push_back(path);
   }
+  if (options.order && *options.order > options.fields[0].order)
+    return fail("shrefract view: --order " + std::to_string(*options.order) + " is above " + inputs[0] +
+                    "'s baked order " + std::to_string(options.fields[0].order), 2);
+  return std::nullopt;
+}
+
+Exit loadEnvironments(std::vector<std::string> envSpecs, viewer::ViewerOptions& options) {
   // The first --env is shown first; the built-in environment is always one of the choices.
   if (std::find(envSpecs.begin(), envSpecs.end(), "builtin") == envSpecs.end()) envSpecs.push_back("builtin");
   for (const std::string& spec : envSpecs) {
@@ -186,6 +196,39 @@ int viewCommand(int argc, char** argv) {
     options.environments.push_back(std::move(image).value());
     options.environmentNames.push_back(spec);
   }
+  return std::nullopt;
+}
+
+}  // namespace
+
+int viewCommand(int argc, char** argv) {
+  std::vector<std::string> envSpecs;
+  std::vector<char*> rest;
+  if (auto exit = takeEnvFlags(argc, argv, envSpecs, rest)) return *exit;
+  const std::vector<FlagSpec> kFlags = viewFlags();
+  auto parsed = Args::parse("view", static_cast<int>(rest.size()), rest.data(), 2, kFlags);
+  if (!parsed) return fail(parsed.error().message, 2);
+  const Args& args = parsed.value();
+  if (args.has("help")) return printHelp(kFlags);
+
+  std::vector<std::string> inputs = args.positional();
+  if (auto second = args.get("field2")) inputs.push_back(*second);
+  if (inputs.empty() || inputs.size() > 2)
+    return fail("shrefract view: expected FIELD.shrf [FIELD2.shrf] (or --field2) or one SCENE", 2);
+  const bool scene = isSceneInput(inputs[0]);
+  if (scene && inputs.size() != 1)
+    return fail("shrefract view: a SCENE is shown alone (single-interface); a second field needs a first field", 2);
+  if (!scene && inputs.size() == 2 && isSceneInput(inputs[1]))
+    return fail("shrefract view: " + inputs[1] + " is a scene; only two fields can be shown together", 2);
+
+  viewer::ViewerOptions options;
+  if (auto exit = readNumericFlags(args, options)) return *exit;
+  if (auto exit = readRunFlags(args, options)) return *exit;
+  if (auto exit = readShading(args, scene, inputs[0], options)) return *exit;
+
+  // Load everything from disk before opening a window, so that input errors come first.
+  if (auto exit = scene ? loadSceneInput(args, inputs[0], options) : loadFields(inputs, options)) return *exit;
+  if (auto exit = loadEnvironments(envSpecs, options)) return *exit;
   return viewer::runViewer(options);
 }
 

@@ -313,21 +313,10 @@ struct FrameInputs {
   VkImage swapchainImage = VK_NULL_HANDLE;
 };
 
-// One frame: decompression (outside rendering), the engine's raster pass inside our dynamic
-// rendering, then the blit of the target to the swapchain image.
-Result<void> recordFrame(Host& h, FrameSlot& slot, const FrameInputs& in) {
-  VkCommandBuffer cmd = slot.cmd;
-  if (slot.queries) {
-    vkCmdResetQueryPool(cmd, slot.queries, 0, kTimestamps);
-    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_TOP_OF_PIPE_BIT, slot.queries, 0);
-  }
-  if (in.mode == ShadingMode::Field && h.decompressor)
-    if (auto r = h.decompressor->record(cmd, in.camera.eye, in.objects); !r) return r;
-  if (slot.queries) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, slot.queries, 1);
-
-  // The targets are cleared every frame (old contents discarded). The source stages order this
-  // frame's writes after the previous frame's blit read and attachment writes on the same queue.
-  // With MSAA the resolve target is written at the end of rendering, in the same stage.
+// The targets are cleared every frame (old contents discarded). The source stages order this
+// frame's writes after the previous frame's blit read and attachment writes on the same queue.
+// With MSAA the resolve target is written at the end of rendering, in the same stage.
+void recordTargetBarriers(const Host& h, VkCommandBuffer cmd) {
   for (const harness::Harness::Image* target : {&h.color, &h.resolve})
     if (target->image)
       imageBarrier(cmd, target->image, VK_IMAGE_ASPECT_COLOR_BIT,
@@ -340,8 +329,11 @@ Result<void> recordFrame(Host& h, FrameSlot& slot, const FrameInputs& in) {
                VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
                VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
                VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+}
 
-  if (slot.queries) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, slot.queries, 2);
+// The engine's raster pass inside our dynamic rendering, on the targets recordTargetBarriers()
+// made attachments.
+void recordRendering(const Host& h, VkCommandBuffer cmd, const FrameInputs& in) {
   VkRenderingAttachmentInfo colorAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
   colorAttachment.imageView = h.color.view;
   colorAttachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
@@ -373,14 +365,15 @@ Result<void> recordFrame(Host& h, FrameSlot& slot, const FrameInputs& in) {
   h.renderer->recordBackground(cmd, *in.environment, in.camera, h.targetExtent);
   h.renderer->recordObjects(cmd, *in.environment, in.camera, h.targetExtent, in.objects, in.mode);
   vkCmdEndRendering(cmd);
-  if (slot.queries) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, slot.queries, 3);
+}
 
-  // Target -> swapchain image. The swapchain image's first use waits on the acquire semaphore at
-  // the blit stage (see the submit), so its barrier starts from that stage.
+// Target -> swapchain image. The swapchain image's first use waits on the acquire semaphore at
+// the blit stage (see the submit), so its barrier starts from that stage.
+void recordBlitToSwapchain(const Host& h, VkCommandBuffer cmd, VkImage swapchainImage) {
   imageBarrier(cmd, h.shown().image, VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
                VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_TRANSFER_READ_BIT,
                VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
-  imageBarrier(cmd, in.swapchainImage, VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_NONE,
+  imageBarrier(cmd, swapchainImage, VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_NONE,
                VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
   const VkExtent2D dst = h.swapchain->extent();
@@ -390,23 +383,42 @@ Result<void> recordFrame(Host& h, FrameSlot& slot, const FrameInputs& in) {
   region.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
   region.dstOffsets[1] = {static_cast<int32_t>(dst.width), static_cast<int32_t>(dst.height), 1};
   const bool sameSize = dst.width == h.targetExtent.width && dst.height == h.targetExtent.height;
-  vkCmdBlitImage(cmd, h.shown().image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, in.swapchainImage,
+  vkCmdBlitImage(cmd, h.shown().image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, swapchainImage,
                  VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region,
                  !sameSize && h.linearBlit ? VK_FILTER_LINEAR : VK_FILTER_NEAREST);
   // Presentation needs no access mask: the present waits on the semaphore signalled after this.
-  imageBarrier(cmd, in.swapchainImage, VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_BLIT_BIT,
+  imageBarrier(cmd, swapchainImage, VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_BLIT_BIT,
                VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE,
                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR);
+}
+
+// One frame: decompression (outside rendering), the engine's raster pass inside our dynamic
+// rendering, then the blit of the target to the swapchain image.
+Result<void> recordFrame(Host& h, FrameSlot& slot, const FrameInputs& in) {
+  VkCommandBuffer cmd = slot.cmd;
+  if (slot.queries) {
+    vkCmdResetQueryPool(cmd, slot.queries, 0, kTimestamps);
+    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_TOP_OF_PIPE_BIT, slot.queries, 0);
+  }
+  if (in.mode == ShadingMode::Field && h.decompressor)
+    if (auto r = h.decompressor->record(cmd, in.camera.eye, in.objects); !r) return r;
+  if (slot.queries) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, slot.queries, 1);
+
+  recordTargetBarriers(h, cmd);
+
+  if (slot.queries) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, slot.queries, 2);
+  recordRendering(h, cmd, in);
+  if (slot.queries) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, slot.queries, 3);
+
+  recordBlitToSwapchain(h, cmd, in.swapchainImage);
   return {};
 }
 
-}  // namespace
+// The set-up steps before the frame loop return the exit code to stop with (its line already
+// printed), or nothing to go on: unlike the loop's failures, some of theirs exit with 2.
+using Exit = std::optional<int>;
 
-int runViewer(const ViewerOptions& options) {
-  if (options.environments.empty()) return fail("no environment");
-  Host h;
-
-  // --- window -------------------------------------------------------------------------------
+Exit openWindow(Host& h, const ViewerOptions& options) {
   glfwSetErrorCallback(onGlfwError);
   if (!glfwInit()) return fail("cannot open a window: " + gGlfwError);
   h.glfwReady = true;
@@ -417,8 +429,12 @@ int runViewer(const ViewerOptions& options) {
   h.window = glfwCreateWindow(static_cast<int>(options.width), static_cast<int>(options.height), "shrefract view",
                               nullptr, nullptr);
   if (!h.window) return fail("cannot create a window: " + gGlfwError);
+  return std::nullopt;
+}
 
-  // --- Vulkan: the harness creates instance and device with the surface and swapchain extensions
+// The session, and the checks of the flags that name the device: a device index or an MSAA count it
+// lacks exits with 2, as a usage error.
+Exit startVulkan(Host& h, const ViewerOptions& options) {
   harness::HarnessOptions ho;
   ho.enableValidation = options.validation;
   ho.deviceIndex = options.deviceIndex;
@@ -438,7 +454,6 @@ int runViewer(const ViewerOptions& options) {
   if (!session) return fail(session.error().message);
   h.session = std::move(session).value();
   harness::Harness& hr = *h.session->harness;
-  Context& context = *h.session->context;
   // An MSAA count the device lacks is the flag's fault, as in render: named before any target.
   const VkPhysicalDeviceLimits& limits = hr.properties().limits;
   if (!(limits.framebufferColorSampleCounts & limits.framebufferDepthSampleCounts & options.msaa)) {
@@ -446,87 +461,120 @@ int runViewer(const ViewerOptions& options) {
                  uint32_t(options.msaa), hr.deviceName().c_str(), uint32_t(options.msaa));
     return 2;
   }
+  return std::nullopt;
+}
 
-  VkResult vr = glfwCreateWindowSurface(hr.instance(), h.window, nullptr, &h.surface);
+// The window's surface and swapchain; `framebuffer` is set to the window size it was made for.
+Exit createSwapchain(Host& h, const ViewerOptions& options, VkExtent2D& framebuffer) {
+  harness::Harness& hr = *h.session->harness;
+  const VkResult vr = glfwCreateWindowSurface(hr.instance(), h.window, nullptr, &h.surface);
   if (vr != VK_SUCCESS) return fail("glfwCreateWindowSurface failed (VkResult " + std::to_string(vr) + "): " + gGlfwError);
   VkBool32 presentable = VK_FALSE;
   vkGetPhysicalDeviceSurfaceSupportKHR(hr.physicalDevice(), hr.queueFamily(), h.surface, &presentable);
   if (!presentable)
     return fail("the queue family of " + hr.deviceName() + " cannot present to this window");
   h.swapchain = std::make_unique<Swapchain>(hr.physicalDevice(), hr.device(), h.surface);
-  VkExtent2D swapchainFramebuffer = framebufferExtent(h.window);
-  if (auto r = h.swapchain->create(swapchainFramebuffer, options.vsync); !r) return fail(r.error().message);
+  framebuffer = framebufferExtent(h.window);
+  if (auto r = h.swapchain->create(framebuffer, options.vsync); !r) return fail(r.error().message);
   VkFormatProperties colorProps{};
   vkGetPhysicalDeviceFormatProperties(hr.physicalDevice(), kColorFormat, &colorProps);
   h.linearBlit = (colorProps.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT) != 0;
+  return std::nullopt;
+}
 
-  const bool timestamps = queueHasTimestamps(hr);
-  if (auto r = createFrameSlots(h, timestamps); !r) return fail(r.error().message);
-  // A screenshot is taken at the requested size; otherwise the target follows the window.
-  const bool fixedTarget = !options.screenshot.empty();
-  if (auto r = createTargets(h, fixedTarget ? VkExtent2D{options.width, options.height} : h.swapchain->extent(),
-                             options.msaa);
-      !r)
-    return fail(r.error().message);
-
-  // --- engine objects -----------------------------------------------------------------------
+// The environments and the renderer, created with `rci` (which the frame loop keeps: T rebuilds
+// the renderer from it).
+Exit createEnvironmentsAndRenderer(Host& h, const ViewerOptions& options, RendererCreateInfo& rci) {
   for (size_t i = 0; i < options.environments.size(); ++i) {
     auto env = offscreen::uploadEnvironment(*h.session, options.environments[i]);
     if (!env) return fail(options.environmentNames[i] + ": " + env.error().message);
     h.environments.push_back(std::move(env).value());
   }
-  RendererCreateInfo rci;
   rci.colorFormat = kColorFormat;
   rci.depthFormat = kDepthFormat;
   rci.exposure = options.exposure;
   rci.environmentTapsPerAxis = options.environmentTaps;
   rci.sampleCount = options.msaa;
-  auto renderer = Renderer::create(context, rci);
+  auto renderer = Renderer::create(*h.session->context, rci);
   if (!renderer) return fail(renderer.error().message);
   h.renderer = std::move(renderer).value();
+  return std::nullopt;
+}
 
-  ViewState state;
+// What is shown first, and the camera that frames it: the scene's objects, or the fields' state
+// (their engine objects are created by the frames, at the order shown) and the decompressor.
+Exit prepareContent(Host& h, const ViewerOptions& options, ViewState& state, Camera& initialCamera) {
   state.environmentTaps = options.environmentTaps;
   state.environmentCount = options.environments.size();
   state.absorption = options.absorption;
-  Camera initialCamera;
   if (options.scene) {
     auto uploaded = offscreen::uploadScene(*h.session, *options.scene);
     if (!uploaded) return fail(options.sceneName + ": " + uploaded.error().message);
     h.sceneObjects = std::move(uploaded).value();
     state.mode = ShadingMode::SingleInterface;
     initialCamera = offscreen::defaultCamera(*options.scene, options.verticalFovDegrees);
-  } else {
-    for (size_t i = 0; i < options.fields.size(); ++i)
-      state.fields.push_back({options.fieldNames[i], options.fields[i].order, toString(options.fields[i].settings.layout),
-                              encodingLabel(options.fields[i])});
-    state.order = std::min(options.order.value_or(options.fields[0].order), options.fields[0].order);
-    state.mode = options.mode;
-    h.fieldObjects.resize(options.fields.size());
-    h.fieldObjectOrders.assign(options.fields.size(), 0);
-    auto decompressor = Decompressor::create(context);
-    if (!decompressor) return fail(decompressor.error().message);
-    h.decompressor = std::move(decompressor).value();
-    // The pipeline now, so that the first frames time the work and not the shader compiler.
-    if (auto r = h.decompressor->prepare(state.order); !r) return fail(r.error().message);
-    std::array<float, 3> lo{}, hi{};
-    offscreen::meshBounds(options.fields[0].mesh, lo, hi);
-    initialCamera = offscreen::frameBounds(lo, hi, options.verticalFovDegrees);
+    return std::nullopt;
   }
+  for (size_t i = 0; i < options.fields.size(); ++i)
+    state.fields.push_back({options.fieldNames[i], options.fields[i].order, toString(options.fields[i].settings.layout),
+                            encodingLabel(options.fields[i])});
+  state.order = std::min(options.order.value_or(options.fields[0].order), options.fields[0].order);
+  state.mode = options.mode;
+  h.fieldObjects.resize(options.fields.size());
+  h.fieldObjectOrders.assign(options.fields.size(), 0);
+  auto decompressor = Decompressor::create(*h.session->context);
+  if (!decompressor) return fail(decompressor.error().message);
+  h.decompressor = std::move(decompressor).value();
+  // The pipeline now, so that the first frames time the work and not the shader compiler.
+  if (auto r = h.decompressor->prepare(state.order); !r) return fail(r.error().message);
+  std::array<float, 3> lo{}, hi{};
+  offscreen::meshBounds(options.fields[0].mesh, lo, hi);
+  initialCamera = offscreen::frameBounds(lo, hi, options.verticalFovDegrees);
+  return std::nullopt;
+}
 
-  OrbitCamera orbit(initialCamera);
-  Input input;
-  input.camera = &orbit;
-  glfwSetWindowUserPointer(h.window, &input);
-  glfwSetCharCallback(h.window, onChar);
-  glfwSetKeyCallback(h.window, onKey);
-  glfwSetCursorPosCallback(h.window, onCursor);
-  glfwSetScrollCallback(h.window, onScroll);
+const char* presentModeName(VkPresentModeKHR mode) {
+  return mode == VK_PRESENT_MODE_FIFO_KHR        ? "fifo"
+         : mode == VK_PRESENT_MODE_IMMEDIATE_KHR ? "immediate"
+         : mode == VK_PRESENT_MODE_MAILBOX_KHR   ? "mailbox"
+                                                 : "other";
+}
 
-  // --- frame loop ---------------------------------------------------------------------------
+// The frame loop and what it keeps from frame to frame: the view state the keys change, the
+// camera the mouse moves, the swapchain's size and the timings the title shows. Its failures are
+// errors that runViewer() prints (exit code 1).
+struct FrameLoop {
   using Clock = std::chrono::steady_clock;
-  auto titleTime = Clock::now();
-  auto lastFrame = Clock::now();
+
+  FrameLoop(Host& host, const ViewerOptions& viewerOptions, const RendererCreateInfo& rendererInfo,
+            const ViewState& initialState, const Camera& initialCamera, bool withTimestamps, bool fixed,
+            VkExtent2D framebuffer)
+      : h(host), options(viewerOptions), rci(rendererInfo), state(initialState), orbit(initialCamera),
+        timestamps(withTimestamps), fixedTarget(fixed), swapchainFramebuffer(framebuffer) {
+    input.camera = &orbit;
+    glfwSetWindowUserPointer(h.window, &input);
+    glfwSetCharCallback(h.window, onChar);
+    glfwSetKeyCallback(h.window, onKey);
+    glfwSetCursorPosCallback(h.window, onCursor);
+    glfwSetScrollCallback(h.window, onScroll);
+  }
+  FrameLoop(const FrameLoop&) = delete;  // the window's callbacks hold &input
+  FrameLoop& operator=(const FrameLoop&) = delete;
+
+  Result<void> run();
+  int finish();
+
+  Host& h;
+  const ViewerOptions& options;
+  RendererCreateInfo rci;
+  ViewState state;
+  OrbitCamera orbit;
+  Input input;
+  const bool timestamps;   // the frame slots have query pools
+  const bool fixedTarget;  // the target keeps the screenshot's size instead of following the window
+  VkExtent2D swapchainFramebuffer;  // the window size the swapchain was made for
+
+  Clock::time_point titleTime, lastFrame;
   double frameMsSum = 0.0;
   uint32_t frameMsCount = 0;
   double frameMs = -1.0, decompressionMs = -1.0, rasterMs = -1.0;
@@ -534,48 +582,29 @@ int runViewer(const ViewerOptions& options) {
   bool recreate = false;
   uint64_t frame = 0;
   size_t keyCursor = 0;
-  const double period = double(hr.properties().limits.timestampPeriod) * 1e-6;  // ticks -> ms
+  const double period = double(h.session->harness->properties().limits.timestampPeriod) * 1e-6;  // ticks -> ms
 
-  // GPU times of the frame last submitted from `slot`. Precondition: its fence has signalled.
-  auto readTimestamps = [&](FrameSlot& slot) {
-    if (!slot.queries || !slot.timestampsWritten) return;
-    std::array<uint64_t, kTimestamps> ticks{};
-    if (vkGetQueryPoolResults(hr.device(), slot.queries, 0, kTimestamps, sizeof(ticks), ticks.data(),
-                              sizeof(uint64_t), VK_QUERY_RESULT_64_BIT) != VK_SUCCESS)
-      return;
-    // Near zero while the eye stands still: the Decompressor leaves out objects whose distortion
-    // image already holds this eye's decompression.
-    decompressionMs = ticks[1] >= ticks[0] ? double(ticks[1] - ticks[0]) * period : 0.0;
-    rasterMs = ticks[3] >= ticks[2] ? double(ticks[3] - ticks[2]) * period : 0.0;
-  };
-  auto makeTitle = [&]() {
-    const bool decompressing = state.hasFields() && state.mode == ShadingMode::Field;
-    return title(state, options.environmentNames, frameMs, decompressing ? decompressionMs : -1.0,
-                 timestamps ? rasterMs : -1.0);
-  };
+ private:
+  void takeInput();
+  Result<void> applyCameraAndTaps();
+  Result<void> recreateSwapchainIfNeeded(VkExtent2D fb);
+  Result<std::optional<uint32_t>> acquireImage(FrameSlot& slot);
+  Result<FrameInputs> frameInputs(VkCommandBuffer cmd, uint32_t imageIndex);
+  Result<void> recordAndSubmit(FrameSlot& slot, uint32_t imageIndex);
+  Result<void> present(uint32_t imageIndex);
+  void readTimestamps(FrameSlot& slot);
+  std::string makeTitle() const;
+  void countFrameTime();
+};
 
+Result<void> FrameLoop::run() {
+  titleTime = Clock::now();
+  lastFrame = Clock::now();
   while (!glfwWindowShouldClose(h.window) && (options.frames == 0 || frame < options.frames)) {
     glfwPollEvents();
-    // --keys: character i acts at the start of frame i (once, even if the frame is retried).
-    if (keyCursor <= frame && keyCursor < options.keys.size())
-      if (auto action = actionForCharacter(options.keys[keyCursor++])) input.actions.push_back(*action);
-    for (Action a : input.actions) titleDirty = apply(state, a) || titleDirty;
-    input.actions.clear();
+    takeInput();
     if (state.quit) break;
-    if (state.resetCamera) {
-      orbit.reset();
-      state.resetCamera = false;
-    }
-    // T: the tap count is a specialization constant of the renderer's pipelines, so a new count is
-    // a new renderer; the frames in flight may still use the old one's pipelines (a key press is
-    // rare enough to wait for them).
-    if (state.environmentTaps != rci.environmentTapsPerAxis) {
-      vkDeviceWaitIdle(hr.device());
-      rci.environmentTapsPerAxis = state.environmentTaps;
-      auto rebuilt = Renderer::create(context, rci);
-      if (!rebuilt) return fail(rebuilt.error().message);
-      h.renderer = std::move(rebuilt).value();
-    }
+    if (auto r = applyCameraAndTaps(); !r) return r;
 
     // A minimized window has no area to present to: wait for it to come back.
     const VkExtent2D fb = framebufferExtent(h.window);
@@ -583,108 +612,194 @@ int runViewer(const ViewerOptions& options) {
       glfwWaitEvents();
       continue;
     }
-    // Re-create on a new window size (compared with the size it was made for: the surface may
-    // pick another extent) or when presentation reported the swapchain out of date.
-    if (recreate || fb.width != swapchainFramebuffer.width || fb.height != swapchainFramebuffer.height) {
-      vkDeviceWaitIdle(hr.device());
-      if (auto r = h.swapchain->create(fb, options.vsync); !r) return fail(r.error().message);
-      swapchainFramebuffer = fb;
-      if (!fixedTarget)
-        if (auto r = createTargets(h, h.swapchain->extent(), options.msaa); !r) return fail(r.error().message);
-      recreate = false;
-    }
+    if (auto r = recreateSwapchainIfNeeded(fb); !r) return r;
 
     FrameSlot& slot = h.slots[frame % kFramesInFlight];
-    vkWaitForFences(hr.device(), 1, &slot.fence, VK_TRUE, UINT64_MAX);
-    // The slot's previous frame is complete: its timestamps can be read and what the engine retired
-    // framesInFlight frames ago can be released.
-    readTimestamps(slot);
-    uint32_t imageIndex = 0;
-    vr = vkAcquireNextImageKHR(hr.device(), h.swapchain->handle(), UINT64_MAX, slot.acquired, VK_NULL_HANDLE,
-                               &imageIndex);
-    if (vr == VK_ERROR_OUT_OF_DATE_KHR) {
-      recreate = true;  // nothing was signalled; the slot's fence is still signalled
-      continue;
-    }
-    if (vr != VK_SUCCESS && vr != VK_SUBOPTIMAL_KHR) return fail(vkError("vkAcquireNextImageKHR", vr).message);
-    // Once per submitted frame, after its slot's fence: releases what the engine retired
-    // framesInFlight frames ago (replaced field objects, upload staging buffers).
-    context.beginFrame();
-
-    vkResetFences(hr.device(), 1, &slot.fence);
-    vkResetCommandBuffer(slot.cmd, 0);
-    VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
-    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-    vkBeginCommandBuffer(slot.cmd, &bi);
-
-    FrameInputs in;
-    in.environment = h.environments[state.environment].get();
-    in.camera = orbit.camera();
-    in.swapchainImage = h.swapchain->image(imageIndex);
-    in.mode = state.mode;
-    if (state.hasFields()) {
-      if (auto r = ensureFieldObject(h, options, state, slot.cmd); !r) return fail(r.error().message);
-      Object* shown = h.fieldObjects[state.field].get();
-      shown->shading.absorptionScale = state.absorption;
-      in.objects.push_back(shown);
-      if (auto r = ensureInstances(h, state, *shown, slot.cmd); !r) return fail(r.error().message);
-      for (auto& instance : h.instances) {
-        instance->shading = shown->shading;
-        in.objects.push_back(instance.get());
-      }
-    } else {
-      for (auto& o : h.sceneObjects) in.objects.push_back(o.get());
-    }
-    if (auto r = recordFrame(h, slot, in); !r) return fail(r.error().message);
-    if ((vr = vkEndCommandBuffer(slot.cmd)) != VK_SUCCESS) return fail(vkError("vkEndCommandBuffer", vr).message);
-
-    VkSemaphoreSubmitInfo wait{VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO};
-    wait.semaphore = slot.acquired;
-    wait.stageMask = VK_PIPELINE_STAGE_2_BLIT_BIT;  // the swapchain image is first touched by the blit
-    VkSemaphoreSubmitInfo signal{VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO};
-    signal.semaphore = h.swapchain->renderDone(imageIndex);
-    signal.stageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
-    VkCommandBufferSubmitInfo cbi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO};
-    cbi.commandBuffer = slot.cmd;
-    VkSubmitInfo2 si{VK_STRUCTURE_TYPE_SUBMIT_INFO_2};
-    si.waitSemaphoreInfoCount = 1;
-    si.pWaitSemaphoreInfos = &wait;
-    si.commandBufferInfoCount = 1;
-    si.pCommandBufferInfos = &cbi;
-    si.signalSemaphoreInfoCount = 1;
-    si.pSignalSemaphoreInfos = &signal;
-    if ((vr = vkQueueSubmit2(hr.queue(), 1, &si, slot.fence)) != VK_SUCCESS)
-      return fail(vkError("vkQueueSubmit2", vr).message);
-    slot.timestampsWritten = slot.queries != VK_NULL_HANDLE;
-
-    VkSemaphore renderDone = h.swapchain->renderDone(imageIndex);
-    VkSwapchainKHR swapchainHandle = h.swapchain->handle();
-    VkPresentInfoKHR pi{VK_STRUCTURE_TYPE_PRESENT_INFO_KHR};
-    pi.waitSemaphoreCount = 1;
-    pi.pWaitSemaphores = &renderDone;
-    pi.swapchainCount = 1;
-    pi.pSwapchains = &swapchainHandle;
-    pi.pImageIndices = &imageIndex;
-    vr = vkQueuePresentKHR(hr.queue(), &pi);
-    if (vr == VK_ERROR_OUT_OF_DATE_KHR || vr == VK_SUBOPTIMAL_KHR) recreate = true;
-    else if (vr != VK_SUCCESS) return fail(vkError("vkQueuePresentKHR", vr).message);
+    auto acquired = acquireImage(slot);
+    if (!acquired) return acquired.error();
+    if (!acquired.value()) continue;  // out of date: re-created at the top of the loop
+    const uint32_t imageIndex = *acquired.value();
+    if (auto r = recordAndSubmit(slot, imageIndex); !r) return r;
+    if (auto r = present(imageIndex); !r) return r;
     ++frame;
-
-    const auto now = Clock::now();
-    frameMsSum += std::chrono::duration<double, std::milli>(now - lastFrame).count();
-    ++frameMsCount;
-    lastFrame = now;
-    if (titleDirty || std::chrono::duration<double>(now - titleTime).count() >= kTitleIntervalSeconds) {
-      if (frameMsCount) frameMs = frameMsSum / frameMsCount;
-      frameMsSum = 0.0;
-      frameMsCount = 0;
-      titleTime = now;
-      titleDirty = false;
-      glfwSetWindowTitle(h.window, makeTitle().c_str());
-    }
+    countFrameTime();
   }
+  return {};
+}
 
-  // --- exit: read the last frame back, tear down, count validation messages -----------------
+void FrameLoop::takeInput() {
+  // --keys: character i acts at the start of frame i (once, even if the frame is retried).
+  if (keyCursor <= frame && keyCursor < options.keys.size())
+    if (auto action = actionForCharacter(options.keys[keyCursor++])) input.actions.push_back(*action);
+  for (Action a : input.actions) titleDirty = apply(state, a) || titleDirty;
+  input.actions.clear();
+}
+
+Result<void> FrameLoop::applyCameraAndTaps() {
+  if (state.resetCamera) {
+    orbit.reset();
+    state.resetCamera = false;
+  }
+  // T: the tap count is a specialization constant of the renderer's pipelines, so a new count is
+  // a new renderer; the frames in flight may still use the old one's pipelines (a key press is
+  // rare enough to wait for them).
+  if (state.environmentTaps != rci.environmentTapsPerAxis) {
+    vkDeviceWaitIdle(h.device());
+    rci.environmentTapsPerAxis = state.environmentTaps;
+    auto rebuilt = Renderer::create(*h.session->context, rci);
+    if (!rebuilt) return rebuilt.error();
+    h.renderer = std::move(rebuilt).value();
+  }
+  return {};
+}
+
+Result<void> FrameLoop::recreateSwapchainIfNeeded(VkExtent2D fb) {
+  // Re-create on a new window size (compared with the size it was made for: the surface may
+  // pick another extent) or when presentation reported the swapchain out of date.
+  if (recreate || fb.width != swapchainFramebuffer.width || fb.height != swapchainFramebuffer.height) {
+    vkDeviceWaitIdle(h.device());
+    if (auto r = h.swapchain->create(fb, options.vsync); !r) return r;
+    swapchainFramebuffer = fb;
+    if (!fixedTarget)
+      if (auto r = createTargets(h, h.swapchain->extent(), options.msaa); !r) return r;
+    recreate = false;
+  }
+  return {};
+}
+
+// Waits for the slot's previous frame, then acquires the image to draw: none when the swapchain
+// is out of date.
+Result<std::optional<uint32_t>> FrameLoop::acquireImage(FrameSlot& slot) {
+  vkWaitForFences(h.device(), 1, &slot.fence, VK_TRUE, UINT64_MAX);
+  // The slot's previous frame is complete: its timestamps can be read and what the engine retired
+  // framesInFlight frames ago can be released.
+  readTimestamps(slot);
+  uint32_t imageIndex = 0;
+  const VkResult vr = vkAcquireNextImageKHR(h.device(), h.swapchain->handle(), UINT64_MAX, slot.acquired,
+                                            VK_NULL_HANDLE, &imageIndex);
+  if (vr == VK_ERROR_OUT_OF_DATE_KHR) {
+    recreate = true;  // nothing was signalled; the slot's fence is still signalled
+    return std::optional<uint32_t>{};
+  }
+  if (vr != VK_SUCCESS && vr != VK_SUBOPTIMAL_KHR) return vkError("vkAcquireNextImageKHR", vr);
+  return std::optional<uint32_t>{imageIndex};
+}
+
+// What the frame draws. Creates the shown field object and its instances when the state changed
+// them, recording their uploads into `cmd`.
+Result<FrameInputs> FrameLoop::frameInputs(VkCommandBuffer cmd, uint32_t imageIndex) {
+  FrameInputs in;
+  in.environment = h.environments[state.environment].get();
+  in.camera = orbit.camera();
+  in.swapchainImage = h.swapchain->image(imageIndex);
+  in.mode = state.mode;
+  if (state.hasFields()) {
+    if (auto r = ensureFieldObject(h, options, state, cmd); !r) return r.error();
+    Object* shown = h.fieldObjects[state.field].get();
+    shown->shading.absorptionScale = state.absorption;
+    in.objects.push_back(shown);
+    if (auto r = ensureInstances(h, state, *shown, cmd); !r) return r.error();
+    for (auto& instance : h.instances) {
+      instance->shading = shown->shading;
+      in.objects.push_back(instance.get());
+    }
+  } else {
+    for (auto& o : h.sceneObjects) in.objects.push_back(o.get());
+  }
+  return in;
+}
+
+Result<void> FrameLoop::recordAndSubmit(FrameSlot& slot, uint32_t imageIndex) {
+  // Once per submitted frame, after its slot's fence: releases what the engine retired
+  // framesInFlight frames ago (replaced field objects, upload staging buffers).
+  h.session->context->beginFrame();
+
+  vkResetFences(h.device(), 1, &slot.fence);
+  vkResetCommandBuffer(slot.cmd, 0);
+  VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+  bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+  vkBeginCommandBuffer(slot.cmd, &bi);
+  auto in = frameInputs(slot.cmd, imageIndex);
+  if (!in) return in.error();
+  if (auto r = recordFrame(h, slot, in.value()); !r) return r;
+  VkResult vr = vkEndCommandBuffer(slot.cmd);
+  if (vr != VK_SUCCESS) return vkError("vkEndCommandBuffer", vr);
+
+  VkSemaphoreSubmitInfo wait{VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO};
+  wait.semaphore = slot.acquired;
+  wait.stageMask = VK_PIPELINE_STAGE_2_BLIT_BIT;  // the swapchain image is first touched by the blit
+  VkSemaphoreSubmitInfo signal{VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO};
+  signal.semaphore = h.swapchain->renderDone(imageIndex);
+  signal.stageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
+  VkCommandBufferSubmitInfo cbi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO};
+  cbi.commandBuffer = slot.cmd;
+  VkSubmitInfo2 si{VK_STRUCTURE_TYPE_SUBMIT_INFO_2};
+  si.waitSemaphoreInfoCount = 1;
+  si.pWaitSemaphoreInfos = &wait;
+  si.commandBufferInfoCount = 1;
+  si.pCommandBufferInfos = &cbi;
+  si.signalSemaphoreInfoCount = 1;
+  si.pSignalSemaphoreInfos = &signal;
+  if ((vr = vkQueueSubmit2(h.session->harness->queue(), 1, &si, slot.fence)) != VK_SUCCESS)
+    return vkError("vkQueueSubmit2", vr);
+  slot.timestampsWritten = slot.queries != VK_NULL_HANDLE;
+  return {};
+}
+
+Result<void> FrameLoop::present(uint32_t imageIndex) {
+  VkSemaphore renderDone = h.swapchain->renderDone(imageIndex);
+  VkSwapchainKHR swapchainHandle = h.swapchain->handle();
+  VkPresentInfoKHR pi{VK_STRUCTURE_TYPE_PRESENT_INFO_KHR};
+  pi.waitSemaphoreCount = 1;
+  pi.pWaitSemaphores = &renderDone;
+  pi.swapchainCount = 1;
+  pi.pSwapchains = &swapchainHandle;
+  pi.pImageIndices = &imageIndex;
+  const VkResult vr = vkQueuePresentKHR(h.session->harness->queue(), &pi);
+  if (vr == VK_ERROR_OUT_OF_DATE_KHR || vr == VK_SUBOPTIMAL_KHR) recreate = true;
+  else if (vr != VK_SUCCESS) return vkError("vkQueuePresentKHR", vr);
+  return {};
+}
+
+// GPU times of the frame last submitted from `slot`. Precondition: its fence has signalled.
+void FrameLoop::readTimestamps(FrameSlot& slot) {
+  if (!slot.queries || !slot.timestampsWritten) return;
+  std::array<uint64_t, kTimestamps> ticks{};
+  if (vkGetQueryPoolResults(h.device(), slot.queries, 0, kTimestamps, sizeof(ticks), ticks.data(),
+                            sizeof(uint64_t), VK_QUERY_RESULT_64_BIT) != VK_SUCCESS)
+    return;
+  // Near zero while the eye stands still: the Decompressor leaves out objects whose distortion
+  // image already holds this eye's decompression.
+  decompressionMs = ticks[1] >= ticks[0] ? double(ticks[1] - ticks[0]) * period : 0.0;
+  rasterMs = ticks[3] >= ticks[2] ? double(ticks[3] - ticks[2]) * period : 0.0;
+}
+
+std::string FrameLoop::makeTitle() const {
+  const bool decompressing = state.hasFields() && state.mode == ShadingMode::Field;
+  return title(state, options.environmentNames, frameMs, decompressing ? decompressionMs : -1.0,
+               timestamps ? rasterMs : -1.0);
+}
+
+// Adds the frame just presented to the frame time, and refreshes the title when a key changed the
+// state or the interval has passed.
+void FrameLoop::countFrameTime() {
+  const auto now = Clock::now();
+  frameMsSum += std::chrono::duration<double, std::milli>(now - lastFrame).count();
+  ++frameMsCount;
+  lastFrame = now;
+  if (titleDirty || std::chrono::duration<double>(now - titleTime).count() >= kTitleIntervalSeconds) {
+    if (frameMsCount) frameMs = frameMsSum / frameMsCount;
+    frameMsSum = 0.0;
+    frameMsCount = 0;
+    titleTime = now;
+    titleDirty = false;
+    glfwSetWindowTitle(h.window, makeTitle().c_str());
+  }
+}
+
+// Reads the last frame back, tears down, counts validation messages; returns the exit code.
+int FrameLoop::finish() {
+  harness::Harness& hr = *h.session->harness;
   vkDeviceWaitIdle(hr.device());
   if (frame > 0) readTimestamps(h.slots[(frame - 1) % kFramesInFlight]);
   if (frameMsCount) frameMs = frameMsSum / frameMsCount;
@@ -697,10 +812,7 @@ int runViewer(const ViewerOptions& options) {
     if (!pixels) return fail(pixels.error().message);
     shot = bake::Image{h.targetExtent.width, h.targetExtent.height, std::move(pixels).value()};
   }
-  const char* presentMode = h.swapchain->presentMode() == VK_PRESENT_MODE_FIFO_KHR        ? "fifo"
-                            : h.swapchain->presentMode() == VK_PRESENT_MODE_IMMEDIATE_KHR ? "immediate"
-                            : h.swapchain->presentMode() == VK_PRESENT_MODE_MAILBOX_KHR   ? "mailbox"
-                                                                                          : "other";
+  const char* presentMode = presentModeName(h.swapchain->presentMode());
   h.releaseGpuObjects();
   // Counted through the device's and instance's destruction too (leaks are reported only then).
   const std::string deviceName = hr.deviceName();
@@ -714,6 +826,43 @@ int runViewer(const ViewerOptions& options) {
               shot ? "; screenshot " : "", shot ? options.screenshot.c_str() : "");
   std::printf("last title: %s\n", lastTitle.c_str());  // the state and the last frame's timings
   return 0;
+}
+
+}  // namespace
+
+int runViewer(const ViewerOptions& options) {
+  if (options.environments.empty()) return fail("no environment");
+  Host h;
+
+  // --- window -------------------------------------------------------------------------------
+  if (auto exit = openWindow(h, options)) return *exit;
+
+  // --- Vulkan: the harness creates instance and device with the surface and swapchain extensions
+  if (auto exit = startVulkan(h, options)) return *exit;
+  VkExtent2D swapchainFramebuffer{};
+  if (auto exit = createSwapchain(h, options, swapchainFramebuffer)) return *exit;
+  const bool timestamps = queueHasTimestamps(*h.session->harness);
+  if (auto r = createFrameSlots(h, timestamps); !r) return fail(r.error().message);
+  // A screenshot is taken at the requested size; otherwise the target follows the window.
+  const bool fixedTarget = !options.screenshot.empty();
+  if (auto r = createTargets(h, fixedTarget ? VkExtent2D{options.width, options.height} : h.swapchain->extent(),
+                             options.msaa);
+      !r)
+    return fail(r.error().message);
+
+  // --- engine objects -----------------------------------------------------------------------
+  RendererCreateInfo rci;
+  if (auto exit = createEnvironmentsAndRenderer(h, options, rci)) return *exit;
+  ViewState state;
+  Camera initialCamera;
+  if (auto exit = prepareContent(h, options, state, initialCamera)) return *exit;
+
+  // --- frame loop ---------------------------------------------------------------------------
+  FrameLoop loop(h, options, rci, state, initialCamera, timestamps, fixedTarget, swapchainFramebuffer);
+  if (auto r = loop.run(); !r) return fail(r.error().message);
+
+  // --- exit: read the last frame back, tear down, count validation messages -----------------
+  return loop.finish();
 }
 
 }  // namespace shrefract::viewer
