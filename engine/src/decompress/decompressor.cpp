@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/barriers.h"
 #include "core/context_impl.h"
 #include "decompress/field_layouts.h"
 #include "engine_spirv.h"
@@ -254,35 +255,13 @@ FieldsToDecode fieldsToDecode(const DecompressorImpl& d, const std::array<float,
 }
 
 // One pipeline barrier over the distortion images of `fields` (those with gutters only, if
-// `gutteredOnly`), every one with the stages, accesses and layouts of `like`.
+// `gutteredOnly`).
 void recordImageBarriers(ContextImpl& c, VkCommandBuffer cmd, const std::vector<FieldResources*>& fields,
-                         bool gutteredOnly, const VkImageMemoryBarrier2& like) {
+                         bool gutteredOnly, const ImageTransition& t) {
   std::vector<VkImageMemoryBarrier2> barriers;
-  for (const FieldResources* f : fields) {
-    if (gutteredOnly && !f->gutterCount) continue;
-    VkImageMemoryBarrier2 b = like;
-    b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b.image = f->distortion.image;
-    b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-    barriers.push_back(b);
-  }
-  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-  dep.imageMemoryBarrierCount = static_cast<uint32_t>(barriers.size());
-  dep.pImageMemoryBarriers = barriers.data();
-  c.vk.vkCmdPipelineBarrier2(cmd, &dep);
-}
-
-VkImageMemoryBarrier2 imageBarrier(VkPipelineStageFlags2 srcStage, VkAccessFlags2 srcAccess,
-                                   VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess, VkImageLayout oldLayout,
-                                   VkImageLayout newLayout) {
-  VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
-  b.srcStageMask = srcStage;
-  b.srcAccessMask = srcAccess;
-  b.dstStageMask = dstStage;
-  b.dstAccessMask = dstAccess;
-  b.oldLayout = oldLayout;
-  b.newLayout = newLayout;
-  return b;
+  for (const FieldResources* f : fields)
+    if (!gutteredOnly || f->gutterCount) barriers.push_back(imageBarrier(f->distortion.image, t));
+  recordBarriers(c, cmd, barriers);
 }
 
 // One decompression dispatch per field, binding a pipeline only when it changes.
@@ -318,10 +297,10 @@ void recordGutterDispatches(DecompressorImpl& d, VkCommandBuffer cmd, const Fiel
   if (std::none_of(work.fields.begin(), work.fields.end(), [](const FieldResources* f) { return f->gutterCount; }))
     return;
   recordImageBarriers(c, cmd, work.fields, true,
-                      imageBarrier(VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                                   VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                                   VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                                   VK_IMAGE_LAYOUT_GENERAL, VK_IMAGE_LAYOUT_GENERAL));
+                      {VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_IMAGE_LAYOUT_GENERAL,
+                       VK_IMAGE_LAYOUT_GENERAL});
   c.vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, d.gutter);
   gpu::DecompressPushConstants push{};
   for (const FieldResources* f : work.fields) {
@@ -356,17 +335,17 @@ Result<void> recordFields(DecompressorImpl& d, VkCommandBuffer cmd, const std::a
   //    the images writable by the compute shader. Their contents are kept: only sample and gutter
   //    texels are rewritten, the empty ones keep the zero of createFromField's clear.
   recordImageBarriers(c, cmd, work.fields, false,
-                      imageBarrier(VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                                   0, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                                   VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_IMAGE_LAYOUT_GENERAL));
+                      {VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, 0,
+                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                       VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_IMAGE_LAYOUT_GENERAL});
   // 2. One dispatch per object; 3. gutter rules read what step 2 wrote.
   recordDecodeDispatches(d, cmd, work, pipelines, stats);
   recordGutterDispatches(d, cmd, work, stats);
   // 4. Hand the images to the raster pass.
   recordImageBarriers(c, cmd, work.fields, false,
-                      imageBarrier(VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                                   VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
-                                   VK_IMAGE_LAYOUT_GENERAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL));
+                      {VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+                       VK_IMAGE_LAYOUT_GENERAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL});
   for (size_t k = 0; k < work.fields.size(); ++k) {
     work.fields[k]->decoded = true;
     work.fields[k]->decodedEye = work.eyes[k];

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "core/barriers.h"
 #include "core/half.h"
 #include "environment/environment_impl.h"
 #include "environment/latlong.h"
@@ -29,53 +30,88 @@ Result<void> toHalf(const float* rgba, size_t texels, uint32_t width, const std:
   return {};
 }
 
-// Creates the RGBA16F image (layers == 6: cube) with its level chain, records the upload of `half`
-// (layer-major, level 0), the blits that fill levels 1.. (environmentLevelCount) and the transition
-// of every level to SHADER_READ_ONLY_OPTIMAL, and writes the descriptor set.
-Result<std::unique_ptr<Environment>> createEnvironment(ContextImpl& c, EnvironmentEncoding encoding, uint32_t width,
-                                                       uint32_t height, const std::vector<uint16_t>& half,
-                                                       VkCommandBuffer cmd,
-                                                       std::unique_ptr<Environment> (*wrap)(std::unique_ptr<EnvironmentImpl>)) {
-  const bool cube = encoding == EnvironmentEncoding::Cube;
-  const uint32_t layers = cube ? 6u : 1u;
-  auto impl = std::make_unique<EnvironmentImpl>();
-  impl->context = &c;
-  impl->encoding = encoding;
-  impl->width = width;
-  impl->height = height;
+// The RGBA16F image (layers == 6: cube) with room for its level chain.
+Result<ImageAllocation> createEnvironmentImage(ContextImpl& c, bool cube, uint32_t width, uint32_t height) {
   VkImageCreateInfo ici{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
   ici.flags = cube ? VkImageCreateFlags{VK_IMAGE_CREATE_CUBE_COMPATIBLE_BIT} : VkImageCreateFlags{0};
   ici.imageType = VK_IMAGE_TYPE_2D;
   ici.format = VK_FORMAT_R16G16B16A16_SFLOAT;
   ici.extent = {width, height, 1};
   ici.mipLevels = environmentLevelCount(width, height);
-  ici.arrayLayers = layers;
+  ici.arrayLayers = cube ? 6u : 1u;
   ici.samples = VK_SAMPLE_COUNT_1_BIT;
   ici.tiling = VK_IMAGE_TILING_OPTIMAL;
   // TRANSFER_SRC: each level is blitted from the one above (RGBA16F supports BLIT_SRC, BLIT_DST
   // and linear filtering with optimal tiling on every Vulkan device: a mandatory format).
   ici.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
-  auto image = c.createImage(ici, cube ? VK_IMAGE_VIEW_TYPE_CUBE : VK_IMAGE_VIEW_TYPE_2D, VK_IMAGE_ASPECT_COLOR_BIT);
-  if (!image) return image.error();
-  impl->image = image.value();
-  std::unique_ptr<Environment> env = wrap(std::move(impl));
-  EnvironmentImpl& e = EnvironmentAccess::impl(*env);
+  return c.createImage(ici, cube ? VK_IMAGE_VIEW_TYPE_CUBE : VK_IMAGE_VIEW_TYPE_2D, VK_IMAGE_ASPECT_COLOR_BIT);
+}
 
-  VkSampler sampler = c.environmentSampler;
-  if (cube) {
-    // Cube lookups are seamless; the address modes only matter at face edges, where Vulkan
-    // filters across faces regardless.
-    VkSamplerCreateInfo sci{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
-    sci.magFilter = VK_FILTER_LINEAR;
-    sci.minFilter = VK_FILTER_LINEAR;
-    sci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_LINEAR;  // the shaders pick fractional levels
-    sci.maxLod = VK_LOD_CLAMP_NONE;
-    sci.addressModeU = sci.addressModeV = sci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-    const VkResult r = c.vk.vkCreateSampler(c.device(), &sci, c.alloc(), &e.cubeSampler);
-    if (r != VK_SUCCESS) return vulkanError("vkCreateSampler", r);
-    sampler = e.cubeSampler;
+Result<VkSampler> createCubeSampler(ContextImpl& c) {
+  // Cube lookups are seamless; the address modes only matter at face edges, where Vulkan
+  // filters across faces regardless.
+  VkSamplerCreateInfo sci{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+  sci.magFilter = VK_FILTER_LINEAR;
+  sci.minFilter = VK_FILTER_LINEAR;
+  sci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_LINEAR;  // the shaders pick fractional levels
+  sci.maxLod = VK_LOD_CLAMP_NONE;
+  sci.addressModeU = sci.addressModeV = sci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  VkSampler sampler = VK_NULL_HANDLE;
+  const VkResult r = c.vk.vkCreateSampler(c.device(), &sci, c.alloc(), &sampler);
+  if (r != VK_SUCCESS) return vulkanError("vkCreateSampler", r);
+  return sampler;
+}
+
+// The level chain: level l is level l - 1 blitted with a linear filter to half its size, which is
+// the 2x2 box of its texels where the size is even (cpu_reference.h environmentLevels mirrors it).
+// A lat-long map's box never straddles the seam (even widths pair texels 2i, 2i + 1 of one side)
+// nor the poles (rows pair within a hemisphere); the sampler's repeat in u joins the seam when
+// sampling, at every level. Cube faces are filtered each on its own (one blit per level covers
+// the six layers); seamless cube sampling joins their edges. Each level is read as TRANSFER_SRC
+// once written, then all of them go to SHADER_READ_ONLY together (recordLevelsReadable).
+void recordLevelBlits(ContextImpl& c, VkCommandBuffer cmd, VkImage image, uint32_t width, uint32_t height,
+                      uint32_t levels, uint32_t layers) {
+  const ImageTransition toSrc{VK_PIPELINE_STAGE_2_COPY_BIT | VK_PIPELINE_STAGE_2_BLIT_BIT,
+                              VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                              VK_PIPELINE_STAGE_2_BLIT_BIT,
+                              VK_ACCESS_2_TRANSFER_READ_BIT,
+                              VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                              VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL};
+  for (uint32_t level = 1; level < levels; ++level) {
+    const VkImageMemoryBarrier2 b = imageBarrier(image, toSrc, level - 1, 1, layers);
+    recordBarriers(c, cmd, {&b, 1});
+    VkImageBlit blit{};
+    blit.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, level - 1, 0, layers};
+    blit.srcOffsets[1] = {int32_t(std::max(1u, width >> (level - 1))), int32_t(std::max(1u, height >> (level - 1))), 1};
+    blit.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, level, 0, layers};
+    blit.dstOffsets[1] = {int32_t(std::max(1u, width >> level)), int32_t(std::max(1u, height >> level)), 1};
+    c.vk.vkCmdBlitImage(cmd, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                        1, &blit, VK_FILTER_LINEAR);
   }
+}
 
+// Levels 0 .. levels - 2 are TRANSFER_SRC (read by a blit), the last is TRANSFER_DST (written by
+// the copy or the last blit): all of them to SHADER_READ_ONLY for the passes.
+void recordLevelsReadable(ContextImpl& c, VkCommandBuffer cmd, VkImage image, uint32_t levels, uint32_t layers) {
+  const VkPipelineStageFlags2 written = VK_PIPELINE_STAGE_2_COPY_BIT | VK_PIPELINE_STAGE_2_BLIT_BIT;
+  const VkPipelineStageFlags2 read = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  const VkImageMemoryBarrier2 toRead[2] = {
+      imageBarrier(image,
+                   {written, VK_ACCESS_2_TRANSFER_READ_BIT, read, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+                    VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
+                   0, levels - 1, layers),
+      imageBarrier(image,
+                   {written, VK_ACCESS_2_TRANSFER_WRITE_BIT, read, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+                    VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
+                   levels - 1, 1, layers)};
+  recordBarriers(c, cmd, levels > 1 ? std::span<const VkImageMemoryBarrier2>(toRead, 2)
+                                    : std::span<const VkImageMemoryBarrier2>(&toRead[1], 1));
+}
+
+// Records the upload of `half` (layer-major, level 0) through a staging buffer retired with the
+// frame, the blits that fill levels 1.. and the transition of every level to SHADER_READ_ONLY.
+Result<void> recordUploadAndLevels(ContextImpl& c, VkCommandBuffer cmd, VkImage image, uint32_t width,
+                                   uint32_t height, uint32_t layers, const std::vector<uint16_t>& half) {
   const VkDeviceSize bytes = half.size() * sizeof(uint16_t);
   auto staging = c.createBuffer(bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
   if (!staging) return staging.error();
@@ -83,72 +119,24 @@ Result<std::unique_ptr<Environment>> createEnvironment(ContextImpl& c, Environme
   std::memcpy(s.mapped, half.data(), bytes);
   c.retire([&c, s]() mutable { c.destroyBuffer(s); });
 
-  const uint32_t levels = ici.mipLevels;
-  VkImageMemoryBarrier2 toDst{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
-  toDst.srcStageMask = VK_PIPELINE_STAGE_2_NONE;
-  toDst.dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT | VK_PIPELINE_STAGE_2_BLIT_BIT;
-  toDst.dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  toDst.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-  toDst.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-  toDst.srcQueueFamilyIndex = toDst.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  toDst.image = e.image.image;
-  toDst.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, levels, 0, layers};
-  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-  dep.imageMemoryBarrierCount = 1;
-  dep.pImageMemoryBarriers = &toDst;
-  c.vk.vkCmdPipelineBarrier2(cmd, &dep);
-
+  const uint32_t levels = environmentLevelCount(width, height);
+  const VkImageMemoryBarrier2 toDst =
+      imageBarrier(image,
+                   {VK_PIPELINE_STAGE_2_NONE, 0, VK_PIPELINE_STAGE_2_COPY_BIT | VK_PIPELINE_STAGE_2_BLIT_BIT,
+                    VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL},
+                   0, levels, layers);
+  recordBarriers(c, cmd, {&toDst, 1});
   VkBufferImageCopy region{};
   region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, layers};
   region.imageExtent = {width, height, 1};
-  c.vk.vkCmdCopyBufferToImage(cmd, s.buffer, e.image.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+  c.vk.vkCmdCopyBufferToImage(cmd, s.buffer, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+  recordLevelBlits(c, cmd, image, width, height, levels, layers);
+  recordLevelsReadable(c, cmd, image, levels, layers);
+  return {};
+}
 
-  // The level chain: level l is level l - 1 blitted with a linear filter to half its size, which is
-  // the 2x2 box of its texels where the size is even (cpu_reference.h environmentLevels mirrors it).
-  // A lat-long map's box never straddles the seam (even widths pair texels 2i, 2i + 1 of one side)
-  // nor the poles (rows pair within a hemisphere); the sampler's repeat in u joins the seam when
-  // sampling, at every level. Cube faces are filtered each on its own (one blit per level covers
-  // the six layers); seamless cube sampling joins their edges. Each level is read as TRANSFER_SRC
-  // once written, then all of them go to SHADER_READ_ONLY together.
-  VkImageMemoryBarrier2 toSrc = toDst;
-  toSrc.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT | VK_PIPELINE_STAGE_2_BLIT_BIT;
-  toSrc.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  toSrc.dstStageMask = VK_PIPELINE_STAGE_2_BLIT_BIT;
-  toSrc.dstAccessMask = VK_ACCESS_2_TRANSFER_READ_BIT;
-  toSrc.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-  toSrc.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-  dep.pImageMemoryBarriers = &toSrc;
-  for (uint32_t level = 1; level < levels; ++level) {
-    toSrc.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, level - 1, 1, 0, layers};
-    c.vk.vkCmdPipelineBarrier2(cmd, &dep);
-    VkImageBlit blit{};
-    blit.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, level - 1, 0, layers};
-    blit.srcOffsets[1] = {int32_t(std::max(1u, width >> (level - 1))), int32_t(std::max(1u, height >> (level - 1))), 1};
-    blit.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, level, 0, layers};
-    blit.dstOffsets[1] = {int32_t(std::max(1u, width >> level)), int32_t(std::max(1u, height >> level)), 1};
-    c.vk.vkCmdBlitImage(cmd, e.image.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, e.image.image,
-                        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &blit, VK_FILTER_LINEAR);
-  }
-
-  // Levels 0 .. levels - 2 are TRANSFER_SRC (read by a blit), the last is TRANSFER_DST (written by
-  // the copy or the last blit).
-  VkImageMemoryBarrier2 toRead[2] = {toDst, toDst};
-  for (VkImageMemoryBarrier2& b : toRead) {
-    b.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT | VK_PIPELINE_STAGE_2_BLIT_BIT;
-    b.dstStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-    b.dstAccessMask = VK_ACCESS_2_SHADER_SAMPLED_READ_BIT;
-    b.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
-  }
-  toRead[0].srcAccessMask = VK_ACCESS_2_TRANSFER_READ_BIT;
-  toRead[0].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-  toRead[0].subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, levels - 1, 0, layers};
-  toRead[1].srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  toRead[1].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-  toRead[1].subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, levels - 1, 1, 0, layers};
-  dep.imageMemoryBarrierCount = levels > 1 ? 2 : 1;
-  dep.pImageMemoryBarriers = levels > 1 ? toRead : &toRead[1];
-  c.vk.vkCmdPipelineBarrier2(cmd, &dep);
-
+// The environment's descriptor set: its own pool and one combined image sampler.
+Result<void> writeEnvironmentSet(ContextImpl& c, EnvironmentImpl& e, VkSampler sampler) {
   VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1};
   VkDescriptorPoolCreateInfo dpci{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
   dpci.maxSets = 1;
@@ -170,6 +158,35 @@ Result<std::unique_ptr<Environment>> createEnvironment(ContextImpl& c, Environme
   w.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
   w.pImageInfo = &dii;
   c.vk.vkUpdateDescriptorSets(c.device(), 1, &w, 0, nullptr);
+  return {};
+}
+
+// Creates the RGBA16F image (layers == 6: cube) with its level chain, records the upload of `half`
+// (layer-major, level 0), the blits that fill levels 1.. (environmentLevelCount) and the transition
+// of every level to SHADER_READ_ONLY_OPTIMAL, and writes the descriptor set.
+Result<std::unique_ptr<Environment>> createEnvironment(ContextImpl& c, EnvironmentEncoding encoding, uint32_t width,
+                                                       uint32_t height, const std::vector<uint16_t>& half,
+                                                       VkCommandBuffer cmd,
+                                                       std::unique_ptr<Environment> (*wrap)(std::unique_ptr<EnvironmentImpl>)) {
+  const bool cube = encoding == EnvironmentEncoding::Cube;
+  auto impl = std::make_unique<EnvironmentImpl>();
+  impl->context = &c;
+  impl->encoding = encoding;
+  impl->width = width;
+  impl->height = height;
+  auto image = createEnvironmentImage(c, cube, width, height);
+  if (!image) return image.error();
+  impl->image = image.value();
+  std::unique_ptr<Environment> env = wrap(std::move(impl));
+  EnvironmentImpl& e = EnvironmentAccess::impl(*env);
+  VkSampler sampler = c.environmentSampler;
+  if (cube) {
+    auto cubeSampler = createCubeSampler(c);
+    if (!cubeSampler) return cubeSampler.error();
+    sampler = e.cubeSampler = cubeSampler.value();
+  }
+  if (auto r = recordUploadAndLevels(c, cmd, e.image.image, width, height, cube ? 6u : 1u, half); !r) return r.error();
+  if (auto r = writeEnvironmentSet(c, e, sampler); !r) return r.error();
   return env;
 }
 

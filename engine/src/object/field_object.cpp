@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "core/barriers.h"
 #include "core/context_impl.h"
 #include "decompress/field_layouts.h"
 #include "object/object_impl.h"
@@ -165,26 +166,12 @@ Result<ImageAllocation> createDistortionImage(ContextImpl& c, uint32_t width, ui
   return c.createImage(ici, VK_IMAGE_VIEW_TYPE_2D, VK_IMAGE_ASPECT_COLOR_BIT);
 }
 
-VkImageMemoryBarrier2 wholeImageBarrier(VkImage image) {
-  VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
-  b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.image = image;
-  b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-  return b;
-}
-
 // The new distortion image to TRANSFER_DST_OPTIMAL and cleared to zero.
 void recordClear(ContextImpl& c, VkCommandBuffer cmd, VkImage image) {
-  VkImageMemoryBarrier2 toDst = wholeImageBarrier(image);
-  toDst.srcStageMask = VK_PIPELINE_STAGE_2_NONE;
-  toDst.dstStageMask = VK_PIPELINE_STAGE_2_CLEAR_BIT;
-  toDst.dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  toDst.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-  toDst.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-  dep.imageMemoryBarrierCount = 1;
-  dep.pImageMemoryBarriers = &toDst;
-  c.vk.vkCmdPipelineBarrier2(cmd, &dep);
+  const VkImageMemoryBarrier2 toDst =
+      imageBarrier(image, {VK_PIPELINE_STAGE_2_NONE, 0, VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                           VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL});
+  recordBarriers(c, cmd, {&toDst, 1});
   const VkClearColorValue zero{};
   c.vk.vkCmdClearColorImage(cmd, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &zero, 1, &toDst.subresourceRange);
 }
@@ -193,13 +180,11 @@ void recordClear(ContextImpl& c, VkCommandBuffer cmd, VkImage image) {
 // fragment shaders (Object::createFromField's contract; for an instance there are no copies, and
 // the buffer part of the barrier costs nothing).
 void recordUploadsVisible(ContextImpl& c, VkCommandBuffer cmd, VkImage image) {
-  VkImageMemoryBarrier2 toRead = wholeImageBarrier(image);
-  toRead.srcStageMask = VK_PIPELINE_STAGE_2_CLEAR_BIT;
-  toRead.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  toRead.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
-  toRead.dstAccessMask = VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
-  toRead.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-  toRead.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+  const VkImageMemoryBarrier2 toRead = imageBarrier(
+      image, {VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+              VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+              VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT,
+              VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL});
   VkMemoryBarrier2 buffersToRead{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
   buffersToRead.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
   buffersToRead.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
@@ -208,12 +193,7 @@ void recordUploadsVisible(ContextImpl& c, VkCommandBuffer cmd, VkImage image) {
   // buffer (sampled read), scale/bias as a uniform buffer, frames and basis as storage buffers.
   buffersToRead.dstAccessMask =
       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_UNIFORM_READ_BIT;
-  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-  dep.imageMemoryBarrierCount = 1;
-  dep.pImageMemoryBarriers = &toRead;
-  dep.memoryBarrierCount = 1;
-  dep.pMemoryBarriers = &buffersToRead;
-  c.vk.vkCmdPipelineBarrier2(cmd, &dep);
+  recordBarriers(c, cmd, {&toRead, 1}, &buffersToRead);
 }
 
 // Allocates and writes the decompression set (every binding of createDecompressSetLayout) and the
