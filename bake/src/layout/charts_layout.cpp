@@ -494,7 +494,8 @@ struct GeneratedCharts {
   double projectedArea = 0.0;
 };
 
-GeneratedCharts generateCharts(const Scene& scene, const FrontMesh& front, const std::vector<EdgeUse>& uses) {
+// Per front triangle, the class (see project) of its dominant normal axis and sign.
+std::vector<uint32_t> axisClasses(const Scene& scene, const FrontMesh& front) {
   const uint32_t count = static_cast<uint32_t>(front.triangles.size());
   std::vector<uint32_t> axisClass(count);
   for (uint32_t t = 0; t < count; ++t) {
@@ -510,8 +511,13 @@ GeneratedCharts generateCharts(const Scene& scene, const FrontMesh& front, const
     if (std::abs(n.z) > std::abs(n[k])) k = 2;
     axisClass[t] = static_cast<uint32_t>(2 * k + (n[k] < 0.0f ? 1 : 0));
   }
-  // Adjacency over welded edges, within a class.
-  std::vector<std::vector<uint32_t>> adjacent(count);
+  return axisClass;
+}
+
+// Adjacency over welded edges, within a class.
+std::vector<std::vector<uint32_t>> classAdjacency(const std::vector<EdgeUse>& uses,
+                                                  const std::vector<uint32_t>& axisClass) {
+  std::vector<std::vector<uint32_t>> adjacent(axisClass.size());
   for (size_t k = 0; k < uses.size();) {
     size_t end = k + 1;
     while (end < uses.size() && uses[end].key == uses[k].key) ++end;
@@ -526,38 +532,55 @@ GeneratedCharts generateCharts(const Scene& scene, const FrontMesh& front, const
     }
     k = end;
   }
+  return adjacent;
+}
 
-  GeneratedCharts result;
-  result.chartOf.assign(count, kNoSample);
-  result.projected.resize(count);
+// Per front triangle, its corners projected on the plane of its class.
+std::vector<Tri2> projectOnClassPlanes(const Scene& scene, const FrontMesh& front,
+                                       const std::vector<uint32_t>& axisClass) {
+  const uint32_t count = static_cast<uint32_t>(front.triangles.size());
+  std::vector<Tri2> projected(count);
   for (uint32_t t = 0; t < count; ++t) {
     const FrontTriangle& tri = front.triangles[t];
     const Surface& surface = scene.surfaces[tri.surface];
-    for (int c = 0; c < 3; ++c) result.projected[t][c] = project(surface.positions[tri.vertex[c]], axisClass[t]);
+    for (int c = 0; c < 3; ++c) projected[t][c] = project(surface.positions[tri.vertex[c]], axisClass[t]);
   }
+  return projected;
+}
+
+// Connected components of `adjacent`, seeded in triangle order; chartOf gets each triangle's
+// component.
+std::vector<Chart> floodCharts(const std::vector<std::vector<uint32_t>>& adjacent, std::vector<uint32_t>& chartOf) {
+  const uint32_t count = static_cast<uint32_t>(adjacent.size());
+  chartOf.assign(count, kNoSample);
   std::vector<Chart> flooded;
   for (uint32_t seed = 0; seed < count; ++seed) {
-    if (result.chartOf[seed] != kNoSample) continue;
+    if (chartOf[seed] != kNoSample) continue;
     const uint32_t id = static_cast<uint32_t>(flooded.size());
     Chart chart;
-    result.chartOf[seed] = id;
+    chartOf[seed] = id;
     chart.triangles.push_back(seed);
     for (size_t head = 0; head < chart.triangles.size(); ++head) {
       for (uint32_t next : adjacent[chart.triangles[head]]) {
-        if (result.chartOf[next] == kNoSample) {
-          result.chartOf[next] = id;
+        if (chartOf[next] == kNoSample) {
+          chartOf[next] = id;
           chart.triangles.push_back(next);
         }
       }
     }
     flooded.push_back(std::move(chart));
   }
-  // A chart whose projection folds over itself (a spiral ramp, say) loses the overlapping
-  // triangles to charts of their own.
+  return flooded;
+}
+
+// A chart whose projection folds over itself (a spiral ramp, say) loses the overlapping
+// triangles to charts of their own.
+std::vector<Chart> splitFolds(std::vector<Chart> flooded, const std::vector<Tri2>& projected) {
+  std::vector<Chart> charts;
   std::vector<uint32_t> singles;
   for (Chart& chart : flooded) {
     std::vector<Tri2> tris;
-    for (uint32_t t : chart.triangles) tris.push_back(result.projected[t]);
+    for (uint32_t t : chart.triangles) tris.push_back(projected[t]);
     const std::vector<uint8_t> flags = overlapFlags(tris, 1e-6);
     std::vector<uint32_t> kept;
     for (size_t k = 0; k < chart.triangles.size(); ++k) {
@@ -565,11 +588,16 @@ GeneratedCharts generateCharts(const Scene& scene, const FrontMesh& front, const
     }
     if (!kept.empty()) {
       chart.triangles = std::move(kept);
-      result.charts.push_back(std::move(chart));
+      charts.push_back(std::move(chart));
     }
   }
   std::sort(singles.begin(), singles.end());
-  for (uint32_t t : singles) result.charts.push_back(Chart{{t}, {}, {}});
+  for (uint32_t t : singles) charts.push_back(Chart{{t}, {}, {}});
+  return charts;
+}
+
+// Numbers the final charts in chartOf and measures their bounds and the projected area.
+void measureCharts(GeneratedCharts& result) {
   for (uint32_t c = 0; c < result.charts.size(); ++c) {
     Chart& chart = result.charts[c];
     chart.lo = glm::dvec2(std::numeric_limits<double>::max());
@@ -583,6 +611,16 @@ GeneratedCharts generateCharts(const Scene& scene, const FrontMesh& front, const
       }
     }
   }
+}
+
+GeneratedCharts generateCharts(const Scene& scene, const FrontMesh& front, const std::vector<EdgeUse>& uses) {
+  const std::vector<uint32_t> axisClass = axisClasses(scene, front);
+  const std::vector<std::vector<uint32_t>> adjacent = classAdjacency(uses, axisClass);
+  GeneratedCharts result;
+  result.projected = projectOnClassPlanes(scene, front, axisClass);
+  std::vector<Chart> flooded = floodCharts(adjacent, result.chartOf);
+  result.charts = splitFolds(std::move(flooded), result.projected);
+  measureCharts(result);
   return result;
 }
 
@@ -660,70 +698,69 @@ Placement place(const GeneratedCharts& generated, const Packing& packing, double
   return placement;
 }
 
-}  // namespace
-
-Result<SampleAtlas> buildChartsLayout(const Scene& scene, const LayoutOptions& options) {
-  Result<FrontMesh> collected = layout_detail::collectFront(scene);
-  if (!collected) {
-    return collected.error();
-  }
-  const FrontMesh& front = collected.value();
-  Result<double> target = layout_detail::sampleTarget(options, front.area);
-  if (!target) {
-    return target.error();
-  }
-  const uint32_t maxSize = std::min(options.maxAtlasSize, layout_detail::kLargestAtlas);
-  const std::vector<EdgeUse> uses = layout_detail::sortedEdgeUses(front);
-
-  // Choose the placement: rasterize, compare the sample count with the target, rescale.
+// The chosen placement and the samples rasterized in it.
+struct Fitted {
   Placement placement;
   Raster raster;
-  std::vector<Tri2> uvs;
-  const bool useSceneUvs = sceneAtlas(scene, front, uvs);
-  if (useSceneUvs) {
-    placement.chartCount = uvCharts(front, uses, uvs, placement.chartOf);
-    double coverage = 0.0;
-    for (const Tri2& t : uvs) coverage += 0.5 * std::abs(signedArea2(t));
-    double side = std::sqrt(target.value() / coverage);
-    for (int round = 0; round < 6; ++round) {
-      const uint32_t size = static_cast<uint32_t>(std::clamp(std::round(side), 1.0, double(maxSize)));
-      placement.width = placement.height = size;
-      placement.corners = uvs;
-      for (Tri2& t : placement.corners) {
-        for (glm::dvec2& p : t) p *= double(size);
-      }
-      raster = rasterize(scene, front, placement);
-      const double ratio = target.value() / std::max<double>(1.0, double(raster.samples.size()));
-      if (std::abs(ratio - 1.0) <= kCountTolerance || (size == maxSize && ratio > 1.0)) break;
-      side = size * std::sqrt(ratio);
-    }
-  } else {
-    const GeneratedCharts generated = generateCharts(scene, front, uses);
-    double scale = std::sqrt(target.value() / std::max(generated.projectedArea, 1e-30));
-    for (int round = 0; round < 6; ++round) {
-      bool shrunk = false;
-      Packing packing = pack(generated, scale);
-      for (int fit = 0; std::max(packing.width, packing.height) > maxSize; ++fit) {
-        if (fit == 40) {
-          return makeError(ErrorCode::InvalidArgument,
-                           "charts layout: " + std::to_string(generated.charts.size()) +
-                               " charts do not fit in a " + std::to_string(maxSize) + " x " +
-                               std::to_string(maxSize) + " atlas");
-        }
-        scale *= 0.97 * maxSize / double(std::max(packing.width, packing.height));
-        packing = pack(generated, scale);
-        shrunk = true;
-      }
-      placement = place(generated, packing, scale);
-      raster = rasterize(scene, front, placement);
-      const double ratio = target.value() / std::max<double>(1.0, double(raster.samples.size()));
-      if (std::abs(ratio - 1.0) <= kCountTolerance || (shrunk && ratio > 1.0)) break;
-      scale *= std::sqrt(ratio);
-    }
-  }
-  const std::vector<double> assigned = fillGutters(front, placement, raster);
-  if (options.extendSmoothSeams) extendAcrossSmoothSeams(scene, front, placement, uses, assigned, raster);
+};
 
+// Choose the placement: rasterize, compare the sample count with the target, rescale. With the
+// scene's atlas only its resolution can change.
+Fitted fitSceneAtlas(const Scene& scene, const FrontMesh& front, const std::vector<EdgeUse>& uses,
+                     const std::vector<Tri2>& uvs, double target, uint32_t maxSize) {
+  Fitted fitted;
+  Placement& placement = fitted.placement;
+  placement.chartCount = uvCharts(front, uses, uvs, placement.chartOf);
+  double coverage = 0.0;
+  for (const Tri2& t : uvs) coverage += 0.5 * std::abs(signedArea2(t));
+  double side = std::sqrt(target / coverage);
+  for (int round = 0; round < 6; ++round) {
+    const uint32_t size = static_cast<uint32_t>(std::clamp(std::round(side), 1.0, double(maxSize)));
+    placement.width = placement.height = size;
+    placement.corners = uvs;
+    for (Tri2& t : placement.corners) {
+      for (glm::dvec2& p : t) p *= double(size);
+    }
+    fitted.raster = rasterize(scene, front, placement);
+    const double ratio = target / std::max<double>(1.0, double(fitted.raster.samples.size()));
+    if (std::abs(ratio - 1.0) <= kCountTolerance || (size == maxSize && ratio > 1.0)) break;
+    side = size * std::sqrt(ratio);
+  }
+  return fitted;
+}
+
+// As fitSceneAtlas, for generated charts: the scale changes, and shrinks until the packing fits
+// maxSize.
+Result<Fitted> fitGeneratedCharts(const Scene& scene, const FrontMesh& front, const std::vector<EdgeUse>& uses,
+                                  double target, uint32_t maxSize) {
+  Fitted fitted;
+  const GeneratedCharts generated = generateCharts(scene, front, uses);
+  double scale = std::sqrt(target / std::max(generated.projectedArea, 1e-30));
+  for (int round = 0; round < 6; ++round) {
+    bool shrunk = false;
+    Packing packing = pack(generated, scale);
+    for (int fit = 0; std::max(packing.width, packing.height) > maxSize; ++fit) {
+      if (fit == 40) {
+        return makeError(ErrorCode::InvalidArgument,
+                         "charts layout: " + std::to_string(generated.charts.size()) +
+                             " charts do not fit in a " + std::to_string(maxSize) + " x " +
+                             std::to_string(maxSize) + " atlas");
+      }
+      scale *= 0.97 * maxSize / double(std::max(packing.width, packing.height));
+      packing = pack(generated, scale);
+      shrunk = true;
+    }
+    fitted.placement = place(generated, packing, scale);
+    fitted.raster = rasterize(scene, front, fitted.placement);
+    const double ratio = target / std::max<double>(1.0, double(fitted.raster.samples.size()));
+    if (std::abs(ratio - 1.0) <= kCountTolerance || (shrunk && ratio > 1.0)) break;
+    scale *= std::sqrt(ratio);
+  }
+  return fitted;
+}
+
+// The atlas's size, texels and samples; takes the raster's samples.
+SampleAtlas atlasFromRaster(const Placement& placement, bool useSceneUvs, Raster& raster) {
   SampleAtlas atlas;
   atlas.width = placement.width;
   atlas.height = placement.height;
@@ -735,8 +772,11 @@ Result<SampleAtlas> buildChartsLayout(const Scene& scene, const LayoutOptions& o
     if (raster.texelSample[texel] != kNoSample) atlas.texelKinds[texel] = kTexelSample;
   }
   atlas.samples = std::move(raster.samples);
+  return atlas;
+}
 
-  // Neighbours: 4-neighbour texels of one chart that both hold their own sample.
+// Neighbours: 4-neighbour texels of one chart that both hold their own sample.
+void addChartNeighbours(const Raster& raster, SampleAtlas& atlas) {
   for (uint32_t y = 0; y < atlas.height; ++y) {
     for (uint32_t x = 0; x < atlas.width; ++x) {
       const uint32_t texel = y * atlas.width + x;
@@ -751,8 +791,13 @@ Result<SampleAtlas> buildChartsLayout(const Scene& scene, const LayoutOptions& o
     }
   }
   layout_detail::canonicalizePairs(atlas.neighbours);
+}
 
-  // Render mesh: vertices shared within a chart (the scene's atlas: as the scene indexes them).
+// Render mesh: vertices shared within a chart (the scene's atlas: as the scene indexes them).
+// Returns, per front triangle, the render vertex of each corner.
+std::vector<std::array<uint32_t, 3>> appendRenderMesh(const Scene& scene, const FrontMesh& front,
+                                                      const Placement& placement, bool useSceneUvs,
+                                                      SampleAtlas& atlas) {
   std::map<std::array<uint32_t, 3>, uint32_t> vertexIds;
   std::vector<std::array<uint32_t, 3>> cornerVertex(front.triangles.size());
   for (uint32_t t = 0; t < front.triangles.size(); ++t) {
@@ -776,8 +821,12 @@ Result<SampleAtlas> buildChartsLayout(const Scene& scene, const LayoutOptions& o
       atlas.mesh.indices.push_back(it->second);
     }
   }
+  return cornerVertex;
+}
 
-  // Seams: welded edges whose two triangles show them at different atlas positions.
+// Seams: welded edges whose two triangles show them at different atlas positions.
+void addSeams(const FrontMesh& front, const std::vector<EdgeUse>& uses,
+              const std::vector<std::array<uint32_t, 3>>& cornerVertex, SampleAtlas& atlas) {
   const auto uvOf = [&](const EdgeUse& use, uint32_t id) {
     const FrontTriangle& tri = front.triangles[use.triangle];
     const uint32_t c = tri.weld[use.edge] == id ? use.edge : (use.edge + 1) % 3;
@@ -795,6 +844,41 @@ Result<SampleAtlas> buildChartsLayout(const Scene& scene, const LayoutOptions& o
     }
     k = end;
   }
+}
+
+}  // namespace
+
+Result<SampleAtlas> buildChartsLayout(const Scene& scene, const LayoutOptions& options) {
+  Result<FrontMesh> collected = layout_detail::collectFront(scene);
+  if (!collected) {
+    return collected.error();
+  }
+  const FrontMesh& front = collected.value();
+  Result<double> target = layout_detail::sampleTarget(options, front.area);
+  if (!target) {
+    return target.error();
+  }
+  const uint32_t maxSize = std::min(options.maxAtlasSize, layout_detail::kLargestAtlas);
+  const std::vector<EdgeUse> uses = layout_detail::sortedEdgeUses(front);
+
+  std::vector<Tri2> uvs;
+  const bool useSceneUvs = sceneAtlas(scene, front, uvs);
+  Result<Fitted> fitted = useSceneUvs
+                              ? Result<Fitted>(fitSceneAtlas(scene, front, uses, uvs, target.value(), maxSize))
+                              : fitGeneratedCharts(scene, front, uses, target.value(), maxSize);
+  if (!fitted) {
+    return fitted.error();
+  }
+  const Placement& placement = fitted->placement;
+  Raster& raster = fitted->raster;
+  const std::vector<double> assigned = fillGutters(front, placement, raster);
+  if (options.extendSmoothSeams) extendAcrossSmoothSeams(scene, front, placement, uses, assigned, raster);
+
+  SampleAtlas atlas = atlasFromRaster(placement, useSceneUvs, raster);
+  addChartNeighbours(raster, atlas);
+  const std::vector<std::array<uint32_t, 3>> cornerVertex =
+      appendRenderMesh(scene, front, placement, useSceneUvs, atlas);
+  addSeams(front, uses, cornerVertex, atlas);
   return atlas;
 }
 

@@ -28,38 +28,44 @@ using layout_detail::FrontTriangle;
 
 // Unique samples at edge resolution n of a mesh with V welded vertices, E welded edges and F
 // triangles: every vertex once, n - 1 points per edge, (n-1)(n-2)/2 interior points per triangle.
-uint64_t splitSampleCount(uint64_t vertices, uint64_t edges, uint64_t triangles, uint64_t n) {
-  const uint64_t interior = n >= 2 ? (n - 1) * (n - 2) / 2 : 0;
-  return vertices + edges * (n - 1) + triangles * interior;
-}
+struct SampleCounts {
+  uint64_t vertices = 0, edges = 0, triangles = 0;
 
-}  // namespace
-
-Result<SampleAtlas> buildSplitLayout(const Scene& scene, const LayoutOptions& options) {
-  Result<FrontMesh> collected = layout_detail::collectFront(scene);
-  if (!collected) {
-    return collected.error();
+  uint64_t at(uint64_t n) const {
+    const uint64_t interior = n >= 2 ? (n - 1) * (n - 2) / 2 : 0;
+    return vertices + edges * (n - 1) + triangles * interior;
   }
-  const FrontMesh& front = collected.value();
-  Result<double> target = layout_detail::sampleTarget(options, front.area);
-  if (!target) {
-    return target.error();
-  }
+};
 
-  // Welded edges: uses of one edge are adjacent in `uses`; edge ids follow key order.
-  const std::vector<EdgeUse> uses = layout_detail::sortedEdgeUses(front);
-  std::vector<uint32_t> triangleEdge(front.triangles.size() * 3);
+// Welded edges: uses of one edge are adjacent in `uses`; edge ids follow key order.
+struct WeldedEdges {
+  std::vector<uint32_t> ofTriangleEdge;  // edge e of triangle t at 3t + e
+  uint32_t count = 0;
+};
+
+WeldedEdges numberWeldedEdges(const FrontMesh& front, const std::vector<EdgeUse>& uses) {
+  WeldedEdges edges;
+  edges.ofTriangleEdge.assign(front.triangles.size() * 3, 0);
   uint32_t edgeCount = 0;
   for (size_t k = 0; k < uses.size(); ++k) {
     if (k > 0 && uses[k].key != uses[k - 1].key) {
       ++edgeCount;
     }
-    triangleEdge[uses[k].triangle * 3 + uses[k].edge] = edgeCount;
+    edges.ofTriangleEdge[uses[k].triangle * 3 + uses[k].edge] = edgeCount;
   }
   ++edgeCount;
+  edges.count = edgeCount;
+  return edges;
+}
 
-  // Blocks in rows of `perRow`, as square as the triangle count allows.
-  const uint64_t triangles = front.triangles.size();
+// Blocks in rows of `perRow`, as square as the triangle count allows.
+struct BlockGrid {
+  uint64_t perRow = 0, rows = 0;
+  uint64_t maxN = 0;  // the largest edge resolution whose blocks fit maxAtlasSize
+};
+
+Result<BlockGrid> blockGrid(uint64_t triangles, const LayoutOptions& options) {
+  BlockGrid grid;
   uint64_t perRow = static_cast<uint64_t>(std::ceil(std::sqrt(static_cast<double>(triangles))));
   while (perRow * perRow < triangles) ++perRow;
   while (perRow > 1 && (perRow - 1) * (perRow - 1) >= triangles) --perRow;
@@ -73,156 +79,217 @@ Result<SampleAtlas> buildSplitLayout(const Scene& scene, const LayoutOptions& op
                          std::to_string(2 * blocksAcross) + " texels across, more than maxAtlasSize " +
                          std::to_string(maxSize));
   }
-  const uint64_t maxN = maxBlock - 1;
+  grid.perRow = perRow;
+  grid.rows = rows;
+  grid.maxN = maxBlock - 1;
+  return grid;
+}
 
-  const uint64_t vertexCount = front.weldPositions.size();
-  const auto count = [&](uint64_t n) { return splitSampleCount(vertexCount, edgeCount, triangles, n); };
-  uint64_t n = 0;
-  if (options.samplesPerUnitArea > 0.0f) {
-    // Density: the n whose count is nearest the target (the first on a tie).
-    n = 1;
-    while (n + 1 <= maxN && static_cast<double>(count(n)) < target.value()) {
-      const double below = target.value() - static_cast<double>(count(n));
-      const double above = static_cast<double>(count(n + 1)) - target.value();
-      if (above >= below) break;
-      ++n;
-    }
-  } else {
-    for (uint64_t m = 1; m <= maxN && static_cast<double>(count(m)) <= target.value(); ++m) {
-      n = m;
-    }
-    if (n == 0) {
-      return makeError(ErrorCode::InvalidArgument,
-                       "split layout: sample budget " + std::to_string(static_cast<uint64_t>(target.value())) +
-                           " is below the " + std::to_string(count(1)) +
-                           " samples of one per welded vertex (edge resolution 1); raise --samples");
-    }
+// Density: the n whose count is nearest the target (the first on a tie).
+uint64_t nearestEdgeResolution(const SampleCounts& counts, double target, uint64_t maxN) {
+  uint64_t n = 1;
+  while (n + 1 <= maxN && static_cast<double>(counts.at(n)) < target) {
+    const double below = target - static_cast<double>(counts.at(n));
+    const double above = static_cast<double>(counts.at(n + 1)) - target;
+    if (above >= below) break;
+    ++n;
   }
+  return n;
+}
 
-  const uint32_t n32 = static_cast<uint32_t>(n);
+// Budget: the largest n whose count stays within it.
+Result<uint64_t> budgetEdgeResolution(const SampleCounts& counts, double target, uint64_t maxN) {
+  uint64_t n = 0;
+  for (uint64_t m = 1; m <= maxN && static_cast<double>(counts.at(m)) <= target; ++m) {
+    n = m;
+  }
+  if (n == 0) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "split layout: sample budget " + std::to_string(static_cast<uint64_t>(target)) +
+                         " is below the " + std::to_string(counts.at(1)) +
+                         " samples of one per welded vertex (edge resolution 1); raise --samples");
+  }
+  return n;
+}
+
+Result<uint64_t> chooseEdgeResolution(const LayoutOptions& options, const SampleCounts& counts, double target,
+                                      uint64_t maxN) {
+  if (options.samplesPerUnitArea > 0.0f) {
+    return nearestEdgeResolution(counts, target, maxN);
+  }
+  return budgetEdgeResolution(counts, target, maxN);
+}
+
+// An atlas of `perRow` x `rows` empty blocks of side n + 1.
+SampleAtlas emptyAtlas(uint32_t n32, const BlockGrid& grid, uint64_t sampleCount) {
   const uint32_t block = n32 + 1;
   SampleAtlas atlas;
   atlas.edgeResolution = n32;
-  atlas.width = static_cast<uint32_t>(perRow) * block;
-  atlas.height = static_cast<uint32_t>(rows) * block;
+  atlas.width = static_cast<uint32_t>(grid.perRow) * block;
+  atlas.height = static_cast<uint32_t>(grid.rows) * block;
   const size_t texelCount = size_t(atlas.width) * atlas.height;
   atlas.texelKinds.assign(texelCount, kTexelEmpty);
   atlas.texelSample.assign(texelCount, kNoSample);
-  atlas.samples.reserve(count(n));
+  atlas.samples.reserve(sampleCount);
+  return atlas;
+}
 
-  std::vector<uint32_t> vertexSample(vertexCount, kNoSample);
-  std::vector<uint32_t> edgeSample(size_t(edgeCount) * (n32 - 1), kNoSample);
-  const float nf = static_cast<float>(n32);
-  const double width = atlas.width, height = atlas.height;
+// Fills the atlas one triangle block at a time. The samples of welded vertices and edges are
+// remembered across blocks so that every triangle showing one of them reuses the same sample.
+class BlockWriter {
+ public:
+  BlockWriter(const Scene& scene, const FrontMesh& front, const WeldedEdges& edges, uint32_t n32, uint32_t perRow,
+              SampleAtlas& atlas)
+      : scene_(scene),
+        front_(front),
+        triangleEdge_(edges.ofTriangleEdge),
+        n32_(n32),
+        block_(n32 + 1),
+        perRow_(perRow),
+        atlas_(atlas),
+        vertexSample_(front.weldPositions.size(), kNoSample),
+        edgeSample_(size_t(edges.count) * (n32 - 1), kNoSample),
+        nf_(static_cast<float>(n32)),
+        width_(atlas.width),
+        height_(atlas.height) {}
 
-  for (uint32_t t = 0; t < front.triangles.size(); ++t) {
-    const FrontTriangle& tri = front.triangles[t];
-    const Surface& surface = scene.surfaces[tri.surface];
-    const uint32_t bx = (t % static_cast<uint32_t>(perRow)) * block;
-    const uint32_t by = (t / static_cast<uint32_t>(perRow)) * block;
-    const auto texel = [&](uint32_t i, uint32_t j) { return (by + j) * atlas.width + bx + i; };
-
-    const std::array<glm::vec3, 3> p = {front.weldPositions[tri.weld[0]], front.weldPositions[tri.weld[1]],
-                                        front.weldPositions[tri.weld[2]]};
-    const std::array<glm::vec3, 3> nv = {front.weldNormals[tri.weld[0]], front.weldNormals[tri.weld[1]],
-                                         front.weldNormals[tri.weld[2]]};
+  void write(uint32_t t) {
+    const FrontTriangle& tri = front_.triangles[t];
+    const std::array<glm::vec3, 3> p = {front_.weldPositions[tri.weld[0]], front_.weldPositions[tri.weld[1]],
+                                        front_.weldPositions[tri.weld[2]]};
+    const std::array<glm::vec3, 3> nv = {front_.weldNormals[tri.weld[0]], front_.weldNormals[tri.weld[1]],
+                                         front_.weldNormals[tri.weld[2]]};
     const glm::vec3 geometric = layout_detail::triangleNormal(
         p[0], p[1], p[2], layout_detail::normalizeOr(nv[0] + nv[1] + nv[2], nv[0]));
-    const auto addSample = [&](glm::vec3 position, glm::vec3 normal) {
-      SurfacePoint point;
-      point.position = position;
-      point.shadingNormal = layout_detail::normalizeOr(normal, geometric);
-      point.geometricNormal = geometric;  // of the first triangle that shows the point
-      point.surface = tri.surface;
-      point.triangle = tri.triangle;
-      atlas.samples.push_back(point);
-      return static_cast<uint32_t>(atlas.samples.size() - 1);
-    };
-    const auto cornerSample = [&](uint32_t c) {
-      uint32_t& s = vertexSample[tri.weld[c]];
-      if (s == kNoSample) s = addSample(p[c], nv[c]);
-      return s;
-    };
-    // k-th of n points along edge e (corner e toward corner (e+1)%3). The point is keyed from the
-    // lower welded id, and computed from the key, so both triangles of the edge get the same one.
-    const auto edgeSampleAt = [&](uint32_t e, uint32_t k) {
-      const uint32_t a = tri.weld[e], b = tri.weld[(e + 1) % 3];
-      const bool forward = a <= b;
-      const uint32_t lo = forward ? a : b, hi = forward ? b : a;
-      const uint32_t kk = forward ? k : n32 - k;
-      uint32_t& s = edgeSample[size_t(triangleEdge[t * 3 + e]) * (n32 - 1) + (kk - 1)];
-      if (s == kNoSample) {
-        const float w = static_cast<float>(kk) / nf;
-        const glm::vec3 plo = front.weldPositions[lo], phi = front.weldPositions[hi];
-        const glm::vec3 nlo = front.weldNormals[lo], nhi = front.weldNormals[hi];
-        s = addSample(plo + (phi - plo) * w, nlo + (nhi - nlo) * w);
-      }
-      return s;
-    };
+    const Block b{t, tri, (t % perRow_) * block_, (t / perRow_) * block_, p, nv, geometric};
+    writeTexels(b);
+    addLatticeNeighbours(b);
+    appendRenderTriangle(b);
+  }
 
-    for (uint32_t j = 0; j <= n32; ++j) {
-      for (uint32_t i = 0; i <= n32; ++i) {
+ private:
+  struct Block {
+    uint32_t t;
+    const FrontTriangle& tri;
+    uint32_t bx, by;  // texel of lattice point (0, 0)
+    std::array<glm::vec3, 3> p, nv;
+    glm::vec3 geometric;
+  };
+
+  uint32_t texel(const Block& b, uint32_t i, uint32_t j) const { return (b.by + j) * atlas_.width + b.bx + i; }
+
+  uint32_t addSample(const Block& b, glm::vec3 position, glm::vec3 normal) {
+    SurfacePoint point;
+    point.position = position;
+    point.shadingNormal = layout_detail::normalizeOr(normal, b.geometric);
+    point.geometricNormal = b.geometric;  // of the first triangle that shows the point
+    point.surface = b.tri.surface;
+    point.triangle = b.tri.triangle;
+    atlas_.samples.push_back(point);
+    return static_cast<uint32_t>(atlas_.samples.size() - 1);
+  }
+
+  uint32_t cornerSample(const Block& b, uint32_t c) {
+    uint32_t& s = vertexSample_[b.tri.weld[c]];
+    if (s == kNoSample) s = addSample(b, b.p[c], b.nv[c]);
+    return s;
+  }
+
+  // k-th of n points along edge e (corner e toward corner (e+1)%3). The point is keyed from the
+  // lower welded id, and computed from the key, so both triangles of the edge get the same one.
+  uint32_t edgeSampleAt(const Block& b, uint32_t e, uint32_t k) {
+    const uint32_t from = b.tri.weld[e], to = b.tri.weld[(e + 1) % 3];
+    const bool forward = from <= to;
+    const uint32_t lo = forward ? from : to, hi = forward ? to : from;
+    const uint32_t kk = forward ? k : n32_ - k;
+    uint32_t& s = edgeSample_[size_t(triangleEdge_[b.t * 3 + e]) * (n32_ - 1) + (kk - 1)];
+    if (s == kNoSample) {
+      const float w = static_cast<float>(kk) / nf_;
+      const glm::vec3 plo = front_.weldPositions[lo], phi = front_.weldPositions[hi];
+      const glm::vec3 nlo = front_.weldNormals[lo], nhi = front_.weldNormals[hi];
+      s = addSample(b, plo + (phi - plo) * w, nlo + (nhi - nlo) * w);
+    }
+    return s;
+  }
+
+  // Sample of lattice point (i, j), i + j <= n.
+  uint32_t latticeSample(const Block& b, uint32_t i, uint32_t j) {
+    if (i == 0 && j == 0) return cornerSample(b, 0);
+    if (i == n32_ && j == 0) return cornerSample(b, 1);
+    if (i == 0 && j == n32_) return cornerSample(b, 2);
+    if (j == 0) return edgeSampleAt(b, 0, i);         // corner 0 -> corner 1
+    if (i + j == n32_) return edgeSampleAt(b, 1, j);  // corner 1 -> corner 2
+    if (i == 0) return edgeSampleAt(b, 2, n32_ - j);  // corner 2 -> corner 0
+    const float u = static_cast<float>(i) / nf_, v = static_cast<float>(j) / nf_;
+    const std::array<glm::vec3, 3>& p = b.p;
+    const std::array<glm::vec3, 3>& nv = b.nv;
+    return addSample(b, p[0] + (p[1] - p[0]) * u + (p[2] - p[0]) * v,
+                     nv[0] + (nv[1] - nv[0]) * u + (nv[2] - nv[0]) * v);
+  }
+
+  void writeTexels(const Block& b) {
+    for (uint32_t j = 0; j <= n32_; ++j) {
+      for (uint32_t i = 0; i <= n32_; ++i) {
         const uint32_t sum = i + j;
-        const uint32_t here = texel(i, j);
-        if (sum > n32 + 1) {
+        const uint32_t here = texel(b, i, j);
+        if (sum > n32_ + 1) {
           continue;  // never read: filtering inside the triangle stays within i + j <= n + 1
         }
-        if (sum == n32 + 1) {
-          atlas.texelKinds[here] = kTexelGutter;
-          atlas.gutters.push_back({here, texel(i - 1, j), texel(i, j - 1), texel(i - 1, j - 1)});
+        if (sum == n32_ + 1) {
+          atlas_.texelKinds[here] = kTexelGutter;
+          atlas_.gutters.push_back({here, texel(b, i - 1, j), texel(b, i, j - 1), texel(b, i - 1, j - 1)});
           continue;
         }
-        uint32_t s = kNoSample;
-        if (i == 0 && j == 0) {
-          s = cornerSample(0);
-        } else if (i == n32 && j == 0) {
-          s = cornerSample(1);
-        } else if (i == 0 && j == n32) {
-          s = cornerSample(2);
-        } else if (j == 0) {
-          s = edgeSampleAt(0, i);  // corner 0 -> corner 1
-        } else if (sum == n32) {
-          s = edgeSampleAt(1, j);  // corner 1 -> corner 2
-        } else if (i == 0) {
-          s = edgeSampleAt(2, n32 - j);  // corner 2 -> corner 0
-        } else {
-          const float u = static_cast<float>(i) / nf, v = static_cast<float>(j) / nf;
-          s = addSample(p[0] + (p[1] - p[0]) * u + (p[2] - p[0]) * v,
-                        nv[0] + (nv[1] - nv[0]) * u + (nv[2] - nv[0]) * v);
-        }
-        atlas.texelKinds[here] = kTexelSample;
-        atlas.texelSample[here] = s;
+        const uint32_t s = latticeSample(b, i, j);
+        atlas_.texelKinds[here] = kTexelSample;
+        atlas_.texelSample[here] = s;
       }
-    }
-
-    // Lattice edges of the triangle's samples: right, up and the anti-diagonal between them.
-    for (uint32_t j = 0; j < n32; ++j) {
-      for (uint32_t i = 0; i + j < n32; ++i) {
-        const uint32_t here = atlas.texelSample[texel(i, j)];
-        const uint32_t right = atlas.texelSample[texel(i + 1, j)];
-        const uint32_t up = atlas.texelSample[texel(i, j + 1)];
-        atlas.neighbours.push_back({here, right});
-        atlas.neighbours.push_back({here, up});
-        atlas.neighbours.push_back({right, up});
-      }
-    }
-
-    // Render mesh: the triangle's own three vertices at the texel centres of its corners.
-    const float ior = layout_detail::frontIor(scene, surface);
-    const std::array<glm::uvec2, 3> corner = {glm::uvec2(0, 0), glm::uvec2(n32, 0), glm::uvec2(0, n32)};
-    const uint32_t first = static_cast<uint32_t>(atlas.mesh.positions.size() / 3);
-    for (uint32_t c = 0; c < 3; ++c) {
-      const uint32_t v = tri.vertex[c];
-      const glm::vec2 uv(static_cast<float>((bx + corner[c].x + 0.5) / width),
-                         static_cast<float>((by + corner[c].y + 0.5) / height));
-      layout_detail::appendVertex(atlas.mesh, surface.positions[v],
-                                  layout_detail::normalizeOr(surface.normals[v], geometric), uv, ior);
-      atlas.mesh.indices.push_back(first + c);
     }
   }
-  layout_detail::canonicalizePairs(atlas.neighbours);
 
-  // Shared edges: the first triangle of each welded edge against every other one.
+  // Lattice edges of the triangle's samples: right, up and the anti-diagonal between them.
+  void addLatticeNeighbours(const Block& b) {
+    for (uint32_t j = 0; j < n32_; ++j) {
+      for (uint32_t i = 0; i + j < n32_; ++i) {
+        const uint32_t here = atlas_.texelSample[texel(b, i, j)];
+        const uint32_t right = atlas_.texelSample[texel(b, i + 1, j)];
+        const uint32_t up = atlas_.texelSample[texel(b, i, j + 1)];
+        atlas_.neighbours.push_back({here, right});
+        atlas_.neighbours.push_back({here, up});
+        atlas_.neighbours.push_back({right, up});
+      }
+    }
+  }
+
+  // Render mesh: the triangle's own three vertices at the texel centres of its corners.
+  void appendRenderTriangle(const Block& b) {
+    const Surface& surface = scene_.surfaces[b.tri.surface];
+    const float ior = layout_detail::frontIor(scene_, surface);
+    const std::array<glm::uvec2, 3> corner = {glm::uvec2(0, 0), glm::uvec2(n32_, 0), glm::uvec2(0, n32_)};
+    const uint32_t first = static_cast<uint32_t>(atlas_.mesh.positions.size() / 3);
+    for (uint32_t c = 0; c < 3; ++c) {
+      const uint32_t v = b.tri.vertex[c];
+      const glm::vec2 uv(static_cast<float>((b.bx + corner[c].x + 0.5) / width_),
+                         static_cast<float>((b.by + corner[c].y + 0.5) / height_));
+      layout_detail::appendVertex(atlas_.mesh, surface.positions[v],
+                                  layout_detail::normalizeOr(surface.normals[v], b.geometric), uv, ior);
+      atlas_.mesh.indices.push_back(first + c);
+    }
+  }
+
+  const Scene& scene_;
+  const FrontMesh& front_;
+  const std::vector<uint32_t>& triangleEdge_;
+  const uint32_t n32_, block_, perRow_;
+  SampleAtlas& atlas_;
+  std::vector<uint32_t> vertexSample_;  // per welded vertex
+  std::vector<uint32_t> edgeSample_;    // per welded edge, its n - 1 inner points
+  const float nf_;
+  const double width_, height_;
+};
+
+// Shared edges: the first triangle of each welded edge against every other one.
+void addSharedEdges(const FrontMesh& front, const std::vector<EdgeUse>& uses, SampleAtlas& atlas) {
   const auto cornerUv = [&](uint32_t t, uint32_t c) {
     const size_t v = size_t(t) * 3 + c;
     return std::array<float, 2>{atlas.mesh.uvs[2 * v], atlas.mesh.uvs[2 * v + 1]};
@@ -246,6 +313,42 @@ Result<SampleAtlas> buildSplitLayout(const Scene& scene, const LayoutOptions& op
     }
     k = end;
   }
+}
+
+}  // namespace
+
+Result<SampleAtlas> buildSplitLayout(const Scene& scene, const LayoutOptions& options) {
+  Result<FrontMesh> collected = layout_detail::collectFront(scene);
+  if (!collected) {
+    return collected.error();
+  }
+  const FrontMesh& front = collected.value();
+  Result<double> target = layout_detail::sampleTarget(options, front.area);
+  if (!target) {
+    return target.error();
+  }
+
+  const std::vector<EdgeUse> uses = layout_detail::sortedEdgeUses(front);
+  const WeldedEdges edges = numberWeldedEdges(front, uses);
+  const uint64_t triangles = front.triangles.size();
+  Result<BlockGrid> grid = blockGrid(triangles, options);
+  if (!grid) {
+    return grid.error();
+  }
+  const SampleCounts counts{front.weldPositions.size(), edges.count, triangles};
+  Result<uint64_t> n = chooseEdgeResolution(options, counts, target.value(), grid->maxN);
+  if (!n) {
+    return n.error();
+  }
+
+  const uint32_t n32 = static_cast<uint32_t>(n.value());
+  SampleAtlas atlas = emptyAtlas(n32, grid.value(), counts.at(n.value()));
+  BlockWriter writer(scene, front, edges, n32, static_cast<uint32_t>(grid->perRow), atlas);
+  for (uint32_t t = 0; t < front.triangles.size(); ++t) {
+    writer.write(t);
+  }
+  layout_detail::canonicalizePairs(atlas.neighbours);
+  addSharedEdges(front, uses, atlas);
   return atlas;
 }
 
