@@ -852,24 +852,60 @@ void writePpm(const Host& host, const Readback& readback, VkExtent2D extent, con
   if (!out) throw Failure{path + ": cannot write"};
 }
 
+// What run() creates on the host's device, released by the destructor in reverse order of
+// creation whether the run completes or a step throws: a Failure part-way (a missing field file,
+// an unwritable output) must not leave objects for the device's destruction, which the validation
+// layer reports as leaks.
+struct RunResources {
+  explicit RunResources(Host& h) : host(h) {}
+  RunResources(const RunResources&) = delete;
+  RunResources& operator=(const RunResources&) = delete;
+  ~RunResources();
+
+  Host& host;
+  std::unique_ptr<shrefract::Context> context;
+  Image color, depth;
+  Readback readback;
+  BoxPipeline boxes;
+  EngineObjects engine;
+};
+
+RunResources::~RunResources() {
+  vkDeviceWaitIdle(host.device);  // after a throw, frames may still be in flight
+  // The engine's destructors retire their Vulkan objects; with the device idle, releaseDeferred()
+  // frees them now. The context goes before the device it borrows.
+  engine.glass.reset();
+  engine.environment.reset();
+  engine.decompressor.reset();
+  engine.renderer.reset();
+  if (context) context->releaseDeferred();
+  context.reset();
+  vkDestroyPipeline(host.device, boxes.pipeline, nullptr);
+  vkDestroyPipelineLayout(host.device, boxes.layout, nullptr);
+  vkDestroyBuffer(host.device, readback.buffer, nullptr);
+  vkFreeMemory(host.device, readback.memory, nullptr);
+  host.destroy(color);
+  host.destroy(depth);
+}
+
 void run(const Options& options) {
   Host host;
+  RunResources r(host);  // 7. Teardown: its destructor, before the Host's
   const VkExtent2D extent = options.extent;
 
   // --- 1. The engine borrows the host's handles. ------------------------------------------------
-  std::unique_ptr<shrefract::Context> context = createContext(host);
+  r.context = createContext(host);
 
   // --- 2. Host render targets: colour (copied out at the end) and depth, shared with the engine.
-  Image color = host.createImage(extent, kColorFormat,
-                                 VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
-                                 VK_IMAGE_ASPECT_COLOR_BIT);
-  Image depth = host.createImage(extent, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
-                                 VK_IMAGE_ASPECT_DEPTH_BIT);
-  const Readback readback = createReadback(host, extent);
-  BoxPipeline boxes = createBoxPipeline(host.device);
+  r.color = host.createImage(extent, kColorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                             VK_IMAGE_ASPECT_COLOR_BIT);
+  r.depth = host.createImage(extent, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                             VK_IMAGE_ASPECT_DEPTH_BIT);
+  r.readback = createReadback(host, extent);
+  r.boxes = createBoxPipeline(host.device);
 
   // --- 3. Engine resources, uploaded through a host command buffer. -----------------------------
-  EngineObjects engine = createEngineObjects(host, *context, options);
+  r.engine = createEngineObjects(host, *r.context, options);
 
   // --- 4. The scene: camera, the host's boxes, the glass. ---------------------------------------
   const shrefract::Camera camera = sceneCamera();
@@ -878,33 +914,19 @@ void run(const Options& options) {
   // half behind the glass's right edge.
   const std::array<BoxPush, 2> boxList = {BoxPush{clip, {-0.75f, -0.55f, 1.2f, 0.35f}, {0.85f, 0.08f, 0.06f, 1.0f}},
                                           BoxPush{clip, {1.1f, 0.7f, -1.5f, 0.5f}, {0.08f, 0.75f, 0.12f, 1.0f}}};
-  const std::vector<shrefract::Object*> drawList = options.glass ? std::vector<shrefract::Object*>{engine.glass.get()}
-                                                                 : std::vector<shrefract::Object*>{};
-  const FrameScene scene{extent, color, depth, boxes, boxList, camera, drawList, engine};
+  const std::vector<shrefract::Object*> drawList = options.glass
+                                                       ? std::vector<shrefract::Object*>{r.engine.glass.get()}
+                                                       : std::vector<shrefract::Object*>{};
+  const FrameScene scene{extent, r.color, r.depth, r.boxes, boxList, camera, drawList, r.engine};
 
   // --- 5. Frames. -------------------------------------------------------------------------------
   for (uint32_t frameIndex = 0; frameIndex < options.frames; ++frameIndex)
-    drawFrame(host, host.frames[frameIndex % kFramesInFlight], *context, scene,
-              frameIndex + 1 == options.frames ? readback.buffer : VK_NULL_HANDLE);
+    drawFrame(host, host.frames[frameIndex % kFramesInFlight], *r.context, scene,
+              frameIndex + 1 == options.frames ? r.readback.buffer : VK_NULL_HANDLE);
   check(vkDeviceWaitIdle(host.device), "vkDeviceWaitIdle");
 
   // --- 6. The image: RGBA8 sRGB texels -> binary PPM (RGB). ------------------------------------
-  writePpm(host, readback, extent, options.output);
-
-  // --- 7. Teardown. The engine's destructors retire their Vulkan objects; with the device idle,
-  //        releaseDeferred() frees them now. The context goes before the device it borrows.
-  engine.glass.reset();
-  engine.environment.reset();
-  engine.decompressor.reset();
-  engine.renderer.reset();
-  context->releaseDeferred();
-  context.reset();
-  vkDestroyPipeline(host.device, boxes.pipeline, nullptr);
-  vkDestroyPipelineLayout(host.device, boxes.layout, nullptr);
-  vkDestroyBuffer(host.device, readback.buffer, nullptr);
-  vkFreeMemory(host.device, readback.memory, nullptr);
-  host.destroy(color);
-  host.destroy(depth);
+  writePpm(host, r.readback, extent, options.output);
 }
 
 }  // namespace
