@@ -962,11 +962,13 @@ std::vector<uint8_t> serializeField(const Field& field) {
   return std::move(bytes);
 }
 
-Result<Field> parseField(const uint8_t* data, size_t size, const std::string& name) {
-  auto corrupt = [&](const std::string& problem) { return makeError(ErrorCode::CorruptData, name + ": " + problem); };
+namespace {
 
-  // The frame (magic, version, file size, trailing checksum) is the same in every version, so a
-  // corrupt file is told apart from a newer one before the version is interpreted.
+// The frame (magic, version, file size, trailing checksum) is the same in every version, so a
+// corrupt file is told apart from a newer one before the version is interpreted. Returns the
+// version.
+Result<uint32_t> checkFrame(const uint8_t* data, size_t size, const std::string& name) {
+  auto corrupt = [&](const std::string& problem) { return makeError(ErrorCode::CorruptData, name + ": " + problem); };
   if (size >= 4 && std::memcmp(data, kMagic.data(), 4) != 0)
     return corrupt("not a shrefract field: magic is " + hexBytes(data, 4) + ", expected \"SHRF\" (53 48 52 46)");
   if (size < kFrameBytes)
@@ -994,8 +996,13 @@ Result<Field> parseField(const uint8_t* data, size_t size, const std::string& na
   if (body < kHeaderBytes)
     return corrupt("truncated: file is " + std::to_string(size) + " bytes, the header alone needs " +
                    std::to_string(kHeaderBytes));
+  return version;
+}
 
-  Field field;
+// The header's atlas size, order, channels and quantization into `field`, after checking them and
+// the section count the version has.
+Result<void> readHeader(const uint8_t* data, uint32_t version, const std::string& name, Field& field) {
+  auto corrupt = [&](const std::string& problem) { return makeError(ErrorCode::CorruptData, name + ": " + problem); };
   field.width = loadU32(data + 16);
   field.height = loadU32(data + 20);
   field.order = loadU32(data + 24);
@@ -1011,9 +1018,39 @@ Result<Field> parseField(const uint8_t* data, size_t size, const std::string& na
   if (sectionCount != expectedSections)
     return corrupt("header lists " + std::to_string(sectionCount) + " sections, version " + std::to_string(version) +
                    " has " + std::to_string(expectedSections));
+  return {};
+}
 
+// Section s's contents (kSections order) into `field`; failures are left in `r`.
+void readSection(uint32_t s, SectionReader& r, uint64_t length, uint32_t version, Field& field) {
+  switch (s) {
+    case 0:
+      if (length < kSettingsFixedBytes)
+        r.fail("truncated: settings section needs at least " + std::to_string(kSettingsFixedBytes) + " bytes, has " +
+               std::to_string(length));
+      readSettings(r, field.settings, field.statistics);
+      break;
+    case 1: readMedia(r, field.media); break;
+    case 2: readMesh(r, field.mesh); break;
+    case 3: readAtlas(r, field); break;
+    case 4:
+      r.arrayF32(field.scale, "scale");
+      r.arrayF32(field.bias, "bias");
+      break;
+    case 5:
+      r.arrayU8(field.coefficientsU8, "u8 coefficients");
+      r.arrayU16(field.coefficientsF16, "f16 coefficients");
+      break;
+    default: readEncoding(r, field, version); break;
+  }
+}
+
+// Every section of the version, in order, each read to its exact length, up to the checksum.
+Result<void> readSections(const uint8_t* data, size_t body, uint32_t version, const std::string& name, Field& field) {
+  auto corrupt = [&](const std::string& problem) { return makeError(ErrorCode::CorruptData, name + ": " + problem); };
+  const uint32_t sectionCount = version == 1 ? kSectionCountV1 : kSectionCount;
   size_t pos = kHeaderBytes;
-  for (uint32_t s = 0; s < expectedSections; ++s) {
+  for (uint32_t s = 0; s < sectionCount; ++s) {
     const SectionInfo& info = kSections[s];
     if (body - pos < kSectionHeaderBytes)
       return corrupt(std::string("truncated: ") + info.label + " section header needs " +
@@ -1027,26 +1064,7 @@ Result<Field> parseField(const uint8_t* data, size_t size, const std::string& na
       return corrupt(std::string("truncated: ") + info.label + " section needs " + std::to_string(length) + " bytes, " +
                      std::to_string(body - pos) + " left");
     SectionReader r(data + pos, static_cast<size_t>(length), name, info.label);
-    switch (s) {
-      case 0:
-        if (length < kSettingsFixedBytes)
-          r.fail("truncated: settings section needs at least " + std::to_string(kSettingsFixedBytes) + " bytes, has " +
-                 std::to_string(length));
-        readSettings(r, field.settings, field.statistics);
-        break;
-      case 1: readMedia(r, field.media); break;
-      case 2: readMesh(r, field.mesh); break;
-      case 3: readAtlas(r, field); break;
-      case 4:
-        r.arrayF32(field.scale, "scale");
-        r.arrayF32(field.bias, "bias");
-        break;
-      case 5:
-        r.arrayU8(field.coefficientsU8, "u8 coefficients");
-        r.arrayU16(field.coefficientsF16, "f16 coefficients");
-        break;
-      default: readEncoding(r, field, version); break;
-    }
+    readSection(s, r, length, version, field);
     if (r.failed()) return makeError(ErrorCode::CorruptData, r.message());
     if (r.consumed() != length)
       return corrupt(std::string(info.label) + " section is " + std::to_string(length) + " bytes, its contents use " +
@@ -1055,8 +1073,18 @@ Result<Field> parseField(const uint8_t* data, size_t size, const std::string& na
   }
   if (pos != body)
     return corrupt(std::to_string(body - pos) + " unexpected bytes between the last section and the checksum");
+  return {};
+}
 
-  if (auto r = validateField(field); !r) return corrupt(r.error().message);
+}  // namespace
+
+Result<Field> parseField(const uint8_t* data, size_t size, const std::string& name) {
+  auto version = checkFrame(data, size, name);
+  if (!version) return version.error();
+  Field field;
+  if (auto r = readHeader(data, version.value(), name, field); !r) return r.error();
+  if (auto r = readSections(data, size - kChecksumBytes, version.value(), name, field); !r) return r.error();
+  if (auto r = validateField(field); !r) return makeError(ErrorCode::CorruptData, name + ": " + r.error().message);
   return field;
 }
 
