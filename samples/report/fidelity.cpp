@@ -81,12 +81,17 @@ BakeSettings defaultFieldSettings() {
 
 namespace {
 
-Profile profileFor(ReportSize size, uint64_t samples) {
-  Profile p;
+// The settings a size sweeps the encodings over.
+struct SweepSettings {
   BakeSettings base;  // the library default: order 8, 32x64 directions, split layout, default budget
   BakeSettings sweep = base;
   std::vector<uint32_t> orders, tables, components;
   uint32_t pcaTable = 16;  // the Pca sweep's tables: 16x16 keeps the sweep within minutes (the default field is 64x64)
+};
+
+// The size's image, reference and scenes go to `p`; its bake settings are returned.
+SweepSettings sizeSettings(ReportSize size, Profile& p) {
+  SweepSettings w;
   switch (size) {
     case ReportSize::Smoke:
       p.width = 64;
@@ -96,43 +101,45 @@ Profile profileFor(ReportSize size, uint64_t samples) {
       p.frames = 1;
       p.environmentWidth = 128;
       p.scenes = {"builtin:sphere?tessellation=1"};
-      base.order = 4;
-      base.directionsTheta = 8;
-      base.directionsPhi = 16;
-      base.sampleBudget = 300;
-      sweep = base;
-      orders = {2};
-      tables = {4};
-      pcaTable = 4;
-      components = {4};
+      w.base.order = 4;
+      w.base.directionsTheta = 8;
+      w.base.directionsPhi = 16;
+      w.base.sampleBudget = 300;
+      w.sweep = w.base;
+      w.orders = {2};
+      w.tables = {4};
+      w.pcaTable = 4;
+      w.components = {4};
       break;
     case ReportSize::Default:
       // The sweep traces 16x32 directions at up to 5000 samples, a sixteenth of the default bake's
       // paths, to keep the report within minutes on 2 cores; the default field itself is the
       // default bake (its spatial sampling costs it little: see the decomposition).
       p.scenes = {"builtin:sphere", "builtin:cube", "builtin:torus", "builtin:glass-of-water", kBunny};
-      base = defaultFieldSettings();
-      sweep.directionsTheta = 16;
-      sweep.directionsPhi = 32;
-      sweep.sampleBudget = 5000;
-      orders = {2, 4, 8, 12};
-      tables = {4, 6, 9, 16};               // N9 in u8: the paper's 324 bytes per sample
-      components = {8, 32, 81, 324};        // K324 in u8: 324 bytes per sample
+      w.base = defaultFieldSettings();
+      w.sweep.directionsTheta = 16;
+      w.sweep.directionsPhi = 32;
+      w.sweep.sampleBudget = 5000;
+      w.orders = {2, 4, 8, 12};
+      w.tables = {4, 6, 9, 16};               // N9 in u8: the paper's 324 bytes per sample
+      w.components = {8, 32, 81, 324};        // K324 in u8: 324 bytes per sample
       break;
     case ReportSize::Full:
       p.width = 640;
       p.height = 480;
       p.frames = 10;
       p.scenes = {"builtin:sphere", "builtin:cube", "builtin:torus", "builtin:glass-of-water", kBunny};
-      base = defaultFieldSettings();
-      orders = {2, 4, 8, 12, 16};
-      tables = {8, 16, 32};
-      components = {8, 32, 64};
+      w.base = defaultFieldSettings();
+      w.orders = {2, 4, 8, 12, 16};
+      w.tables = {8, 16, 32};
+      w.components = {8, 32, 64};
       break;
   }
-  base.quantization = Quantization::F16;
-  sweep.quantization = Quantization::F16;
-  if (samples != 0) base.sampleBudget = sweep.sampleBudget = samples;  // report --samples
+  return w;
+}
+
+// The default field first, then (beyond smoke) its sampling and path rule decisions, measured.
+void addDefaultVariants(Profile& p, const BakeSettings& base, ReportSize size) {
   const std::string dirs = base.directionSampling == DirectionSampling::Nodes
                                ? std::string(" nodes")
                                : fmt(" %ux%u", base.directionsTheta, base.directionsPhi);
@@ -154,11 +161,18 @@ Profile profileFor(ReportSize size, uint64_t samples) {
     rule.pathRule = firstRefraction ? PathRule::HighestEnergy : PathRule::FirstRefraction;
     p.variants.push_back({firstRefraction ? "default, highest-energy" : "default, first-refraction", baseLabel + dirs, rule});
   }
-  for (uint32_t order : orders) p.variants.push_back({"sh", fmt("L%u", order), withEncoding(sweep, Encoding::Sh, order, 0, 0)});
+}
+
+// The encoding sweeps: SH (plain, windowed, under the other path rule and with throughput), Table, Pca.
+void addSweepVariants(Profile& p, const SweepSettings& w, ReportSize size) {
+  const BakeSettings& base = w.base;
+  const BakeSettings& sweep = w.sweep;
+  for (uint32_t order : w.orders)
+    p.variants.push_back({"sh", fmt("L%u", order), withEncoding(sweep, Encoding::Sh, order, 0, 0)});
   // SH with the Lanczos window (`bake --window lanczos`): it damps the ringing that the jumps
   // spread over the hemisphere, which made unwindowed SH lose on the cube as the order rose.
   if (size != ReportSize::Smoke)
-    for (uint32_t order : orders) {
+    for (uint32_t order : w.orders) {
       BakeSettings s = withEncoding(sweep, Encoding::Sh, order, 0, 0);
       s.window = SmoothingWindow::Lanczos;
       p.variants.push_back({"sh lanczos", fmt("L%u", order), s});
@@ -174,9 +188,20 @@ Profile profileFor(ReportSize size, uint64_t samples) {
     s.throughput = true;
     p.variants.push_back({"sh throughput", fmt("L%u", order), s});
   }
-  for (uint32_t n : tables) p.variants.push_back({"table", fmt("N%u", n), withEncoding(sweep, Encoding::Table, 0, n, 0)});
-  for (uint32_t k : components)
-    p.variants.push_back({"pca", fmt("K%u", k), withEncoding(sweep, Encoding::Pca, 0, pcaTable, k)});
+  for (uint32_t n : w.tables)
+    p.variants.push_back({"table", fmt("N%u", n), withEncoding(sweep, Encoding::Table, 0, n, 0)});
+  for (uint32_t k : w.components)
+    p.variants.push_back({"pca", fmt("K%u", k), withEncoding(sweep, Encoding::Pca, 0, w.pcaTable, k)});
+}
+
+Profile profileFor(ReportSize size, uint64_t samples) {
+  Profile p;
+  SweepSettings w = sizeSettings(size, p);
+  w.base.quantization = Quantization::F16;
+  w.sweep.quantization = Quantization::F16;
+  if (samples != 0) w.base.sampleBudget = w.sweep.sampleBudget = samples;  // report --samples
+  addDefaultVariants(p, w.base, size);
+  addSweepVariants(p, w, size);
   return p;
 }
 
@@ -342,9 +367,19 @@ struct DefaultField {
   std::string error;
 };
 
-// Bakes one variant and measures its f16 and u8 rows. A failing bake, upload or
-// GPU render makes error rows; only a failing comparison (a bug) is an error.
-Result<void> measureVariant(SceneContext& c, const Variant& v, FidelityScene& out, DefaultField* keep) {
+// Both PSNRs of a row: against the physical reference and against the exact render it approximates.
+Result<void> scoreRow(const SceneContext& c, const bake::Image& image, const bake::Image& sameRule, FidelityRow& row) {
+  auto physical = psnrOf(c, image, c.physical.color);
+  if (!physical) return physical.error();
+  auto same = psnrOf(c, image, sameRule);
+  if (!same) return same.error();
+  row.psnrPhysical = physical.value();
+  row.psnrSameRule = same.value();
+  return {};
+}
+
+// A variant's columns, shared by its f16 and u8 rows.
+FidelityRow variantRow(const SceneContext& c, const Variant& v) {
   const BakeSettings& s = v.settings;
   FidelityRow proto = baseRow(c, "field", v.label);
   proto.encoding = toString(s.encoding);
@@ -355,122 +390,127 @@ Result<void> measureVariant(SceneContext& c, const Variant& v, FidelityScene& ou
   proto.pathRule = s.pathRule;
   proto.throughput = s.throughput;
   proto.gpu = true;
-  auto errorRows = [&](const std::string& message) {
-    for (Quantization q : {Quantization::F16, Quantization::U8}) {
-      FidelityRow row = proto;
-      row.quantization = toString(q);
-      row.series = v.series + " " + toString(q);
-      row.error = message;
-      out.rows.push_back(row);
-    }
-    if (keep) keep->error = message;
-    std::fprintf(stderr, "report: fidelity: %s: %s %s: %s\n", c.spec.c_str(), v.series.c_str(), v.label.c_str(),
-                 message.c_str());
-  };
+  return proto;
+}
 
+// Both rows of a variant that could not be baked, each carrying `message`.
+void addErrorRows(const SceneContext& c, const Variant& v, const FidelityRow& proto, const std::string& message,
+                  FidelityScene& out, DefaultField* keep) {
+  for (Quantization q : {Quantization::F16, Quantization::U8}) {
+    FidelityRow row = proto;
+    row.quantization = toString(q);
+    row.series = v.series + " " + toString(q);
+    row.error = message;
+    out.rows.push_back(row);
+  }
+  if (keep) keep->error = message;
+  std::fprintf(stderr, "report: fidelity: %s: %s %s: %s\n", c.spec.c_str(), v.series.c_str(), v.label.c_str(),
+               message.c_str());
+}
+
+// Empty when the bake returned the field asked for; otherwise what it returned instead.
+std::string bakeMismatch(const Field& f16, const BakeSettings& s) {
+  if (f16.encoding != s.encoding || f16.settings.pathRule != s.pathRule || f16.throughput != s.throughput ||
+      f16.quantization != Quantization::F16)
+    return fmt("the bake returned a %s field (%s, throughput %s, %s) for a %s request (%s, throughput %s)",
+               toString(f16.encoding), ruleName(f16.settings.pathRule), f16.throughput ? "on" : "off",
+               toString(f16.quantization), toString(s.encoding), ruleName(s.pathRule), s.throughput ? "on" : "off");
+  return {};
+}
+
+// One quantization of a baked variant: a measured row, or an error row where the u8 bake, the
+// upload or the GPU render failed.
+Result<void> measureQuantization(SceneContext& c, const Variant& v, FidelityRow row, Quantization q,
+                                 const BakedPair& baked, FidelityScene& out, DefaultField* keep) {
+  const BakeSettings& s = v.settings;
+  const Field& f16 = baked.f16;
+  const Result<Field>& u8 = baked.u8;
+  row.quantization = toString(q);
+  row.series = v.series + " " + toString(q);
+  row.bakeSeconds = f16.statistics.bakeSeconds;
+  const bool isU8 = q == Quantization::U8;
+  if (isU8 && !u8) {
+    row.error = "u8 bake failed: " + u8.error().message;
+    out.rows.push_back(row);
+    return {};
+  }
+  const Field& field = isU8 ? u8.value() : f16;
+  row.bytesPerSample = field.bytesPerSample();
+  row.samples = f16.statistics.uniqueSamples;
+  auto object = offscreen::uploadField(c.session, field);
+  if (!object) {
+    row.error = "upload failed: " + object.error().message;
+    out.rows.push_back(row);
+    return {};
+  }
+  std::vector<Object*> list{object.value().get()};
+  // The default field's u8 render also with MSAA, for the anti-aliasing table.
+  auto gpu = renderOnGpu(c.session, c.gpuEnvironment, list, c.camera, ShadingMode::Field, c.profile, c.width,
+                         c.height, c.frames, keep && isU8);
+  object.value().reset();
+  c.session.context->releaseDeferred();
+  if (!gpu) {
+    row.error = "GPU render failed: " + gpu.error().message;
+    out.rows.push_back(row);
+    return {};
+  }
+  if (auto r = scoreRow(c, gpu.value().image, c.exact.at({s.pathRule, s.throughput}).color, row); !r) return r;
+  row.decompressionMs = gpu.value().decompressionMs;
+  row.rasterMs = gpu.value().rasterMs;
+  std::fprintf(stderr,
+               "report: fidelity: %s: %s %s %s: %u B/sample, bake %.1f s, PSNR %.2f dB (physical), %.2f dB (exact "
+               "%s), GPU %.2f + %.2f ms\n",
+               c.spec.c_str(), v.series.c_str(), v.label.c_str(), toString(q), row.bytesPerSample, row.bakeSeconds,
+               row.psnrPhysical, row.psnrSameRule, ruleName(s.pathRule), row.decompressionMs, row.rasterMs);
+  out.rows.push_back(row);
+  if (keep) (isU8 ? keep->gpuU8 : keep->gpuF16) = std::move(gpu).value();
+  return {};
+}
+
+// Bakes one variant and measures its f16 and u8 rows. A failing bake, upload or
+// GPU render makes error rows; only a failing comparison (a bug) is an error.
+Result<void> measureVariant(SceneContext& c, const Variant& v, FidelityScene& out, DefaultField* keep) {
+  const FidelityRow proto = variantRow(c, v);
   bake::BakeOptions bo;
-  bo.settings = s;
+  bo.settings = v.settings;
   bo.settings.source = c.spec;
   bo.settings.threads = c.options.threads;
   bo.heldOutDirections = 0;
   auto baked = bakePair(c.scene, bo);
   if (!baked) {
-    errorRows("bake failed: " + baked.error().message);
+    addErrorRows(c, v, proto, "bake failed: " + baked.error().message, out, keep);
     return {};
   }
-  const Field& f16 = baked.value().f16;
-  if (f16.encoding != s.encoding || f16.settings.pathRule != s.pathRule || f16.throughput != s.throughput ||
-      f16.quantization != Quantization::F16) {
-    errorRows(fmt("the bake returned a %s field (%s, throughput %s, %s) for a %s request (%s, throughput %s)",
-                  toString(f16.encoding), ruleName(f16.settings.pathRule), f16.throughput ? "on" : "off",
-                  toString(f16.quantization), toString(s.encoding), ruleName(s.pathRule), s.throughput ? "on" : "off"));
+  if (const std::string mismatch = bakeMismatch(baked.value().f16, v.settings); !mismatch.empty()) {
+    addErrorRows(c, v, proto, mismatch, out, keep);
     return {};
   }
-  const Result<Field>& u8 = baked.value().u8;
-  const auto& sameRule = c.exact.at({s.pathRule, s.throughput});
-  for (Quantization q : {Quantization::F16, Quantization::U8}) {
-    FidelityRow row = proto;
-    row.quantization = toString(q);
-    row.series = v.series + " " + toString(q);
-    row.bakeSeconds = f16.statistics.bakeSeconds;
-    const bool isU8 = q == Quantization::U8;
-    if (isU8 && !u8) {
-      row.error = "u8 bake failed: " + u8.error().message;
-      out.rows.push_back(row);
-      continue;
-    }
-    const Field& field = isU8 ? u8.value() : f16;
-    row.bytesPerSample = field.bytesPerSample();
-    row.samples = f16.statistics.uniqueSamples;
-    auto object = offscreen::uploadField(c.session, field);
-    if (!object) {
-      row.error = "upload failed: " + object.error().message;
-      out.rows.push_back(row);
-      continue;
-    }
-    std::vector<Object*> list{object.value().get()};
-    // The default field's u8 render also with MSAA, for the anti-aliasing table.
-    auto gpu = renderOnGpu(c.session, c.gpuEnvironment, list, c.camera, ShadingMode::Field, c.profile, c.width,
-                           c.height, c.frames, keep && isU8);
-    object.value().reset();
-    c.session.context->releaseDeferred();
-    if (!gpu) {
-      row.error = "GPU render failed: " + gpu.error().message;
-      out.rows.push_back(row);
-      continue;
-    }
-    auto physical = psnrOf(c, gpu.value().image, c.physical.color);
-    if (!physical) return physical.error();
-    auto same = psnrOf(c, gpu.value().image, sameRule.color);
-    if (!same) return same.error();
-    row.psnrPhysical = physical.value();
-    row.psnrSameRule = same.value();
-    row.decompressionMs = gpu.value().decompressionMs;
-    row.rasterMs = gpu.value().rasterMs;
-    std::fprintf(stderr,
-                 "report: fidelity: %s: %s %s %s: %u B/sample, bake %.1f s, PSNR %.2f dB (physical), %.2f dB (exact "
-                 "%s), GPU %.2f + %.2f ms\n",
-                 c.spec.c_str(), v.series.c_str(), v.label.c_str(), toString(q), row.bytesPerSample, row.bakeSeconds,
-                 row.psnrPhysical, row.psnrSameRule, ruleName(s.pathRule), row.decompressionMs, row.rasterMs);
-    out.rows.push_back(row);
-    if (keep) (isU8 ? keep->gpuU8 : keep->gpuF16) = std::move(gpu).value();
-  }
+  for (Quantization q : {Quantization::F16, Quantization::U8})
+    if (auto r = measureQuantization(c, v, proto, q, baked.value(), out, keep); !r) return r;
   if (keep) keep->f16 = std::move(baked.value().f16);
   return {};
 }
 
-// The error decomposition of the default field: each step adds one approximation to the one
-// before; its PSNR is between the two stages, its cumulative PSNR the coarser stage's against
-// the physical reference.
-Result<void> decompose(SceneContext& c, const DefaultField& def, FidelityScene& out,
-                       std::optional<bake::Image>& texelsImage) {
-  auto step = [&](const std::string& name, const std::string& compares, const bake::Image& coarser,
-                  const bake::Image& finer) -> Result<void> {
-    FidelityStep st;
-    st.step = name;
-    st.compares = compares;
-    auto a = psnrOf(c, coarser, finer);
-    if (!a) return a.error();
-    auto b = psnrOf(c, coarser, c.physical.color);
-    if (!b) return b.error();
-    st.psnr = a.value();
-    st.cumulative = b.value();
-    out.decomposition.push_back(st);
-    return {};
-  };
-  const PathRule rule = defaultRule(c.profile);
-  const bake::ReferenceImage& exactRule = c.exact.at({rule, false});
-  if (auto r = step("path rule", std::string("exact ") + ruleName(rule) + " path vs physical", exactRule.color,
-                    c.physical.color);
-      !r)
-    return r;
-  if (!def.f16 || !def.gpuF16 || !def.gpuU8) {
-    for (const char* name : {"spatial sampling", "angular encoding", "quantization", "pixel sampling"})
-      out.decomposition.push_back({name, "-", 0.0, 0.0, "default field unavailable: " + def.error});
-    return {};
-  }
-  const Field& field = *def.f16;
-  const glm::vec3 eye(c.camera.eye[0], c.camera.eye[1], c.camera.eye[2]);
+// One step of the decomposition: its PSNR is between the two stages, its cumulative PSNR the
+// coarser stage's against the physical reference.
+Result<void> addStep(const SceneContext& c, FidelityScene& out, const std::string& name, const std::string& compares,
+                     const bake::Image& coarser, const bake::Image& finer) {
+  FidelityStep st;
+  st.step = name;
+  st.compares = compares;
+  auto a = psnrOf(c, coarser, finer);
+  if (!a) return a.error();
+  auto b = psnrOf(c, coarser, c.physical.color);
+  if (!b) return b.error();
+  st.psnr = a.value();
+  st.cumulative = b.value();
+  out.decomposition.push_back(st);
+  return {};
+}
+
+// Exact paths at the field's sample texels, drawn through its mesh by the CPU raster `ro`.
+Result<bake::ReferenceImage> renderExactTexels(const SceneContext& c, const Field& field, glm::vec3 eye,
+                                               const bake::DistortionRenderOptions& ro, FidelityScene& out) {
   bake::ExactDistortionOptions eo;
   eo.pathRule = field.settings.pathRule;
   eo.maxBounces = field.settings.maxBounces;
@@ -480,6 +520,32 @@ Result<void> decompose(SceneContext& c, const DefaultField& def, FidelityScene& 
   if (!texels) return texels.error();
   out.sampleTexels = texels.value().samples;
   out.unmatchedTexels = texels.value().unmatched;
+  auto texelRender = bake::renderDistortion(field.mesh, texels.value().image, c.environment, ro);
+  if (!texelRender) return texelRender.error();
+  std::fprintf(stderr, "report: fidelity: %s: exact paths at %" PRIu64 " sample texels (%" PRIu64
+               " unmatched): %.2f s trace, %.2f s CPU raster\n",
+               c.spec.c_str(), texels.value().samples, texels.value().unmatched, texels.value().seconds,
+               texelRender.value().seconds);
+  return texelRender;
+}
+
+// The error decomposition of the default field: each step adds one approximation to the one
+// before (see addStep).
+Result<void> decompose(SceneContext& c, const DefaultField& def, FidelityScene& out,
+                       std::optional<bake::Image>& texelsImage) {
+  const PathRule rule = defaultRule(c.profile);
+  const bake::ReferenceImage& exactRule = c.exact.at({rule, false});
+  if (auto r = addStep(c, out, "path rule", std::string("exact ") + ruleName(rule) + " path vs physical",
+                       exactRule.color, c.physical.color);
+      !r)
+    return r;
+  if (!def.f16 || !def.gpuF16 || !def.gpuU8) {
+    for (const char* name : {"spatial sampling", "angular encoding", "quantization", "pixel sampling"})
+      out.decomposition.push_back({name, "-", 0.0, 0.0, "default field unavailable: " + def.error});
+    return {};
+  }
+  const Field& field = *def.f16;
+  const glm::vec3 eye(c.camera.eye[0], c.camera.eye[1], c.camera.eye[2]);
   bake::DistortionRenderOptions ro;
   ro.width = c.width;
   ro.height = c.height;
@@ -487,37 +553,31 @@ Result<void> decompose(SceneContext& c, const DefaultField& def, FidelityScene& 
   ro.samplesPerAxis = c.profile.samplesPerAxis;
   ro.threads = c.options.threads;
   ro.shading.tint = frontMediumColor(field);  // as Object::createFromField sets it
-  auto texelRender = bake::renderDistortion(field.mesh, texels.value().image, c.environment, ro);
+  auto texelRender = renderExactTexels(c, field, eye, ro, out);
   if (!texelRender) return texelRender.error();
-  std::fprintf(stderr, "report: fidelity: %s: exact paths at %" PRIu64 " sample texels (%" PRIu64
-               " unmatched): %.2f s trace, %.2f s CPU raster\n",
-               c.spec.c_str(), texels.value().samples, texels.value().unmatched, texels.value().seconds,
-               texelRender.value().seconds);
   texelsImage = texelRender.value().color;
-  if (auto r = step("spatial sampling", "exact paths at the sample texels (CPU raster) vs exact per pixel",
-                    texelRender.value().color, exactRule.color);
+  if (auto r = addStep(c, out, "spatial sampling", "exact paths at the sample texels (CPU raster) vs exact per pixel",
+                       texelRender.value().color, exactRule.color);
       !r)
     return r;
   // The f16 field through the same CPU raster isolates the encoding from the GPU's arithmetic.
   const reference::DistortionImage decoded = reference::decompress(field, {eye.x, eye.y, eye.z});
   auto twin = bake::renderDistortion(field.mesh, decoded, c.environment, ro);
   if (!twin) return twin.error();
-  if (auto r = step("angular encoding", "f16 field (CPU raster) vs exact paths at the sample texels",
-                    twin.value().color, texelRender.value().color);
+  if (auto r = addStep(c, out, "angular encoding", "f16 field (CPU raster) vs exact paths at the sample texels",
+                       twin.value().color, texelRender.value().color);
       !r)
     return r;
-  if (auto r = step("GPU arithmetic", "f16 field on the GPU vs the same on the CPU raster", def.gpuF16->image,
-                    twin.value().color);
+  if (auto r = addStep(c, out, "GPU arithmetic", "f16 field on the GPU vs the same on the CPU raster",
+                       def.gpuF16->image, twin.value().color);
       !r)
     return r;
-  if (auto r = step("quantization", "u8 field vs f16 field (GPU)", def.gpuU8->image, def.gpuF16->image); !r) return r;
+  if (auto r = addStep(c, out, "quantization", "u8 field vs f16 field (GPU)", def.gpuU8->image, def.gpuF16->image); !r)
+    return r;
   // The 1-spp image against the 4x4 one, and (cumulative) against the 4x4 physical reference.
   const uint32_t spp = c.profile.samplesPerAxis;
-  if (auto r = step("pixel sampling", fmt("u8 field at 1 spp vs at %ux%u (GPU)", spp, spp), def.gpuU8->image1spp,
-                    def.gpuU8->image);
-      !r)
-    return r;
-  return {};
+  return addStep(c, out, "pixel sampling", fmt("u8 field at 1 spp vs at %ux%u (GPU)", spp, spp),
+                 def.gpuU8->image1spp, def.gpuU8->image);
 }
 
 // Every mode at one sample per pixel with filtered lookups against itself supersampled, both
@@ -565,24 +625,30 @@ Result<void> measureAntialiasing(SceneContext& c, const DefaultField& def, Fidel
   return entry(fmt("full tree depth %u (CPU)", c.profile.treeDepth), tree.value().color, c.physical.color);
 }
 
-Result<FidelityScene> measureScene(SceneContext& c) {
-  const auto start = Clock::now();
-  FidelityScene out;
-  out.scene = c.spec;
-  out.samplesPerAxis = c.profile.samplesPerAxis;
-  {
-    bake::ReferenceOptions ro;
-    ro.mode = bake::ReferenceMode::FullTree;
-    ro.treeDepth = c.profile.treeDepth;
-    auto physical = cpuRender(c, ro, fmt("physical reference (full tree, depth %u)", c.profile.treeDepth));
-    if (!physical) return physical.error();
-    c.physical = std::move(physical).value();
-    out.pixels = static_cast<uint64_t>(std::count(c.physical.mask.begin(), c.physical.mask.end(), uint8_t(1)));
-    FidelityRow row = baseRow(c, "physical", fmt("full tree depth %u (CPU)", c.profile.treeDepth));
-    row.psnrPhysical = 100.0;
-    row.cpuMs = c.physical.seconds * 1000.0 / double(c.profile.samplesPerAxis * c.profile.samplesPerAxis);
-    out.rows.push_back(row);
-  }
+// A CPU render's time per 1-spp frame: the supersampled render's divided by the samples per pixel.
+double cpuMsPerFrame(const SceneContext& c, double seconds) {
+  return seconds * 1000.0 / double(c.profile.samplesPerAxis * c.profile.samplesPerAxis);
+}
+
+// The physical reference, kept in `c` for everything after it, and its row.
+Result<void> measurePhysical(SceneContext& c, FidelityScene& out) {
+  bake::ReferenceOptions ro;
+  ro.mode = bake::ReferenceMode::FullTree;
+  ro.treeDepth = c.profile.treeDepth;
+  auto physical = cpuRender(c, ro, fmt("physical reference (full tree, depth %u)", c.profile.treeDepth));
+  if (!physical) return physical.error();
+  c.physical = std::move(physical).value();
+  out.pixels = static_cast<uint64_t>(std::count(c.physical.mask.begin(), c.physical.mask.end(), uint8_t(1)));
+  FidelityRow row = baseRow(c, "physical", fmt("full tree depth %u (CPU)", c.profile.treeDepth));
+  row.psnrPhysical = 100.0;
+  row.cpuMs = cpuMsPerFrame(c, c.physical.seconds);
+  out.rows.push_back(row);
+  return {};
+}
+
+// The exact single-path renders under both path rules, without and with throughput (kept in `c`),
+// and their rows.
+Result<void> measureExact(SceneContext& c, FidelityScene& out) {
   for (PathRule rule : {PathRule::HighestEnergy, PathRule::FirstRefraction})
     for (bool throughput : {false, true}) {
       bake::ReferenceOptions ro;
@@ -600,122 +666,139 @@ Result<FidelityScene> measureScene(SceneContext& c) {
     row.series = "exact (CPU)";
     row.pathRule = key.first;
     row.throughput = key.second;
-    auto physical = psnrOf(c, image.color, c.physical.color);
-    if (!physical) return physical.error();
-    auto same = psnrOf(c, image.color, c.exact.at({key.first, false}).color);
-    if (!same) return same.error();
-    row.psnrPhysical = physical.value();
-    row.psnrSameRule = same.value();
-    row.cpuMs = image.seconds * 1000.0 / double(c.profile.samplesPerAxis * c.profile.samplesPerAxis);
+    if (auto r = scoreRow(c, image.color, c.exact.at({key.first, false}).color, row); !r) return r;
+    row.cpuMs = cpuMsPerFrame(c, image.seconds);
     out.rows.push_back(row);
   }
-  {
-    auto objects = offscreen::uploadScene(c.session, c.scene);
-    if (!objects) return objects.error();
-    std::vector<Object*> list;
-    for (auto& o : objects.value()) list.push_back(o.get());
-    auto gpu = renderOnGpu(c.session, c.gpuEnvironment, list, c.camera, ShadingMode::SingleInterface, c.profile,
-                           c.width, c.height, c.frames);
-    if (!gpu) return gpu.error();
-    objects.value().clear();
-    c.session.context->releaseDeferred();
-    FidelityRow row = baseRow(c, "single interface", "single interface (GPU)");
-    row.gpu = true;
-    auto physical = psnrOf(c, gpu.value().image, c.physical.color);
-    if (!physical) return physical.error();
-    auto same = psnrOf(c, gpu.value().image, c.exact.at({PathRule::HighestEnergy, false}).color);
-    if (!same) return same.error();
-    row.psnrPhysical = physical.value();
-    row.psnrSameRule = same.value();
-    row.rasterMs = gpu.value().rasterMs;
-    out.rows.push_back(row);
+  return {};
+}
+
+Result<void> measureSingleInterface(SceneContext& c, FidelityScene& out) {
+  auto objects = offscreen::uploadScene(c.session, c.scene);
+  if (!objects) return objects.error();
+  std::vector<Object*> list;
+  for (auto& o : objects.value()) list.push_back(o.get());
+  auto gpu = renderOnGpu(c.session, c.gpuEnvironment, list, c.camera, ShadingMode::SingleInterface, c.profile,
+                         c.width, c.height, c.frames);
+  if (!gpu) return gpu.error();
+  objects.value().clear();
+  c.session.context->releaseDeferred();
+  FidelityRow row = baseRow(c, "single interface", "single interface (GPU)");
+  row.gpu = true;
+  if (auto r = scoreRow(c, gpu.value().image, c.exact.at({PathRule::HighestEnergy, false}).color, row); !r) return r;
+  row.rasterMs = gpu.value().rasterMs;
+  out.rows.push_back(row);
+  return {};
+}
+
+// A split layout needs at least one sample per welded vertex: where the sweep's budget is
+// below that, the sweep takes the smallest of 2x, 4x its budget or the default that fits.
+void fitSplitBudget(const SceneContext& c, Variant& v) {
+  if (v.isDefault || v.settings.layout != SampleLayout::Split || v.settings.sampleBudget == 0) return;
+  const uint64_t asked = v.settings.sampleBudget;
+  for (uint64_t budget : {asked, 2 * asked, 4 * asked, uint64_t(0)}) {
+    bake::LayoutOptions lo;
+    lo.sampleBudget = budget;
+    v.settings.sampleBudget = budget;
+    if (bake::buildSplitLayout(c.scene, lo).ok()) break;
   }
+}
+
+// Side by side: physical | exact (the default's rule) | exact at the texels | u8 field | heat map.
+Result<void> writeCompare(SceneContext& c, const DefaultField& def, const std::optional<bake::Image>& texels) {
+  const bake::Image& physical = c.physical.color;
+  const bake::Image& exact = c.exact.at({defaultRule(c.profile), false}).color;
+  std::vector<const bake::Image*> images{&physical, &exact};
+  if (texels) images.push_back(&*texels);
+  bake::Image heat;
+  if (def.gpuU8) {
+    images.push_back(&def.gpuU8->image);
+    heat = bake::errorHeatMap(def.gpuU8->image, physical, 0.5f);
+    images.push_back(&heat);
+  }
+  return writeOut(c, "fidelity_" + c.name + "_compare.png", sideBySide(images));
+}
+
+// Paired hues (f16 darker, u8 lighter, in the order the rows come), then greys.
+constexpr std::array<std::array<float, 3>, 16> kSeriesColors = {{
+    {0.00f, 0.00f, 0.00f}, {0.45f, 0.45f, 0.45f}, {0.60f, 0.35f, 0.10f}, {0.05f, 0.25f, 0.75f},
+    {0.35f, 0.60f, 1.00f}, {0.05f, 0.50f, 0.15f}, {0.40f, 0.80f, 0.35f}, {0.75f, 0.05f, 0.10f},
+    {1.00f, 0.45f, 0.45f}, {0.45f, 0.10f, 0.60f}, {0.75f, 0.50f, 0.90f}, {0.85f, 0.45f, 0.00f},
+    {1.00f, 0.75f, 0.20f}, {0.00f, 0.50f, 0.50f}, {0.30f, 0.80f, 0.80f}, {0.70f, 0.00f, 0.50f}}};
+
+// Colours are fixed per series across both plots (`series`: every series, in the order the rows
+// come); each plot lists only the series it shows.
+template <class XOf>
+bake::Image fidelityPlot(const FidelityScene& out, const std::vector<std::string>& series, const std::string& title,
+                         const std::string& xLabel, bool fieldsOnly, XOf xOf) {
+  Plot plot;
+  plot.title = title;
+  plot.xLabel = xLabel;
+  plot.yLabel = "PSNR vs physical (dB)";
+  plot.logX = true;
+  plot.yFromZero = false;
+  plot.legendOutside = true;
+  std::vector<std::string> shown;
+  for (const FidelityRow& r : out.rows) {
+    if (!r.error.empty() || r.kind == "physical" || (fieldsOnly && r.kind != "field")) continue;
+    auto it = std::find(shown.begin(), shown.end(), r.series);
+    if (it == shown.end()) {
+      const size_t k = size_t(std::find(series.begin(), series.end(), r.series) - series.begin());
+      plot.series.push_back({r.series, kSeriesColors[k % kSeriesColors.size()], r.kind == "field"});
+      shown.push_back(r.series);
+      it = shown.end() - 1;
+    }
+    const std::string label = r.kind == "field" ? r.label.substr(0, r.label.find(' '))
+                              : r.kind == "exact" ? (r.pathRule == PathRule::HighestEnergy ? "HE" : "FR") +
+                                                        std::string(r.throughput ? "+T" : "")
+                                                  : "";
+    plot.points.push_back({xOf(r), r.psnrPhysical, label, static_cast<int>(it - shown.begin())});
+  }
+  return renderPlot(plot, 900, 480);
+}
+
+// Plots: PSNR against bytes per sample and against frame time, one series per encoding.
+Result<void> writeFidelityPlots(SceneContext& c, const FidelityScene& out) {
+  std::vector<std::string> series;
+  for (const FidelityRow& r : out.rows)
+    if (std::find(series.begin(), series.end(), r.series) == series.end()) series.push_back(r.series);
+  const std::string title = sceneTitle(c.spec);
+  const bake::Image bytes = fidelityPlot(out, series, title + ": error vs bytes per sample", "bytes per sample (log)",
+                                         true, [](const FidelityRow& r) { return double(r.bytesPerSample); });
+  const bake::Image time = fidelityPlot(out, series, title + ": error vs frame time",
+                                        "GPU decompress + raster ms, CPU ms (log)", false, [](const FidelityRow& r) {
+                                          return r.gpu ? r.decompressionMs + r.rasterMs : r.cpuMs;
+                                        });
+  if (auto w = writeOut(c, "fidelity_" + c.name + "_psnr_vs_bytes.png", bytes); !w) return w.error();
+  if (auto w = writeOut(c, "fidelity_" + c.name + "_psnr_vs_frame_time.png", time); !w) return w.error();
+  return {};
+}
+
+Result<FidelityScene> measureScene(SceneContext& c) {
+  const auto start = Clock::now();
+  FidelityScene out;
+  out.scene = c.spec;
+  out.samplesPerAxis = c.profile.samplesPerAxis;
+  if (auto r = measurePhysical(c, out); !r) return r.error();
+  if (auto r = measureExact(c, out); !r) return r.error();
+  if (auto r = measureSingleInterface(c, out); !r) return r.error();
   DefaultField def;
   for (Variant v : c.profile.variants) {
-    // A split layout needs at least one sample per welded vertex: where the sweep's budget is
-    // below that, the sweep takes the smallest of 2x, 4x its budget or the default that fits.
-    if (!v.isDefault && v.settings.layout == SampleLayout::Split && v.settings.sampleBudget != 0) {
-      const uint64_t asked = v.settings.sampleBudget;
-      for (uint64_t budget : {asked, 2 * asked, 4 * asked, uint64_t(0)}) {
-        bake::LayoutOptions lo;
-        lo.sampleBudget = budget;
-        v.settings.sampleBudget = budget;
-        if (bake::buildSplitLayout(c.scene, lo).ok()) break;
-      }
-    }
+    fitSplitBudget(c, v);
     if (auto r = measureVariant(c, v, out, v.isDefault ? &def : nullptr); !r) return r.error();
   }
   std::optional<bake::Image> texels;
   if (auto r = decompose(c, def, out, texels); !r) return r.error();
   if (auto r = measureAntialiasing(c, def, out); !r) return r.error();
-
-  // Side by side: physical | exact (the default's rule) | exact at the texels | u8 field | heat map.
-  {
-    const bake::Image& physical = c.physical.color;
-    const bake::Image& exact = c.exact.at({defaultRule(c.profile), false}).color;
-    std::vector<const bake::Image*> images{&physical, &exact};
-    if (texels) images.push_back(&*texels);
-    bake::Image heat;
-    if (def.gpuU8) {
-      images.push_back(&def.gpuU8->image);
-      heat = bake::errorHeatMap(def.gpuU8->image, physical, 0.5f);
-      images.push_back(&heat);
-    }
-    if (auto w = writeOut(c, "fidelity_" + c.name + "_compare.png", sideBySide(images)); !w) return w.error();
-  }
-
-  // Plots: PSNR against bytes per sample and against frame time, one series per encoding.
-  std::vector<std::string> series;
-  for (const FidelityRow& r : out.rows)
-    if (std::find(series.begin(), series.end(), r.series) == series.end()) series.push_back(r.series);
-  // Paired hues (f16 darker, u8 lighter, in the order the rows come), then greys.
-  static const std::array<std::array<float, 3>, 16> kColors = {{
-      {0.00f, 0.00f, 0.00f}, {0.45f, 0.45f, 0.45f}, {0.60f, 0.35f, 0.10f}, {0.05f, 0.25f, 0.75f},
-      {0.35f, 0.60f, 1.00f}, {0.05f, 0.50f, 0.15f}, {0.40f, 0.80f, 0.35f}, {0.75f, 0.05f, 0.10f},
-      {1.00f, 0.45f, 0.45f}, {0.45f, 0.10f, 0.60f}, {0.75f, 0.50f, 0.90f}, {0.85f, 0.45f, 0.00f},
-      {1.00f, 0.75f, 0.20f}, {0.00f, 0.50f, 0.50f}, {0.30f, 0.80f, 0.80f}, {0.70f, 0.00f, 0.50f}}};
-  // Colours are fixed per series across both plots; each plot lists only the series it shows.
-  auto makePlot = [&](const std::string& title, const std::string& xLabel, bool fieldsOnly, auto xOf) {
-    Plot plot;
-    plot.title = title;
-    plot.xLabel = xLabel;
-    plot.yLabel = "PSNR vs physical (dB)";
-    plot.logX = true;
-    plot.yFromZero = false;
-    plot.legendOutside = true;
-    std::vector<std::string> shown;
-    for (const FidelityRow& r : out.rows) {
-      if (!r.error.empty() || r.kind == "physical" || (fieldsOnly && r.kind != "field")) continue;
-      auto it = std::find(shown.begin(), shown.end(), r.series);
-      if (it == shown.end()) {
-        const size_t k = size_t(std::find(series.begin(), series.end(), r.series) - series.begin());
-        plot.series.push_back({r.series, kColors[k % kColors.size()], r.kind == "field"});
-        shown.push_back(r.series);
-        it = shown.end() - 1;
-      }
-      const std::string label = r.kind == "field" ? r.label.substr(0, r.label.find(' '))
-                                : r.kind == "exact" ? (r.pathRule == PathRule::HighestEnergy ? "HE" : "FR") +
-                                                          std::string(r.throughput ? "+T" : "")
-                                                    : "";
-      plot.points.push_back({xOf(r), r.psnrPhysical, label, static_cast<int>(it - shown.begin())});
-    }
-    return renderPlot(plot, 900, 480);
-  };
-  const std::string title = sceneTitle(c.spec);
-  const bake::Image bytes = makePlot(title + ": error vs bytes per sample", "bytes per sample (log)", true,
-                                     [](const FidelityRow& r) { return double(r.bytesPerSample); });
-  const bake::Image time = makePlot(title + ": error vs frame time", "GPU decompress + raster ms, CPU ms (log)", false,
-                                    [](const FidelityRow& r) { return r.gpu ? r.decompressionMs + r.rasterMs : r.cpuMs; });
-  if (auto w = writeOut(c, "fidelity_" + c.name + "_psnr_vs_bytes.png", bytes); !w) return w.error();
-  if (auto w = writeOut(c, "fidelity_" + c.name + "_psnr_vs_frame_time.png", time); !w) return w.error();
+  if (auto r = writeCompare(c, def, texels); !r) return r.error();
+  if (auto r = writeFidelityPlots(c, out); !r) return r.error();
   out.seconds = since(start);
   return out;
 }
 
 std::string number(double v) { return std::isfinite(v) ? fmt("%.2f", v) : "-"; }
 
-std::string markdownOf(const Profile& p, const std::vector<FidelityScene>& scenes, uint32_t width, uint32_t height,
-                       double seconds) {
+std::string introMarkdown(const Profile& p, uint32_t width, uint32_t height, double seconds) {
   const uint32_t s = p.samplesPerAxis;
   std::string md = "## Fidelity against the physical reference\n\n";
   md += fmt("Physical reference: the full Fresnel tree (every branch at every interface) to depth %u, traced on the "
@@ -730,76 +813,99 @@ std::string markdownOf(const Profile& p, const std::vector<FidelityScene>& scene
         "f16 and in u8, as `bake --shard` and `merge` would (a u8 Pca field has refinement layers). Bytes per sample "
         "count the coefficients only. GPU times are timestamps of one frame at 1 spp; CPU times are per 1-spp "
         "frame (the supersampled render's time divided by the samples per pixel).\n\n";
+  return md;
+}
+
+// A scene's table: one line per row, error rows with their message.
+std::string rowsMarkdown(const FidelityScene& sc) {
+  std::string md = fmt("%" PRIu64 " object pixels, %.1f s.\n\n", sc.pixels, sc.seconds);
+  md += "| row | encoding | parameters | directions | samples | quant | path rule | throughput | bytes/sample | "
+        "PSNR vs physical dB | PSNR vs exact dB | bake s | GPU decompress + raster ms | CPU ms |\n";
+  md += "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const FidelityRow& r : sc.rows) {
+    const bool field = r.kind == "field";
+    const std::string rule = r.kind == "physical" || r.kind == "single interface" ? "-" : ruleName(r.pathRule);
+    const std::string throughput = rule == "-" ? "-" : (r.throughput ? "yes" : "no");
+    if (!r.error.empty()) {
+      md += fmt("| %s %s | %s | %s | %s | - | %s | %s | %s | - | error: %s | | | | |\n", r.series.c_str(),
+                r.label.c_str(), r.encoding.c_str(), r.parameters.c_str(), r.directions.c_str(),
+                r.quantization.c_str(), rule.c_str(), throughput.c_str(), r.error.c_str());
+      continue;
+    }
+    const std::string gpuMs = r.gpu ? (field ? fmt("%.2f + %.2f", r.decompressionMs, r.rasterMs)
+                                             : fmt("%.2f", r.rasterMs))
+                                    : "-";
+    md += fmt("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n",
+              field ? (r.series + " " + r.label).c_str() : r.label.c_str(), r.encoding.c_str(),
+              r.parameters.c_str(), r.directions.c_str(), field ? fmt("%" PRIu64, r.samples).c_str() : "-",
+              r.quantization.c_str(), rule.c_str(), throughput.c_str(),
+              field ? fmt("%u", r.bytesPerSample).c_str() : "-", number(r.psnrPhysical).c_str(),
+              number(r.psnrSameRule).c_str(), field ? fmt("%.1f", r.bakeSeconds).c_str() : "-", gpuMs.c_str(),
+              r.gpu ? "-" : number(r.cpuMs).c_str());
+  }
+  return md;
+}
+
+std::string decompositionMarkdown(const Profile& p, const FidelityScene& sc) {
+  const BakeSettings& d = p.variants.front().settings;
+  const std::string directions = d.directionSampling == DirectionSampling::Nodes
+                                     ? fmt("traced at the %ux%u table nodes", d.tableSize, d.tableSize)
+                                     : fmt("%ux%u directions", d.directionsTheta, d.directionsPhi);
+  std::string md;
+  md += fmt("\nError decomposition of the default field (%s %s, %s, %s layout, %s, %s path "
+            "rule): each step adds one approximation to the stage above it; *step* is the PSNR between the two "
+            "stages, *cumulative* the new stage against the physical reference.\n\n",
+            toString(d.encoding), parametersOf(d).c_str(), directions.c_str(), toString(d.layout),
+            d.sampleBudget ? fmt("%" PRIu64 " samples asked", d.sampleBudget).c_str() : "the default sample budget",
+            ruleName(d.pathRule));
+  md += "| step | compares | step PSNR dB | cumulative PSNR dB |\n|---|---|---|---|\n";
+  for (const FidelityStep& st : sc.decomposition) {
+    if (!st.error.empty())
+      md += "| " + st.step + " | " + st.compares + " | error: " + st.error + " | |\n";
+    else
+      md += fmt("| %s | %s | %.2f | %.2f |\n", st.step.c_str(), st.compares.c_str(), st.psnr, st.cumulative);
+  }
+  if (sc.sampleTexels)
+    md += fmt("\nExact paths at the sample texels: %" PRIu64 " sample texels, %" PRIu64
+              " whose surface point the tracer did not find where the frame puts it.\n",
+              sc.sampleTexels, sc.unmatchedTexels);
+  return md;
+}
+
+std::string antialiasingMarkdown(const Profile& p, const FidelityScene& sc) {
+  const uint32_t s = p.samplesPerAxis;
+  const uint32_t dense = sc.denseSamplesPerAxis;
+  const bake::ReferenceOptions cpu;  // the CPU modes' filtering, as measured
+  std::string md;
+  md += fmt("\nAnti-aliasing: each mode at 1 sample per pixel with filtered lookups (the CPU modes with "
+            "ReferenceOptions::filtered: 4 probes, %ux%u taps at level bias %g; the field also with the host's 4x MSAA: "
+            "one shading sample per pixel, silhouettes covered at 4) and at %ux%u, against the physical "
+            "reference (target: within 2 dB; the full tree at %ux%u is that reference itself) and against the full "
+            "tree at %ux%u, which shares no sample positions with the %ux%u renders.\n\n",
+            cpu.environmentTapsPerAxis, cpu.environmentTapsPerAxis, static_cast<double>(cpu.environmentLevelBias),
+            s, s, s, s, dense, dense, s, s);
+  md += fmt("| mode | 1 spp filtered dB | %ux%u dB | apart dB | vs %ux%u: 1 spp filtered dB | %ux%u dB | apart dB "
+            "|\n|---|---|---|---|---|---|---|\n",
+            s, s, dense, dense, s, s);
+  for (const FidelityAntialiasing& a : sc.antialiasing)
+    md += fmt("| %s | %.2f | %s | %s | %.2f | %.2f | %.2f |\n", a.mode.c_str(), a.psnrOneSample,
+              number(a.psnrSupersampled).c_str(), number(a.psnrSupersampled - a.psnrOneSample).c_str(),
+              a.denseOneSample, a.denseSupersampled, a.denseSupersampled - a.denseOneSample);
+  return md;
+}
+
+std::string markdownOf(const Profile& p, const std::vector<FidelityScene>& scenes, uint32_t width, uint32_t height,
+                       double seconds) {
+  std::string md = introMarkdown(p, width, height, seconds);
   for (const FidelityScene& sc : scenes) {
     md += "### " + sc.scene + "\n\n";
     if (!sc.skipped.empty()) {
       md += "Skipped: " + sc.skipped + "\n\n";
       continue;
     }
-    md += fmt("%" PRIu64 " object pixels, %.1f s.\n\n", sc.pixels, sc.seconds);
-    md += "| row | encoding | parameters | directions | samples | quant | path rule | throughput | bytes/sample | "
-          "PSNR vs physical dB | PSNR vs exact dB | bake s | GPU decompress + raster ms | CPU ms |\n";
-    md += "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
-    for (const FidelityRow& r : sc.rows) {
-      const bool field = r.kind == "field";
-      const std::string rule = r.kind == "physical" || r.kind == "single interface" ? "-" : ruleName(r.pathRule);
-      const std::string throughput = rule == "-" ? "-" : (r.throughput ? "yes" : "no");
-      if (!r.error.empty()) {
-        md += fmt("| %s %s | %s | %s | %s | - | %s | %s | %s | - | error: %s | | | | |\n", r.series.c_str(),
-                  r.label.c_str(), r.encoding.c_str(), r.parameters.c_str(), r.directions.c_str(),
-                  r.quantization.c_str(), rule.c_str(), throughput.c_str(), r.error.c_str());
-        continue;
-      }
-      const std::string gpuMs = r.gpu ? (field ? fmt("%.2f + %.2f", r.decompressionMs, r.rasterMs)
-                                               : fmt("%.2f", r.rasterMs))
-                                      : "-";
-      md += fmt("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n",
-                field ? (r.series + " " + r.label).c_str() : r.label.c_str(), r.encoding.c_str(),
-                r.parameters.c_str(), r.directions.c_str(), field ? fmt("%" PRIu64, r.samples).c_str() : "-",
-                r.quantization.c_str(), rule.c_str(), throughput.c_str(),
-                field ? fmt("%u", r.bytesPerSample).c_str() : "-", number(r.psnrPhysical).c_str(),
-                number(r.psnrSameRule).c_str(), field ? fmt("%.1f", r.bakeSeconds).c_str() : "-", gpuMs.c_str(),
-                r.gpu ? "-" : number(r.cpuMs).c_str());
-    }
-    const BakeSettings& d = p.variants.front().settings;
-    const std::string directions = d.directionSampling == DirectionSampling::Nodes
-                                       ? fmt("traced at the %ux%u table nodes", d.tableSize, d.tableSize)
-                                       : fmt("%ux%u directions", d.directionsTheta, d.directionsPhi);
-    md += fmt("\nError decomposition of the default field (%s %s, %s, %s layout, %s, %s path "
-              "rule): each step adds one approximation to the stage above it; *step* is the PSNR between the two "
-              "stages, *cumulative* the new stage against the physical reference.\n\n",
-              toString(d.encoding), parametersOf(d).c_str(), directions.c_str(), toString(d.layout),
-              d.sampleBudget ? fmt("%" PRIu64 " samples asked", d.sampleBudget).c_str() : "the default sample budget",
-              ruleName(d.pathRule));
-    md += "| step | compares | step PSNR dB | cumulative PSNR dB |\n|---|---|---|---|\n";
-    for (const FidelityStep& st : sc.decomposition) {
-      if (!st.error.empty())
-        md += "| " + st.step + " | " + st.compares + " | error: " + st.error + " | |\n";
-      else
-        md += fmt("| %s | %s | %.2f | %.2f |\n", st.step.c_str(), st.compares.c_str(), st.psnr, st.cumulative);
-    }
-    if (sc.sampleTexels)
-      md += fmt("\nExact paths at the sample texels: %" PRIu64 " sample texels, %" PRIu64
-                " whose surface point the tracer did not find where the frame puts it.\n",
-                sc.sampleTexels, sc.unmatchedTexels);
-    if (!sc.antialiasing.empty()) {
-      const uint32_t dense = sc.denseSamplesPerAxis;
-      const bake::ReferenceOptions cpu;  // the CPU modes' filtering, as measured
-      md += fmt("\nAnti-aliasing: each mode at 1 sample per pixel with filtered lookups (the CPU modes with "
-                "ReferenceOptions::filtered: 4 probes, %ux%u taps at level bias %g; the field also with the host's 4x MSAA: "
-                "one shading sample per pixel, silhouettes covered at 4) and at %ux%u, against the physical "
-                "reference (target: within 2 dB; the full tree at %ux%u is that reference itself) and against the full "
-                "tree at %ux%u, which shares no sample positions with the %ux%u renders.\n\n",
-                cpu.environmentTapsPerAxis, cpu.environmentTapsPerAxis, static_cast<double>(cpu.environmentLevelBias),
-                s, s, s, s, dense, dense, s, s);
-      md += fmt("| mode | 1 spp filtered dB | %ux%u dB | apart dB | vs %ux%u: 1 spp filtered dB | %ux%u dB | apart dB "
-                "|\n|---|---|---|---|---|---|---|\n",
-                s, s, dense, dense, s, s);
-      for (const FidelityAntialiasing& a : sc.antialiasing)
-        md += fmt("| %s | %.2f | %s | %s | %.2f | %.2f | %.2f |\n", a.mode.c_str(), a.psnrOneSample,
-                  number(a.psnrSupersampled).c_str(), number(a.psnrSupersampled - a.psnrOneSample).c_str(),
-                  a.denseOneSample, a.denseSupersampled, a.denseSupersampled - a.denseOneSample);
-    }
+    md += rowsMarkdown(sc);
+    md += decompositionMarkdown(p, sc);
+    if (!sc.antialiasing.empty()) md += antialiasingMarkdown(p, sc);
     const std::string name = "fidelity_" + sanitize(sceneTitle(sc.scene));
     md += "\n![error vs bytes per sample](" + name + "_psnr_vs_bytes.png)\n";
     md += "![error vs frame time](" + name + "_psnr_vs_frame_time.png)\n\n";
