@@ -211,12 +211,6 @@ std::string sceneTitle(const std::string& spec) {
   return slash == std::string::npos ? t : t.substr(slash + 1);
 }
 
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-
 std::string parametersOf(const BakeSettings& s) {
   switch (s.encoding) {
     case Encoding::Sh: return fmt(s.window == SmoothingWindow::None ? "L%u" : "L%u %s", s.order, toString(s.window));

@@ -153,12 +153,6 @@ void setErrors(ReportRow& row, const bake::ImageErrors& e) {
   row.pixels = e.pixels;
 }
 
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-
 Result<void> writeOut(const std::string& dir, const std::string& name, const bake::Image& image,
                       std::vector<std::string>& files) {
   if (auto r = bake::writeImage(dir + "/" + name, image); !r) return r;

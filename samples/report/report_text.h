@@ -1,11 +1,14 @@
-// Small helpers the report's sections share: printf-style formatting, wall-clock seconds, file names.
+// Small helpers the report's sections share: printf-style formatting, wall-clock seconds, file names,
+// medians of timings.
 #pragma once
 
+#include <algorithm>
 #include <cctype>
 #include <chrono>
 #include <cstdarg>
 #include <cstdio>
 #include <string>
+#include <vector>
 
 namespace shrefract::report {
 
@@ -20,6 +23,13 @@ __attribute__((format(printf, 1, 2))) inline std::string fmt(const char* f, ...)
   std::vsnprintf(buf, sizeof buf, f, args);
   va_end(args);
   return buf;
+}
+
+// The upper median of timings (0 for none): one slow frame does not move it.
+inline double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
 }
 
 // A file name stem: letters, digits and '-' kept, everything else '_'.
