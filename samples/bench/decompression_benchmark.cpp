@@ -40,6 +40,8 @@
 #include <cstring>
 #include <filesystem>
 #include <functional>
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -318,6 +320,91 @@ FieldBufferBytes fieldBufferBytes(const Field& field, uint64_t samples) {
   return b;
 }
 
+uint64_t sampleCount(const Field& field) {
+  uint64_t samples = 0;
+  for (uint8_t k : field.texelKinds) samples += k == kTexelSample;
+  return samples;
+}
+
+// GB/s of reading `bytesRead` in `ms` milliseconds; 0 without a time.
+double rate(uint64_t bytesRead, double ms) { return ms > 0.0 ? double(bytesRead) / (ms * 1e-3) / 1e9 : 0.0; }
+
+// --encodings: one uploaded field of the comparison and what it occupies.
+struct EncodingEntry {
+  EncodingCase c;
+  std::unique_ptr<Object> object;
+  uint32_t bytesPerSample = 0;
+  uint64_t samples = 0;
+  FieldBufferBytes buffers;
+  uint64_t objectBytes = 0;
+};
+
+SyntheticOptions encodingCaseOptions(const SyntheticOptions& base, const EncodingCase& c) {
+  SyntheticOptions o = base;
+  o.encoding = c.encoding;
+  o.order = c.order;
+  o.tableSize = c.tableSize;
+  o.components = c.components;
+  o.channels = c.channels;
+  o.throughput = c.throughput;
+  o.quantization = c.quantization;
+  o.directionSampling = c.sampling;
+  o.jumpDistance = c.jumpDistance;
+  return o;
+}
+
+// The case's synthetic field uploaded and prepared for decompression; errors name the case.
+Result<EncodingEntry> uploadEncodingCase(Context& context, Decompressor& decompressor, const SyntheticOptions& base,
+                                         const EncodingCase& c) {
+  EncodingEntry e{c, nullptr};
+  {
+    const Field field = syntheticField(encodingCaseOptions(base, c));
+    e.samples = sampleCount(field);
+    e.bytesPerSample = field.bytesPerSample();
+    e.buffers = fieldBufferBytes(field, e.samples);
+    auto uploaded = context.uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
+      auto created = Object::createFromField(context, field, cmd);
+      if (!created) return created.error();
+      e.object = std::move(created).value();
+      return {};
+    });
+    if (!uploaded) return makeError(uploaded.error().code, std::string(c.name) + ": " + uploaded.error().message);
+  }
+  context.releaseDeferred();  // the upload's staging buffers
+  if (auto prepared = decompressor.prepare(*e.object); !prepared)
+    return makeError(prepared.error().code, std::string(c.name) + ": " + prepared.error().message);
+  e.objectBytes = e.object->gpuMemoryBytes();
+  return e;
+}
+
+// The comparison as a Markdown table, a row per field, after the lines that say what it shows.
+void printEncodingTable(harness::Harness& h, const SyntheticOptions& base, const std::array<float, 3>& eye,
+                        uint32_t reps, const std::vector<EncodingEntry>& entries, const std::vector<Timing>& t) {
+  std::printf("device: %s\n", h.deviceName().c_str());
+  std::printf("synthetic fields: %ux%u atlas, %llu samples each; eye (%.1f, %.1f, %.1f)\n", base.width, base.height,
+              static_cast<unsigned long long>(entries[0].samples), double(eye[0]), double(eye[1]), double(eye[2]));
+  std::printf("median of %u repetitions taking turns; GPU timestamps around Decompressor::record; ratio: median over "
+              "repetitions of ms / ms of %s in the same repetition\n",
+              reps, entries[0].c.name);
+  std::printf("memory: buffers as laid out (KiB); object: Object::gpuMemoryBytes() (MiB, with frames, texel indices, "
+              "distortion image, mesh)\n\n");
+  std::printf("| field | q | c | coefficient bytes/sample | GPU ms | ratio | CPU ms | coefficients KiB | scale/bias KiB | basis KiB "
+              "| object MiB |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
+  for (size_t k = 0; k < entries.size(); ++k) {
+    const EncodingEntry& e = entries[k];
+    std::vector<double> ratios;
+    for (size_t r = 0; r < t[k].rounds.size() && r < t[0].rounds.size(); ++r)
+      if (t[0].rounds[r] > 0.0) ratios.push_back(t[k].rounds[r] / t[0].rounds[r]);
+    char basis[32] = "-";  // the placeholder vec4 of a field without a basis is not shown
+    if (e.c.encoding == Encoding::Pca) std::snprintf(basis, sizeof(basis), "%.1f", double(e.buffers.basis) / 1024.0);
+    std::printf("| %-26s | %-3s | %u | %3u | %9.3f | %6.2f | %9.3f | %9.1f | %7.2f | %8s | %7.2f |\n", e.c.name,
+                toString(e.c.quantization), e.c.channels, e.bytesPerSample, t[k].ms, median(ratios), t[k].cpuMs,
+                double(e.buffers.coefficients) / 1024.0, double(e.buffers.scaleBias) / 1024.0, basis,
+                double(e.objectBytes) / 1048576.0);
+  }
+}
+
 int runEncodings(const Options& options) {
   bool noDevice = false;
   auto gpu = createGpu(options.validation, &noDevice);
@@ -339,57 +426,21 @@ int runEncodings(const Options& options) {
   SyntheticOptions base = options.synthetic;
   if (!options.sizeGiven) base.width = base.height = 233;
   base.sampleFraction = 1.0f;
-  struct Entry {
-    EncodingCase c;
-    std::unique_ptr<Object> object;
-    uint32_t bytesPerSample = 0;
-    uint64_t samples = 0;
-    FieldBufferBytes buffers;
-    uint64_t objectBytes = 0;
-  };
-  std::vector<Entry> entries;
+  std::vector<EncodingEntry> entries;
   // One field at a time: the CPU copy (and its float coefficients) is dropped after the upload.
   for (const EncodingCase& c : kEncodingCases) {
-    SyntheticOptions o = base;
-    o.encoding = c.encoding;
-    o.order = c.order;
-    o.tableSize = c.tableSize;
-    o.components = c.components;
-    o.channels = c.channels;
-    o.throughput = c.throughput;
-    o.quantization = c.quantization;
-    o.directionSampling = c.sampling;
-    o.jumpDistance = c.jumpDistance;
-    Entry e{c, nullptr};
-    {
-      const Field field = syntheticField(o);
-      for (uint8_t k : field.texelKinds) e.samples += k == kTexelSample;
-      e.bytesPerSample = field.bytesPerSample();
-      e.buffers = fieldBufferBytes(field, e.samples);
-      auto uploaded = context.uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
-        auto created = Object::createFromField(context, field, cmd);
-        if (!created) return created.error();
-        e.object = std::move(created).value();
-        return {};
-      });
-      if (!uploaded) {
-        std::fprintf(stderr, "%s: %s\n", c.name, uploaded.error().message.c_str());
-        return 1;
-      }
-    }
-    context.releaseDeferred();  // the upload's staging buffers
-    if (auto prepared = decompressor.value()->prepare(*e.object); !prepared) {
-      std::fprintf(stderr, "%s: %s\n", c.name, prepared.error().message.c_str());
+    auto entry = uploadEncodingCase(context, *decompressor.value(), base, c);
+    if (!entry) {
+      std::fprintf(stderr, "%s\n", entry.error().message.c_str());
       return 1;
     }
-    e.objectBytes = e.object->gpuMemoryBytes();
-    entries.push_back(std::move(e));
+    entries.push_back(std::move(entry).value());
   }
 
   bool failed = false;
   const std::array<float, 3> eye{0.3f, 0.2f, 2.0f};
   std::vector<std::function<void(VkCommandBuffer)>> recorders;
-  for (Entry& e : entries)
+  for (EncodingEntry& e : entries)
     recorders.push_back([&, object = e.object.get()](VkCommandBuffer cmd) {
       auto r = decompressor.value()->record(cmd, eye, {object});
       if (!r || decompressor.value()->lastStats().decompressed != 1) failed = true;
@@ -399,30 +450,7 @@ int runEncodings(const Options& options) {
     std::fprintf(stderr, "a decompression could not be recorded\n");
     return 1;
   }
-
-  std::printf("device: %s\n", h.deviceName().c_str());
-  std::printf("synthetic fields: %ux%u atlas, %llu samples each; eye (%.1f, %.1f, %.1f)\n", base.width, base.height,
-              static_cast<unsigned long long>(entries[0].samples), double(eye[0]), double(eye[1]), double(eye[2]));
-  std::printf("median of %u repetitions taking turns; GPU timestamps around Decompressor::record; ratio: median over "
-              "repetitions of ms / ms of %s in the same repetition\n",
-              options.reps, entries[0].c.name);
-  std::printf("memory: buffers as laid out (KiB); object: Object::gpuMemoryBytes() (MiB, with frames, texel indices, "
-              "distortion image, mesh)\n\n");
-  std::printf("| field | q | c | coefficient bytes/sample | GPU ms | ratio | CPU ms | coefficients KiB | scale/bias KiB | basis KiB "
-              "| object MiB |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
-  for (size_t k = 0; k < entries.size(); ++k) {
-    const Entry& e = entries[k];
-    std::vector<double> ratios;
-    for (size_t r = 0; r < t[k].rounds.size() && r < t[0].rounds.size(); ++r)
-      if (t[0].rounds[r] > 0.0) ratios.push_back(t[k].rounds[r] / t[0].rounds[r]);
-    char basis[32] = "-";  // the placeholder vec4 of a field without a basis is not shown
-    if (e.c.encoding == Encoding::Pca) std::snprintf(basis, sizeof(basis), "%.1f", double(e.buffers.basis) / 1024.0);
-    std::printf("| %-26s | %-3s | %u | %3u | %9.3f | %6.2f | %9.3f | %9.1f | %7.2f | %8s | %7.2f |\n", e.c.name,
-                toString(e.c.quantization), e.c.channels, e.bytesPerSample, t[k].ms, median(ratios), t[k].cpuMs,
-                double(e.buffers.coefficients) / 1024.0, double(e.buffers.scaleBias) / 1024.0, basis,
-                double(e.objectBytes) / 1048576.0);
-  }
+  printEncodingTable(h, base, eye, options.reps, entries, t);
   entries.clear();
   decompressor.value().reset();
   if (const uint32_t messages = h.messageCount(); messages) {
@@ -432,204 +460,151 @@ int runEncodings(const Options& options) {
   return 0;
 }
 
-int run(const Options& options) {
-  Field field;
-  if (!options.field.empty()) {
-    if (!std::filesystem::exists(options.field)) {
-      std::printf("SKIPPED: %s does not exist\n", options.field.c_str());
-      return 0;
-    }
-    auto read = readField(options.field);
-    if (!read) {
-      std::fprintf(stderr, "%s\n", read.error().message.c_str());
-      return 1;
-    }
-    field = std::move(read).value();
-  } else {
-    field = syntheticField(options.synthetic);
-  }
-  bool noDevice = false;
-  auto gpu = createGpu(options.validation, &noDevice);
-  if (!gpu) return noDevice ? 0 : 1;
-  harness::Harness& h = *gpu->harness;
-  Context& context = *gpu->context;
-  GpuTimer timer(h, 2);
-  if (!timer.available()) {
-    std::printf("SKIPPED: the queue has no timestamps\n");
-    return 0;
-  }
+// The copies' sources and destinations: a source and a destination buffer of the bytes the
+// decompression reads (rounded up to whole 16-byte texels), and the previous layout's image.
+struct CopyTargets {
+  VkBuffer source = VK_NULL_HANDLE, destination = VK_NULL_HANDLE;
+  VkImage image = VK_NULL_HANDLE;
+  VkImageView imageView = VK_NULL_HANDLE;
+  VkSampler sampler = VK_NULL_HANDLE;
+  VkBufferView source1 = VK_NULL_HANDLE, destination1 = VK_NULL_HANDLE;  // a word per texel
+  VkBufferView source4 = VK_NULL_HANDLE, destination4 = VK_NULL_HANDLE;  // four words per texel
+};
 
-  std::unique_ptr<Object> object;
-  auto uploaded = context.uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
-    auto created = Object::createFromField(context, field, cmd);
-    if (!created) return created.error();
-    object = std::move(created).value();
-    return {};
-  });
-  if (!uploaded) {
-    std::fprintf(stderr, "%s\n", uploaded.error().message.c_str());
-    return 1;
-  }
-  auto decompressor = Decompressor::create(context);
-  if (!decompressor || !decompressor.value()->prepare(*object)) {
-    std::fprintf(stderr, "cannot create the decompression pipeline\n");
-    return 1;
-  }
-  decompressor.value()->setSkipUnchanged(false);  // every repetition does the whole work
-
-  uint64_t samples = 0;
-  for (uint8_t k : field.texelKinds) samples += k == kTexelSample;
-  const uint32_t layers = field.layerCount();
-  const bool u8 = field.quantization == Quantization::U8;
-  const uint32_t componentBytes = u8 ? 1u : 2u;
-  // What the decompression reads: the sample texels' coefficients, the field's channels only.
-  const uint64_t decompressBytes = samples * field.bytesPerSample();
-
-  bool failed = false;
-  const std::array<float, 3> eye{0.3f, 0.2f, 2.0f};
-  auto recordDecompression = [&](VkCommandBuffer cmd) {
-    if (auto r = decompressor.value()->record(cmd, eye, {object.get()}); !r) failed = true;
-  };
-  if (options.profile) {
-    const std::vector<Timing> t = timeTurns(h, timer, options.reps, {recordDecompression}, failed);
-    if (!failed)
-      std::printf("decompression alone: %.3f ms GPU (fastest %.3f), %.3f ms process CPU (median of %u)\n", t[0].ms,
-                  t[0].fastestMs, t[0].cpuMs, options.reps);
-    return failed ? 1 : 0;
-  }
-
-  // The copies' resources: a source and a destination buffer of the bytes the decompression
-  // reads (rounded up to whole 16-byte texels), and the previous layout's image.
-  Resources r(h);
-  const uint64_t copyWords = (decompressBytes + 15) / 16 * 4;
-  const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT |
-                                   VK_BUFFER_USAGE_STORAGE_TEXEL_BUFFER_BIT;
-  const std::vector<uint8_t> rgba = rgbaCoefficients(field);
-  const VkDeviceSize destinationBytes = std::max<VkDeviceSize>(copyWords * 4, rgba.size());
-  const VkBuffer source = r.buffer(copyWords * 4, usage);
-  const VkBuffer destination = r.buffer(destinationBytes, usage);
+// The previous layout's image, a layer per coefficient layer, with its view and sampler.
+bool createPreviousLayoutImage(Resources& r, const Field& field, CopyTargets& t) {
+  harness::Harness& h = r.h;
   VkImageCreateInfo ici{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
   ici.imageType = VK_IMAGE_TYPE_2D;
-  ici.format = u8 ? VK_FORMAT_R8G8B8A8_UNORM : VK_FORMAT_R16G16B16A16_SFLOAT;
+  ici.format = field.quantization == Quantization::U8 ? VK_FORMAT_R8G8B8A8_UNORM : VK_FORMAT_R16G16B16A16_SFLOAT;
   ici.extent = {field.width, field.height, 1};
   ici.mipLevels = 1;
-  ici.arrayLayers = layers;
+  ici.arrayLayers = field.layerCount();
   ici.samples = VK_SAMPLE_COUNT_1_BIT;
   ici.tiling = VK_IMAGE_TILING_OPTIMAL;
   ici.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
-  VkImage image = VK_NULL_HANDLE;
-  bool ok = source && destination && vkCreateImage(h.device(), &ici, nullptr, &image) == VK_SUCCESS;
-  if (image) r.images.push_back(image);
-  VkImageView imageView = VK_NULL_HANDLE;
-  VkSampler sampler = VK_NULL_HANDLE;
-  if (ok) {
-    VkMemoryRequirements req{};
-    vkGetImageMemoryRequirements(h.device(), image, &req);
-    VkDeviceMemory memory = VK_NULL_HANDLE;
-    ok = r.allocate(req, memory) && vkBindImageMemory(h.device(), image, memory, 0) == VK_SUCCESS;
-    VkImageViewCreateInfo ivci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
-    ivci.image = image;
-    ivci.viewType = VK_IMAGE_VIEW_TYPE_2D_ARRAY;
-    ivci.format = ici.format;
-    ivci.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, layers};
-    VkSamplerCreateInfo sci{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
-    ok = ok && vkCreateImageView(h.device(), &ivci, nullptr, &imageView) == VK_SUCCESS;
-    if (imageView) r.imageViews.push_back(imageView);
-    ok = ok && vkCreateSampler(h.device(), &sci, nullptr, &sampler) == VK_SUCCESS;
-    if (sampler) r.samplers.push_back(sampler);
-  }
-  // Texel views of at most maxTexelBufferElements words (the copies read that many; see below).
-  const VkDeviceSize viewBytes =
-      std::min<uint64_t>(copyWords, uint64_t(h.properties().limits.maxTexelBufferElements) / 4 * 4) * 4;
-  const VkBufferView source1 = ok ? r.view(source, VK_FORMAT_R32_UINT, viewBytes) : VK_NULL_HANDLE;
-  const VkBufferView destination1 = ok ? r.view(destination, VK_FORMAT_R32_UINT, viewBytes) : VK_NULL_HANDLE;
-  const VkBufferView source4 = ok ? r.view(source, VK_FORMAT_R32G32B32A32_UINT, viewBytes) : VK_NULL_HANDLE;
-  const VkBufferView destination4 = ok ? r.view(destination, VK_FORMAT_R32G32B32A32_UINT, viewBytes) : VK_NULL_HANDLE;
-  ok = ok && source1 && destination1 && source4 && destination4;
+  bool ok = vkCreateImage(h.device(), &ici, nullptr, &t.image) == VK_SUCCESS;
+  if (t.image) r.images.push_back(t.image);
+  if (!ok) return false;
+  VkMemoryRequirements req{};
+  vkGetImageMemoryRequirements(h.device(), t.image, &req);
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+  ok = r.allocate(req, memory) && vkBindImageMemory(h.device(), t.image, memory, 0) == VK_SUCCESS;
+  VkImageViewCreateInfo ivci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+  ivci.image = t.image;
+  ivci.viewType = VK_IMAGE_VIEW_TYPE_2D_ARRAY;
+  ivci.format = ici.format;
+  ivci.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, ici.arrayLayers};
+  VkSamplerCreateInfo sci{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+  ok = ok && vkCreateImageView(h.device(), &ivci, nullptr, &t.imageView) == VK_SUCCESS;
+  if (t.imageView) r.imageViews.push_back(t.imageView);
+  ok = ok && vkCreateSampler(h.device(), &sci, nullptr, &t.sampler) == VK_SUCCESS;
+  if (t.sampler) r.samplers.push_back(t.sampler);
+  return ok;
+}
 
-  std::array<Copy, 4> copies{{{"copy, storage buffer -> storage buffer, 1 word/invocation"},
-                              {"copy, texel buffer -> storage texel buffer, 1 word/invocation"},
-                              {"copy, texel buffer -> storage texel buffer, 4 words/invocation"},
-                              {"copy, RGBA 2D-array image (previous layout), texelFetch"}}};
-  const VkDescriptorType storageBuffer = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-  const VkDescriptorType texel = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
-  const VkDescriptorType storageTexel = VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER;
-  ok = ok && createCopy(r, kSpirv_copy_buffer_comp, sizeof(kSpirv_copy_buffer_comp), storageBuffer, storageBuffer, copies[0]) &&
-       createCopy(r, kSpirv_copy_texel_comp, sizeof(kSpirv_copy_texel_comp), texel, storageTexel, copies[1]) &&
-       createCopy(r, kSpirv_copy_texel4_comp, sizeof(kSpirv_copy_texel4_comp), texel, storageTexel, copies[2]) &&
-       createCopy(r, kSpirv_copy_image_comp, sizeof(kSpirv_copy_image_comp), VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER,
-                  storageBuffer, copies[3]);
-  auto staging = h.createHostBuffer(std::max<VkDeviceSize>(rgba.size(), copyWords * 4), VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
-  if (!ok || !staging) {
-    std::fprintf(stderr, "cannot set up the copy shaders\n");
-    if (staging) h.destroyBuffer(staging.value());
-    return 1;
-  }
-  {
-    // Upload the previous layout's image; the copy sources hold whatever (a copy does not look).
-    harness::Harness::Buffer stage = staging.value();
-    std::memcpy(stage.mapped, rgba.data(), rgba.size());
-    auto submitted = h.submitAndWait([&](VkCommandBuffer cmd) {
-      VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
-      b.dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-      b.dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-      b.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-      b.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-      b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-      b.image = image;
-      b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, layers};
-      VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-      dep.imageMemoryBarrierCount = 1;
-      dep.pImageMemoryBarriers = &b;
-      vkCmdPipelineBarrier2(cmd, &dep);
-      VkBufferImageCopy region{};
-      region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, layers};
-      region.imageExtent = {field.width, field.height, 1};
-      vkCmdCopyBufferToImage(cmd, stage.buffer, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
-      const VkBufferCopy words{0, 0, copyWords * 4};
-      vkCmdCopyBuffer(cmd, stage.buffer, source, 1, &words);
-      b.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-      b.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-      b.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-      b.dstAccessMask = VK_ACCESS_2_SHADER_SAMPLED_READ_BIT;
-      b.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-      b.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
-      VkMemoryBarrier2 m{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
-      m.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-      m.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-      m.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-      m.dstAccessMask = VK_ACCESS_2_SHADER_READ_BIT;
-      dep.memoryBarrierCount = 1;
-      dep.pMemoryBarriers = &m;
-      vkCmdPipelineBarrier2(cmd, &dep);
-    });
-    h.destroyBuffer(stage);
-    if (!submitted) {
-      std::fprintf(stderr, "%s\n", submitted.error().message.c_str());
-      return 1;
-    }
-  }
+bool createCopyTargets(Resources& r, const Field& field, uint64_t copyWords, size_t rgbaBytes, CopyTargets& t) {
+  const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT |
+                                   VK_BUFFER_USAGE_STORAGE_TEXEL_BUFFER_BIT;
+  const VkDeviceSize destinationBytes = std::max<VkDeviceSize>(copyWords * 4, rgbaBytes);
+  t.source = r.buffer(copyWords * 4, usage);
+  t.destination = r.buffer(destinationBytes, usage);
+  bool ok = t.source && t.destination && createPreviousLayoutImage(r, field, t);
+  // Texel views of at most maxTexelBufferElements words (the copies read that many; see bindCopies).
+  const VkDeviceSize viewBytes =
+      std::min<uint64_t>(copyWords, uint64_t(r.h.properties().limits.maxTexelBufferElements) / 4 * 4) * 4;
+  t.source1 = ok ? r.view(t.source, VK_FORMAT_R32_UINT, viewBytes) : VK_NULL_HANDLE;
+  t.destination1 = ok ? r.view(t.destination, VK_FORMAT_R32_UINT, viewBytes) : VK_NULL_HANDLE;
+  t.source4 = ok ? r.view(t.source, VK_FORMAT_R32G32B32A32_UINT, viewBytes) : VK_NULL_HANDLE;
+  t.destination4 = ok ? r.view(t.destination, VK_FORMAT_R32G32B32A32_UINT, viewBytes) : VK_NULL_HANDLE;
+  return ok && t.source1 && t.destination1 && t.source4 && t.destination4;
+}
+
+constexpr VkDescriptorType kStorageBuffer = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+constexpr VkDescriptorType kTexel = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
+constexpr VkDescriptorType kStorageTexel = VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER;
+
+bool createCopies(Resources& r, std::array<Copy, 4>& copies) {
+  return createCopy(r, kSpirv_copy_buffer_comp, sizeof(kSpirv_copy_buffer_comp), kStorageBuffer, kStorageBuffer,
+                    copies[0]) &&
+         createCopy(r, kSpirv_copy_texel_comp, sizeof(kSpirv_copy_texel_comp), kTexel, kStorageTexel, copies[1]) &&
+         createCopy(r, kSpirv_copy_texel4_comp, sizeof(kSpirv_copy_texel4_comp), kTexel, kStorageTexel, copies[2]) &&
+         createCopy(r, kSpirv_copy_image_comp, sizeof(kSpirv_copy_image_comp), VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER,
+                    kStorageBuffer, copies[3]);
+}
+
+void recordCopySourceUpload(VkCommandBuffer cmd, VkBuffer stage, const CopyTargets& t, const Field& field,
+                            uint64_t copyWords) {
+  const uint32_t layers = field.layerCount();
+  VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
+  b.dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+  b.dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  b.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  b.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+  b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  b.image = t.image;
+  b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, layers};
+  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+  dep.imageMemoryBarrierCount = 1;
+  dep.pImageMemoryBarriers = &b;
+  vkCmdPipelineBarrier2(cmd, &dep);
+  VkBufferImageCopy region{};
+  region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, layers};
+  region.imageExtent = {field.width, field.height, 1};
+  vkCmdCopyBufferToImage(cmd, stage, t.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+  const VkBufferCopy words{0, 0, copyWords * 4};
+  vkCmdCopyBuffer(cmd, stage, t.source, 1, &words);
+  b.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+  b.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  b.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  b.dstAccessMask = VK_ACCESS_2_SHADER_SAMPLED_READ_BIT;
+  b.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+  b.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+  VkMemoryBarrier2 m{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
+  m.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+  m.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  m.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  m.dstAccessMask = VK_ACCESS_2_SHADER_READ_BIT;
+  dep.memoryBarrierCount = 1;
+  dep.pMemoryBarriers = &m;
+  vkCmdPipelineBarrier2(cmd, &dep);
+}
+
+// Upload the previous layout's image; the copy sources hold whatever (a copy does not look).
+Result<void> uploadCopySources(harness::Harness& h, harness::Harness::Buffer stage, const std::vector<uint8_t>& rgba,
+                               const CopyTargets& t, const Field& field, uint64_t copyWords) {
+  std::memcpy(stage.mapped, rgba.data(), rgba.size());
+  auto submitted = h.submitAndWait(
+      [&](VkCommandBuffer cmd) { recordCopySourceUpload(cmd, stage.buffer, t, field, copyWords); });
+  h.destroyBuffer(stage);
+  return submitted;
+}
+
+// The copies' descriptors, push constants, dispatch sizes and the bytes each reads.
+void bindCopies(harness::Harness& h, const Field& field, const CopyTargets& t, uint64_t copyWords, size_t rgbaBytes,
+                std::array<Copy, 4>& copies) {
   // Each copy reads as many bytes as its path's limit allows (all of them unless the field is huge).
   const VkPhysicalDeviceLimits& limits = h.properties().limits;
   const uint64_t storageWords = std::min<uint64_t>(copyWords, limits.maxStorageBufferRange / 16 * 4);
   const uint64_t texelWords = std::min<uint64_t>(copyWords, uint64_t(limits.maxTexelBufferElements) / 4 * 4);
   const VkDevice d = h.device();
-  const VkDescriptorBufferInfo sourceInfo{source, 0, storageWords * 4};
-  const VkDescriptorBufferInfo destinationInfo{destination, 0, storageWords * 4};
-  const VkDescriptorImageInfo imageInfo{sampler, imageView, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-  writeDescriptor(d, copies[0].set, 0, storageBuffer, &sourceInfo, nullptr, nullptr);
-  writeDescriptor(d, copies[0].set, 1, storageBuffer, &destinationInfo, nullptr, nullptr);
-  writeDescriptor(d, copies[1].set, 0, texel, nullptr, &source1, nullptr);
-  writeDescriptor(d, copies[1].set, 1, storageTexel, nullptr, &destination1, nullptr);
-  writeDescriptor(d, copies[2].set, 0, texel, nullptr, &source4, nullptr);
-  writeDescriptor(d, copies[2].set, 1, storageTexel, nullptr, &destination4, nullptr);
+  const VkDescriptorBufferInfo sourceInfo{t.source, 0, storageWords * 4};
+  const VkDescriptorBufferInfo destinationInfo{t.destination, 0, storageWords * 4};
+  const VkDescriptorImageInfo imageInfo{t.sampler, t.imageView, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  writeDescriptor(d, copies[0].set, 0, kStorageBuffer, &sourceInfo, nullptr, nullptr);
+  writeDescriptor(d, copies[0].set, 1, kStorageBuffer, &destinationInfo, nullptr, nullptr);
+  writeDescriptor(d, copies[1].set, 0, kTexel, nullptr, &t.source1, nullptr);
+  writeDescriptor(d, copies[1].set, 1, kStorageTexel, nullptr, &t.destination1, nullptr);
+  writeDescriptor(d, copies[2].set, 0, kTexel, nullptr, &t.source4, nullptr);
+  writeDescriptor(d, copies[2].set, 1, kStorageTexel, nullptr, &t.destination4, nullptr);
   writeDescriptor(d, copies[3].set, 0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, nullptr, nullptr, &imageInfo);
   // The previous layout's copy writes every texel of as many layers as the binding can hold.
-  const VkDeviceSize layerBytes = field.texelCount() * 4 * componentBytes;
-  const uint32_t imageLayers = static_cast<uint32_t>(
-      std::min<VkDeviceSize>(layers, std::min<VkDeviceSize>(rgba.size(), limits.maxStorageBufferRange) / layerBytes));
-  const VkDescriptorBufferInfo imageDestinationInfo{destination, 0, std::max<VkDeviceSize>(imageLayers, 1) * layerBytes};
-  writeDescriptor(d, copies[3].set, 1, storageBuffer, &imageDestinationInfo, nullptr, nullptr);
+  const bool u8 = field.quantization == Quantization::U8;
+  const VkDeviceSize layerBytes = field.texelCount() * 4 * (u8 ? 1u : 2u);
+  const uint32_t imageLayers = static_cast<uint32_t>(std::min<VkDeviceSize>(
+      field.layerCount(), std::min<VkDeviceSize>(rgbaBytes, limits.maxStorageBufferRange) / layerBytes));
+  const VkDescriptorBufferInfo imageDestinationInfo{t.destination, 0, std::max<VkDeviceSize>(imageLayers, 1) * layerBytes};
+  writeDescriptor(d, copies[3].set, 1, kStorageBuffer, &imageDestinationInfo, nullptr, nullptr);
   const uint32_t words = static_cast<uint32_t>(storageWords), texels = static_cast<uint32_t>(texelWords);
   copies[0].push = {words, 0, 0, 0};
   copies[0].groups = (words + 63) / 64;
@@ -644,54 +619,51 @@ int run(const Options& options) {
   copies[3].groups = 0;  // 2D dispatch below
   copies[3].bytes = imageLayers * layerBytes;
   copies[3].reference = false;
+}
 
-  std::vector<std::function<void(VkCommandBuffer)>> recorders{recordDecompression};
-  for (const Copy& c : copies)
-    recorders.push_back([&h, &field, c](VkCommandBuffer cmd) {
-      (void)h;
-      // Like the decompression's first barrier: wait for earlier writes of the destination.
-      VkMemoryBarrier2 m{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
-      m.srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-      m.srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-      m.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-      m.dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-      VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-      dep.memoryBarrierCount = 1;
-      dep.pMemoryBarriers = &m;
-      vkCmdPipelineBarrier2(cmd, &dep);
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c.pipeline);
-      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c.layout, 0, 1, &c.set, 0, nullptr);
-      vkCmdPushConstants(cmd, c.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, 16, c.push.data());
-      if (c.groups) vkCmdDispatch(cmd, std::min(c.groups, 32768u), (c.groups + 32767u) / 32768u, 1);
-      else vkCmdDispatch(cmd, (field.width + 7) / 8, (field.height + 7) / 8, 1);
-    });
-  const std::vector<Timing> t = timeTurns(h, timer, options.reps, recorders, failed);
-  object.reset();
-  decompressor.value().reset();
-  if (failed) return 1;
+std::function<void(VkCommandBuffer)> copyRecorder(const Field& field, const Copy& c) {
+  return [&field, c](VkCommandBuffer cmd) {
+    // Like the decompression's first barrier: wait for earlier writes of the destination.
+    VkMemoryBarrier2 m{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
+    m.srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+    m.srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+    m.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+    m.dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+    VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+    dep.memoryBarrierCount = 1;
+    dep.pMemoryBarriers = &m;
+    vkCmdPipelineBarrier2(cmd, &dep);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c.pipeline);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c.layout, 0, 1, &c.set, 0, nullptr);
+    vkCmdPushConstants(cmd, c.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, 16, c.push.data());
+    if (c.groups) vkCmdDispatch(cmd, std::min(c.groups, 32768u), (c.groups + 32767u) / 32768u, 1);
+    else vkCmdDispatch(cmd, (field.width + 7) / 8, (field.height + 7) / 8, 1);
+  };
+}
 
-  auto rate = [](uint64_t bytesRead, double ms) { return ms > 0.0 ? double(bytesRead) / (ms * 1e-3) / 1e9 : 0.0; };
-  const double decompressRate = rate(decompressBytes, t[0].ms);
-  const double decompressCpuRate = rate(decompressBytes, t[0].cpuMs);
+// The report: the decompression's rate and the copies', and its ratio to the fastest reference.
+void printCopyComparison(harness::Harness& h, const Options& options, const Field& field, uint64_t samples,
+                         uint64_t decompressBytes, const Timing& decompression, const std::array<Copy, 4>& copies) {
+  const double decompressRate = rate(decompressBytes, decompression.ms);
+  const double decompressCpuRate = rate(decompressBytes, decompression.cpuMs);
   double bestRate = 0.0, bestCpuRate = 0.0;
   const Copy* best = nullptr;
-  for (size_t k = 0; k < copies.size(); ++k) {
-    copies[k].ms = t[k + 1].ms;
-    copies[k].cpuMs = t[k + 1].cpuMs;
-    if (!copies[k].reference) continue;
-    if (rate(copies[k].bytes, copies[k].ms) > bestRate) {
-      bestRate = rate(copies[k].bytes, copies[k].ms);
-      best = &copies[k];
+  for (const Copy& c : copies) {
+    if (!c.reference) continue;
+    if (rate(c.bytes, c.ms) > bestRate) {
+      bestRate = rate(c.bytes, c.ms);
+      best = &c;
     }
-    bestCpuRate = std::max(bestCpuRate, rate(copies[k].bytes, copies[k].cpuMs));
+    bestCpuRate = std::max(bestCpuRate, rate(c.bytes, c.cpuMs));
   }
   const double ratio = bestRate > 0.0 ? decompressRate / bestRate : 0.0;
+  const uint32_t componentBytes = field.quantization == Quantization::U8 ? 1u : 2u;
   std::printf("device: %s\n", h.deviceName().c_str());
   // encodingLabel: a Table or Pca field has no SH order ("order 0" said nothing of its 324 layers).
   std::printf("field: %s, %ux%u atlas, %llu samples, %s (%u layers), %u channels, %s\n",
               options.field.empty() ? "synthetic" : options.field.c_str(), field.width, field.height,
-              static_cast<unsigned long long>(samples), encodingLabel(field).c_str(), layers, field.channels,
-              toString(field.quantization));
+              static_cast<unsigned long long>(samples), encodingLabel(field).c_str(), field.layerCount(),
+              field.channels, toString(field.quantization));
   std::printf("coefficient bytes read per decompression: %.2f MiB (%u per sample and basis function)\n",
               double(decompressBytes) / 1048576.0, field.valuesPerLayer() * componentBytes);
   if (field.encoding != Encoding::Sh)
@@ -699,19 +671,135 @@ int run(const Options& options) {
                 "sample 4 nodes); --encodings compares the encodings\n",
                 toString(field.encoding));
   std::printf("median of %u repetitions taking turns; GPU timestamps (and process CPU time):\n", options.reps);
-  std::printf("  %-64s %8.3f ms %7.3f GB/s  (CPU %8.3f ms)\n", "decompression pass", t[0].ms, decompressRate,
-              t[0].cpuMs);
+  std::printf("  %-64s %8.3f ms %7.3f GB/s  (CPU %8.3f ms)\n", "decompression pass", decompression.ms, decompressRate,
+              decompression.cpuMs);
   for (const Copy& c : copies)
     std::printf("  %-64s %8.3f ms %7.3f GB/s  (CPU %8.3f ms)%s\n", c.name, c.ms, rate(c.bytes, c.ms), c.cpuMs,
                 c.reference ? "" : "  [not a reference: other bytes]");
   std::printf("ratio decompression / fastest copy of the same bytes (%s): %.2f (target >= 0.50: %s)\n",
               best ? best->name : "-", ratio, ratio >= 0.5 ? "met" : "NOT met");
   std::printf("ratio by process CPU time: %.2f\n", bestCpuRate > 0.0 ? decompressCpuRate / bestCpuRate : 0.0);
+}
+
+// The decompression against copies of as many bytes, taking turns (see the top). The object and
+// the decompressor are released once timed; validation messages fail the run. Exit code.
+int compareWithCopies(harness::Harness& h, GpuTimer& timer, const Options& options, const Field& field,
+                      std::unique_ptr<Object>& object, std::unique_ptr<Decompressor>& decompressor,
+                      const std::function<void(VkCommandBuffer)>& recordDecompression, bool& failed) {
+  const uint64_t samples = sampleCount(field);
+  // What the decompression reads: the sample texels' coefficients, the field's channels only.
+  const uint64_t decompressBytes = samples * field.bytesPerSample();
+  Resources r(h);
+  const uint64_t copyWords = (decompressBytes + 15) / 16 * 4;
+  const std::vector<uint8_t> rgba = rgbaCoefficients(field);
+  CopyTargets targets;
+  bool ok = createCopyTargets(r, field, copyWords, rgba.size(), targets);
+  std::array<Copy, 4> copies{{{"copy, storage buffer -> storage buffer, 1 word/invocation"},
+                              {"copy, texel buffer -> storage texel buffer, 1 word/invocation"},
+                              {"copy, texel buffer -> storage texel buffer, 4 words/invocation"},
+                              {"copy, RGBA 2D-array image (previous layout), texelFetch"}}};
+  ok = ok && createCopies(r, copies);
+  auto staging = h.createHostBuffer(std::max<VkDeviceSize>(rgba.size(), copyWords * 4), VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
+  if (!ok || !staging) {
+    std::fprintf(stderr, "cannot set up the copy shaders\n");
+    if (staging) h.destroyBuffer(staging.value());
+    return 1;
+  }
+  if (auto uploaded = uploadCopySources(h, staging.value(), rgba, targets, field, copyWords); !uploaded) {
+    std::fprintf(stderr, "%s\n", uploaded.error().message.c_str());
+    return 1;
+  }
+  bindCopies(h, field, targets, copyWords, rgba.size(), copies);
+
+  std::vector<std::function<void(VkCommandBuffer)>> recorders{recordDecompression};
+  for (const Copy& c : copies) recorders.push_back(copyRecorder(field, c));
+  const std::vector<Timing> t = timeTurns(h, timer, options.reps, recorders, failed);
+  object.reset();
+  decompressor.reset();
+  if (failed) return 1;
+  for (size_t k = 0; k < copies.size(); ++k) {
+    copies[k].ms = t[k + 1].ms;
+    copies[k].cpuMs = t[k + 1].cpuMs;
+  }
+  printCopyComparison(h, options, field, samples, decompressBytes, t[0], copies);
   if (const uint32_t messages = h.messageCount(); messages) {
     std::fprintf(stderr, "%u Vulkan validation message(s)\n", messages);
     return 1;
   }
   return 0;
+}
+
+// The field of FIELD.shrf, or the synthetic one without it. An exit code when the run ends here.
+std::optional<int> loadField(const Options& options, Field& field) {
+  if (options.field.empty()) {
+    field = syntheticField(options.synthetic);
+    return std::nullopt;
+  }
+  if (!std::filesystem::exists(options.field)) {
+    std::printf("SKIPPED: %s does not exist\n", options.field.c_str());
+    return 0;
+  }
+  auto read = readField(options.field);
+  if (!read) {
+    std::fprintf(stderr, "%s\n", read.error().message.c_str());
+    return 1;
+  }
+  field = std::move(read).value();
+  return std::nullopt;
+}
+
+Result<std::unique_ptr<Object>> uploadObject(Context& context, const Field& field) {
+  std::unique_ptr<Object> object;
+  auto uploaded = context.uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
+    auto created = Object::createFromField(context, field, cmd);
+    if (!created) return created.error();
+    object = std::move(created).value();
+    return {};
+  });
+  if (!uploaded) return uploaded.error();
+  return object;
+}
+
+int run(const Options& options) {
+  Field field;
+  if (const std::optional<int> exitCode = loadField(options, field)) return *exitCode;
+  bool noDevice = false;
+  auto gpu = createGpu(options.validation, &noDevice);
+  if (!gpu) return noDevice ? 0 : 1;
+  harness::Harness& h = *gpu->harness;
+  Context& context = *gpu->context;
+  GpuTimer timer(h, 2);
+  if (!timer.available()) {
+    std::printf("SKIPPED: the queue has no timestamps\n");
+    return 0;
+  }
+
+  auto uploaded = uploadObject(context, field);
+  if (!uploaded) {
+    std::fprintf(stderr, "%s\n", uploaded.error().message.c_str());
+    return 1;
+  }
+  std::unique_ptr<Object> object = std::move(uploaded).value();
+  auto decompressor = Decompressor::create(context);
+  if (!decompressor || !decompressor.value()->prepare(*object)) {
+    std::fprintf(stderr, "cannot create the decompression pipeline\n");
+    return 1;
+  }
+  decompressor.value()->setSkipUnchanged(false);  // every repetition does the whole work
+
+  bool failed = false;
+  const std::array<float, 3> eye{0.3f, 0.2f, 2.0f};
+  auto recordDecompression = [&](VkCommandBuffer cmd) {
+    if (auto r = decompressor.value()->record(cmd, eye, {object.get()}); !r) failed = true;
+  };
+  if (options.profile) {
+    const std::vector<Timing> t = timeTurns(h, timer, options.reps, {recordDecompression}, failed);
+    if (!failed)
+      std::printf("decompression alone: %.3f ms GPU (fastest %.3f), %.3f ms process CPU (median of %u)\n", t[0].ms,
+                  t[0].fastestMs, t[0].cpuMs, options.reps);
+    return failed ? 1 : 0;
+  }
+  return compareWithCopies(h, timer, options, field, object, decompressor.value(), recordDecompression, failed);
 }
 
 }  // namespace

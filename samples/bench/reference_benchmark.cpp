@@ -97,33 +97,78 @@ Camera orbit(const Camera& base, float degrees) {
   return c;
 }
 
+constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+
+// The colour and depth targets every frame of a series draws into.
+struct Targets {
+  harness::Harness::Image color, depth;
+};
+
+Result<Targets> createTargets(harness::Harness& h, const Options& options) {
+  auto color = h.createImage(options.width, options.height, options.colorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT,
+                             VK_IMAGE_ASPECT_COLOR_BIT);
+  if (!color) return color.error();
+  auto depth = h.createImage(options.width, options.height, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                             VK_IMAGE_ASPECT_DEPTH_BIT);
+  if (!depth) {
+    h.destroyImage(color.value());
+    return depth.error();
+  }
+  return Targets{color.value(), depth.value()};
+}
+
+// What every frame of a series records with.
+struct SeriesFrame {
+  GpuTimer& timer;
+  Decompressor& decompressor;
+  Renderer& renderer;
+  const Environment& environment;
+  const std::vector<Object*>& objects;
+  Targets targets;
+  VkExtent2D extent;
+  ShadingMode shading;
+  Series series;
+};
+
+// One frame's commands between the timestamp marks (kMarks).
+void recordFrame(VkCommandBuffer cmd, const SeriesFrame& f, const Camera& cam, Result<void>& recorded,
+                 bool& decompressed) {
+  f.timer.begin(cmd);
+  f.timer.mark(cmd, 0);
+  if (f.series == Series::Moving || f.series == Series::Static) {
+    recorded = f.decompressor.record(cmd, cam, f.extent, f.objects);
+    decompressed = f.decompressor.lastStats().decompressed > 0;
+  }
+  f.timer.mark(cmd, 1);
+  f.timer.mark(cmd, 2);
+  harness::beginRendering(cmd, f.targets.color, f.targets.depth);
+  // Objects first, then the background at the far plane: the depth test rejects the background
+  // where an object covers it before its fragment shader runs (renderer.h allows either order).
+  if (f.series != Series::BackgroundOnly)
+    f.renderer.recordObjects(cmd, f.environment, cam, f.extent, f.objects, f.shading);
+  f.renderer.recordBackground(cmd, f.environment, cam, f.extent);
+  vkCmdEndRendering(cmd);
+  f.timer.mark(cmd, 3);
+}
+
 Result<SeriesResult> runSeries(offscreen::Session& session, const Environment& environment, Object& object,
                                const Camera& camera, const Options& options, Series series) {
   harness::Harness& h = *session.harness;
-  const VkFormat colorFormat = options.colorFormat;
-  const VkFormat depthFormat = VK_FORMAT_D32_SFLOAT;
   RendererCreateInfo rci;
-  rci.colorFormat = colorFormat;
-  rci.depthFormat = depthFormat;
+  rci.colorFormat = options.colorFormat;
+  rci.depthFormat = kDepthFormat;
   auto renderer = Renderer::create(*session.context, rci);
   if (!renderer) return renderer.error();
   auto decompressor = Decompressor::create(*session.context);
   if (!decompressor) return decompressor.error();
   if (auto prepared = decompressor.value()->prepare(object); !prepared) return prepared.error();
   object.invalidateDistortion();  // every series starts from scratch
-  auto color = h.createImage(options.width, options.height, colorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT,
-                             VK_IMAGE_ASPECT_COLOR_BIT);
-  if (!color) return color.error();
-  auto depth = h.createImage(options.width, options.height, depthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
-                             VK_IMAGE_ASPECT_DEPTH_BIT);
-  if (!depth) {
-    h.destroyImage(color.value());
-    return depth.error();
-  }
-  harness::Harness::Image colorImage = color.value(), depthImage = depth.value();
+  auto targets = createTargets(h, options);
+  if (!targets) return targets.error();
   GpuTimer timer(h, kMarks);
-  const VkExtent2D extent{options.width, options.height};
   const std::vector<Object*> objects{&object};
+  SeriesFrame f{timer, *decompressor.value(), *renderer.value(), environment, objects, targets.value(),
+                {options.width, options.height}, options.shading, series};
   std::vector<double> wall, decompress, raster, cpu;
   SeriesResult result;
   Result<void> status{};
@@ -135,24 +180,8 @@ Result<SeriesResult> runSeries(offscreen::Session& session, const Environment& e
     const double cpuStart = processCpuMs();
     Result<void> recorded{};
     bool decompressed = false;
-    auto submitted = h.submitAndWait([&](VkCommandBuffer cmd) {
-      timer.begin(cmd);
-      timer.mark(cmd, 0);
-      if (series == Series::Moving || series == Series::Static) {
-        recorded = decompressor.value()->record(cmd, cam, extent, objects);
-        decompressed = decompressor.value()->lastStats().decompressed > 0;
-      }
-      timer.mark(cmd, 1);
-      timer.mark(cmd, 2);
-      harness::beginRendering(cmd, colorImage, depthImage);
-      // Objects first, then the background at the far plane: the depth test rejects the background
-      // where an object covers it before its fragment shader runs (renderer.h allows either order).
-      if (series != Series::BackgroundOnly)
-        renderer.value()->recordObjects(cmd, environment, cam, extent, objects, options.shading);
-      renderer.value()->recordBackground(cmd, environment, cam, extent);
-      vkCmdEndRendering(cmd);
-      timer.mark(cmd, 3);
-    });
+    auto submitted =
+        h.submitAndWait([&](VkCommandBuffer cmd) { recordFrame(cmd, f, cam, recorded, decompressed); });
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     const double cpuMs = processCpuMs() - cpuStart;
     if (!submitted) status = submitted.error();
@@ -166,14 +195,126 @@ Result<SeriesResult> runSeries(offscreen::Session& session, const Environment& e
     result.drawn = renderer.value()->lastDrawStats().drawn;
     result.culled = renderer.value()->lastDrawStats().culled;
   }
-  h.destroyImage(colorImage);
-  h.destroyImage(depthImage);
+  h.destroyImage(f.targets.color);
+  h.destroyImage(f.targets.depth);
   if (!status) return status.error();
   result.wallMs = median(wall);
   result.decompressMs = median(decompress);
   result.rasterMs = median(raster);
   result.cpuMs = median(cpu);
   return result;
+}
+
+// The lines that say what is measured: device, field and frame.
+void printHeader(offscreen::Session& session, const Field& field, const Options& options) {
+  uint64_t samples = 0;
+  for (uint8_t k : field.texelKinds) samples += k == kTexelSample;
+
+  std::printf("device: %s\n", session.harness->deviceName().c_str());
+  std::printf("field: %s (%s), order %u, %s, %u channels, %ux%u atlas, %llu samples, %zu triangles\n",
+              options.field.c_str(), field.settings.source.c_str(), field.order, toString(field.quantization),
+              field.channels, field.width, field.height, static_cast<unsigned long long>(samples),
+              field.mesh.indices.size() / 3);
+  std::printf("frame: %ux%u, %u frames per series, median per frame (wall: record + submit + wait)\n", options.width,
+              options.height, options.frames);
+}
+
+struct NamedSeries {
+  const char* name;
+  Series series;
+  SeriesResult result;
+};
+
+// Every series in turn, a line each; false after printing the error of one that failed.
+bool runAllSeries(offscreen::Session& session, const Environment& environment, Object& object, const Camera& camera,
+                  const Options& options, std::array<NamedSeries, 4>& runs) {
+  for (NamedSeries& n : runs) {
+    auto r = runSeries(session, environment, object, camera, options, n.series);
+    if (!r) {
+      std::fprintf(stderr, "%s\n", r.error().message.c_str());
+      return false;
+    }
+    n.result = r.value();
+    std::printf("  %-38s wall %8.2f ms (%6.1f fps)  GPU decompression %7.2f ms  raster %7.2f ms  CPU %7.2f ms  "
+                "[decompressed in %u of %u frames; drawn %u, culled %u]\n",
+                n.name, n.result.wallMs, 1000.0 / n.result.wallMs, n.result.decompressMs, n.result.rasterMs,
+                n.result.cpuMs, n.result.decompressedFrames, options.frames, n.result.drawn, n.result.culled);
+  }
+  return true;
+}
+
+// The exact CPU reference at the camera of the SH frames, against their wall times. Exit code.
+int runReference(const Options& options, const Field& field, const Camera& camera, const bake::Image& envImage,
+                 double movingMs, double staticMs) {
+  // The recorded scene, found relative to the field file as `render --mode exact` finds it.
+  auto spec = cli::bakedSceneSpec(options.field, field.settings.source, std::nullopt);
+  auto scene = spec ? cli::loadScene(spec.value(), {}, nullptr) : Result<bake::Scene>(spec.error());
+  if (!scene) {
+    std::printf("reference: SKIPPED: cannot rebuild the baked scene '%s': %s\n", field.settings.source.c_str(),
+                scene.error().message.c_str());
+    return 0;
+  }
+  auto tracer = bake::Tracer::create(scene.value());
+  if (!tracer) {
+    std::fprintf(stderr, "%s\n", tracer.error().message.c_str());
+    return 1;
+  }
+  bake::ReferenceOptions ro;
+  ro.mode = bake::ReferenceMode::Exact;
+  ro.width = options.width;
+  ro.height = options.height;
+  ro.camera = camera;
+  ro.threads = options.threads;
+  const auto start = std::chrono::steady_clock::now();
+  auto reference = bake::renderReference(*tracer.value(), scene.value(), envImage, ro);
+  const double referenceMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  if (!reference) {
+    std::fprintf(stderr, "%s\n", reference.error().message.c_str());
+    return 1;
+  }
+  std::printf("  %-38s wall %8.2f ms (%6.2f fps), %llu rays\n", "exact reference (CPU, Embree)", referenceMs,
+              1000.0 / referenceMs, static_cast<unsigned long long>(reference.value().rays));
+  const double ratio = referenceMs / movingMs;
+  std::printf("exact reference / SH frame (moving eye): %.1fx (target >= 10: %s); static eye: %.1fx\n", ratio,
+              ratio >= 10.0 ? "met" : "NOT met", referenceMs / staticMs);
+  return 0;
+}
+
+// Everything measured on the session: the SH series, then the exact reference. Exit code.
+int runOnSession(offscreen::Session& session, const Options& options, const Field& field,
+                 const bake::Image& envImage) {
+  auto environment = offscreen::uploadEnvironment(session, envImage, options.cube);
+  if (!environment) {
+    std::fprintf(stderr, "%s\n", environment.error().message.c_str());
+    return 1;
+  }
+  auto object = offscreen::uploadField(session, field);
+  if (!object) {
+    std::fprintf(stderr, "%s: %s\n", options.field.c_str(), object.error().message.c_str());
+    return 1;
+  }
+  std::array<float, 3> lo{}, hi{};
+  offscreen::meshBounds(field.mesh, lo, hi);
+  const Camera camera = offscreen::frameBounds(lo, hi, 40.0f);
+  printHeader(session, field, options);
+  std::array<NamedSeries, 4> runs{{{"moving eye (decompress every frame)", Series::Moving, {}},
+                                   {"static eye (decompression skipped)", Series::Static, {}},
+                                   {"raster only (no decompression)", Series::RasterOnly, {}},
+                                   {"background only (no object)", Series::BackgroundOnly, {}}}};
+  if (!runAllSeries(session, *environment.value(), *object.value(), camera, options, runs)) return 1;
+  object.value().reset();
+  environment.value().reset();
+  if (const uint32_t messages = session.harness->messageCount(); messages) {
+    std::fprintf(stderr, "%u Vulkan validation message(s)\n", messages);
+    return 1;
+  }
+  const double moving = runs[0].result.wallMs;
+  std::printf("SH path, moving eye: %.1f fps (target >= 30: %s)\n", 1000.0 / moving,
+              1000.0 / moving >= 30.0 ? "met" : "NOT met");
+  std::printf("SH path, static eye: %.1f fps\n", 1000.0 / runs[1].result.wallMs);
+
+  if (!options.reference) return 0;
+  return runReference(options, field, camera, envImage, moving, runs[1].result.wallMs);
 }
 
 int run(const Options& options) {
@@ -204,95 +345,7 @@ int run(const Options& options) {
     std::fprintf(stderr, "%s\n", created.error().message.c_str());
     return 1;
   }
-  offscreen::Session& session = *created.value();
-  auto environment = offscreen::uploadEnvironment(session, envImage.value(), options.cube);
-  if (!environment) {
-    std::fprintf(stderr, "%s\n", environment.error().message.c_str());
-    return 1;
-  }
-  auto object = offscreen::uploadField(session, field);
-  if (!object) {
-    std::fprintf(stderr, "%s: %s\n", options.field.c_str(), object.error().message.c_str());
-    return 1;
-  }
-  std::array<float, 3> lo{}, hi{};
-  offscreen::meshBounds(field.mesh, lo, hi);
-  const Camera camera = offscreen::frameBounds(lo, hi, 40.0f);
-  uint64_t samples = 0;
-  for (uint8_t k : field.texelKinds) samples += k == kTexelSample;
-
-  std::printf("device: %s\n", session.harness->deviceName().c_str());
-  std::printf("field: %s (%s), order %u, %s, %u channels, %ux%u atlas, %llu samples, %zu triangles\n",
-              options.field.c_str(), field.settings.source.c_str(), field.order, toString(field.quantization),
-              field.channels, field.width, field.height, static_cast<unsigned long long>(samples),
-              field.mesh.indices.size() / 3);
-  std::printf("frame: %ux%u, %u frames per series, median per frame (wall: record + submit + wait)\n", options.width,
-              options.height, options.frames);
-  struct Named {
-    const char* name;
-    Series series;
-    SeriesResult result;
-  };
-  std::array<Named, 4> runs{{{"moving eye (decompress every frame)", Series::Moving, {}},
-                             {"static eye (decompression skipped)", Series::Static, {}},
-                             {"raster only (no decompression)", Series::RasterOnly, {}},
-                             {"background only (no object)", Series::BackgroundOnly, {}}}};
-  for (Named& n : runs) {
-    auto r = runSeries(session, *environment.value(), *object.value(), camera, options, n.series);
-    if (!r) {
-      std::fprintf(stderr, "%s\n", r.error().message.c_str());
-      return 1;
-    }
-    n.result = r.value();
-    std::printf("  %-38s wall %8.2f ms (%6.1f fps)  GPU decompression %7.2f ms  raster %7.2f ms  CPU %7.2f ms  "
-                "[decompressed in %u of %u frames; drawn %u, culled %u]\n",
-                n.name, n.result.wallMs, 1000.0 / n.result.wallMs, n.result.decompressMs, n.result.rasterMs,
-                n.result.cpuMs, n.result.decompressedFrames, options.frames, n.result.drawn, n.result.culled);
-  }
-  object.value().reset();
-  environment.value().reset();
-  if (const uint32_t messages = session.harness->messageCount(); messages) {
-    std::fprintf(stderr, "%u Vulkan validation message(s)\n", messages);
-    return 1;
-  }
-  const double moving = runs[0].result.wallMs;
-  std::printf("SH path, moving eye: %.1f fps (target >= 30: %s)\n", 1000.0 / moving,
-              1000.0 / moving >= 30.0 ? "met" : "NOT met");
-  std::printf("SH path, static eye: %.1f fps\n", 1000.0 / runs[1].result.wallMs);
-
-  if (!options.reference) return 0;
-  // The recorded scene, found relative to the field file as `render --mode exact` finds it.
-  auto spec = cli::bakedSceneSpec(options.field, field.settings.source, std::nullopt);
-  auto scene = spec ? cli::loadScene(spec.value(), {}, nullptr) : Result<bake::Scene>(spec.error());
-  if (!scene) {
-    std::printf("reference: SKIPPED: cannot rebuild the baked scene '%s': %s\n", field.settings.source.c_str(),
-                scene.error().message.c_str());
-    return 0;
-  }
-  auto tracer = bake::Tracer::create(scene.value());
-  if (!tracer) {
-    std::fprintf(stderr, "%s\n", tracer.error().message.c_str());
-    return 1;
-  }
-  bake::ReferenceOptions ro;
-  ro.mode = bake::ReferenceMode::Exact;
-  ro.width = options.width;
-  ro.height = options.height;
-  ro.camera = camera;
-  ro.threads = options.threads;
-  const auto start = std::chrono::steady_clock::now();
-  auto reference = bake::renderReference(*tracer.value(), scene.value(), envImage.value(), ro);
-  const double referenceMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  if (!reference) {
-    std::fprintf(stderr, "%s\n", reference.error().message.c_str());
-    return 1;
-  }
-  std::printf("  %-38s wall %8.2f ms (%6.2f fps), %llu rays\n", "exact reference (CPU, Embree)", referenceMs,
-              1000.0 / referenceMs, static_cast<unsigned long long>(reference.value().rays));
-  const double ratio = referenceMs / moving;
-  std::printf("exact reference / SH frame (moving eye): %.1fx (target >= 10: %s); static eye: %.1fx\n", ratio,
-              ratio >= 10.0 ? "met" : "NOT met", referenceMs / runs[1].result.wallMs);
-  return 0;
+  return runOnSession(*created.value(), options, field, envImage.value());
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 #include <shrefract/bake/bake.h>
 #include <shrefract/bake/fit.h>
 
+#include <array>
 #include <cctype>
 #include <cstdio>
 #include <filesystem>
@@ -9,6 +10,8 @@
 #include <optional>
 #include <string>
 #include <unistd.h>
+#include <utility>
+#include <vector>
 
 #include "cli/args.h"
 #include "cli/commands.h"
@@ -85,34 +88,31 @@ int fail(const std::string& message, int code = 1) {
   return code;
 }
 
-}  // namespace
+// A usage error: the caller prints the message and exits 2.
+Error usageError(std::string message) { return makeError(ErrorCode::InvalidArgument, std::move(message)); }
 
-int bakeCommand(int argc, char** argv) {
-  const std::vector<FlagSpec> kFlags = bakeFlags();
-  auto parsed = Args::parse("bake", argc, argv, 2, kFlags);
-  if (!parsed) return fail(parsed.error().message, 2);
-  const Args& args = parsed.value();
-  if (args.has("help")) {
-    std::printf("usage: shrefract bake SCENE -o FILE.shrf [flags]\n  SCENE: builtin:NAME or a .gltf/.glb file\n%s",
-                usageLines(kFlags).c_str());
-    return 0;
-  }
-  if (args.positional().size() != 1) return fail("shrefract bake: expected exactly one SCENE argument", 2);
-  const auto output = args.get("output");
-  if (!output) return fail("shrefract bake: missing -o FILE.shrf", 2);
+// --shard, checked against mpirun, and the output's extension, which depends on it.
+Result<std::optional<bake::Shard>> shardFlag(const Args& args, const std::string& output) {
   std::optional<bake::Shard> shard;
   if (const auto text = args.get("shard")) {
     auto parsedShard = bake::parseShard(*text);
-    if (!parsedShard) return fail("shrefract bake: " + parsedShard.error().message, 2);
-    if (launchedRanks() > 1) return fail("shrefract bake: --shard and mpirun both shard the samples: give one", 2);
+    if (!parsedShard) return usageError("shrefract bake: " + parsedShard.error().message);
+    if (launchedRanks() > 1) return usageError("shrefract bake: --shard and mpirun both shard the samples: give one");
     shard = parsedShard.value();
   }
   const char* extension = shard ? ".shrfpart" : ".shrf";
-  if (!hasExtension(*output, extension)) return fail(*output + ": the output must end in " + extension, 2);
+  if (!hasExtension(output, extension)) return usageError(output + ": the output must end in " + extension);
+  return shard;
+}
 
-  BakeSettings s;
-  s.source = args.positional()[0];
-  s.sampleBudget = 20000;
+// The flags with numeric values, each absent or within its declared range.
+struct NumericFlags {
+  std::optional<int64_t> order, samples, threads, bounces, spatial, heldOut, tableSize, components;
+  std::optional<double> density, reg, maxError, maxBytes;
+  std::optional<std::array<uint32_t, 2>> dirs;
+};
+
+Result<NumericFlags> readNumericFlags(const Args& args) {
   auto order = args.integer("order");
   auto samples = args.integer("samples");
   auto density = args.number("density");
@@ -134,121 +134,207 @@ int bakeCommand(int argc, char** argv) {
         dirs.ok() ? nullptr : &dirs.error(), maxError.ok() ? nullptr : &maxError.error(),
         tableSize.ok() ? nullptr : &tableSize.error(), components.ok() ? nullptr : &components.error(),
         maxBytes.ok() ? nullptr : &maxBytes.error()})
-    if (e) return fail(e->message, 2);
-  if (spatial.value() && *spatial.value() != 0 && *spatial.value() != 3 && *spatial.value() != 5)
-    return fail("shrefract bake: --spatial must be 0, 3 or 5", 2);
-  if (density.value() && samples.value()) return fail("shrefract bake: give --samples or --density, not both", 2);
-  if (maxBytes.value() && maxError.value())
-    return fail("shrefract bake: give --max-bytes-per-sample or --max-error, not both", 2);
-  if (maxError.value()) {
-    s.maxErrorDegrees = static_cast<float>(*maxError.value());
+    if (e) return *e;
+  NumericFlags n;
+  n.order = order.value();
+  n.samples = samples.value();
+  n.density = density.value();
+  n.threads = threads.value();
+  n.bounces = bounces.value();
+  n.spatial = spatial.value();
+  n.reg = reg.value();
+  n.heldOut = heldOut.value();
+  n.dirs = dirs.value();
+  n.maxError = maxError.value();
+  n.tableSize = tableSize.value();
+  n.components = components.value();
+  n.maxBytes = maxBytes.value();
+  return n;
+}
+
+// The numeric flags that combine with no text flag: their conflicts, then the settings.
+Result<void> applyNumericFlags(const NumericFlags& n, BakeSettings& s) {
+  if (n.spatial && *n.spatial != 0 && *n.spatial != 3 && *n.spatial != 5)
+    return usageError("shrefract bake: --spatial must be 0, 3 or 5");
+  if (n.density && n.samples) return usageError("shrefract bake: give --samples or --density, not both");
+  if (n.maxBytes && n.maxError)
+    return usageError("shrefract bake: give --max-bytes-per-sample or --max-error, not both");
+  if (n.maxError) {
+    s.maxErrorDegrees = static_cast<float>(*n.maxError);
     s.order = 16;  // the ceiling of the search unless --order lowers it
   }
-  if (order.value()) s.order = static_cast<uint32_t>(*order.value());
-  if (samples.value()) s.sampleBudget = static_cast<uint64_t>(*samples.value());
-  if (density.value()) {
+  if (n.order) s.order = static_cast<uint32_t>(*n.order);
+  if (n.samples) s.sampleBudget = static_cast<uint64_t>(*n.samples);
+  if (n.density) {
     s.sampleBudget = 0;
-    s.samplesPerUnitArea = static_cast<float>(*density.value());
+    s.samplesPerUnitArea = static_cast<float>(*n.density);
   }
-  if (threads.value()) s.threads = static_cast<uint32_t>(*threads.value());
-  if (bounces.value()) s.maxBounces = static_cast<uint32_t>(*bounces.value());
-  if (spatial.value()) s.spatialNeighbours = static_cast<uint32_t>(*spatial.value());
-  if (reg.value()) s.regularization = static_cast<float>(*reg.value());
-  if (dirs.value()) {
-    s.directionsTheta = (*dirs.value())[0];
-    s.directionsPhi = (*dirs.value())[1];
+  if (n.threads) s.threads = static_cast<uint32_t>(*n.threads);
+  if (n.bounces) s.maxBounces = static_cast<uint32_t>(*n.bounces);
+  if (n.spatial) s.spatialNeighbours = static_cast<uint32_t>(*n.spatial);
+  if (n.reg) s.regularization = static_cast<float>(*n.reg);
+  if (n.dirs) {
+    s.directionsTheta = (*n.dirs)[0];
+    s.directionsPhi = (*n.dirs)[1];
   }
+  return {};
+}
+
+// --layout, --window and --quant.
+Result<void> applyLayoutFlags(const Args& args, BakeSettings& s) {
   // Charts by default: at the default budget the split layout's per-triangle lattices are coarse
   // (n = 1 to 7 on the built-in scenes and the bunny) and flicker more (docs/sample-layouts.md).
   const std::string layout = args.get("layout").value_or("charts");
   if (layout == "split") s.layout = SampleLayout::Split;
   else if (layout == "charts") s.layout = SampleLayout::Charts;
-  else return fail("shrefract bake: --layout must be split or charts, got '" + layout + "'", 2);
+  else return usageError("shrefract bake: --layout must be split or charts, got '" + layout + "'");
   const std::string window = args.get("window").value_or("none");
   if (window == "none") s.window = SmoothingWindow::None;
   else if (window == "hann") s.window = SmoothingWindow::Hann;
   else if (window == "lanczos") s.window = SmoothingWindow::Lanczos;
-  else return fail("shrefract bake: --window must be none, hann or lanczos, got '" + window + "'", 2);
+  else return usageError("shrefract bake: --window must be none, hann or lanczos, got '" + window + "'");
   const std::string quant = args.get("quant").value_or("u8");
   if (quant == "u8") s.quantization = Quantization::U8;
   else if (quant == "f16") s.quantization = Quantization::F16;
-  else return fail("shrefract bake: --quant must be u8 or f16, got '" + quant + "'", 2);
+  else return usageError("shrefract bake: --quant must be u8 or f16, got '" + quant + "'");
+  return {};
+}
 
+// --encoding with the flags that belong to one encoding: --components, --order, --max-error.
+Result<void> applyEncodingFlag(const Args& args, const NumericFlags& n, BakeSettings& s) {
   // The default is the measured best at the paper's 324 bytes per sample (docs/encodings.md): Pca
   // with 324 weights over 64x64 tables traced at their nodes. --order or --max-error ask for SH.
-  const bool shImplied = order.value() || maxError.value();
+  const bool shImplied = n.order || n.maxError;
   const std::string encoding = args.get("encoding").value_or(shImplied ? "sh" : "pca");
   if (encoding == "sh") s.encoding = Encoding::Sh;
   else if (encoding == "table") s.encoding = Encoding::Table;
   else if (encoding == "pca") s.encoding = Encoding::Pca;
-  else return fail("shrefract bake: --encoding must be sh, table or pca, got '" + encoding + "'", 2);
-  if ((tableSize.value() || components.value()) && s.encoding == Encoding::Sh && !maxBytes.value())
-    return fail("shrefract bake: --table-size and --components need --encoding table or pca", 2);
-  s.components = components.value() ? static_cast<uint32_t>(*components.value()) : 324u;
-  if ((order.value() || maxError.value()) && s.encoding != Encoding::Sh)
-    return fail("shrefract bake: --order and --max-error apply to --encoding sh only", 2);
+  else return usageError("shrefract bake: --encoding must be sh, table or pca, got '" + encoding + "'");
+  if ((n.tableSize || n.components) && s.encoding == Encoding::Sh && !n.maxBytes)
+    return usageError("shrefract bake: --table-size and --components need --encoding table or pca");
+  s.components = n.components ? static_cast<uint32_t>(*n.components) : 324u;
+  if ((n.order || n.maxError) && s.encoding != Encoding::Sh)
+    return usageError("shrefract bake: --order and --max-error apply to --encoding sh only");
+  return {};
+}
+
+// --direction-sampling and --table-size, whose defaults follow the encoding.
+Result<void> applySamplingFlags(const Args& args, const NumericFlags& n, BakeSettings& s) {
   // Node sampling is the measured better one for Pca's tables, the grid fit for the coarser
   // tables of `table` (docs/encodings.md, "Sampling"); asking for a grid size asks for the grid.
   // With --max-bytes-per-sample it is what a chosen Pca field is baked with (SH and Table fields
   // are grid fits whatever this says).
   const bool tabulated = s.encoding != Encoding::Sh;
-  const bool nodesByDefault = s.encoding == Encoding::Pca && !dirs.value();
+  const bool nodesByDefault = s.encoding == Encoding::Pca && !n.dirs;
   const std::string sampling = args.get("direction-sampling").value_or(nodesByDefault ? "nodes" : "grid");
   if (sampling == "nodes") s.directionSampling = DirectionSampling::Nodes;
   else if (sampling == "grid") s.directionSampling = DirectionSampling::Grid;
-  else return fail("shrefract bake: --direction-sampling must be nodes or grid, got '" + sampling + "'", 2);
-  if (s.directionSampling == DirectionSampling::Nodes && !tabulated && !maxBytes.value())
-    return fail("shrefract bake: --direction-sampling nodes needs --encoding table or pca", 2);
-  if (s.directionSampling == DirectionSampling::Nodes && dirs.value())
-    return fail("shrefract bake: --directions sets the grid, which --direction-sampling nodes does not trace", 2);
+  else return usageError("shrefract bake: --direction-sampling must be nodes or grid, got '" + sampling + "'");
+  if (s.directionSampling == DirectionSampling::Nodes && !tabulated && !n.maxBytes)
+    return usageError("shrefract bake: --direction-sampling nodes needs --encoding table or pca");
+  if (s.directionSampling == DirectionSampling::Nodes && n.dirs)
+    return usageError("shrefract bake: --directions sets the grid, which --direction-sampling nodes does not trace");
   // A Pca fitted to a grid keeps its former tables: the default 32x64 grid has half as many
   // directions as 64x64 tables have nodes.
   const uint32_t pcaTableSize = s.directionSampling == DirectionSampling::Nodes ? bake::kDefaultPcaTableSize
                                                                                 : bake::kDefaultGridPcaTableSize;
-  s.tableSize = tableSize.value() ? static_cast<uint32_t>(*tableSize.value()) : s.encoding == Encoding::Pca ? pcaTableSize : 9u;
+  s.tableSize = n.tableSize ? static_cast<uint32_t>(*n.tableSize) : s.encoding == Encoding::Pca ? pcaTableSize : 9u;
+  return {};
+}
+
+// --path-rule, --throughput, --no-jump-distance, --exit-frame and --max-bytes-per-sample.
+Result<void> applyPathFlags(const Args& args, const NumericFlags& n, BakeSettings& s) {
   const std::string rule = args.get("path-rule").value_or("first-refraction");
   if (rule == "highest-energy") s.pathRule = PathRule::HighestEnergy;
   else if (rule == "first-refraction") s.pathRule = PathRule::FirstRefraction;
-  else return fail("shrefract bake: --path-rule must be highest-energy or first-refraction, got '" + rule + "'", 2);
+  else return usageError("shrefract bake: --path-rule must be highest-energy or first-refraction, got '" + rule + "'");
   s.throughput = args.has("throughput");
   s.jumpDistance = !args.has("no-jump-distance");
   const std::string exitFrame = args.get("exit-frame").value_or("auto");
   if (exitFrame == "auto") s.exitFrame = ExitFrame::Auto;
   else if (exitFrame == "sample") s.exitFrame = ExitFrame::Sample;
   else if (exitFrame == "object") s.exitFrame = ExitFrame::Object;
-  else return fail("shrefract bake: --exit-frame must be auto, sample or object, got '" + exitFrame + "'", 2);
-  if (maxBytes.value()) s.maxBytesPerSample = static_cast<float>(*maxBytes.value());
+  else return usageError("shrefract bake: --exit-frame must be auto, sample or object, got '" + exitFrame + "'");
+  if (n.maxBytes) s.maxBytesPerSample = static_cast<float>(*n.maxBytes);
+  return {};
+}
 
-  if (auto writable = checkOutputPath(*output); !writable) return fail(writable.error().message);
+// Every bake setting from the flags, or the first usage error in the order the flags are checked.
+Result<BakeSettings> bakeSettingsFrom(const Args& args, const NumericFlags& n) {
+  BakeSettings s;
+  s.source = args.positional()[0];
+  s.sampleBudget = 20000;
+  if (auto applied = applyNumericFlags(n, s); !applied) return applied.error();
+  if (auto applied = applyLayoutFlags(args, s); !applied) return applied.error();
+  if (auto applied = applyEncodingFlag(args, n, s); !applied) return applied.error();
+  if (auto applied = applySamplingFlags(args, n, s); !applied) return applied.error();
+  if (auto applied = applyPathFlags(args, n, s); !applied) return applied.error();
+  return s;
+}
 
+// Progress and notes on stderr while the bake runs.
+bake::BakeOptions bakeOptions(const BakeSettings& s, const NumericFlags& n, Progress& progress) {
+  bake::BakeOptions options;
+  options.settings = s;
+  if (n.heldOut) options.heldOutDirections = static_cast<uint32_t>(*n.heldOut);
+  options.note = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+  options.stage = [&progress](const std::string& what) { progress.stage(what); };
+  options.progress = [&progress](const bake::BakeProgress& p) {
+    progress.update(p.samplesDone, p.samplesTotal, p.seconds, p.seconds > 0 ? double(p.rays) / p.seconds : 0.0,
+                    "rays/s");
+  };
+  return options;
+}
+
+// Loads the scene and bakes it: across the mpirun ranks, as one shard, or whole in this process.
+int bakeScene(const Args& args, BakeSettings s, const NumericFlags& n, const std::string& output,
+              const std::optional<bake::Shard>& shard) {
   const SceneOverrides overrides = sceneOverridesFrom(args, true);
   std::vector<std::string> warnings;
   auto scene = loadScene(s.source, overrides, &warnings);
   // Recorded with its overrides and where the file lies from the field, so that `render --mode
   // exact` and `report` rebuild this scene from any working directory.
-  s.source = recordedSceneSpec(s.source, overrides, *output);
+  s.source = recordedSceneSpec(s.source, overrides, output);
   // On failure the error alone: one line naming the file (the warnings led up to it).
   if (!scene) return fail(scene.error().message);
   for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
 
-  bake::BakeOptions options;
-  options.settings = s;
-  if (heldOut.value()) options.heldOutDirections = static_cast<uint32_t>(*heldOut.value());
   Progress progress("bake", stderr);
-  options.note = [&](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
-  options.stage = [&](const std::string& what) { progress.stage(what); };
-  options.progress = [&](const bake::BakeProgress& p) {
-    progress.update(p.samplesDone, p.samplesTotal, p.seconds, p.seconds > 0 ? double(p.rays) / p.seconds : 0.0,
-                    "rays/s");
-  };
-  if (launchedRanks() > 1) return distributedBake(scene.value(), options, *output, args.has("json"));
+  const bake::BakeOptions options = bakeOptions(s, n, progress);
+  if (launchedRanks() > 1) return distributedBake(scene.value(), options, output, args.has("json"));
   if (shard) {
-    return bakeShardToFile(scene.value(), options, *shard, *output, args.has("json"), progress);
+    return bakeShardToFile(scene.value(), options, *shard, output, args.has("json"), progress);
   }
   auto field = bake::bakeField(scene.value(), options);
   progress.finish();
   if (!field) return fail(s.source + ": " + field.error().message);
-  return writeFieldAndSummary(field.value(), *output, args.has("json"));
+  return writeFieldAndSummary(field.value(), output, args.has("json"));
+}
+
+}  // namespace
+
+int bakeCommand(int argc, char** argv) {
+  const std::vector<FlagSpec> kFlags = bakeFlags();
+  auto parsed = Args::parse("bake", argc, argv, 2, kFlags);
+  if (!parsed) return fail(parsed.error().message, 2);
+  const Args& args = parsed.value();
+  if (args.has("help")) {
+    std::printf("usage: shrefract bake SCENE -o FILE.shrf [flags]\n  SCENE: builtin:NAME or a .gltf/.glb file\n%s",
+                usageLines(kFlags).c_str());
+    return 0;
+  }
+  if (args.positional().size() != 1) return fail("shrefract bake: expected exactly one SCENE argument", 2);
+  const auto output = args.get("output");
+  if (!output) return fail("shrefract bake: missing -o FILE.shrf", 2);
+  auto shard = shardFlag(args, *output);
+  if (!shard) return fail(shard.error().message, 2);
+  auto numeric = readNumericFlags(args);
+  if (!numeric) return fail(numeric.error().message, 2);
+  auto settings = bakeSettingsFrom(args, numeric.value());
+  if (!settings) return fail(settings.error().message, 2);
+
+  if (auto writable = checkOutputPath(*output); !writable) return fail(writable.error().message);
+  return bakeScene(args, settings.value(), numeric.value(), *output, shard.value());
 }
 
 int infoCommand(int argc, char** argv) {
