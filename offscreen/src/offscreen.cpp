@@ -153,11 +153,10 @@ bool queueHasTimestamps(const harness::Harness& h) {
          h.properties().limits.timestampPeriod > 0.0f;
 }
 
-}  // namespace
+constexpr VkFormat kColorFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
+constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 
-Result<bake::Image> renderFrame(Session& session, const Environment& environment, const std::vector<Object*>& objects,
-                                const FrameSettings& settings, FrameTimings* timings) {
-  harness::Harness& h = *session.harness;
+Result<void> checkFrameSize(const harness::Harness& h, const FrameSettings& settings) {
   const uint32_t samples = settings.samplesPerAxis;
   if (samples < 1 || samples > bake::kMaxSamplesPerAxis)
     return makeError(ErrorCode::InvalidArgument, "renderFrame: samples per axis " + std::to_string(samples) +
@@ -169,118 +168,191 @@ Result<bake::Image> renderFrame(Session& session, const Environment& environment
                          std::to_string(samples) + "x" + std::to_string(samples) +
                          " samples per pixel needs an image beyond the device's largest (" + std::to_string(maxSide) +
                          " per side)");
-  const uint32_t width = settings.width * samples, height = settings.height * samples;
-  const VkFormat colorFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
-  const VkFormat depthFormat = VK_FORMAT_D32_SFLOAT;
+  return {};
+}
+
+Result<std::unique_ptr<Renderer>> createFrameRenderer(Session& session, const FrameSettings& settings) {
   RendererCreateInfo rci;
-  rci.colorFormat = colorFormat;
-  rci.depthFormat = depthFormat;
+  rci.colorFormat = kColorFormat;
+  rci.depthFormat = kDepthFormat;
   rci.exposure = settings.exposure;
   rci.frustumCulling = settings.skipWork;
   rci.environmentTapsPerAxis = settings.environmentTapsPerAxis;
   rci.silhouetteCoverage = settings.silhouetteCoverage;
   rci.sampleCount = settings.msaaSamples;
-  auto renderer = Renderer::create(*session.context, rci);
-  if (!renderer) return renderer.error();
-  std::unique_ptr<Decompressor> decompressor;
+  return Renderer::create(*session.context, rci);
+}
+
+// Null when the frame decompresses nothing: no field object, or a mode that does not read fields.
+Result<std::unique_ptr<Decompressor>> createFrameDecompressor(Session& session, const std::vector<Object*>& objects,
+                                                              const FrameSettings& settings) {
   bool anyField = false;
   for (const Object* o : objects) anyField = anyField || (o && o->hasField());
-  if ((settings.mode == ShadingMode::Field || settings.mode == ShadingMode::FieldExitDirection) && anyField) {
-    auto created = Decompressor::create(*session.context);
-    if (!created) return created.error();
-    decompressor = std::move(created).value();
-    decompressor->setSkipUnchanged(settings.skipWork);
-    // Pipelines now, so that the first frame's timings measure the work and not the compiler.
-    for (const Object* o : objects)
-      if (o && o->hasField())
-        if (auto prepared = decompressor->prepare(*o); !prepared) return prepared.error();
-  }
+  if (!(settings.mode == ShadingMode::Field || settings.mode == ShadingMode::FieldExitDirection) || !anyField)
+    return std::unique_ptr<Decompressor>{};
+  auto created = Decompressor::create(*session.context);
+  if (!created) return created.error();
+  std::unique_ptr<Decompressor> decompressor = std::move(created).value();
+  decompressor->setSkipUnchanged(settings.skipWork);
+  // Pipelines now, so that the first frame's timings measure the work and not the compiler.
+  for (const Object* o : objects)
+    if (o && o->hasField())
+      if (auto prepared = decompressor->prepare(*o); !prepared) return prepared.error();
+  return decompressor;
+}
 
-  const bool timestamps = timings && queueHasTimestamps(h);
+// Null without timings or where the queue has no timestamps.
+Result<VkQueryPool> createTimestampQueries(const harness::Harness& h, const FrameTimings* timings) {
+  if (!timings || !queueHasTimestamps(h)) return VkQueryPool{VK_NULL_HANDLE};
   VkQueryPool queries = VK_NULL_HANDLE;
-  if (timestamps) {
-    VkQueryPoolCreateInfo qpci{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
-    qpci.queryType = VK_QUERY_TYPE_TIMESTAMP;
-    qpci.queryCount = kTimestampCount;
-    if (VkResult r = vkCreateQueryPool(h.device(), &qpci, nullptr, &queries); r != VK_SUCCESS)
-      return makeError(ErrorCode::Vulkan, "vkCreateQueryPool failed", r);
-  }
+  VkQueryPoolCreateInfo qpci{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+  qpci.queryType = VK_QUERY_TYPE_TIMESTAMP;
+  qpci.queryCount = kTimestampCount;
+  if (VkResult r = vkCreateQueryPool(h.device(), &qpci, nullptr, &queries); r != VK_SUCCESS)
+    return makeError(ErrorCode::Vulkan, "vkCreateQueryPool failed", r);
+  return queries;
+}
 
-  const bool msaa = settings.msaaSamples != VK_SAMPLE_COUNT_1_BIT;
+// resolve has no image unless the frame is multisampled.
+struct FrameTargets {
+  harness::Harness::Image color, depth, resolve;
+};
+
+Result<FrameTargets> createFrameTargets(harness::Harness& h, uint32_t width, uint32_t height,
+                                        VkSampleCountFlagBits samples) {
+  const bool msaa = samples != VK_SAMPLE_COUNT_1_BIT;
   const VkImageUsageFlags colorUsage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
-  auto color = h.createImage(width, height, colorFormat, colorUsage, VK_IMAGE_ASPECT_COLOR_BIT, settings.msaaSamples);
-  auto depth = h.createImage(width, height, depthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
-                             VK_IMAGE_ASPECT_DEPTH_BIT, settings.msaaSamples);
+  auto color = h.createImage(width, height, kColorFormat, colorUsage, VK_IMAGE_ASPECT_COLOR_BIT, samples);
+  auto depth = h.createImage(width, height, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                             VK_IMAGE_ASPECT_DEPTH_BIT, samples);
   // Multisampled: the colour is resolved into a single-sample image, which is read back.
-  auto resolve = msaa ? h.createImage(width, height, colorFormat, colorUsage, VK_IMAGE_ASPECT_COLOR_BIT)
+  auto resolve = msaa ? h.createImage(width, height, kColorFormat, colorUsage, VK_IMAGE_ASPECT_COLOR_BIT)
                       : Result<harness::Harness::Image>(harness::Harness::Image{});
   if (!color || !depth || !resolve) {
     const Error error = !color ? color.error() : !depth ? depth.error() : resolve.error();
     for (auto* image : {&color, &depth, &resolve})
       if (*image && image->value().image) h.destroyImage(image->value());
-    if (queries) vkDestroyQueryPool(h.device(), queries, nullptr);
     return error;
   }
-  harness::Harness::Image colorImage = color.value();
-  harness::Harness::Image depthImage = depth.value();
-  harness::Harness::Image resolveImage = resolve.value();
-  const VkExtent2D extent{width, height};
+  return FrameTargets{color.value(), depth.value(), resolve.value()};
+}
 
+void destroyFrameTargets(harness::Harness& h, FrameTargets& targets, bool msaa) {
+  h.destroyImage(targets.color);
+  h.destroyImage(targets.depth);
+  if (msaa) h.destroyImage(targets.resolve);
+}
+
+// What every frame of renderFrame records and where its timings go.
+struct FramePass {
+  Session& session;
+  Renderer& renderer;
+  Decompressor* decompressor;  // null: nothing to decompress
+  const Environment& environment;
+  const std::vector<Object*>& objects;
+  const FrameSettings& settings;
+  VkQueryPool queries;  // null: no timestamps
+  FrameTargets& targets;
+  VkExtent2D extent;
+  FrameTimings* timings;
+};
+
+// Returns the decompressor's recording result (the rest is recorded whatever it is).
+Result<void> recordFrame(VkCommandBuffer cmd, const FramePass& pass) {
+  const VkQueryPool queries = pass.queries;
+  const FrameSettings& settings = pass.settings;
+  const bool msaa = settings.msaaSamples != VK_SAMPLE_COUNT_1_BIT;
+  Result<void> recorded{};
+  if (queries) {
+    vkCmdResetQueryPool(cmd, queries, 0, kTimestampCount);
+    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_TOP_OF_PIPE_BIT, queries, 0);
+  }
+  if (pass.decompressor)
+    recorded = settings.skipWork ? pass.decompressor->record(cmd, settings.camera, pass.extent, pass.objects)
+                                 : pass.decompressor->record(cmd, settings.camera.eye, pass.objects);
+  if (queries) {
+    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries, 1);
+  }
+
+  // Timestamp 2 before the attachments' barriers: the raster time includes them (cheap).
+  if (queries) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries, 2);
+  harness::beginRendering(cmd, pass.targets.color, pass.targets.depth, msaa ? &pass.targets.resolve : nullptr);
+  pass.renderer.recordBackground(cmd, pass.environment, settings.camera, pass.extent);
+  pass.renderer.recordObjects(cmd, pass.environment, settings.camera, pass.extent, pass.objects, settings.mode);
+  vkCmdEndRendering(cmd);
+  if (queries) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries, 3);
+  if (pass.timings) {
+    pass.timings->decompress = pass.decompressor ? pass.decompressor->lastStats() : DecompressStats{};
+    pass.timings->draw = pass.renderer.lastDrawStats();
+  }
+  return recorded;
+}
+
+void readTimestamps(const harness::Harness& h, VkQueryPool queries, bool decompressed, FrameTimings& timings) {
+  std::array<uint64_t, kTimestampCount> ticks{};
+  const VkResult r = vkGetQueryPoolResults(h.device(), queries, 0, kTimestampCount, sizeof(ticks), ticks.data(),
+                                           sizeof(uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
+  if (r == VK_SUCCESS) {
+    const double period = double(h.properties().limits.timestampPeriod) * 1e-6;  // ns -> ms
+    timings.gpuTimestamps = true;
+    timings.decompressionMs = decompressed ? double(ticks[1] - ticks[0]) * period : 0.0;
+    timings.rasterMs = double(ticks[3] - ticks[2]) * period;
+    timings.gpuDecompressionMs.push_back(timings.decompressionMs);
+    timings.gpuRasterMs.push_back(timings.rasterMs);
+  }
+}
+
+// settings.frames frames (at least one), up to the first failure: a failed submission's error
+// before a failed recording's.
+Result<void> renderFrames(const FramePass& pass) {
+  harness::Harness& h = *pass.session.harness;
   Result<void> submitted{};
   Result<void> recorded{};
-  const uint32_t frames = std::max(1u, settings.frames);
+  const uint32_t frames = std::max(1u, pass.settings.frames);
   for (uint32_t frame = 0; frame < frames && submitted.ok() && recorded.ok(); ++frame) {
-    session.context->beginFrame();
+    pass.session.context->beginFrame();
     const auto start = std::chrono::steady_clock::now();
-    submitted = h.submitAndWait([&](VkCommandBuffer cmd) {
-      if (queries) {
-        vkCmdResetQueryPool(cmd, queries, 0, kTimestampCount);
-        vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_TOP_OF_PIPE_BIT, queries, 0);
-      }
-      if (decompressor)
-        recorded = settings.skipWork ? decompressor->record(cmd, settings.camera, extent, objects)
-                                     : decompressor->record(cmd, settings.camera.eye, objects);
-      if (queries) {
-        vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries, 1);
-      }
-
-      // Timestamp 2 before the attachments' barriers: the raster time includes them (cheap).
-      if (queries) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries, 2);
-      harness::beginRendering(cmd, colorImage, depthImage, msaa ? &resolveImage : nullptr);
-      renderer.value()->recordBackground(cmd, environment, settings.camera, extent);
-      renderer.value()->recordObjects(cmd, environment, settings.camera, extent, objects, settings.mode);
-      vkCmdEndRendering(cmd);
-      if (queries) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries, 3);
-      if (timings) {
-        timings->decompress = decompressor ? decompressor->lastStats() : DecompressStats{};
-        timings->draw = renderer.value()->lastDrawStats();
-      }
-    });
+    submitted = h.submitAndWait([&](VkCommandBuffer cmd) { recorded = recordFrame(cmd, pass); });
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    if (timings) timings->wallMs.push_back(ms);
+    if (pass.timings) pass.timings->wallMs.push_back(ms);
     // The frame has completed (submitAndWait waited on its fence): its timestamps are ready.
-    if (submitted.ok() && recorded.ok() && queries) {
-      std::array<uint64_t, kTimestampCount> ticks{};
-      const VkResult r = vkGetQueryPoolResults(h.device(), queries, 0, kTimestampCount, sizeof(ticks), ticks.data(),
-                                               sizeof(uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
-      if (r == VK_SUCCESS) {
-        const double period = double(h.properties().limits.timestampPeriod) * 1e-6;  // ns -> ms
-        timings->gpuTimestamps = true;
-        timings->decompressionMs = decompressor ? double(ticks[1] - ticks[0]) * period : 0.0;
-        timings->rasterMs = double(ticks[3] - ticks[2]) * period;
-        timings->gpuDecompressionMs.push_back(timings->decompressionMs);
-        timings->gpuRasterMs.push_back(timings->rasterMs);
-      }
-    }
+    if (submitted.ok() && recorded.ok() && pass.queries)
+      readTimestamps(h, pass.queries, pass.decompressor != nullptr, *pass.timings);
   }
-  if (queries) vkDestroyQueryPool(h.device(), queries, nullptr);
-  Result<std::vector<float>> pixels = !submitted.ok()  ? Result<std::vector<float>>(submitted.error())
-                                      : !recorded.ok() ? Result<std::vector<float>>(recorded.error())
-                                                       : h.readbackColor(msaa ? resolveImage : colorImage,
-                                                                         VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
-  h.destroyImage(colorImage);
-  h.destroyImage(depthImage);
-  if (msaa) h.destroyImage(resolveImage);
+  return !submitted.ok() ? submitted : recorded;
+}
+
+}  // namespace
+
+Result<bake::Image> renderFrame(Session& session, const Environment& environment, const std::vector<Object*>& objects,
+                                const FrameSettings& settings, FrameTimings* timings) {
+  harness::Harness& h = *session.harness;
+  if (auto checked = checkFrameSize(h, settings); !checked) return checked.error();
+  const uint32_t samples = settings.samplesPerAxis;
+  const uint32_t width = settings.width * samples, height = settings.height * samples;
+  auto renderer = createFrameRenderer(session, settings);
+  if (!renderer) return renderer.error();
+  auto decompressor = createFrameDecompressor(session, objects, settings);
+  if (!decompressor) return decompressor.error();
+  auto queries = createTimestampQueries(h, timings);
+  if (!queries) return queries.error();
+
+  const bool msaa = settings.msaaSamples != VK_SAMPLE_COUNT_1_BIT;
+  auto targets = createFrameTargets(h, width, height, settings.msaaSamples);
+  if (!targets) {
+    if (queries.value()) vkDestroyQueryPool(h.device(), queries.value(), nullptr);
+    return targets.error();
+  }
+  const FramePass pass{session,         *renderer.value(), decompressor.value().get(), environment,
+                       objects,         settings,          queries.value(),             targets.value(),
+                       {width, height}, timings};
+  const Result<void> rendered = renderFrames(pass);
+  if (queries.value()) vkDestroyQueryPool(h.device(), queries.value(), nullptr);
+  Result<std::vector<float>> pixels =
+      !rendered.ok() ? Result<std::vector<float>>(rendered.error())
+                     : h.readbackColor(msaa ? targets.value().resolve : targets.value().color,
+                                       VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
+  destroyFrameTargets(h, targets.value(), msaa);
   if (!pixels) return pixels.error();
   bake::Image out;
   out.width = width;

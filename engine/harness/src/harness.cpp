@@ -22,6 +22,152 @@ bool hasLayer(const char* name) {
   return false;
 }
 
+// A NoDevice failure: tools map its code to their exit code (Harness::create reports it as
+// HarnessFailure::NoDevice, every other error as HarnessFailure::Other).
+Error noDevice(Error e) {
+  e.code = ErrorCode::NoDevice;
+  return e;
+}
+
+// The validation layer and the debug-utils extension it reports through, when validation is on.
+Result<void> addValidationLayer(const HarnessOptions& options, std::vector<const char*>& layers,
+                                std::vector<const char*>& extensions) {
+  if (!options.enableValidation) return {};
+  if (!hasLayer("VK_LAYER_KHRONOS_validation"))
+    return makeError(ErrorCode::MissingFeature,
+                     "VK_LAYER_KHRONOS_validation is not installed (Debian: vulkan-validationlayers)");
+  layers.push_back("VK_LAYER_KHRONOS_validation");
+  extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+  return {};
+}
+
+VkDebugUtilsMessengerCreateInfoEXT messengerCreateInfo(PFN_vkDebugUtilsMessengerCallbackEXT callback, void* user) {
+  VkDebugUtilsMessengerCreateInfoEXT messengerInfo{VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
+  messengerInfo.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT |
+                                  VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+  messengerInfo.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT |
+                              VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+                              VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
+  messengerInfo.pfnUserCallback = callback;
+  messengerInfo.pUserData = user;
+  return messengerInfo;
+}
+
+Result<void> createInstance(const HarnessOptions& options, const std::vector<const char*>& layers,
+                            const std::vector<const char*>& extensions,
+                            const VkDebugUtilsMessengerCreateInfoEXT& messengerInfo, VkInstance& instance) {
+  VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
+  app.pApplicationName = "shrefract";
+  app.pEngineName = "shrefract";
+  app.apiVersion = VK_API_VERSION_1_3;
+
+  VkInstanceCreateInfo ici{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
+  ici.pApplicationInfo = &app;
+  ici.enabledLayerCount = static_cast<uint32_t>(layers.size());
+  ici.ppEnabledLayerNames = layers.data();
+  ici.enabledExtensionCount = static_cast<uint32_t>(extensions.size());
+  ici.ppEnabledExtensionNames = extensions.data();
+  // Chained so that messages from vkCreateInstance/vkDestroyInstance are counted too.
+  VkValidationFeatureEnableEXT syncValidation = VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT;
+  VkValidationFeaturesEXT validationFeatures{VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT};
+  validationFeatures.enabledValidationFeatureCount = options.synchronizationValidation ? 1u : 0u;
+  validationFeatures.pEnabledValidationFeatures = &syncValidation;
+  if (options.enableValidation) {
+    validationFeatures.pNext = &messengerInfo;
+    ici.pNext = &validationFeatures;
+  }
+  VkResult r = vkCreateInstance(&ici, nullptr, &instance);
+  if (r == VK_ERROR_INCOMPATIBLE_DRIVER) return noDevice(vkError("vkCreateInstance (no Vulkan driver)", r));
+  if (r != VK_SUCCESS) return vkError("vkCreateInstance", r);
+  return {};
+}
+
+Result<void> createMessenger(VkInstance instance, const VkDebugUtilsMessengerCreateInfoEXT& messengerInfo,
+                             VkDebugUtilsMessengerEXT& messenger) {
+  auto create = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
+      vkGetInstanceProcAddr(instance, "vkCreateDebugUtilsMessengerEXT"));
+  if (!create || create(instance, &messengerInfo, nullptr, &messenger) != VK_SUCCESS)
+    return makeError(ErrorCode::Vulkan, "cannot create the debug-utils messenger");
+  return {};
+}
+
+// The devices Harness::create may pick from: the one options.deviceIndex names, else all of them.
+Result<std::vector<VkPhysicalDevice>> candidateDevices(VkInstance instance, const HarnessOptions& options) {
+  uint32_t count = 0;
+  vkEnumeratePhysicalDevices(instance, &count, nullptr);
+  if (count == 0) return noDevice(makeError(ErrorCode::MissingFeature, "no Vulkan physical device"));
+  std::vector<VkPhysicalDevice> devices(count);
+  vkEnumeratePhysicalDevices(instance, &count, devices.data());
+  if (options.deviceIndex >= static_cast<int>(count))
+    return makeError(ErrorCode::InvalidArgument, "device index " + std::to_string(options.deviceIndex) +
+                                                     " out of range (" + std::to_string(count) + " devices)");
+  std::vector<VkPhysicalDevice> candidates;
+  if (options.deviceIndex >= 0) candidates.push_back(devices[static_cast<size_t>(options.deviceIndex)]);
+  else candidates = devices;
+  return candidates;
+}
+
+struct DeviceChoice {
+  VkPhysicalDevice physicalDevice = VK_NULL_HANDLE;
+  VkPhysicalDeviceProperties properties{};
+  uint32_t queueFamily = 0;
+};
+
+// The first Vulkan 1.3 candidate with a queue family that does both graphics and compute.
+Result<DeviceChoice> chooseDevice(const std::vector<VkPhysicalDevice>& candidates) {
+  for (VkPhysicalDevice pd : candidates) {
+    VkPhysicalDeviceProperties props{};
+    vkGetPhysicalDeviceProperties(pd, &props);
+    if (props.apiVersion < VK_API_VERSION_1_3) continue;
+    uint32_t qcount = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(pd, &qcount, nullptr);
+    std::vector<VkQueueFamilyProperties> qprops(qcount);
+    vkGetPhysicalDeviceQueueFamilyProperties(pd, &qcount, qprops.data());
+    for (uint32_t q = 0; q < qcount; ++q) {
+      const VkQueueFlags need = VK_QUEUE_GRAPHICS_BIT | VK_QUEUE_COMPUTE_BIT;
+      if ((qprops[q].queueFlags & need) == need) return DeviceChoice{pd, props, q};
+    }
+  }
+  return noDevice(makeError(ErrorCode::MissingFeature, "no Vulkan 1.3 device with a graphics+compute queue"));
+}
+
+Result<void> createDevice(const DeviceChoice& choice, const HarnessOptions& options, VkDevice& device) {
+  float priority = 1.0f;
+  VkDeviceQueueCreateInfo qci{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
+  qci.queueFamilyIndex = choice.queueFamily;
+  qci.queueCount = 1;
+  qci.pQueuePriorities = &priority;
+
+  VkPhysicalDeviceVulkan13Features f13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
+  f13.dynamicRendering = VK_TRUE;
+  f13.synchronization2 = VK_TRUE;
+  f13.maintenance4 = VK_TRUE;  // SPIR-V 1.6 compute shaders declare LocalSizeId
+  VkPhysicalDeviceFeatures2 features{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+  features.pNext = &f13;
+
+  VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
+  dci.pNext = &features;
+  dci.queueCreateInfoCount = 1;
+  dci.pQueueCreateInfos = &qci;
+  dci.enabledExtensionCount = static_cast<uint32_t>(options.deviceExtensions.size());
+  dci.ppEnabledExtensionNames = options.deviceExtensions.data();
+  VkResult r = vkCreateDevice(choice.physicalDevice, &dci, nullptr, &device);
+  if (r != VK_SUCCESS) return vkError("vkCreateDevice", r);
+  return {};
+}
+
+// The command pool and fence of submitAndWait.
+Result<void> createSubmitObjects(VkDevice device, uint32_t queueFamily, VkCommandPool& pool, VkFence& fence) {
+  VkResult r = VK_SUCCESS;
+  VkCommandPoolCreateInfo pci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+  pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+  pci.queueFamilyIndex = queueFamily;
+  if ((r = vkCreateCommandPool(device, &pci, nullptr, &pool)) != VK_SUCCESS) return vkError("vkCreateCommandPool", r);
+  VkFenceCreateInfo fci{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+  if ((r = vkCreateFence(device, &fci, nullptr, &fence)) != VK_SUCCESS) return vkError("vkCreateFence", r);
+  return {};
+}
+
 }  // namespace
 
 VKAPI_ATTR VkBool32 VKAPI_CALL Harness::debugCallback(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
@@ -51,9 +197,8 @@ void MessageLog::add(std::string text) {
 }
 
 Result<std::unique_ptr<Harness>> Harness::create(const HarnessOptions& options, HarnessFailure* failure) {
-  auto fail = [&](HarnessFailure kind, Error e) -> Result<std::unique_ptr<Harness>> {
-    if (failure) *failure = kind;
-    if (kind == HarnessFailure::NoDevice) e.code = ErrorCode::NoDevice;  // tools map it to their exit code
+  auto fail = [&](Error e) -> Result<std::unique_ptr<Harness>> {
+    if (failure) *failure = e.code == ErrorCode::NoDevice ? HarnessFailure::NoDevice : HarnessFailure::Other;
     return e;
   };
   if (failure) *failure = HarnessFailure::None;
@@ -62,127 +207,31 @@ Result<std::unique_ptr<Harness>> Harness::create(const HarnessOptions& options, 
 
   uint32_t apiVersion = 0;
   if (vkEnumerateInstanceVersion(&apiVersion) != VK_SUCCESS || apiVersion < VK_API_VERSION_1_3)
-    return fail(HarnessFailure::NoDevice, makeError(ErrorCode::MissingFeature, "the Vulkan loader does not offer Vulkan 1.3"));
+    return fail(noDevice(makeError(ErrorCode::MissingFeature, "the Vulkan loader does not offer Vulkan 1.3")));
 
   std::vector<const char*> layers;
   std::vector<const char*> extensions = options.instanceExtensions;
-  if (options.enableValidation) {
-    if (!hasLayer("VK_LAYER_KHRONOS_validation"))
-      return fail(HarnessFailure::Other,
-                  makeError(ErrorCode::MissingFeature,
-                            "VK_LAYER_KHRONOS_validation is not installed (Debian: vulkan-validationlayers)"));
-    layers.push_back("VK_LAYER_KHRONOS_validation");
-    extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
-  }
+  if (auto added = addValidationLayer(options, layers, extensions); !added) return fail(added.error());
+  // The user data is h's log: the instance's last messages arrive during ~Harness.
+  const VkDebugUtilsMessengerCreateInfoEXT messengerInfo = messengerCreateInfo(&Harness::debugCallback, h->log_.get());
+  if (auto created = createInstance(options, layers, extensions, messengerInfo, h->instance_); !created)
+    return fail(created.error());
+  if (options.enableValidation)
+    if (auto created = createMessenger(h->instance_, messengerInfo, h->messenger_); !created)
+      return fail(created.error());
 
-  VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
-  app.pApplicationName = "shrefract";
-  app.pEngineName = "shrefract";
-  app.apiVersion = VK_API_VERSION_1_3;
+  auto candidates = candidateDevices(h->instance_, options);
+  if (!candidates) return fail(candidates.error());
+  auto choice = chooseDevice(candidates.value());
+  if (!choice) return fail(choice.error());
+  h->physicalDevice_ = choice.value().physicalDevice;
+  h->properties_ = choice.value().properties;
+  h->queueFamily_ = choice.value().queueFamily;
 
-  VkDebugUtilsMessengerCreateInfoEXT messengerInfo{VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
-  messengerInfo.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT |
-                                  VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
-  messengerInfo.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT |
-                              VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
-                              VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
-  messengerInfo.pfnUserCallback = &Harness::debugCallback;
-  messengerInfo.pUserData = h->log_.get();  // the instance's last messages arrive during ~Harness
-
-  VkInstanceCreateInfo ici{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
-  ici.pApplicationInfo = &app;
-  ici.enabledLayerCount = static_cast<uint32_t>(layers.size());
-  ici.ppEnabledLayerNames = layers.data();
-  ici.enabledExtensionCount = static_cast<uint32_t>(extensions.size());
-  ici.ppEnabledExtensionNames = extensions.data();
-  // Chained so that messages from vkCreateInstance/vkDestroyInstance are counted too.
-  VkValidationFeatureEnableEXT syncValidation = VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT;
-  VkValidationFeaturesEXT validationFeatures{VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT};
-  validationFeatures.enabledValidationFeatureCount = options.synchronizationValidation ? 1u : 0u;
-  validationFeatures.pEnabledValidationFeatures = &syncValidation;
-  if (options.enableValidation) {
-    validationFeatures.pNext = &messengerInfo;
-    ici.pNext = &validationFeatures;
-  }
-  VkResult r = vkCreateInstance(&ici, nullptr, &h->instance_);
-  if (r == VK_ERROR_INCOMPATIBLE_DRIVER)
-    return fail(HarnessFailure::NoDevice, vkError("vkCreateInstance (no Vulkan driver)", r));
-  if (r != VK_SUCCESS) return fail(HarnessFailure::Other, vkError("vkCreateInstance", r));
-
-  if (options.enableValidation) {
-    auto createMessenger = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
-        vkGetInstanceProcAddr(h->instance_, "vkCreateDebugUtilsMessengerEXT"));
-    if (!createMessenger || createMessenger(h->instance_, &messengerInfo, nullptr, &h->messenger_) != VK_SUCCESS)
-      return fail(HarnessFailure::Other, makeError(ErrorCode::Vulkan, "cannot create the debug-utils messenger"));
-  }
-
-  uint32_t count = 0;
-  vkEnumeratePhysicalDevices(h->instance_, &count, nullptr);
-  if (count == 0) return fail(HarnessFailure::NoDevice, makeError(ErrorCode::MissingFeature, "no Vulkan physical device"));
-  std::vector<VkPhysicalDevice> devices(count);
-  vkEnumeratePhysicalDevices(h->instance_, &count, devices.data());
-  if (options.deviceIndex >= static_cast<int>(count))
-    return fail(HarnessFailure::Other,
-                makeError(ErrorCode::InvalidArgument, "device index " + std::to_string(options.deviceIndex) +
-                                                          " out of range (" + std::to_string(count) + " devices)"));
-  std::vector<VkPhysicalDevice> candidates;
-  if (options.deviceIndex >= 0) candidates.push_back(devices[static_cast<size_t>(options.deviceIndex)]);
-  else candidates = devices;
-
-  for (VkPhysicalDevice pd : candidates) {
-    VkPhysicalDeviceProperties props{};
-    vkGetPhysicalDeviceProperties(pd, &props);
-    if (props.apiVersion < VK_API_VERSION_1_3) continue;
-    uint32_t qcount = 0;
-    vkGetPhysicalDeviceQueueFamilyProperties(pd, &qcount, nullptr);
-    std::vector<VkQueueFamilyProperties> qprops(qcount);
-    vkGetPhysicalDeviceQueueFamilyProperties(pd, &qcount, qprops.data());
-    for (uint32_t q = 0; q < qcount; ++q) {
-      const VkQueueFlags need = VK_QUEUE_GRAPHICS_BIT | VK_QUEUE_COMPUTE_BIT;
-      if ((qprops[q].queueFlags & need) == need) {
-        h->physicalDevice_ = pd;
-        h->properties_ = props;
-        h->queueFamily_ = q;
-        break;
-      }
-    }
-    if (h->physicalDevice_) break;
-  }
-  if (!h->physicalDevice_)
-    return fail(HarnessFailure::NoDevice,
-                makeError(ErrorCode::MissingFeature, "no Vulkan 1.3 device with a graphics+compute queue"));
-
-  float priority = 1.0f;
-  VkDeviceQueueCreateInfo qci{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
-  qci.queueFamilyIndex = h->queueFamily_;
-  qci.queueCount = 1;
-  qci.pQueuePriorities = &priority;
-
-  VkPhysicalDeviceVulkan13Features f13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
-  f13.dynamicRendering = VK_TRUE;
-  f13.synchronization2 = VK_TRUE;
-  f13.maintenance4 = VK_TRUE;  // SPIR-V 1.6 compute shaders declare LocalSizeId
-  VkPhysicalDeviceFeatures2 features{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
-  features.pNext = &f13;
-
-  VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
-  dci.pNext = &features;
-  dci.queueCreateInfoCount = 1;
-  dci.pQueueCreateInfos = &qci;
-  dci.enabledExtensionCount = static_cast<uint32_t>(options.deviceExtensions.size());
-  dci.ppEnabledExtensionNames = options.deviceExtensions.data();
-  r = vkCreateDevice(h->physicalDevice_, &dci, nullptr, &h->device_);
-  if (r != VK_SUCCESS) return fail(HarnessFailure::Other, vkError("vkCreateDevice", r));
+  if (auto created = createDevice(choice.value(), options, h->device_); !created) return fail(created.error());
   vkGetDeviceQueue(h->device_, h->queueFamily_, 0, &h->queue_);
-
-  VkCommandPoolCreateInfo pci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
-  pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-  pci.queueFamilyIndex = h->queueFamily_;
-  if ((r = vkCreateCommandPool(h->device_, &pci, nullptr, &h->pool_)) != VK_SUCCESS)
-    return fail(HarnessFailure::Other, vkError("vkCreateCommandPool", r));
-  VkFenceCreateInfo fci{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
-  if ((r = vkCreateFence(h->device_, &fci, nullptr, &h->fence_)) != VK_SUCCESS)
-    return fail(HarnessFailure::Other, vkError("vkCreateFence", r));
+  if (auto created = createSubmitObjects(h->device_, h->queueFamily_, h->pool_, h->fence_); !created)
+    return fail(created.error());
   return h;
 }
 

@@ -61,10 +61,28 @@ struct ShaderPair {
   size_t fragBytes;
 };
 
-// coverage: the fragment shader's alpha is its silhouette coverage (kSpecSilhouetteCoverage),
-// blended over the attachment.
-Result<VkPipeline> createGraphicsPipeline(ContextImpl& c, const RendererCreateInfo& info, VkPipelineLayout layout,
-                                          const ShaderPair& shaders, bool objectPass, bool coverage) {
+// The object pass reads ObjectImpl's interleaved vertex (object/object_impl.h, kVertexFloats words).
+constexpr VkVertexInputBindingDescription kObjectVertexBinding{0, kVertexFloats * sizeof(float),
+                                                               VK_VERTEX_INPUT_RATE_VERTEX};
+constexpr std::array<VkVertexInputAttributeDescription, 5> kObjectVertexAttributes{{
+    {0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0},
+    {1, 0, VK_FORMAT_R32G32B32_SFLOAT, 3 * sizeof(float)},
+    {2, 0, VK_FORMAT_R32G32_SFLOAT, 6 * sizeof(float)},
+    {3, 0, VK_FORMAT_R32_SFLOAT, 8 * sizeof(float)},
+    {4, 0, VK_FORMAT_R32_UINT, kVertexTriangleWord * sizeof(float)},
+}};
+// Where the fragment shaders' specialization values lie: the tap count, then the coverage switch.
+constexpr std::array<VkSpecializationMapEntry, 2> kFragmentSpecEntries{
+    {{gpu::kSpecEnvironmentTaps, 0, sizeof(uint32_t)},
+     {gpu::kSpecSilhouetteCoverage, sizeof(uint32_t), sizeof(VkBool32)}}};
+constexpr std::array<VkDynamicState, 2> kDynamicStates{VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+
+struct ShaderModules {
+  VkShaderModule vert = VK_NULL_HANDLE;
+  VkShaderModule frag = VK_NULL_HANDLE;
+};
+
+Result<ShaderModules> createShaderModules(ContextImpl& c, const ShaderPair& shaders) {
   auto vert = c.createShaderModule(shaders.vert, shaders.vertBytes);
   if (!vert) return vert.error();
   auto frag = c.createShaderModule(shaders.frag, shaders.fragBytes);
@@ -72,57 +90,56 @@ Result<VkPipeline> createGraphicsPipeline(ContextImpl& c, const RendererCreateIn
     c.vk.vkDestroyShaderModule(c.device(), vert.value(), c.alloc());
     return frag.error();
   }
+  return ShaderModules{vert.value(), frag.value()};
+}
+
+std::array<VkPipelineShaderStageCreateInfo, 2> shaderStages(const ShaderModules& modules,
+                                                            const VkSpecializationInfo& fragmentSpecialization) {
   std::array<VkPipelineShaderStageCreateInfo, 2> stages{};
   stages[0] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
   stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
-  stages[0].module = vert.value();
+  stages[0].module = modules.vert;
   stages[0].pName = "main";
   stages[1] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
   stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
-  stages[1].module = frag.value();
+  stages[1].module = modules.frag;
   stages[1].pName = "main";
-  // Every fragment shader gets the tap count and the coverage switch; those without the constants
-  // (the background, the single interface) ignore them.
-  const std::array<uint32_t, 2> specValues{info.environmentTapsPerAxis, coverage ? VK_TRUE : VK_FALSE};
-  const std::array<VkSpecializationMapEntry, 2> specEntries{{{gpu::kSpecEnvironmentTaps, 0, sizeof(uint32_t)},
-                                                             {gpu::kSpecSilhouetteCoverage, sizeof(uint32_t), sizeof(VkBool32)}}};
-  const VkSpecializationInfo specialization{uint32_t(specEntries.size()), specEntries.data(), sizeof(specValues),
-                                            specValues.data()};
-  stages[1].pSpecializationInfo = &specialization;
+  stages[1].pSpecializationInfo = &fragmentSpecialization;
+  return stages;
+}
 
-  VkVertexInputBindingDescription binding{0, kVertexFloats * sizeof(float), VK_VERTEX_INPUT_RATE_VERTEX};
-  std::array<VkVertexInputAttributeDescription, 5> attributes{{
-      {0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0},
-      {1, 0, VK_FORMAT_R32G32B32_SFLOAT, 3 * sizeof(float)},
-      {2, 0, VK_FORMAT_R32G32_SFLOAT, 6 * sizeof(float)},
-      {3, 0, VK_FORMAT_R32_SFLOAT, 8 * sizeof(float)},
-      {4, 0, VK_FORMAT_R32_UINT, kVertexTriangleWord * sizeof(float)},
-  }};
+// The background pass draws one triangle from the vertex index alone: no vertex input.
+VkPipelineVertexInputStateCreateInfo vertexInputState(bool objectPass) {
   VkPipelineVertexInputStateCreateInfo vertexInput{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
   if (objectPass) {
     vertexInput.vertexBindingDescriptionCount = 1;
-    vertexInput.pVertexBindingDescriptions = &binding;
-    vertexInput.vertexAttributeDescriptionCount = static_cast<uint32_t>(attributes.size());
-    vertexInput.pVertexAttributeDescriptions = attributes.data();
+    vertexInput.pVertexBindingDescriptions = &kObjectVertexBinding;
+    vertexInput.vertexAttributeDescriptionCount = static_cast<uint32_t>(kObjectVertexAttributes.size());
+    vertexInput.pVertexAttributeDescriptions = kObjectVertexAttributes.data();
   }
-  VkPipelineInputAssemblyStateCreateInfo ia{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
-  ia.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
-  VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
-  vp.viewportCount = 1;
-  vp.scissorCount = 1;
+  return vertexInput;
+}
+
+VkPipelineRasterizationStateCreateInfo rasterizationState(bool objectPass) {
   VkPipelineRasterizationStateCreateInfo rs{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
   rs.polygonMode = VK_POLYGON_MODE_FILL;
   // Only front faces: the field describes what is seen through the front surface.
   rs.cullMode = objectPass ? VK_CULL_MODE_BACK_BIT : VK_CULL_MODE_NONE;
   rs.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
   rs.lineWidth = 1.0f;
-  VkPipelineMultisampleStateCreateInfo ms{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
-  ms.rasterizationSamples = info.sampleCount;  // the host's attachments
+  return rs;
+}
+
+VkPipelineDepthStencilStateCreateInfo depthStencilState(const RendererCreateInfo& info, bool objectPass) {
   VkPipelineDepthStencilStateCreateInfo ds{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
   const bool hasDepth = info.depthFormat != VK_FORMAT_UNDEFINED;
   ds.depthTestEnable = hasDepth ? VK_TRUE : VK_FALSE;
   ds.depthWriteEnable = (hasDepth && objectPass) ? VK_TRUE : VK_FALSE;
   ds.depthCompareOp = objectPass ? VK_COMPARE_OP_LESS : VK_COMPARE_OP_LESS_OR_EQUAL;
+  return ds;
+}
+
+VkPipelineColorBlendAttachmentState blendAttachmentState(bool coverage) {
   VkPipelineColorBlendAttachmentState blend{};
   if (coverage) {  // colour: src a + dst (1 - a); alpha: a + dst alpha (1 - a)
     blend.blendEnable = VK_TRUE;
@@ -133,13 +150,38 @@ Result<VkPipeline> createGraphicsPipeline(ContextImpl& c, const RendererCreateIn
   }
   blend.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT |
                          VK_COLOR_COMPONENT_A_BIT;
+  return blend;
+}
+
+// coverage: the fragment shader's alpha is its silhouette coverage (kSpecSilhouetteCoverage),
+// blended over the attachment.
+Result<VkPipeline> createGraphicsPipeline(ContextImpl& c, const RendererCreateInfo& info, VkPipelineLayout layout,
+                                          const ShaderPair& shaders, bool objectPass, bool coverage) {
+  auto modules = createShaderModules(c, shaders);
+  if (!modules) return modules.error();
+  // Every fragment shader gets the tap count and the coverage switch; those without the constants
+  // (the background, the single interface) ignore them.
+  const std::array<uint32_t, 2> specValues{info.environmentTapsPerAxis, coverage ? VK_TRUE : VK_FALSE};
+  const VkSpecializationInfo specialization{uint32_t(kFragmentSpecEntries.size()), kFragmentSpecEntries.data(),
+                                            sizeof(specValues), specValues.data()};
+  const std::array<VkPipelineShaderStageCreateInfo, 2> stages = shaderStages(modules.value(), specialization);
+  const VkPipelineVertexInputStateCreateInfo vertexInput = vertexInputState(objectPass);
+  VkPipelineInputAssemblyStateCreateInfo ia{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
+  ia.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+  VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
+  vp.viewportCount = 1;
+  vp.scissorCount = 1;
+  const VkPipelineRasterizationStateCreateInfo rs = rasterizationState(objectPass);
+  VkPipelineMultisampleStateCreateInfo ms{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
+  ms.rasterizationSamples = info.sampleCount;  // the host's attachments
+  const VkPipelineDepthStencilStateCreateInfo ds = depthStencilState(info, objectPass);
+  const VkPipelineColorBlendAttachmentState blend = blendAttachmentState(coverage);
   VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
   cb.attachmentCount = 1;
   cb.pAttachments = &blend;
-  std::array<VkDynamicState, 2> dynamicStates{VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
   VkPipelineDynamicStateCreateInfo dyn{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
-  dyn.dynamicStateCount = static_cast<uint32_t>(dynamicStates.size());
-  dyn.pDynamicStates = dynamicStates.data();
+  dyn.dynamicStateCount = static_cast<uint32_t>(kDynamicStates.size());
+  dyn.pDynamicStates = kDynamicStates.data();
   VkPipelineRenderingCreateInfo rendering{VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO};
   rendering.colorAttachmentCount = 1;
   rendering.pColorAttachmentFormats = &info.colorFormat;
@@ -160,8 +202,8 @@ Result<VkPipeline> createGraphicsPipeline(ContextImpl& c, const RendererCreateIn
   gpci.layout = layout;
   VkPipeline pipeline = VK_NULL_HANDLE;
   VkResult r = c.vk.vkCreateGraphicsPipelines(c.device(), c.info.pipelineCache, 1, &gpci, c.alloc(), &pipeline);
-  c.vk.vkDestroyShaderModule(c.device(), vert.value(), c.alloc());
-  c.vk.vkDestroyShaderModule(c.device(), frag.value(), c.alloc());
+  c.vk.vkDestroyShaderModule(c.device(), modules.value().vert, c.alloc());
+  c.vk.vkDestroyShaderModule(c.device(), modules.value().frag, c.alloc());
   if (r != VK_SUCCESS) return vulkanError("vkCreateGraphicsPipelines", r);
   return pipeline;
 }
@@ -274,15 +316,16 @@ static_assert(kMaxEnvironmentTapsPerAxis == gpu::kMaxEnvironmentTapsPerAxis &&
                   RendererCreateInfo{}.environmentTapsPerAxis == gpu::kEnvironmentTapsPerAxis,
               "the public tap range and default are the shaders'");
 
-Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, const RendererCreateInfo& info) {
-  ContextImpl& c = ContextAccess::impl(context);
+namespace {
+
+// coverage: whether the field pipelines blend by silhouette coverage (RendererCreateInfo).
+Result<void> checkCreateInfo(ContextImpl& c, const RendererCreateInfo& info, bool coverage) {
   const VkPhysicalDeviceLimits& limits = c.properties.limits;
   const VkSampleCountFlags supported = limits.framebufferColorSampleCounts &
                                        (info.depthFormat != VK_FORMAT_UNDEFINED ? limits.framebufferDepthSampleCounts : ~0u);
   if (!(supported & info.sampleCount) || (info.sampleCount & (info.sampleCount - 1)) != 0)
     return makeError(ErrorCode::Unsupported, "Renderer::create: the device does not support " +
                                                  std::to_string(info.sampleCount) + " samples per pixel");
-  const bool coverage = info.silhouetteCoverage && info.sampleCount == VK_SAMPLE_COUNT_1_BIT;
   if (coverage) {
     // The coverage pipelines blend: refused here rather than as a validation error later.
     VkFormatProperties format{};
@@ -295,6 +338,74 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, const Rende
     return makeError(ErrorCode::InvalidArgument, "Renderer::create: environmentTapsPerAxis " +
                                                      std::to_string(info.environmentTapsPerAxis) + " is outside 1.." +
                                                      std::to_string(kMaxEnvironmentTapsPerAxis));
+  return {};
+}
+
+// The distortion set layout and the three pipeline layouts, into `impl` (released by the caller on
+// failure).
+Result<void> createLayouts(ContextImpl& c, RendererImpl& impl) {
+  auto distortionLayout = createDistortionSetLayout(c);
+  if (!distortionLayout) return distortionLayout.error();
+  impl.distortionSetLayout = distortionLayout.value();
+  auto bl = createLayout(c, sizeof(gpu::BackgroundPushConstants));
+  if (!bl) return bl.error();
+  impl.backgroundLayout = bl.value();
+  auto ol = createLayout(c, sizeof(gpu::ObjectPushConstants));
+  if (!ol) return ol.error();
+  impl.objectLayout = ol.value();
+  auto fl = createLayout(c, sizeof(gpu::ObjectPushConstants), impl.distortionSetLayout);
+  if (!fl) return fl.error();
+  impl.fieldLayout = fl.value();
+  return {};
+}
+
+// One pipeline of RendererImpl: where it goes and how it is made.
+struct PipelineVariant {
+  VkPipeline* target;
+  VkPipelineLayout layout;
+  ShaderPair shaders;
+  bool objectPass;
+  bool coverage = false;
+};
+
+std::vector<PipelineVariant> pipelineVariants(RendererImpl& impl, bool coverage) {
+  const ShaderPair fieldShaders{kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_field_frag,
+                                sizeof(kSpirv_object_field_frag)};
+  const ShaderPair fieldCubeShaders{kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_field_cube_frag,
+                                    sizeof(kSpirv_object_field_cube_frag)};
+  std::vector<PipelineVariant> variants{{
+      {&impl.background[0], impl.backgroundLayout,
+       {kSpirv_background_vert, sizeof(kSpirv_background_vert), kSpirv_background_frag,
+        sizeof(kSpirv_background_frag)},
+       false},
+      {&impl.background[1], impl.backgroundLayout,
+       {kSpirv_background_vert, sizeof(kSpirv_background_vert), kSpirv_background_cube_frag,
+        sizeof(kSpirv_background_cube_frag)},
+       false},
+      {&impl.singleInterface[0], impl.objectLayout,
+       {kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_single_interface_frag,
+        sizeof(kSpirv_object_single_interface_frag)},
+       true},
+      {&impl.singleInterface[1], impl.objectLayout,
+       {kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_single_interface_cube_frag,
+        sizeof(kSpirv_object_single_interface_cube_frag)},
+       true},
+      {&impl.field[0], impl.fieldLayout, fieldShaders, true, coverage},
+      {&impl.field[1], impl.fieldLayout, fieldCubeShaders, true, coverage},
+  }};
+  if (coverage) {
+    variants.push_back({&impl.fieldExit[0], impl.fieldLayout, fieldShaders, true, false});
+    variants.push_back({&impl.fieldExit[1], impl.fieldLayout, fieldCubeShaders, true, false});
+  }
+  return variants;
+}
+
+}  // namespace
+
+Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, const RendererCreateInfo& info) {
+  ContextImpl& c = ContextAccess::impl(context);
+  const bool coverage = info.silhouetteCoverage && info.sampleCount == VK_SAMPLE_COUNT_1_BIT;
+  if (auto checked = checkCreateInfo(c, info, coverage); !checked) return checked.error();
   auto impl = std::make_unique<RendererImpl>();
   impl->context = &c;
   impl->info = info;
@@ -306,55 +417,8 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, const Rende
     }
   } guard{impl.get()};
 
-  auto distortionLayout = createDistortionSetLayout(c);
-  if (!distortionLayout) return distortionLayout.error();
-  impl->distortionSetLayout = distortionLayout.value();
-  auto bl = createLayout(c, sizeof(gpu::BackgroundPushConstants));
-  if (!bl) return bl.error();
-  impl->backgroundLayout = bl.value();
-  auto ol = createLayout(c, sizeof(gpu::ObjectPushConstants));
-  if (!ol) return ol.error();
-  impl->objectLayout = ol.value();
-  auto fl = createLayout(c, sizeof(gpu::ObjectPushConstants), impl->distortionSetLayout);
-  if (!fl) return fl.error();
-  impl->fieldLayout = fl.value();
-
-  struct Variant {
-    VkPipeline* target;
-    VkPipelineLayout layout;
-    ShaderPair shaders;
-    bool objectPass;
-    bool coverage = false;
-  };
-  const ShaderPair fieldShaders{kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_field_frag,
-                                sizeof(kSpirv_object_field_frag)};
-  const ShaderPair fieldCubeShaders{kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_field_cube_frag,
-                                    sizeof(kSpirv_object_field_cube_frag)};
-  std::vector<Variant> variants{{
-      {&impl->background[0], impl->backgroundLayout,
-       {kSpirv_background_vert, sizeof(kSpirv_background_vert), kSpirv_background_frag,
-        sizeof(kSpirv_background_frag)},
-       false},
-      {&impl->background[1], impl->backgroundLayout,
-       {kSpirv_background_vert, sizeof(kSpirv_background_vert), kSpirv_background_cube_frag,
-        sizeof(kSpirv_background_cube_frag)},
-       false},
-      {&impl->singleInterface[0], impl->objectLayout,
-       {kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_single_interface_frag,
-        sizeof(kSpirv_object_single_interface_frag)},
-       true},
-      {&impl->singleInterface[1], impl->objectLayout,
-       {kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_single_interface_cube_frag,
-        sizeof(kSpirv_object_single_interface_cube_frag)},
-       true},
-      {&impl->field[0], impl->fieldLayout, fieldShaders, true, coverage},
-      {&impl->field[1], impl->fieldLayout, fieldCubeShaders, true, coverage},
-  }};
-  if (coverage) {
-    variants.push_back({&impl->fieldExit[0], impl->fieldLayout, fieldShaders, true, false});
-    variants.push_back({&impl->fieldExit[1], impl->fieldLayout, fieldCubeShaders, true, false});
-  }
-  for (const Variant& v : variants) {
+  if (auto created = createLayouts(c, *impl); !created) return created.error();
+  for (const PipelineVariant& v : pipelineVariants(*impl, coverage)) {
     auto pipeline = createGraphicsPipeline(c, info, v.layout, v.shaders, v.objectPass, v.coverage);
     if (!pipeline) return pipeline.error();
     *v.target = pipeline.value();
