@@ -793,29 +793,29 @@ Result<void> encodeCoefficients(Field& field, const std::vector<float>& coeffici
   return encodeCoefficients(field, [data, values](uint64_t t) { return data + t * values; }, perLayer);
 }
 
-Result<void> encodeCoefficients(Field& field, const std::function<const float*(uint64_t texel)>& texelValues,
-                                uint64_t layerStride) {
-  if (auto r = checkEncodable(field); !r) return r;
-  const uint64_t texels = field.texelCount();
-  const uint32_t layers = field.layerCount();
-  // "channels" below are the stored values per layer (Pca: one weight).
-  const uint32_t channels = field.valuesPerLayer();
-  const uint64_t perLayer = texels * channels;
-  const uint64_t count = perLayer * layers;
-  if (layerStride < channels)
-    return makeError(ErrorCode::InvalidArgument, "encodeCoefficients: layer stride " + std::to_string(layerStride) +
-                                                     " is below the " + std::to_string(channels) + " values per layer");
-  std::vector<const float*> rows(texels);
-  for (uint64_t t = 0; t < texels; ++t) rows[t] = texelValues(t);
-  const auto value = [&](uint32_t layer, uint64_t t, uint32_t c) {
+namespace {
+
+// The coefficients encodeCoefficients reads: value c of layer `layer` at texel t, zero for a texel
+// without values. Every loop over them below visits them in the quantized arrays' order (layers x
+// texels x values); i is the index there.
+struct CoefficientSource {
+  std::vector<const float*> rows;  // per texel
+  uint64_t layerStride = 0;
+  uint32_t layers = 0;
+  uint64_t texels = 0;
+  uint32_t channels = 0;  // the stored values per layer (Pca: one weight)
+
+  float value(uint32_t layer, uint64_t t, uint32_t c) const {
     return rows[t] ? rows[t][layer * layerStride + c] : 0.0f;
-  };
-  // Every loop below visits the coefficients in the quantized arrays' order (layers x texels x
-  // values); i is the index there.
-  for (size_t i = 0, layer = 0; layer < layers; ++layer)
-    for (uint64_t t = 0; t < texels; ++t)
-      for (uint32_t c = 0; c < channels; ++c, ++i) {
-        const float v = value(uint32_t(layer), t, c);
+  }
+};
+
+// Every coefficient finite, within the format's magnitude and, for F16, the half-float range.
+Result<void> checkCoefficients(const Field& field, const CoefficientSource& src) {
+  for (size_t i = 0, layer = 0; layer < src.layers; ++layer)
+    for (uint64_t t = 0; t < src.texels; ++t)
+      for (uint32_t c = 0; c < src.channels; ++c, ++i) {
+        const float v = src.value(uint32_t(layer), t, c);
         const auto refuse = [&](const std::string& why) {
           return makeError(ErrorCode::InvalidArgument, "encodeCoefficients: coefficient " + std::to_string(i) +
                                                            " (layer " + std::to_string(layer) + ", channel " +
@@ -827,28 +827,31 @@ Result<void> encodeCoefficients(Field& field, const std::function<const float*(u
         if (field.quantization == Quantization::F16 && !(std::fabs(v) < kHalfOverflow))
           return refuse(" = " + formatFloat(v) + " is beyond the half-float range (|v| < 65520)");
       }
+  return {};
+}
 
-  if (field.quantization == Quantization::F16) {
-    std::vector<uint16_t> out(count);
-    for (size_t i = 0, layer = 0; layer < layers; ++layer)
-      for (uint64_t t = 0; t < texels; ++t)
-        for (uint32_t c = 0; c < channels; ++c) out[i++] = floatToHalf(value(uint32_t(layer), t, c));
-    field.coefficientsF16 = std::move(out);
-    field.coefficientsU8.clear();
-    field.scale.clear();
-    field.bias.clear();
-    return {};
-  }
+void encodeF16(Field& field, const CoefficientSource& src) {
+  std::vector<uint16_t> out(size_t(src.layers) * src.texels * src.channels);
+  for (size_t i = 0, layer = 0; layer < src.layers; ++layer)
+    for (uint64_t t = 0; t < src.texels; ++t)
+      for (uint32_t c = 0; c < src.channels; ++c) out[i++] = floatToHalf(src.value(uint32_t(layer), t, c));
+  field.coefficientsF16 = std::move(out);
+  field.coefficientsU8.clear();
+  field.scale.clear();
+  field.bias.clear();
+}
 
-  // U8: per (layer, channel) range over all texels. The range is taken in double so that a span
-  // wider than float can be reported instead of turning into Inf.
-  const size_t tables = size_t(layers) * channels;
-  std::vector<float> scale(tables), bias(tables);
-  for (uint32_t layer = 0; layer < layers; ++layer) {
-    for (uint32_t c = 0; c < channels; ++c) {
+// U8: per (layer, channel) range over all texels, into `scale` and `bias`. The range is taken in
+// double so that a span wider than float can be reported instead of turning into Inf.
+Result<void> u8Ranges(const CoefficientSource& src, std::vector<float>& scale, std::vector<float>& bias) {
+  const size_t tables = size_t(src.layers) * src.channels;
+  scale.assign(tables, 0.0f);
+  bias.assign(tables, 0.0f);
+  for (uint32_t layer = 0; layer < src.layers; ++layer) {
+    for (uint32_t c = 0; c < src.channels; ++c) {
       float lo = std::numeric_limits<float>::max(), hi = std::numeric_limits<float>::lowest();
-      for (uint64_t t = 0; t < texels; ++t) {
-        const float v = value(layer, t, c);
+      for (uint64_t t = 0; t < src.texels; ++t) {
+        const float v = src.value(layer, t, c);
         lo = std::min(lo, v);
         hi = std::max(hi, v);
       }
@@ -857,20 +860,26 @@ Result<void> encodeCoefficients(Field& field, const std::function<const float*(u
         return makeError(ErrorCode::InvalidArgument, "encodeCoefficients: layer " + std::to_string(layer) + " channel " +
                                                          std::to_string(c) + ": range [" + formatFloat(lo) + ", " +
                                                          formatFloat(hi) + "] does not fit a float scale");
-      scale[size_t(layer) * channels + c] = range;
-      bias[size_t(layer) * channels + c] = lo;
+      scale[size_t(layer) * src.channels + c] = range;
+      bias[size_t(layer) * src.channels + c] = lo;
     }
   }
-  std::vector<uint8_t> out(count);
-  for (size_t i = 0, layer = 0; layer < layers; ++layer)
-    for (uint64_t t = 0; t < texels; ++t)
-      for (uint32_t c = 0; c < channels; ++c, ++i) {
-        const size_t table = layer * channels + c;
+  return {};
+}
+
+Result<void> encodeU8(Field& field, const CoefficientSource& src) {
+  std::vector<float> scale, bias;
+  if (auto r = u8Ranges(src, scale, bias); !r) return r;
+  std::vector<uint8_t> out(size_t(src.layers) * src.texels * src.channels);
+  for (size_t i = 0, layer = 0; layer < src.layers; ++layer)
+    for (uint64_t t = 0; t < src.texels; ++t)
+      for (uint32_t c = 0; c < src.channels; ++c, ++i) {
+        const size_t table = layer * src.channels + c;
         if (scale[table] == 0.0f) {
           out[i] = 0;
           continue;
         }
-        const double level = (static_cast<double>(value(uint32_t(layer), t, c)) - static_cast<double>(bias[table])) /
+        const double level = (static_cast<double>(src.value(uint32_t(layer), t, c)) - static_cast<double>(bias[table])) /
                              static_cast<double>(scale[table]) * 255.0;
         out[i] = static_cast<uint8_t>(std::clamp(std::floor(level + 0.5), 0.0, 255.0));
       }
@@ -879,6 +888,30 @@ Result<void> encodeCoefficients(Field& field, const std::function<const float*(u
   field.bias = std::move(bias);
   field.coefficientsF16.clear();
   return {};
+}
+
+}  // namespace
+
+Result<void> encodeCoefficients(Field& field, const std::function<const float*(uint64_t texel)>& texelValues,
+                                uint64_t layerStride) {
+  if (auto r = checkEncodable(field); !r) return r;
+  CoefficientSource src;
+  src.layerStride = layerStride;
+  src.layers = field.layerCount();
+  src.texels = field.texelCount();
+  src.channels = field.valuesPerLayer();
+  if (layerStride < src.channels)
+    return makeError(ErrorCode::InvalidArgument, "encodeCoefficients: layer stride " + std::to_string(layerStride) +
+                                                     " is below the " + std::to_string(src.channels) +
+                                                     " values per layer");
+  src.rows.resize(src.texels);
+  for (uint64_t t = 0; t < src.texels; ++t) src.rows[t] = texelValues(t);
+  if (auto r = checkCoefficients(field, src); !r) return r;
+  if (field.quantization == Quantization::F16) {
+    encodeF16(field, src);
+    return {};
+  }
+  return encodeU8(field, src);
 }
 
 Result<void> validateField(const Field& field) {
