@@ -110,6 +110,55 @@ class TempFileGuard {
 
 }  // namespace
 
+namespace {
+
+// Pixels as stored (up to 4 channels, as floats), after the checks that need no pixel.
+Result<std::vector<float>> readPixels(const std::string& path, OIIO::ImageInput& input, size_t channels) {
+  const OIIO::ImageSpec& spec = input.spec();
+  std::vector<float> pixels(size_t(spec.width) * size_t(spec.height) * channels);
+  if (!input.read_image(0, 0, 0, static_cast<int>(channels), OIIO::TypeDesc::FLOAT, pixels.data())) {
+    // OpenImageIO's PFM and some other readers fail on short pixel data without a message.
+    const std::string raw = input.geterror();
+    const std::string message = raw.empty() ? "the pixel data is truncated or corrupt" : oneLine(raw);
+    input.close();
+    return makeError(ErrorCode::CorruptData, path + ": cannot read: " + message);
+  }
+  input.close();
+  return pixels;
+}
+
+// Linear RGBA from the stored channels (grey and grey + alpha spread to RGB), rejecting NaN, Inf
+// and negative values.
+Result<Image> toLinearRgba(const std::string& path, const std::vector<float>& pixels, size_t width, size_t height,
+                           size_t channels, Transfer transfer) {
+  Image image;
+  image.width = static_cast<uint32_t>(width);
+  image.height = static_cast<uint32_t>(height);
+  image.rgba.resize(width * height * 4);
+  for (size_t p = 0; p < width * height; ++p) {
+    const float* in = &pixels[p * channels];
+    float* out = &image.rgba[p * 4];
+    if (channels <= 2) {
+      out[0] = out[1] = out[2] = decode(transfer, in[0]);
+      out[3] = channels == 2 ? in[1] : 1.0f;
+    } else {
+      for (size_t c = 0; c < 3; ++c) out[c] = decode(transfer, in[c]);
+      out[3] = channels == 4 ? in[3] : 1.0f;
+    }
+    for (size_t c = 0; c < 4; ++c) {
+      if (!std::isfinite(out[c]) || out[c] < 0.0f) {
+        return makeError(ErrorCode::CorruptData,
+                         path + ": pixel (" + std::to_string(p % width) + "," +
+                             std::to_string(p / width) + ") channel " + channelName(c) + " is " +
+                             std::to_string(out[c]) + " (NaN, Inf and negative values are rejected)");
+      }
+    }
+  }
+  return image;
+}
+
+}  // namespace
+
 Result<Image> loadImage(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) {
@@ -137,45 +186,13 @@ Result<Image> loadImage(const std::string& path) {
                          std::to_string(spec.height) + "x" + std::to_string(spec.depth) + ", " +
                          std::to_string(spec.nchannels) + " channels");
   }
-  const size_t width = static_cast<size_t>(spec.width);
-  const size_t height = static_cast<size_t>(spec.height);
   const size_t channels = static_cast<size_t>(std::min(spec.nchannels, 4));
-  std::vector<float> pixels(width * height * channels);
-  if (!input->read_image(0, 0, 0, static_cast<int>(channels), OIIO::TypeDesc::FLOAT,
-                         pixels.data())) {
-    // OpenImageIO's PFM and some other readers fail on short pixel data without a message.
-    const std::string raw = input->geterror();
-    const std::string message = raw.empty() ? "the pixel data is truncated or corrupt" : oneLine(raw);
-    input->close();
-    return makeError(ErrorCode::CorruptData, path + ": cannot read: " + message);
+  Result<std::vector<float>> pixels = readPixels(path, *input, channels);
+  if (!pixels.ok()) {
+    return pixels.error();
   }
-  input->close();
-
-  const Transfer transfer = transferOf(spec);
-  Image image;
-  image.width = static_cast<uint32_t>(width);
-  image.height = static_cast<uint32_t>(height);
-  image.rgba.resize(width * height * 4);
-  for (size_t p = 0; p < width * height; ++p) {
-    const float* in = &pixels[p * channels];
-    float* out = &image.rgba[p * 4];
-    if (channels <= 2) {
-      out[0] = out[1] = out[2] = decode(transfer, in[0]);
-      out[3] = channels == 2 ? in[1] : 1.0f;
-    } else {
-      for (size_t c = 0; c < 3; ++c) out[c] = decode(transfer, in[c]);
-      out[3] = channels == 4 ? in[3] : 1.0f;
-    }
-    for (size_t c = 0; c < 4; ++c) {
-      if (!std::isfinite(out[c]) || out[c] < 0.0f) {
-        return makeError(ErrorCode::CorruptData,
-                         path + ": pixel (" + std::to_string(p % width) + "," +
-                             std::to_string(p / width) + ") channel " + channelName(c) + " is " +
-                             std::to_string(out[c]) + " (NaN, Inf and negative values are rejected)");
-      }
-    }
-  }
-  return image;
+  return toLinearRgba(path, pixels.value(), static_cast<size_t>(spec.width), static_cast<size_t>(spec.height),
+                      channels, transferOf(spec));
 }
 
 Result<Image> loadEnvironment(const std::string& path) {
@@ -191,6 +208,63 @@ Result<Image> loadEnvironment(const std::string& path) {
   }
   return image;
 }
+
+namespace {
+
+// Every value finite (and within half range for a half EXR); sets `opaque` when every alpha is 1.
+Result<void> checkWritable(const std::string& path, const Image& image, bool halfExr, bool& opaque) {
+  opaque = true;
+  for (size_t i = 0; i < image.rgba.size(); ++i) {
+    const float v = image.rgba[i];
+    if (!std::isfinite(v)) {
+      const size_t p = i / 4;
+      return makeError(ErrorCode::InvalidArgument,
+                       path + ": pixel (" + std::to_string(p % image.width) + "," +
+                           std::to_string(p / image.width) + ") channel " + channelName(i % 4) +
+                           " is not finite; nothing written");
+    }
+    if (halfExr && std::fabs(v) > kHalfMax) {
+      const size_t p = i / 4;
+      return makeError(ErrorCode::InvalidArgument,
+                       path + ": pixel (" + std::to_string(p % image.width) + "," +
+                           std::to_string(p / image.width) + ") value " + std::to_string(v) +
+                           " overflows half float; write ExrPixelType::Float");
+    }
+    if (i % 4 == 3 && v != 1.0f) {
+      opaque = false;
+    }
+  }
+  return {};
+}
+
+// 8-bit sRGB PNG, RGB when opaque; false when OpenImageIO fails (its message is on `output`).
+bool writePng(OIIO::ImageOutput& output, const std::string& file, const Image& image, bool opaque) {
+  const size_t pixelCount = static_cast<size_t>(image.width) * image.height;
+  const size_t channels = opaque ? 3 : 4;
+  std::vector<uint8_t> bytes(pixelCount * channels);
+  for (size_t p = 0; p < pixelCount; ++p) {
+    for (size_t c = 0; c < channels; ++c) {
+      float v = std::clamp(image.rgba[p * 4 + c], 0.0f, 1.0f);
+      if (c < 3) v = linearToSrgb(v);
+      bytes[p * channels + c] = static_cast<uint8_t>(std::lround(v * 255.0f));
+    }
+  }
+  OIIO::ImageSpec spec(static_cast<int>(image.width), static_cast<int>(image.height), static_cast<int>(channels),
+                       OIIO::TypeDesc::UINT8);
+  spec.attribute("oiio:ColorSpace", "sRGB");
+  spec.attribute("oiio:UnassociatedAlpha", 1);  // our alpha is straight: store it as is
+  return output.open(file, spec) && output.write_image(OIIO::TypeDesc::UINT8, bytes.data());
+}
+
+// Linear RGBA EXR (zip), half or float.
+bool writeExr(OIIO::ImageOutput& output, const std::string& file, const Image& image, ExrPixelType pixelType) {
+  const OIIO::TypeDesc type = pixelType == ExrPixelType::Half ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT;
+  OIIO::ImageSpec spec(static_cast<int>(image.width), static_cast<int>(image.height), 4, type);
+  spec.attribute("compression", "zip");
+  return output.open(file, spec) && output.write_image(OIIO::TypeDesc::FLOAT, image.rgba.data());
+}
+
+}  // namespace
 
 Result<void> writeImage(const std::string& path, const Image& image,
                         const ImageWriteOptions& options) {
@@ -211,62 +285,22 @@ Result<void> writeImage(const std::string& path, const Image& image,
                          " floats, expected " + std::to_string(pixelCount * 4));
   }
   bool opaque = true;
-  for (size_t i = 0; i < image.rgba.size(); ++i) {
-    const float v = image.rgba[i];
-    if (!std::isfinite(v)) {
-      const size_t p = i / 4;
-      return makeError(ErrorCode::InvalidArgument,
-                       path + ": pixel (" + std::to_string(p % image.width) + "," +
-                           std::to_string(p / image.width) + ") channel " + channelName(i % 4) +
-                           " is not finite; nothing written");
-    }
-    if (exr && options.exrPixelType == ExrPixelType::Half && std::fabs(v) > kHalfMax) {
-      const size_t p = i / 4;
-      return makeError(ErrorCode::InvalidArgument,
-                       path + ": pixel (" + std::to_string(p % image.width) + "," +
-                           std::to_string(p / image.width) + ") value " + std::to_string(v) +
-                           " overflows half float; write ExrPixelType::Float");
-    }
-    if (i % 4 == 3 && v != 1.0f) {
-      opaque = false;
-    }
+  if (auto r = checkWritable(path, image, exr && options.exrPixelType == ExrPixelType::Half, opaque); !r) {
+    return r;
   }
 
+  // Written beside the target and renamed over it, so that a failed write leaves no partial file
+  // and never clobbers an existing one.
   const std::filesystem::path temp =
       target.parent_path() / (target.stem().string() + ".tmp" + std::to_string(::getpid()) +
                               target.extension().string());
   TempFileGuard guard(temp);
-
   std::unique_ptr<OIIO::ImageOutput> output = OIIO::ImageOutput::create(temp.string());
   if (!output) {
     return makeError(ErrorCode::Io, path + ": cannot write: " + oneLine(OIIO::geterror()));
   }
-  const int width = static_cast<int>(image.width);
-  const int height = static_cast<int>(image.height);
-  bool written = false;
-  if (png) {
-    const size_t channels = opaque ? 3 : 4;
-    std::vector<uint8_t> bytes(pixelCount * channels);
-    for (size_t p = 0; p < pixelCount; ++p) {
-      for (size_t c = 0; c < channels; ++c) {
-        float v = std::clamp(image.rgba[p * 4 + c], 0.0f, 1.0f);
-        if (c < 3) v = linearToSrgb(v);
-        bytes[p * channels + c] = static_cast<uint8_t>(std::lround(v * 255.0f));
-      }
-    }
-    OIIO::ImageSpec spec(width, height, static_cast<int>(channels), OIIO::TypeDesc::UINT8);
-    spec.attribute("oiio:ColorSpace", "sRGB");
-    spec.attribute("oiio:UnassociatedAlpha", 1);  // our alpha is straight: store it as is
-    written = output->open(temp.string(), spec) &&
-              output->write_image(OIIO::TypeDesc::UINT8, bytes.data());
-  } else {
-    const OIIO::TypeDesc type = options.exrPixelType == ExrPixelType::Half ? OIIO::TypeDesc::HALF
-                                                                            : OIIO::TypeDesc::FLOAT;
-    OIIO::ImageSpec spec(width, height, 4, type);
-    spec.attribute("compression", "zip");
-    written = output->open(temp.string(), spec) &&
-              output->write_image(OIIO::TypeDesc::FLOAT, image.rgba.data());
-  }
+  bool written = png ? writePng(*output, temp.string(), image, opaque)
+                     : writeExr(*output, temp.string(), image, options.exrPixelType);
   // close() flushes; a failure there (disk full) is a failed write too.
   written = output->close() && written;
   if (!written) {
