@@ -149,6 +149,85 @@ Bounds bounds(const Scene& scene) {
   return b;
 }
 
+namespace {
+
+// `what` names the medium or surface in the message.
+Result<void> validateMedium(const Medium& medium, const std::string& what) {
+  if (!std::isfinite(medium.ior) || medium.ior <= 0.0f) {
+    return makeError(ErrorCode::InvalidArgument, what + "has ior " + std::to_string(medium.ior));
+  }
+  if (!std::isfinite(medium.absorption) || medium.absorption < 0.0f) {
+    return makeError(ErrorCode::InvalidArgument,
+                     what + "has absorption " + std::to_string(medium.absorption));
+  }
+  if (!isFinite(medium.color) || medium.color.x < 0.0f || medium.color.y < 0.0f ||
+      medium.color.z < 0.0f) {
+    return makeError(ErrorCode::InvalidArgument, what + "has a negative or non-finite colour");
+  }
+  return {};
+}
+
+// The surface's array sizes and media, before any element is read.
+Result<void> validateSurfaceShape(const Surface& surface, size_t mediaCount, const std::string& what) {
+  if (surface.indices.empty() || surface.indices.size() % 3 != 0) {
+    return makeError(ErrorCode::InvalidArgument,
+                     what + "has " + std::to_string(surface.indices.size()) +
+                         " indices (need a non-empty multiple of 3)");
+  }
+  if (surface.normals.size() != surface.positions.size()) {
+    return makeError(ErrorCode::InvalidArgument,
+                     what + "has " + std::to_string(surface.normals.size()) + " normals for " +
+                         std::to_string(surface.positions.size()) + " positions");
+  }
+  if (!surface.uvs.empty() && surface.uvs.size() != surface.positions.size()) {
+    return makeError(ErrorCode::InvalidArgument,
+                     what + "has " + std::to_string(surface.uvs.size()) + " uvs for " +
+                         std::to_string(surface.positions.size()) + " positions");
+  }
+  if (surface.innerMedium >= mediaCount || surface.outerMedium >= mediaCount) {
+    return makeError(ErrorCode::InvalidArgument,
+                     what + "refers to medium " +
+                         std::to_string(std::max(surface.innerMedium, surface.outerMedium)) +
+                         " of " + std::to_string(mediaCount));
+  }
+  if (surface.innerMedium == surface.outerMedium) {
+    return makeError(ErrorCode::InvalidArgument,
+                     what + "has the same medium on both sides (" +
+                         std::to_string(surface.innerMedium) + ")");
+  }
+  return {};
+}
+
+// Indices in range; positions, unit normals and uvs finite.
+Result<void> validateSurfaceData(const Surface& surface, const std::string& what) {
+  for (size_t i = 0; i < surface.indices.size(); ++i) {
+    if (surface.indices[i] >= surface.positions.size()) {
+      return makeError(ErrorCode::InvalidArgument,
+                       what + "index " + std::to_string(i) + " is " +
+                           std::to_string(surface.indices[i]) + ", out of range (" +
+                           std::to_string(surface.positions.size()) + " vertices)");
+    }
+  }
+  for (size_t v = 0; v < surface.positions.size(); ++v) {
+    if (!isFinite(surface.positions[v])) {
+      return makeError(ErrorCode::InvalidArgument,
+                       what + "vertex " + std::to_string(v) + " has a non-finite position");
+    }
+    const glm::vec3 n = surface.normals[v];
+    if (!isFinite(n) || std::fabs(glm::length(n) - 1.0f) > kUnitNormalTolerance) {
+      return makeError(ErrorCode::InvalidArgument,
+                       what + "vertex " + std::to_string(v) + " has a normal that is not unit");
+    }
+    if (!surface.uvs.empty() && !isFinite(surface.uvs[v])) {
+      return makeError(ErrorCode::InvalidArgument,
+                       what + "vertex " + std::to_string(v) + " has a non-finite uv");
+    }
+  }
+  return {};
+}
+
+}  // namespace
+
 Result<void> validateScene(const Scene& scene) {
   const std::string where = "scene '" + scene.name + "': ";
   if (scene.media.empty()) {
@@ -159,71 +238,18 @@ Result<void> validateScene(const Scene& scene) {
   }
   for (size_t m = 0; m < scene.media.size(); ++m) {
     const Medium& medium = scene.media[m];
-    const std::string what = where + "medium " + std::to_string(m) + " ('" + medium.name + "') ";
-    if (!std::isfinite(medium.ior) || medium.ior <= 0.0f) {
-      return makeError(ErrorCode::InvalidArgument, what + "has ior " + std::to_string(medium.ior));
-    }
-    if (!std::isfinite(medium.absorption) || medium.absorption < 0.0f) {
-      return makeError(ErrorCode::InvalidArgument,
-                       what + "has absorption " + std::to_string(medium.absorption));
-    }
-    if (!isFinite(medium.color) || medium.color.x < 0.0f || medium.color.y < 0.0f ||
-        medium.color.z < 0.0f) {
-      return makeError(ErrorCode::InvalidArgument, what + "has a negative or non-finite colour");
+    if (auto r = validateMedium(medium, where + "medium " + std::to_string(m) + " ('" + medium.name + "') "); !r) {
+      return r;
     }
   }
-  const size_t mediaCount = scene.media.size();
   for (size_t s = 0; s < scene.surfaces.size(); ++s) {
     const Surface& surface = scene.surfaces[s];
     const std::string what = where + describe(surface, s) + " ";
-    if (surface.indices.empty() || surface.indices.size() % 3 != 0) {
-      return makeError(ErrorCode::InvalidArgument,
-                       what + "has " + std::to_string(surface.indices.size()) +
-                           " indices (need a non-empty multiple of 3)");
+    if (auto r = validateSurfaceShape(surface, scene.media.size(), what); !r) {
+      return r;
     }
-    if (surface.normals.size() != surface.positions.size()) {
-      return makeError(ErrorCode::InvalidArgument,
-                       what + "has " + std::to_string(surface.normals.size()) + " normals for " +
-                           std::to_string(surface.positions.size()) + " positions");
-    }
-    if (!surface.uvs.empty() && surface.uvs.size() != surface.positions.size()) {
-      return makeError(ErrorCode::InvalidArgument,
-                       what + "has " + std::to_string(surface.uvs.size()) + " uvs for " +
-                           std::to_string(surface.positions.size()) + " positions");
-    }
-    if (surface.innerMedium >= mediaCount || surface.outerMedium >= mediaCount) {
-      return makeError(ErrorCode::InvalidArgument,
-                       what + "refers to medium " +
-                           std::to_string(std::max(surface.innerMedium, surface.outerMedium)) +
-                           " of " + std::to_string(mediaCount));
-    }
-    if (surface.innerMedium == surface.outerMedium) {
-      return makeError(ErrorCode::InvalidArgument,
-                       what + "has the same medium on both sides (" +
-                           std::to_string(surface.innerMedium) + ")");
-    }
-    for (size_t i = 0; i < surface.indices.size(); ++i) {
-      if (surface.indices[i] >= surface.positions.size()) {
-        return makeError(ErrorCode::InvalidArgument,
-                         what + "index " + std::to_string(i) + " is " +
-                             std::to_string(surface.indices[i]) + ", out of range (" +
-                             std::to_string(surface.positions.size()) + " vertices)");
-      }
-    }
-    for (size_t v = 0; v < surface.positions.size(); ++v) {
-      if (!isFinite(surface.positions[v])) {
-        return makeError(ErrorCode::InvalidArgument,
-                         what + "vertex " + std::to_string(v) + " has a non-finite position");
-      }
-      const glm::vec3 n = surface.normals[v];
-      if (!isFinite(n) || std::fabs(glm::length(n) - 1.0f) > kUnitNormalTolerance) {
-        return makeError(ErrorCode::InvalidArgument,
-                         what + "vertex " + std::to_string(v) + " has a normal that is not unit");
-      }
-      if (!surface.uvs.empty() && !isFinite(surface.uvs[v])) {
-        return makeError(ErrorCode::InvalidArgument,
-                         what + "vertex " + std::to_string(v) + " has a non-finite uv");
-      }
+    if (auto r = validateSurfaceData(surface, what); !r) {
+      return r;
     }
   }
   return {};
