@@ -179,15 +179,72 @@ struct Selection {
   bool met = false;
 };
 
+// The samples the --max-error choice is measured on: up to maxCount of the n, evenly strided.
+std::vector<size_t> selectionSubset(size_t n, size_t maxCount) {
+  std::vector<size_t> subset;
+  const size_t step = std::max<size_t>(1, n / maxCount);
+  for (size_t i = 0; i < n && subset.size() < maxCount; i += step) subset.push_back(i);
+  return subset;
+}
+
+// The direction grids the --max-error choice tries: rows doubling from 8 up to the requested grid,
+// which is always the last.
+std::vector<std::pair<uint32_t, uint32_t>> selectionGrids(const BakeSettings& s) {
+  std::vector<std::pair<uint32_t, uint32_t>> grids;
+  for (uint32_t rows = 8; rows <= s.directionsTheta; rows *= 2) grids.emplace_back(rows, 2 * rows);
+  if (grids.empty() || grids.back() != std::make_pair(s.directionsTheta, s.directionsPhi))
+    grids.emplace_back(s.directionsTheta, s.directionsPhi);
+  return grids;
+}
+
+// The traced exits (3 floats each, as storedExit) of every grid direction at each subset sample.
+std::vector<float> traceGridExits(const SampleAtlas& atlas, const Tracer& tracer, const TraceSettings& ts,
+                                  const std::vector<size_t>& subset, const DirectionGrid& grid, bool sampleFrame,
+                                  uint32_t threads) {
+  const uint32_t nd = static_cast<uint32_t>(grid.directions.size());
+  std::vector<float> values(subset.size() * nd * 3);
+  parallelFor(subset.size(), threads, [&](size_t k) {
+    const SurfacePoint& p = atlas.samples[subset[k]];
+    const LocalFrame frame = frameFromNormal(p.shadingNormal);
+    for (uint32_t d = 0; d < nd; ++d) {
+      const glm::vec3 incident = -localToWorld(frame, glm::vec3(grid.directions[d]));
+      const glm::vec3 e = storedExit(sampleFrame, frame, tracer.traceFromSurface(p, incident, ts).exitDirection);
+      for (int c = 0; c < 3; ++c) values[(k * nd + d) * 3 + size_t(c)] = e[c];
+    }
+  });
+  return values;
+}
+
+// The cosine-weighted mean angle (degrees) between the fit of order `order` of each subset
+// sample's grid values and its held-out exits; the sums run in sample order whatever the threads.
+double heldOutMeanDegrees(const HemisphereFit& fit, uint32_t order, const std::vector<float>& values, uint32_t nd,
+                          const TracedViews& held, uint32_t perSample, size_t subsetSize, uint32_t threads) {
+  std::vector<double> sums(subsetSize, 0.0), weights(subsetSize, 0.0);
+  parallelFor(subsetSize, threads, [&](size_t k) {
+    std::vector<float> c(size_t(fit.basisCount()) * 3);
+    fit.fit(&values[k * nd * 3], 3, c.data());
+    float out[3];
+    for (uint32_t h = 0; h < perSample; ++h) {
+      const glm::vec3 w = held.directions[k * perSample + h];
+      evaluateExpansion(static_cast<int>(order), c.data(), 3, w, out);
+      sums[k] += double(w.z) * angleDegrees(glm::vec3(out[0], out[1], out[2]), held.exits[k * perSample + h]);
+      weights[k] += double(w.z);
+    }
+  });
+  double sum = 0.0, weight = 0.0;
+  for (size_t k = 0; k < subsetSize; ++k) {
+    sum += sums[k];
+    weight += weights[k];
+  }
+  return weight > 0.0 ? sum / weight : 0.0;
+}
+
 // The --max-error choice (see bake.h).
 Result<Selection> selectOrderAndDirections(const SampleAtlas& atlas, const Tracer& tracer, const BakeSettings& s,
                                            uint32_t threads, const std::function<void(const std::string&)>& note) {
   constexpr size_t kSubset = 192;
   constexpr uint32_t kHeldOut = 64;
-  const size_t n = atlas.samples.size();
-  std::vector<size_t> subset;
-  const size_t step = std::max<size_t>(1, n / kSubset);
-  for (size_t i = 0; i < n && subset.size() < kSubset; i += step) subset.push_back(i);
+  const std::vector<size_t> subset = selectionSubset(atlas.samples.size(), kSubset);
   const TraceSettings ts = traceSettingsOf(s);
   const bool sampleFrame = tracesInSampleFrame(s);  // values and exits as the field stores them
 
@@ -195,48 +252,17 @@ Result<Selection> selectOrderAndDirections(const SampleAtlas& atlas, const Trace
   const TracedViews held =
       traceCosineViews(atlas, tracer, ts, subset, kHeldOut, 0x4d41584552524f52ull, sampleFrame, threads);
 
-  std::vector<std::pair<uint32_t, uint32_t>> grids;
-  for (uint32_t rows = 8; rows <= s.directionsTheta; rows *= 2) grids.emplace_back(rows, 2 * rows);
-  if (grids.empty() || grids.back() != std::make_pair(s.directionsTheta, s.directionsPhi))
-    grids.emplace_back(s.directionsTheta, s.directionsPhi);
-
   Selection best;
   bool haveBest = false;
   Selection fallback;
-  for (auto [rows, columns] : grids) {
+  for (auto [rows, columns] : selectionGrids(s)) {
     const DirectionGrid grid = makeHemisphereGrid(rows, columns);
     const uint32_t nd = static_cast<uint32_t>(grid.directions.size());
-    std::vector<float> values(subset.size() * nd * 3);
-    parallelFor(subset.size(), threads, [&](size_t k) {
-      const SurfacePoint& p = atlas.samples[subset[k]];
-      const LocalFrame frame = frameFromNormal(p.shadingNormal);
-      for (uint32_t d = 0; d < nd; ++d) {
-        const glm::vec3 incident = -localToWorld(frame, glm::vec3(grid.directions[d]));
-        const glm::vec3 e = storedExit(sampleFrame, frame, tracer.traceFromSurface(p, incident, ts).exitDirection);
-        for (int c = 0; c < 3; ++c) values[(k * nd + d) * 3 + size_t(c)] = e[c];
-      }
-    });
+    const std::vector<float> values = traceGridExits(atlas, tracer, ts, subset, grid, sampleFrame, threads);
     for (uint32_t order = 0; order <= s.order; ++order) {
       auto fit = HemisphereFit::create(grid, static_cast<int>(order), static_cast<double>(s.regularization));
       if (!fit) continue;  // too few directions for this order
-      std::vector<double> sums(subset.size(), 0.0), weights(subset.size(), 0.0);
-      parallelFor(subset.size(), threads, [&](size_t k) {
-        std::vector<float> c(size_t(fit->basisCount()) * 3);
-        fit->fit(&values[k * nd * 3], 3, c.data());
-        float out[3];
-        for (uint32_t h = 0; h < kHeldOut; ++h) {
-          const glm::vec3 w = held.directions[k * kHeldOut + h];
-          evaluateExpansion(static_cast<int>(order), c.data(), 3, w, out);
-          sums[k] += double(w.z) * angleDegrees(glm::vec3(out[0], out[1], out[2]), held.exits[k * kHeldOut + h]);
-          weights[k] += double(w.z);
-        }
-      });
-      double sum = 0.0, weight = 0.0;
-      for (size_t k = 0; k < subset.size(); ++k) {
-        sum += sums[k];
-        weight += weights[k];
-      }
-      const double mean = weight > 0.0 ? sum / weight : 0.0;
+      const double mean = heldOutMeanDegrees(fit.value(), order, values, nd, held, kHeldOut, subset.size(), threads);
       if (note)
         note("max-error: order " + std::to_string(order) + ", " + std::to_string(rows) + "x" + std::to_string(columns) +
              " directions: mean error " + std::to_string(mean) + " deg");
@@ -357,95 +383,136 @@ void storeJumpDistances(const Tracer& tracer, const SurfacePoint& point, const L
   for (size_t d = 0; d < cells.size(); ++d) values[d * channels + channels - 1] = cells[d] * unit;
 }
 
+// What the workers of traceAndFit share. Each sample writes only its own slots of part's arrays.
+struct ShardTrace {
+  const BakePlan& plan;
+  const Tracer& tracer;
+  const SampleEncoder& encoder;
+  Shard shard;
+  uint32_t held;
+  TraceSettings traceSettings;
+  ChannelLayout layout;
+  std::vector<size_t> gridSlot;  // local sample -> its slot of part.gridExits, SIZE_MAX for none
+  BakePart& part;
+};
+
+// One worker's buffers (reused from sample to sample), counters and thread times.
+struct TraceWorker {
+  std::vector<float> values;
+  std::vector<glm::vec3> incidents;
+  std::vector<PathResult> paths;
+  uint64_t rays = 0, pathCount = 0, trapped = 0;
+  double traceSeconds = 0.0, fitSeconds = 0.0;
+  TraceWorker(uint32_t nd, uint32_t channels) : values(size_t(nd) * channels), incidents(nd), paths(nd) {}
+};
+
+// The shard's samples on the grid-check lattice get consecutive slots of part.gridExits.
+std::vector<size_t> gridCheckSlots(Shard shard, size_t count, size_t& slots) {
+  std::vector<size_t> gridSlot(count, SIZE_MAX);
+  slots = 0;
+  for (size_t k = 0; k < count; ++k)
+    if ((shard.index + k * shard.count) % kGridCheckStride == 0) gridSlot[k] = slots++;
+  return gridSlot;
+}
+
+// Traces every grid direction of local sample k into w.values, and its exits into part.gridExits
+// where the sample is on the grid-check lattice.
+void traceGridDirections(const ShardTrace& t, size_t k, const SurfacePoint& point, const LocalFrame& frame,
+                         TraceWorker& w) {
+  const DirectionGrid& grid = t.plan.grid;
+  const uint32_t nd = static_cast<uint32_t>(grid.directions.size()), channels = t.plan.channels;
+  // The eye looks along -w: the incident ray travels toward the surface.
+  for (uint32_t d = 0; d < nd; ++d) w.incidents[d] = -localToWorld(frame, glm::vec3(grid.directions[d]));
+  t.tracer.traceFromSurface(point, w.incidents, t.traceSettings, w.paths);
+  for (uint32_t d = 0; d < nd; ++d) {
+    const PathResult& path = w.paths[d];
+    w.rays += path.rays;
+    w.pathCount += 1;
+    w.trapped += path.trapped ? 1u : 0u;
+    t.layout.store(path, frame, &w.values[size_t(d) * channels]);
+    if (t.gridSlot[k] != SIZE_MAX)
+      for (int c = 0; c < 3; ++c) t.part.gridExits[(t.gridSlot[k] * nd + d) * 3 + size_t(c)] = path.exitDirection[c];
+  }
+}
+
+// Traces the held-out directions of local sample k (global sample s) into part.heldOut.
+void traceHeldOut(const ShardTrace& t, size_t k, uint64_t s, const SurfacePoint& point, const LocalFrame& frame,
+                  TraceWorker& w) {
+  uint64_t rng = 0x5348524546ull ^ (s * 0x9e3779b97f4a7c15ull);
+  for (uint32_t h = 0; h < t.held; ++h) {
+    // Uniform over the hemisphere, away from the exact horizon.
+    const float z = 0.02f + 0.98f * unitFloat(rng);
+    const float phi = 6.28318530718f * unitFloat(rng);
+    const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+    const glm::vec3 dir(r * std::cos(phi), r * std::sin(phi), z);
+    const PathResult path = t.tracer.traceFromSurface(point, -localToWorld(frame, dir), t.traceSettings);
+    w.rays += path.rays;
+    w.pathCount += 1;
+    float* slot = &t.part.heldOut[(k * t.held + h) * 6];
+    for (int c = 0; c < 3; ++c) slot[c] = dir[c], slot[3 + c] = path.exitDirection[c];
+  }
+}
+
+// Traces, fits and checks local sample k, timing the tracing and the fit apart.
+void traceSample(const ShardTrace& t, size_t k, TraceWorker& w) {
+  const BakeSettings& settings = t.plan.settings;
+  const uint64_t s = t.shard.index + uint64_t(k) * t.shard.count;
+  const auto sampleStart = Clock::now();
+  const SurfacePoint& point = t.plan.atlas.samples[s];
+  const LocalFrame frame = frameFromNormal(point.shadingNormal);
+  traceGridDirections(t, k, point, frame, w);
+  if (settings.jumpDistance)
+    storeJumpDistances(t.tracer, point, frame, settings.tableSize, w.incidents, w.paths, t.traceSettings,
+                       t.plan.channels, w.values.data(), w.rays);
+  const auto fitStart = Clock::now();
+  t.encoder.fit(w.values.data(), &t.part.coefficients[k * t.encoder.stride()]);
+  const auto heldOutStart = Clock::now();
+  traceHeldOut(t, k, s, point, frame, w);
+  const auto sampleEnd = Clock::now();
+  w.fitSeconds += std::chrono::duration<double>(heldOutStart - fitStart).count();
+  w.traceSeconds += std::chrono::duration<double>((fitStart - sampleStart) + (sampleEnd - heldOutStart)).count();
+}
+
 // Traces every grid direction of the shard's samples (threads), fits each sample with `encoder`,
 // and records what the checks need: part.coefficients, heldOut, gridExits, the counters and the
 // thread times. Local sample k is sample shard.index + k * shard.count.
 void traceAndFit(const BakePlan& plan, const SampleEncoder& encoder, const BakeOptions& options, Shard shard,
                  Clock::time_point start, BakePart& part) {
-  const SampleAtlas& atlas = plan.atlas;
-  const DirectionGrid& grid = plan.grid;
-  const size_t count = shardSampleCount(atlas.samples.size(), shard);
-  const uint32_t nd = static_cast<uint32_t>(grid.directions.size());
+  const size_t count = shardSampleCount(plan.atlas.samples.size(), shard);
+  const uint32_t nd = static_cast<uint32_t>(plan.grid.directions.size());
   const uint32_t held = options.heldOutDirections, channels = plan.channels;
-  const size_t stride = encoder.stride();
-  // The shard's samples on the grid-check lattice get consecutive slots of part.gridExits.
-  std::vector<size_t> gridSlot(count, SIZE_MAX);
   size_t slots = 0;
-  for (size_t k = 0; k < count; ++k)
-    if ((shard.index + k * shard.count) % kGridCheckStride == 0) gridSlot[k] = slots++;
-  part.coefficients.assign(count * stride, 0.0f);
+  std::vector<size_t> gridSlot = gridCheckSlots(shard, count, slots);
+  part.coefficients.assign(count * encoder.stride(), 0.0f);
   part.heldOut.assign(count * held * 6, 0.0f);
   part.gridExits.assign(slots * nd * 3, 0.0f);
-  const TraceSettings traceSettings = traceSettingsOf(plan.settings);
   // The traced channels; the jump distance, when stored, is the last one (storeJumpDistances).
   const ChannelLayout layout =
       ChannelLayout::of(channels - (plan.settings.jumpDistance ? 1u : 0u), plan.settings);
-  const Tracer& tracer = *plan.tracer;
+  const ShardTrace trace{plan, *plan.tracer, encoder, shard, held, traceSettingsOf(plan.settings),
+                         layout, std::move(gridSlot), part};
 
   std::atomic<size_t> next{0};
   std::atomic<uint64_t> done{0}, raysSoFar{0};
   std::mutex totalsMutex;
   constexpr size_t kChunk = 8;
   auto worker = [&]() {
-    std::vector<float> values(size_t(nd) * channels);
-    std::vector<glm::vec3> incidents(nd);
-    std::vector<PathResult> paths(nd);
-    uint64_t rays = 0, pathCount = 0, trapped = 0;
-    double traceSeconds = 0.0, fitSeconds = 0.0;
+    TraceWorker w(nd, channels);
     for (;;) {
       const size_t begin = next.fetch_add(kChunk);
       if (begin >= count) break;
       const size_t end = std::min(count, begin + kChunk);
-      const uint64_t raysBefore = rays;
-      for (size_t k = begin; k < end; ++k) {
-        const uint64_t s = shard.index + uint64_t(k) * shard.count;
-        const auto sampleStart = Clock::now();
-        const SurfacePoint& point = atlas.samples[s];
-        const LocalFrame frame = frameFromNormal(point.shadingNormal);
-        // The eye looks along -w: the incident ray travels toward the surface.
-        for (uint32_t d = 0; d < nd; ++d) incidents[d] = -localToWorld(frame, glm::vec3(grid.directions[d]));
-        tracer.traceFromSurface(point, incidents, traceSettings, paths);
-        for (uint32_t d = 0; d < nd; ++d) {
-          const PathResult& path = paths[d];
-          rays += path.rays;
-          pathCount += 1;
-          trapped += path.trapped ? 1u : 0u;
-          layout.store(path, frame, &values[size_t(d) * channels]);
-          if (gridSlot[k] != SIZE_MAX)
-            for (int c = 0; c < 3; ++c) part.gridExits[(gridSlot[k] * nd + d) * 3 + size_t(c)] = path.exitDirection[c];
-        }
-        if (plan.settings.jumpDistance)
-          storeJumpDistances(tracer, point, frame, plan.settings.tableSize, incidents, paths, traceSettings, channels,
-                             values.data(), rays);
-        const auto fitStart = Clock::now();
-        encoder.fit(values.data(), &part.coefficients[k * stride]);
-        const auto heldOutStart = Clock::now();
-        uint64_t rng = 0x5348524546ull ^ (s * 0x9e3779b97f4a7c15ull);
-        for (uint32_t h = 0; h < held; ++h) {
-          // Uniform over the hemisphere, away from the exact horizon.
-          const float z = 0.02f + 0.98f * unitFloat(rng);
-          const float phi = 6.28318530718f * unitFloat(rng);
-          const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
-          const glm::vec3 w(r * std::cos(phi), r * std::sin(phi), z);
-          const PathResult path = tracer.traceFromSurface(point, -localToWorld(frame, w), traceSettings);
-          rays += path.rays;
-          pathCount += 1;
-          float* slot = &part.heldOut[(k * held + h) * 6];
-          for (int c = 0; c < 3; ++c) slot[c] = w[c], slot[3 + c] = path.exitDirection[c];
-        }
-        const auto sampleEnd = Clock::now();
-        fitSeconds += std::chrono::duration<double>(heldOutStart - fitStart).count();
-        traceSeconds += std::chrono::duration<double>((fitStart - sampleStart) + (sampleEnd - heldOutStart)).count();
-      }
-      raysSoFar.fetch_add(rays - raysBefore);
+      const uint64_t raysBefore = w.rays;
+      for (size_t k = begin; k < end; ++k) traceSample(trace, k, w);
+      raysSoFar.fetch_add(w.rays - raysBefore);
       done.fetch_add(end - begin);
     }
     const std::lock_guard<std::mutex> lock(totalsMutex);
-    part.rays += rays;
-    part.paths += pathCount;
-    part.trappedPaths += trapped;
-    part.timings.threadTraceSeconds += traceSeconds;
-    part.timings.threadFitSeconds += fitSeconds;
+    part.rays += w.rays;
+    part.paths += w.pathCount;
+    part.trappedPaths += w.trapped;
+    part.timings.threadTraceSeconds += w.traceSeconds;
+    part.timings.threadFitSeconds += w.fitSeconds;
   };
   std::vector<std::thread> pool;
   for (uint32_t t = 1; t < plan.settings.threads; ++t) pool.emplace_back(worker);
@@ -1137,25 +1204,10 @@ void fillStatistics(const SampleAtlas& atlas, const std::vector<BakePart>& parts
   st.peakMemoryBytes = peak;
 }
 
-// The steps that need every sample, the same for a single-process bake, a merge of part files and
-// rank 0 of an MPI bake: the Pca basis, smoothing, the window, the error statistics, quantization.
-// `parts` passed checkParts and match the plan.
-Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
-  const auto finishStart = Clock::now();
-  BakeSettings settings = plan.settings;
+// Spatial smoothing (--spatial) of every sample's floats, then the SH band window.
+void smoothSamples(const BakePlan& plan, const BakeSettings& settings, size_t stride, std::vector<float>& coeffs) {
   const SampleAtlas& atlas = plan.atlas;
-  const DirectionGrid& grid = plan.grid;
   const size_t sampleCount = atlas.samples.size();
-  const uint32_t nd = static_cast<uint32_t>(grid.directions.size()), held = parts.front().heldOutDirections;
-  EncodingShape shape = shapeOf(settings, plan.channels);
-  Gathered g = gatherParts(parts, parts.front().stride, nd, held);
-  std::vector<float>& coeffs = g.coeffs;
-
-  std::vector<float> basis;
-  if (settings.encoding == Encoding::Pca)
-    if (auto r = learnBasisInItsFrame(plan, shape, coeffs, basis); !r) return r.error();
-  settings.exitFrame = shape.sampleFrameExits ? ExitFrame::Sample : ExitFrame::Object;  // what the field stores
-  const size_t stride = strideOf(shape);
   if (settings.spatialNeighbours != 0) {
     std::vector<glm::vec3> positions(sampleCount);
     for (size_t s = 0; s < sampleCount; ++s) positions[s] = atlas.samples[s].position;
@@ -1167,16 +1219,13 @@ Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
       sh::applyWindow(static_cast<int>(settings.order), weights.data(), &coeffs[s * stride],
                       static_cast<int>(plan.channels));
   }
-  std::vector<uint32_t> refined;
-  if (settings.encoding == Encoding::Pca && settings.quantization == Quantization::U8) {
-    refined = chooseRefinedComponents(coeffs, sampleCount, shape.components);
-    makeRefinementLayers(coeffs, sampleCount, shape.components, basis,
-                         size_t(shape.tableSize) * shape.tableSize * shape.channels, refined);
-  }
-  std::vector<SampleError> errors(sampleCount);
-  plan.begin("checking the fit against the traced directions");
-  measureFit(shape, basis, coeffs, atlas, grid, g.checks, held, settings.threads, errors);
+}
 
+// The field as the plan lays it out, before its coefficients are encoded: header, texels, mesh
+// and every sample texel's frame.
+Field fieldLayout(const BakePlan& plan, const BakeSettings& settings, const EncodingShape& shape,
+                  const std::vector<float>& basis) {
+  const SampleAtlas& atlas = plan.atlas;
   Field field;
   field.width = atlas.width;
   field.height = atlas.height;
@@ -1201,6 +1250,39 @@ Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
     const auto rows = sampleRows(atlas.samples[atlas.texelSample[t]]);
     std::copy(rows.begin(), rows.end(), &field.frames[t * 12]);
   }
+  return field;
+}
+
+// The steps that need every sample, the same for a single-process bake, a merge of part files and
+// rank 0 of an MPI bake: the Pca basis, smoothing, the window, the error statistics, quantization.
+// `parts` passed checkParts and match the plan.
+Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
+  const auto finishStart = Clock::now();
+  BakeSettings settings = plan.settings;
+  const SampleAtlas& atlas = plan.atlas;
+  const DirectionGrid& grid = plan.grid;
+  const size_t sampleCount = atlas.samples.size();
+  const uint32_t nd = static_cast<uint32_t>(grid.directions.size()), held = parts.front().heldOutDirections;
+  EncodingShape shape = shapeOf(settings, plan.channels);
+  Gathered g = gatherParts(parts, parts.front().stride, nd, held);
+  std::vector<float>& coeffs = g.coeffs;
+
+  std::vector<float> basis;
+  if (settings.encoding == Encoding::Pca)
+    if (auto r = learnBasisInItsFrame(plan, shape, coeffs, basis); !r) return r.error();
+  settings.exitFrame = shape.sampleFrameExits ? ExitFrame::Sample : ExitFrame::Object;  // what the field stores
+  smoothSamples(plan, settings, strideOf(shape), coeffs);
+  std::vector<uint32_t> refined;
+  if (settings.encoding == Encoding::Pca && settings.quantization == Quantization::U8) {
+    refined = chooseRefinedComponents(coeffs, sampleCount, shape.components);
+    makeRefinementLayers(coeffs, sampleCount, shape.components, basis,
+                         size_t(shape.tableSize) * shape.tableSize * shape.channels, refined);
+  }
+  std::vector<SampleError> errors(sampleCount);
+  plan.begin("checking the fit against the traced directions");
+  measureFit(shape, basis, coeffs, atlas, grid, g.checks, held, settings.threads, errors);
+
+  Field field = fieldLayout(plan, settings, shape, basis);
   plan.begin("quantizing " + std::to_string(sampleCount) + " samples");
   if (auto encoded = encodeWithRefinement(field, atlas, shape, coeffs, refined); !encoded) return encoded.error();
   measureQuantization(field, atlas, basis, coeffs, grid, settings.threads, field.statistics);

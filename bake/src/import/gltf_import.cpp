@@ -370,6 +370,24 @@ Repairs repairVolume(Volume& volume) {
   return repairs;
 }
 
+// A primitive's attributes as read and checked, in its mesh's own space.
+struct PrimitiveData {
+  std::vector<glm::vec3> positions;
+  std::vector<glm::vec3> normals;  // empty when it has no NORMAL
+  std::vector<glm::vec2> uvs;      // empty when it has no TEXCOORD_0
+  std::vector<uint32_t> indices;   // triangle corners
+};
+
+// What a material's KHR_materials_ior, _transmission and _volume say; glTF's defaults where absent.
+struct MaterialVolume {
+  double ior = kDefaultIor;
+  double transmission = 0.0;
+  double thickness = 0.0;
+  double distance = std::numeric_limits<double>::infinity();
+  glm::dvec3 color{1.0};
+  std::string bad;  // the last malformed property read, empty when none
+};
+
 class Importer {
  public:
   Importer(const std::string& path, const ImportOptions& options, ImportReport& report)
@@ -388,10 +406,28 @@ class Importer {
                          size_t depth);
   Result<glm::dmat4> localTransform(int nodeIndex) const;
   Result<void> addInstance(int nodeIndex, const glm::dmat4& world);
+  void nameAfterMaterials(const std::map<int, size_t>& byMaterial);
   Result<void> addPrimitive(const std::string& where, const tinygltf::Primitive& primitive,
                             const glm::dmat4& world, const glm::dmat3& normalMatrix, bool mirrored,
                             Volume& volume);
+  Result<PrimitiveData> readPrimitive(const std::string& where,
+                                      const tinygltf::Primitive& primitive) const;
+  Result<void> checkPerVertex(const std::string& what, size_t count, size_t vertexCount) const;
+  Result<std::vector<glm::vec3>> readNormals(const std::string& where,
+                                             const tinygltf::Primitive& primitive,
+                                             size_t vertexCount) const;
+  Result<std::vector<glm::vec2>> readUvs(const std::string& where,
+                                          const tinygltf::Primitive& primitive,
+                                          size_t vertexCount) const;
+  Result<std::vector<uint32_t>> readTriangles(const std::string& where,
+                                              const tinygltf::Primitive& primitive,
+                                              size_t vertexCount) const;
+  Result<void> appendVertices(const std::string& where, const PrimitiveData& data,
+                              const glm::dmat4& world, const glm::dmat3& normalMatrix,
+                              Volume& volume);
   Result<AccessorView> viewAccessor(int accessorIndex, const std::string& what) const;
+  Result<void> checkAccessorRange(const std::string& what, const tinygltf::Accessor& accessor,
+                                  size_t elementSize, size_t stride) const;
   Result<std::vector<glm::vec3>> readVec3(int accessorIndex, const std::string& what) const;
   Result<std::vector<glm::vec2>> readTexcoords(int accessorIndex, const std::string& what) const;
   Result<std::vector<uint32_t>> readIndices(int accessorIndex, const std::string& what,
@@ -402,6 +438,12 @@ class Importer {
   void orientOutward(Volume& volume);
   void settleNormals(Volume& volume);
   Result<Medium> mediumOf(int materialIndex);
+  Result<void> checkMaterialVolume(const std::string& what, const MaterialVolume& m) const;
+  Result<void> checkOverrides() const;
+  Result<void> collectVolumes();
+  Result<void> assignMedia(Scene& scene);
+  size_t innermostContainer(size_t v, const std::set<std::pair<size_t, size_t>>& overlaps) const;
+  Result<void> addSurfaces(Scene& scene, const std::set<std::pair<size_t, size_t>>& overlaps);
   glm::dvec3 interiorPoint(const Volume& volume) const;
   bool contains(const Volume& container, const glm::dvec3& point) const;
   // {probes inside, probes tested}
@@ -518,6 +560,24 @@ Result<AccessorView> Importer::viewAccessor(int accessorIndex, const std::string
                                             ", smaller than its element (" +
                                             std::to_string(elementSize) + " bytes)");
   }
+  if (Result<void> inside = checkAccessorRange(what, accessor, elementSize, stride); !inside) {
+    return inside.error();
+  }
+  AccessorView out;
+  out.data = buffer.data.data() + view.byteOffset + accessor.byteOffset;
+  out.count = accessor.count;
+  out.stride = stride;
+  out.componentType = accessor.componentType;
+  out.normalized = accessor.normalized;
+  return out;
+}
+
+// The accessor's elements lie inside its buffer view, and the view inside its buffer.
+Result<void> Importer::checkAccessorRange(const std::string& what,
+                                          const tinygltf::Accessor& accessor, size_t elementSize,
+                                          size_t stride) const {
+  const tinygltf::BufferView& view = model_.bufferViews[static_cast<size_t>(accessor.bufferView)];
+  const tinygltf::Buffer& buffer = model_.buffers[static_cast<size_t>(view.buffer)];
   // Both checks are written so that nothing can overflow, whatever the file says.
   if (view.byteOffset > buffer.data.size() ||
       view.byteLength > buffer.data.size() - view.byteOffset) {
@@ -542,13 +602,7 @@ Result<AccessorView> Importer::viewAccessor(int accessorIndex, const std::string
                       " (" + std::to_string(view.byteLength) + " bytes)");
     }
   }
-  AccessorView out;
-  out.data = buffer.data.data() + view.byteOffset + accessor.byteOffset;
-  out.count = accessor.count;
-  out.stride = stride;
-  out.componentType = accessor.componentType;
-  out.normalized = accessor.normalized;
-  return out;
+  return {};
 }
 
 Result<std::vector<glm::vec3>> Importer::readVec3(int accessorIndex,
@@ -793,18 +847,182 @@ Result<void> Importer::addInstance(int nodeIndex, const glm::dmat4& world) {
   }
   // An instance with several materials: name each volume after its material too.
   if (byMaterial.size() > 1) {
-    for (const auto& [material, v] : byMaterial) {
-      const std::string materialName =
-          material < 0 ? "default"
-                       : (model_.materials[static_cast<size_t>(material)].name.empty()
-                              ? "material" + std::to_string(material)
-                              : model_.materials[static_cast<size_t>(material)].name);
-      volumes_[v].name += "/" + materialName;
-      volumes_[v].label += " with " + (material < 0 ? std::string("the default material")
-                                                    : "material " + std::to_string(material));
-    }
+    nameAfterMaterials(byMaterial);
   }
   return {};
+}
+
+void Importer::nameAfterMaterials(const std::map<int, size_t>& byMaterial) {
+  for (const auto& [material, v] : byMaterial) {
+    const std::string materialName =
+        material < 0 ? "default"
+                     : (model_.materials[static_cast<size_t>(material)].name.empty()
+                            ? "material" + std::to_string(material)
+                            : model_.materials[static_cast<size_t>(material)].name);
+    volumes_[v].name += "/" + materialName;
+    volumes_[v].label += " with " + (material < 0 ? std::string("the default material")
+                                                  : "material " + std::to_string(material));
+  }
+}
+
+int attributeAccessor(const tinygltf::Primitive& primitive, const char* semantic) {
+  const auto it = primitive.attributes.find(semantic);
+  return it == primitive.attributes.end() ? -1 : it->second;
+}
+
+std::string describeAccessor(const std::string& where, int accessor, const char* semantic) {
+  return where + " accessor " + std::to_string(accessor) + " (" + semantic + ")";
+}
+
+// A per-vertex attribute must have one element per position.
+Result<void> Importer::checkPerVertex(const std::string& what, size_t count,
+                                      size_t vertexCount) const {
+  if (count != vertexCount) {
+    return fail(ErrorCode::CorruptData, what + " has " + std::to_string(count) + " elements for " +
+                                            std::to_string(vertexCount) + " positions");
+  }
+  return {};
+}
+
+// The primitive's NORMAL, empty when it has none.
+Result<std::vector<glm::vec3>> Importer::readNormals(const std::string& where,
+                                                    const tinygltf::Primitive& primitive,
+                                                    size_t vertexCount) const {
+  const int accessor = attributeAccessor(primitive, "NORMAL");
+  if (accessor < 0) {
+    return std::vector<glm::vec3>();
+  }
+  const std::string what = describeAccessor(where, accessor, "NORMAL");
+  Result<std::vector<glm::vec3>> read = readVec3(accessor, what);
+  if (!read) {
+    return read.error();
+  }
+  if (Result<void> counted = checkPerVertex(what, read->size(), vertexCount); !counted) {
+    return counted.error();
+  }
+  return read;
+}
+
+// The primitive's TEXCOORD_0, empty when it has none.
+Result<std::vector<glm::vec2>> Importer::readUvs(const std::string& where,
+                                                 const tinygltf::Primitive& primitive,
+                                                 size_t vertexCount) const {
+  const int accessor = attributeAccessor(primitive, "TEXCOORD_0");
+  if (accessor < 0) {
+    return std::vector<glm::vec2>();
+  }
+  const std::string what = describeAccessor(where, accessor, "TEXCOORD_0");
+  Result<std::vector<glm::vec2>> read = readTexcoords(accessor, what);
+  if (!read) {
+    return read.error();
+  }
+  if (Result<void> counted = checkPerVertex(what, read->size(), vertexCount); !counted) {
+    return counted.error();
+  }
+  return read;
+}
+
+// The primitive's triangle corners: its indices, or every vertex in order when it has none.
+Result<std::vector<uint32_t>> Importer::readTriangles(const std::string& where,
+                                                      const tinygltf::Primitive& primitive,
+                                                      size_t vertexCount) const {
+  if (primitive.indices >= 0) {
+    return readIndices(primitive.indices, describeAccessor(where, primitive.indices, "indices"),
+                       vertexCount);
+  }
+  if (vertexCount % 3 != 0) {
+    return fail(ErrorCode::CorruptData, where + " is not indexed and has " +
+                                            std::to_string(vertexCount) +
+                                            " vertices, not a multiple of 3");
+  }
+  std::vector<uint32_t> indices;
+  indices.reserve(vertexCount);
+  for (size_t i = 0; i < vertexCount; ++i) {
+    indices.push_back(static_cast<uint32_t>(i));
+  }
+  return indices;
+}
+
+// Reads and checks every attribute of a TRIANGLES primitive (its own space, untransformed).
+Result<PrimitiveData> Importer::readPrimitive(const std::string& where,
+                                              const tinygltf::Primitive& primitive) const {
+  const int positionAccessor = attributeAccessor(primitive, "POSITION");
+  if (positionAccessor < 0) {
+    return fail(ErrorCode::CorruptData, where + " has no POSITION attribute");
+  }
+  PrimitiveData data;
+  Result<std::vector<glm::vec3>> positions =
+      readVec3(positionAccessor, describeAccessor(where, positionAccessor, "POSITION"));
+  if (!positions) {
+    return positions.error();
+  }
+  data.positions = std::move(positions.value());
+  const size_t vertexCount = data.positions.size();
+  Result<std::vector<glm::vec3>> normals = readNormals(where, primitive, vertexCount);
+  if (!normals) {
+    return normals.error();
+  }
+  data.normals = std::move(normals.value());
+  Result<std::vector<glm::vec2>> uvs = readUvs(where, primitive, vertexCount);
+  if (!uvs) {
+    return uvs.error();
+  }
+  data.uvs = std::move(uvs.value());
+  Result<std::vector<uint32_t>> indices = readTriangles(where, primitive, vertexCount);
+  if (!indices) {
+    return indices.error();
+  }
+  data.indices = std::move(indices.value());
+  return data;
+}
+
+// Appends the primitive's vertices to the volume, in world space.
+Result<void> Importer::appendVertices(const std::string& where, const PrimitiveData& data,
+                                      const glm::dmat4& world, const glm::dmat3& normalMatrix,
+                                      Volume& volume) {
+  for (size_t i = 0; i < data.positions.size(); ++i) {
+    const glm::dvec3 p = glm::dvec3(world * glm::dvec4(glm::dvec3(data.positions[i]), 1.0));
+    const glm::vec3 position(p);
+    if (!isFinite(position)) {
+      return fail(ErrorCode::InvalidArgument,
+                  where + " vertex " + std::to_string(i) + " is not finite once transformed");
+    }
+    volume.positions.push_back(position);
+    glm::vec3 normal(0.0f);
+    uint8_t fromFile = 0;
+    if (!data.normals.empty()) {
+      const glm::dvec3 n = normalMatrix * glm::dvec3(data.normals[i]);
+      const double length = glm::length(n);
+      if (length > 0.0 && std::isfinite(length)) {
+        normal = glm::vec3(n / length);
+        fromFile = 1;
+      }
+    }
+    volume.normals.push_back(normal);
+    volume.normalFromFile.push_back(fromFile);
+    volume.uvs.push_back(data.uvs.empty() ? glm::vec2(0.0f) : data.uvs[i]);
+  }
+  if (data.uvs.empty()) {
+    volume.missingUvs = true;
+  } else {
+    volume.anyUvs = true;
+  }
+  return {};
+}
+
+// Appends the primitive's triangles, their corners offset to its vertices at `base`.
+void appendTriangles(const std::vector<uint32_t>& indices, size_t base, bool mirrored,
+                     Volume& volume) {
+  for (size_t t = 0; t + 2 < indices.size(); t += 3) {
+    uint32_t a = indices[t];
+    uint32_t b = indices[t + 1];
+    uint32_t c = indices[t + 2];
+    if (mirrored) {
+      std::swap(b, c);  // a mirroring transform turns counter-clockwise into clockwise
+    }
+    const uint32_t offset = static_cast<uint32_t>(base);
+    volume.indices.insert(volume.indices.end(), {offset + a, offset + b, offset + c});
+  }
 }
 
 Result<void> Importer::addPrimitive(const std::string& where, const tinygltf::Primitive& primitive,
@@ -818,117 +1036,24 @@ Result<void> Importer::addPrimitive(const std::string& where, const tinygltf::Pr
   if (!primitive.targets.empty()) {
     warn(where + " has morph targets; they are ignored");
   }
-  auto attribute = [&primitive](const char* semantic) {
-    const auto it = primitive.attributes.find(semantic);
-    return it == primitive.attributes.end() ? -1 : it->second;
-  };
-  auto describe = [&where](int accessor, const char* semantic) {
-    return where + " accessor " + std::to_string(accessor) + " (" + semantic + ")";
-  };
-
-  const int positionAccessor = attribute("POSITION");
-  if (positionAccessor < 0) {
-    return fail(ErrorCode::CorruptData, where + " has no POSITION attribute");
+  Result<PrimitiveData> data = readPrimitive(where, primitive);
+  if (!data) {
+    return data.error();
   }
-  Result<std::vector<glm::vec3>> positions =
-      readVec3(positionAccessor, describe(positionAccessor, "POSITION"));
-  if (!positions) {
-    return positions.error();
-  }
-  const size_t vertexCount = positions->size();
-
-  std::vector<glm::vec3> normals;
-  if (const int accessor = attribute("NORMAL"); accessor >= 0) {
-    Result<std::vector<glm::vec3>> read = readVec3(accessor, describe(accessor, "NORMAL"));
-    if (!read) {
-      return read.error();
-    }
-    if (read->size() != vertexCount) {
-      return fail(ErrorCode::CorruptData, describe(accessor, "NORMAL") + " has " +
-                                              std::to_string(read->size()) + " elements for " +
-                                              std::to_string(vertexCount) + " positions");
-    }
-    normals = std::move(read.value());
-  }
-  std::vector<glm::vec2> uvs;
-  if (const int accessor = attribute("TEXCOORD_0"); accessor >= 0) {
-    Result<std::vector<glm::vec2>> read = readTexcoords(accessor, describe(accessor, "TEXCOORD_0"));
-    if (!read) {
-      return read.error();
-    }
-    if (read->size() != vertexCount) {
-      return fail(ErrorCode::CorruptData, describe(accessor, "TEXCOORD_0") + " has " +
-                                              std::to_string(read->size()) + " elements for " +
-                                              std::to_string(vertexCount) + " positions");
-    }
-    uvs = std::move(read.value());
-  }
-  std::vector<uint32_t> indices;
-  if (primitive.indices >= 0) {
-    Result<std::vector<uint32_t>> read =
-        readIndices(primitive.indices, describe(primitive.indices, "indices"), vertexCount);
-    if (!read) {
-      return read.error();
-    }
-    indices = std::move(read.value());
-  } else {
-    if (vertexCount % 3 != 0) {
-      return fail(ErrorCode::CorruptData, where + " is not indexed and has " +
-                                              std::to_string(vertexCount) +
-                                              " vertices, not a multiple of 3");
-    }
-    indices.reserve(vertexCount);
-    for (size_t i = 0; i < vertexCount; ++i) {
-      indices.push_back(static_cast<uint32_t>(i));
-    }
-  }
-  if (indices.empty()) {
+  if (data->indices.empty()) {
     warn(where + " has no triangles");
     return {};
   }
 
   const size_t base = volume.positions.size();
-  if (vertexCount > std::numeric_limits<uint32_t>::max() - base) {
+  if (data->positions.size() > std::numeric_limits<uint32_t>::max() - base) {
     return fail(ErrorCode::Unsupported, where + " brings its mesh over 2^32 vertices");
   }
-  for (size_t i = 0; i < vertexCount; ++i) {
-    const glm::dvec3 p = glm::dvec3(world * glm::dvec4(glm::dvec3((*positions)[i]), 1.0));
-    const glm::vec3 position(p);
-    if (!isFinite(position)) {
-      return fail(ErrorCode::InvalidArgument,
-                  where + " vertex " + std::to_string(i) + " is not finite once transformed");
-    }
-    volume.positions.push_back(position);
-    glm::vec3 normal(0.0f);
-    uint8_t fromFile = 0;
-    if (!normals.empty()) {
-      const glm::dvec3 n = normalMatrix * glm::dvec3(normals[i]);
-      const double length = glm::length(n);
-      if (length > 0.0 && std::isfinite(length)) {
-        normal = glm::vec3(n / length);
-        fromFile = 1;
-      }
-    }
-    volume.normals.push_back(normal);
-    volume.normalFromFile.push_back(fromFile);
-    volume.uvs.push_back(uvs.empty() ? glm::vec2(0.0f) : uvs[i]);
+  if (Result<void> appended = appendVertices(where, data.value(), world, normalMatrix, volume);
+      !appended) {
+    return appended;
   }
-  if (uvs.empty()) {
-    volume.missingUvs = true;
-  } else {
-    volume.anyUvs = true;
-  }
-
-  for (size_t t = 0; t + 2 < indices.size(); t += 3) {
-    uint32_t a = indices[t];
-    uint32_t b = indices[t + 1];
-    uint32_t c = indices[t + 2];
-    if (mirrored) {
-      std::swap(b, c);  // a mirroring transform turns counter-clockwise into clockwise
-    }
-    const uint32_t offset = static_cast<uint32_t>(base);
-    volume.indices.insert(volume.indices.end(), {offset + a, offset + b, offset + c});
-  }
+  appendTriangles(data->indices, base, mirrored, volume);
   return {};
 }
 
@@ -1117,6 +1242,94 @@ void Importer::settleNormals(Volume& volume) {
   }
 }
 
+// Reads an optional number from an extension object; absent keeps `value`.
+void readNumber(const tinygltf::Value& object, const char* key, double& value, std::string& bad) {
+  if (!object.IsObject() || !object.Has(key)) {
+    return;
+  }
+  const tinygltf::Value& v = object.Get(key);
+  if (!v.IsNumber() || !std::isfinite(v.GetNumberAsDouble())) {
+    bad = key;
+    return;
+  }
+  value = v.GetNumberAsDouble();
+}
+
+const tinygltf::Value* findExtension(const tinygltf::Material& material, const char* name) {
+  const auto it = material.extensions.find(name);
+  return it == material.extensions.end() ? nullptr : &it->second;
+}
+
+// KHR_materials_volume's attenuationColor, when present: three finite numbers.
+void readAttenuationColor(const tinygltf::Value& ext, MaterialVolume& out) {
+  if (!ext.IsObject() || !ext.Has("attenuationColor")) {
+    return;
+  }
+  const tinygltf::Value& c = ext.Get("attenuationColor");
+  bool valid = c.IsArray() && c.ArrayLen() == 3;
+  for (int k = 0; valid && k < 3; ++k) {
+    valid = c.Get(k).IsNumber() && std::isfinite(c.Get(k).GetNumberAsDouble());
+    if (valid) {
+      out.color[k] = c.Get(k).GetNumberAsDouble();
+    }
+  }
+  if (!valid) {
+    out.bad = "attenuationColor";
+  }
+}
+
+MaterialVolume readMaterialVolume(const tinygltf::Material& material) {
+  MaterialVolume out;
+  if (const tinygltf::Value* ext = findExtension(material, "KHR_materials_ior")) {
+    readNumber(*ext, "ior", out.ior, out.bad);
+  }
+  if (const tinygltf::Value* ext = findExtension(material, "KHR_materials_transmission")) {
+    readNumber(*ext, "transmissionFactor", out.transmission, out.bad);
+  }
+  if (const tinygltf::Value* ext = findExtension(material, "KHR_materials_volume")) {
+    readNumber(*ext, "thicknessFactor", out.thickness, out.bad);
+    readNumber(*ext, "attenuationDistance", out.distance, out.bad);
+    readAttenuationColor(*ext, out);
+  }
+  return out;
+}
+
+Result<void> Importer::checkMaterialVolume(const std::string& what, const MaterialVolume& m) const {
+  if (!m.bad.empty()) {
+    return fail(ErrorCode::CorruptData, what + " has a malformed " + m.bad);
+  }
+  if (!(m.ior > 0.0) && !options_.iorOverride) {
+    return fail(ErrorCode::InvalidArgument,
+                what + " has ior " + std::to_string(m.ior) + ", not a refractive medium");
+  }
+  if (!(m.distance > 0.0)) {
+    return fail(ErrorCode::CorruptData,
+                what + " has attenuationDistance " + std::to_string(m.distance) + " (must be > 0)");
+  }
+  if (glm::any(glm::lessThan(m.color, glm::dvec3(0.0))) ||
+      glm::any(glm::greaterThan(m.color, glm::dvec3(1.0)))) {
+    return fail(ErrorCode::CorruptData, what + " has an attenuationColor outside [0, 1]");
+  }
+  if (m.thickness < 0.0 || m.transmission < 0.0) {
+    return fail(ErrorCode::CorruptData,
+                what + " has a negative thicknessFactor or transmissionFactor");
+  }
+  return {};
+}
+
+// The medium's absorption and tint from a finite attenuationDistance.
+void applyAttenuation(double distance, const glm::dvec3& color, Medium& medium) {
+  double sigma = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    sigma += -std::log(std::max(color[k], kMinAttenuationColor)) / distance;
+  }
+  // Grey attenuation goes into tau (mean of the channel coefficients); the tint keeps only the
+  // hue, brightest channel 1, so that grey is not counted twice and the tint never brightens.
+  medium.absorption = static_cast<float>(sigma / 3.0);
+  const double brightest = std::max({color.x, color.y, color.z, kMinAttenuationColor});
+  medium.color = glm::vec3(glm::max(color, glm::dvec3(kMinAttenuationColor)) / brightest);
+}
+
 Result<Medium> Importer::mediumOf(int materialIndex) {
   Medium medium;
   medium.ior = kDefaultIor;
@@ -1129,88 +1342,18 @@ Result<Medium> Importer::mediumOf(int materialIndex) {
   const std::string what = "material " + std::to_string(materialIndex) + quoted(material.name);
   medium.name = material.name.empty() ? "material" + std::to_string(materialIndex) : material.name;
 
-  // Reads an optional number from an extension object; absent keeps `value`.
-  std::string bad;
-  auto number = [&bad](const tinygltf::Value& object, const char* key, double& value) {
-    if (!object.IsObject() || !object.Has(key)) {
-      return;
-    }
-    const tinygltf::Value& v = object.Get(key);
-    if (!v.IsNumber() || !std::isfinite(v.GetNumberAsDouble())) {
-      bad = key;
-      return;
-    }
-    value = v.GetNumberAsDouble();
-  };
-  auto extension = [&material](const char* name) -> const tinygltf::Value* {
-    const auto it = material.extensions.find(name);
-    return it == material.extensions.end() ? nullptr : &it->second;
-  };
-
-  double ior = kDefaultIor;
-  double transmission = 0.0;
-  double thickness = 0.0;
-  double distance = std::numeric_limits<double>::infinity();
-  glm::dvec3 color(1.0);
-  if (const tinygltf::Value* ext = extension("KHR_materials_ior")) {
-    number(*ext, "ior", ior);
+  const MaterialVolume m = readMaterialVolume(material);
+  if (Result<void> valid = checkMaterialVolume(what, m); !valid) {
+    return valid.error();
   }
-  if (const tinygltf::Value* ext = extension("KHR_materials_transmission")) {
-    number(*ext, "transmissionFactor", transmission);
+  medium.ior = static_cast<float>(m.ior);
+  if (std::isfinite(m.distance)) {
+    applyAttenuation(m.distance, m.color, medium);
   }
-  if (const tinygltf::Value* ext = extension("KHR_materials_volume")) {
-    number(*ext, "thicknessFactor", thickness);
-    number(*ext, "attenuationDistance", distance);
-    if (ext->IsObject() && ext->Has("attenuationColor")) {
-      const tinygltf::Value& c = ext->Get("attenuationColor");
-      bool valid = c.IsArray() && c.ArrayLen() == 3;
-      for (int k = 0; valid && k < 3; ++k) {
-        valid = c.Get(k).IsNumber() && std::isfinite(c.Get(k).GetNumberAsDouble());
-        if (valid) {
-          color[k] = c.Get(k).GetNumberAsDouble();
-        }
-      }
-      if (!valid) {
-        bad = "attenuationColor";
-      }
-    }
-  }
-  if (!bad.empty()) {
-    return fail(ErrorCode::CorruptData, what + " has a malformed " + bad);
-  }
-  if (!(ior > 0.0) && !options_.iorOverride) {
-    return fail(ErrorCode::InvalidArgument,
-                what + " has ior " + std::to_string(ior) + ", not a refractive medium");
-  }
-  if (!(distance > 0.0)) {
-    return fail(ErrorCode::CorruptData,
-                what + " has attenuationDistance " + std::to_string(distance) + " (must be > 0)");
-  }
-  if (glm::any(glm::lessThan(color, glm::dvec3(0.0))) ||
-      glm::any(glm::greaterThan(color, glm::dvec3(1.0)))) {
-    return fail(ErrorCode::CorruptData, what + " has an attenuationColor outside [0, 1]");
-  }
-  if (thickness < 0.0 || transmission < 0.0) {
-    return fail(ErrorCode::CorruptData,
-                what + " has a negative thicknessFactor or transmissionFactor");
-  }
-
-  medium.ior = static_cast<float>(ior);
-  if (std::isfinite(distance)) {
-    double sigma = 0.0;
-    for (int k = 0; k < 3; ++k) {
-      sigma += -std::log(std::max(color[k], kMinAttenuationColor)) / distance;
-    }
-    // Grey attenuation goes into tau (mean of the channel coefficients); the tint keeps only the
-    // hue, brightest channel 1, so that grey is not counted twice and the tint never brightens.
-    medium.absorption = static_cast<float>(sigma / 3.0);
-    const double brightest = std::max({color.x, color.y, color.z, kMinAttenuationColor});
-    medium.color = glm::vec3(glm::max(color, glm::dvec3(kMinAttenuationColor)) / brightest);
-  }
-  if (transmission <= 0.0 && thickness <= 0.0) {
+  if (m.transmission <= 0.0 && m.thickness <= 0.0) {
     warn(what + " is neither transmissive nor a volume; imported as a clear medium of ior " +
          std::to_string(medium.ior) + " anyway");
-  } else if (thickness <= 0.0) {
+  } else if (m.thickness <= 0.0) {
     warn(what + " is thin-walled (no KHR_materials_volume thickness); imported as a solid volume");
   }
   return medium;
@@ -1328,7 +1471,7 @@ std::set<std::pair<size_t, size_t>> Importer::findOverlaps() {
   return overlaps;
 }
 
-Result<Scene> Importer::run() {
+Result<void> Importer::checkOverrides() const {
   if (options_.iorOverride &&
       (!std::isfinite(*options_.iorOverride) || *options_.iorOverride <= 0.0f)) {
     return fail(ErrorCode::InvalidArgument,
@@ -1340,10 +1483,11 @@ Result<Scene> Importer::run() {
                                                 std::to_string(*options_.absorptionOverride) +
                                                 " is not finite and >= 0");
   }
-  if (Result<void> loaded = load(); !loaded) {
-    return loaded.error();
-  }
+  return {};
+}
 
+// Walks the default scene into volumes_, each with its triangles.
+Result<void> Importer::collectVolumes() {
   if (model_.scenes.empty()) {
     return fail(ErrorCode::InvalidArgument, "no scene: the file defines no scenes");
   }
@@ -1366,16 +1510,12 @@ Result<Scene> Importer::run() {
     return fail(ErrorCode::InvalidArgument,
                 "empty scene: scene " + std::to_string(sceneIndex) + " has no triangles");
   }
-  for (Volume& volume : volumes_) {
-    if (Result<void> finalized = finalize(volume); !finalized) {
-      return finalized.error();
-    }
-  }
-  const std::set<std::pair<size_t, size_t>> overlaps = findOverlaps();
+  return {};
+}
 
-  Scene scene;
-  scene.name = std::filesystem::path(path_).stem().string();
-  scene.media.push_back(Medium{"air", 1.0f, 0.0f, glm::vec3(1.0f)});
+// One medium per material used (in the order the volumes first use them), after air, with the
+// overrides applied; each volume's medium set.
+Result<void> Importer::assignMedia(Scene& scene) {
   std::map<int, uint32_t> mediumOfMaterial;
   for (Volume& volume : volumes_) {
     auto [it, inserted] =
@@ -1397,21 +1537,33 @@ Result<Scene> Importer::run() {
       scene.media[m].absorption = *options_.absorptionOverride;
     }
   }
+  return {};
+}
 
-  // The medium stack: each volume's outside is the innermost other closed volume containing it.
-  for (size_t v = 0; v < volumes_.size(); ++v) {
-    const glm::dvec3 point = interiorPoint(volumes_[v]);
-    size_t container = volumes_.size();
-    for (size_t u = 0; u < volumes_.size(); ++u) {
-      const bool sibling = overlaps.count({std::min(u, v), std::max(u, v)}) != 0;
-      if (u == v || sibling || !volumes_[u].closed || !contains(volumes_[u], point)) {
-        continue;
-      }
-      if (container == volumes_.size() ||
-          std::fabs(volumes_[u].volume) < std::fabs(volumes_[container].volume)) {
-        container = u;
-      }
+// The medium stack: each volume's outside is the innermost other closed volume containing it.
+// Returns volumes_.size() for a volume that none contains.
+size_t Importer::innermostContainer(size_t v,
+                                    const std::set<std::pair<size_t, size_t>>& overlaps) const {
+  const glm::dvec3 point = interiorPoint(volumes_[v]);
+  size_t container = volumes_.size();
+  for (size_t u = 0; u < volumes_.size(); ++u) {
+    const bool sibling = overlaps.count({std::min(u, v), std::max(u, v)}) != 0;
+    if (u == v || sibling || !volumes_[u].closed || !contains(volumes_[u], point)) {
+      continue;
     }
+    if (container == volumes_.size() ||
+        std::fabs(volumes_[u].volume) < std::fabs(volumes_[container].volume)) {
+      container = u;
+    }
+  }
+  return container;
+}
+
+// One Surface per volume, between its medium and its container's (air when none contains it).
+Result<void> Importer::addSurfaces(Scene& scene,
+                                   const std::set<std::pair<size_t, size_t>>& overlaps) {
+  for (size_t v = 0; v < volumes_.size(); ++v) {
+    const size_t container = innermostContainer(v, overlaps);
     Surface surface;
     surface.name = volumes_[v].name;
     surface.innerMedium = volumes_[v].medium;
@@ -1430,7 +1582,35 @@ Result<Scene> Importer::run() {
     report_.triangles += surface.indices.size() / 3;
     scene.surfaces.push_back(std::move(surface));
   }
+  return {};
+}
 
+Result<Scene> Importer::run() {
+  if (Result<void> valid = checkOverrides(); !valid) {
+    return valid.error();
+  }
+  if (Result<void> loaded = load(); !loaded) {
+    return loaded.error();
+  }
+  if (Result<void> collected = collectVolumes(); !collected) {
+    return collected.error();
+  }
+  for (Volume& volume : volumes_) {
+    if (Result<void> finalized = finalize(volume); !finalized) {
+      return finalized.error();
+    }
+  }
+  const std::set<std::pair<size_t, size_t>> overlaps = findOverlaps();
+
+  Scene scene;
+  scene.name = std::filesystem::path(path_).stem().string();
+  scene.media.push_back(Medium{"air", 1.0f, 0.0f, glm::vec3(1.0f)});
+  if (Result<void> assigned = assignMedia(scene); !assigned) {
+    return assigned.error();
+  }
+  if (Result<void> added = addSurfaces(scene, overlaps); !added) {
+    return added.error();
+  }
   if (Result<void> valid = validateScene(scene); !valid) {
     return fail(valid.error().code, valid.error().message);
   }
