@@ -351,6 +351,8 @@ class SubSampler {
   static glm::vec3 axisDerivative(const Probe& self, const Probe& after, const Probe& before, size_t i);
   float crossingDistance(Neighbourhood& n, size_t k, uint64_t& rays) const;
   glm::vec3 blendAcross(Neighbourhood& n, glm::vec3 own, uint64_t& rays) const;
+  glm::vec3 ownSideMean(const Neighbourhood& n, glm::vec3 own, const std::array<bool, 4>& across,
+                        const std::array<float, 4>& crossing) const;
   Sample filteredSample(uint32_t bx, uint32_t by, Neighbourhood& n, uint64_t& rays) const;
 
   const Tracer& tracer_;
@@ -521,6 +523,7 @@ glm::vec3 SubSampler::blendAcross(Neighbourhood& n, glm::vec3 own, uint64_t& ray
     crossing[k] = bisect ? crossingDistance(n, k, rays) : kProbeOffset;
   }
   const std::array<float, 4> share = shareBeyondCrossings(crossing);
+  if (bisect && o_.mode == ReferenceMode::FullTree) own = ownSideMean(n, own, across, crossing);
   float keep = 1.0f;
   glm::vec3 acrossSum(0.0f);
   for (size_t k = 0; k < 4; ++k) {
@@ -528,6 +531,27 @@ glm::vec3 SubSampler::blendAcross(Neighbourhood& n, glm::vec3 own, uint64_t& ray
     acrossSum += share[k] * colour[k];
   }
   return keep * own + acrossSum;
+}
+
+// The mean colour of the sample's own side of the crossings, not the colour at the sample: with a
+// crossing at distance t toward probe k, the own side spans [-1/2, t] along that axis and its
+// centroid lies (1/2 - t) / 2 cells from the sample, away from the crossing; over a linear ramp
+// through the sample and the opposite probe (half a cell the other way, on the own side), that is
+// the sample's colour moved toward the opposite probe's by 1/2 - t. Near a glass rim the colour
+// changes fastest where the pixel is cut (Fresnel rises toward grazing), and the sample at the
+// centre stands least for its side (docs/antialiasing.md, "The own side's colour"). FullTree
+// only: its colour, a sum over every branch, is smooth on either side of a discontinuity; one
+// exact path's is not (the torus's flanks speckle), and a ramp through one probe there
+// extrapolates the speckle (exact mode at 1 spp: torus -0.22 dB).
+glm::vec3 SubSampler::ownSideMean(const Neighbourhood& n, glm::vec3 own, const std::array<bool, 4>& across,
+                                  const std::array<float, 4>& crossing) const {
+  glm::vec3 mean = own;
+  for (size_t k = 0; k < 4; ++k) {
+    const size_t opposite = k ^ 1;  // +x <-> -x, +y <-> -y
+    if (!across[k] || across[opposite]) continue;
+    mean += (kProbeOffset - crossing[k]) * (shade(n.around[opposite], n.derivatives).color - own);
+  }
+  return mean;
 }
 
 Sample SubSampler::filteredSample(uint32_t bx, uint32_t by, Neighbourhood& n, uint64_t& rays) const {

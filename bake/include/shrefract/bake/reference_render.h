@@ -80,8 +80,9 @@ struct ReferenceOptions {
   // (+-x, +-y), traced as well (5x the rays). A probe that hits another surface, misses, or went
   // another way (another number of interfaces or leaves) gives no derivative on its side: a path
   // discontinuity lies between them, found by bisection (3 more traces per such probe), and the
-  // probe's colour is blended in with the share of the cell beyond it (shareBeyondCrossings).
-  // The background stays at level 0 away from the object. False: level 0 everywhere
+  // probe's colour is blended in with the share of the cell beyond it (shareBeyondCrossings);
+  // FullTree: the sample's own side enters with its mean over a linear ramp toward the opposite
+  // probe, not the sample's colour. The background stays at level 0 away from the object. False: level 0 everywhere
   // (bake::sampleLatLong), as the physical reference is rendered.
   bool filtered = false;
   // filtered: taps per axis of each lookup, as RendererCreateInfo::environmentTapsPerAxis (1..4).
