@@ -578,6 +578,39 @@ Vec3 shadedExitDirection(const DistortionImage& distortion, const SurfacePoint& 
   return fromGlm(dir);
 }
 
+namespace {
+
+// The nearest triangle any object's mesh puts under the ray, each tested in its object space.
+struct NearestHit {
+  std::optional<TriangleHit> hit;
+  int object = -1;
+  uint32_t triangle = 0;
+};
+
+// Double precision for the ray-triangle test: the GPU's coverage is exact for pixel centres away
+// from edges, and so should the reference be. Each object's eye, and the ray, in its object space:
+// t is the same along both (the eye and the ray are divided by the same scale), so hits of
+// different objects compare as they are.
+NearestHit nearestHit(const std::vector<RenderObject>& objects, const std::vector<Vec3>& objectEyes, const Vec3& rayF) {
+  auto toDouble = [](const Vec3& v) { return std::array<double, 3>{v[0], v[1], v[2]}; };
+  NearestHit best;
+  for (size_t o = 0; o < objects.size(); ++o) {
+    const FieldMesh& mesh = *objects[o].mesh;
+    const Transform& placed = objects[o].worldFromObject;
+    Vec3 rayObject = inverseRotateDirection(placed, rayF);
+    for (float& c : rayObject) c /= placed.scale;
+    const std::array<double, 3> eye = toDouble(objectEyes[o]), ray = toDouble(rayObject);
+    for (uint32_t t = 0; size_t(t) + 2 < mesh.indices.size(); t += 3) {
+      const std::optional<TriangleHit> hit = hitTriangle(mesh, t, eye, ray);
+      if (!hit || (best.hit && hit->t >= best.hit->t)) continue;
+      best = {hit, static_cast<int>(o), t};
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
 RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImage& environment, const Camera& camera,
                      uint32_t width, uint32_t height, float exposure, bool silhouetteCoverage) {
   // The chain the engine builds at upload, unless the caller has it already.
@@ -593,55 +626,34 @@ RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImag
   image.rgba.assign(size_t(width) * height * 4, 0.0f);
   image.object.assign(size_t(width) * height, -1);
   image.directions.assign(size_t(width) * height * 3, 0.0f);
-  // Double precision for the ray-triangle test: the GPU's coverage is exact for pixel centres
-  // away from edges, and so should the reference be.
-  // Each object's eye, and each ray, in its object space: t is the same along both (the eye and the
-  // ray are divided by the same scale), so hits of different objects compare as they are.
   std::vector<Vec3> objectEyes;
   for (const RenderObject& object : objects) objectEyes.push_back(inverseTransformPoint(object.worldFromObject, camera.eye));
   std::vector<std::vector<TriangleEdges>> edges;  // the object pass's polygon coverage
   for (const RenderObject& object : objects)
     edges.push_back(triangleEdges(object.mesh->positions.data(), uint32_t(object.mesh->positions.size() / 3),
                                   object.mesh->indices.data(), uint32_t(object.mesh->indices.size())));
-  auto toDouble = [](const Vec3& v) { return std::array<double, 3>{v[0], v[1], v[2]}; };
   for (uint32_t py = 0; py < height; ++py)
     for (uint32_t px = 0; px < width; ++px) {
       const Vec3 rayF = pixelRay(camera, width, height, px, py);
-      std::optional<TriangleHit> best;
-      int bestObject = -1;
-      uint32_t bestTriangle = 0;
-      for (size_t o = 0; o < objects.size(); ++o) {
-        const FieldMesh& mesh = *objects[o].mesh;
-        const Transform& placed = objects[o].worldFromObject;
-        Vec3 rayObject = inverseRotateDirection(placed, rayF);
-        for (float& c : rayObject) c /= placed.scale;
-        const std::array<double, 3> eye = toDouble(objectEyes[o]), ray = toDouble(rayObject);
-        for (uint32_t t = 0; size_t(t) + 2 < mesh.indices.size(); t += 3) {
-          const std::optional<TriangleHit> hit = hitTriangle(mesh, t, eye, ray);
-          if (!hit || (best && hit->t >= best->t)) continue;
-          best = hit;
-          bestObject = static_cast<int>(o);
-          bestTriangle = t;
-        }
-      }
+      const NearestHit best = nearestHit(objects, objectEyes, rayF);
       float* out = &image.rgba[(size_t(py) * width + px) * 4];
       out[3] = 1.0f;
-      if (bestObject < 0) {
+      if (best.object < 0) {
         const Vec3 c = sampleLatLong(environment, rayF);
         for (int k = 0; k < 3; ++k) out[k] = c[size_t(k)];
         continue;
       }
-      const RenderObject& object = objects[size_t(bestObject)];
-      const SurfacePoint point = surfacePointAt(*object.mesh, bestTriangle, *best);
-      const Vec3& eye = objectEyes[size_t(bestObject)];
-      const LookupDerivatives derivatives = pixelDerivatives(object, bestTriangle, camera, width, height, px, py);
+      const RenderObject& object = objects[size_t(best.object)];
+      const SurfacePoint point = surfacePointAt(*object.mesh, best.triangle, *best.hit);
+      const Vec3& eye = objectEyes[size_t(best.object)];
+      const LookupDerivatives derivatives = pixelDerivatives(object, best.triangle, camera, width, height, px, py);
       const Vec3 c = shadeField(*object.distortion, filtered, point, eye, object.shading, exposure,
                                 object.worldFromObject, derivatives);
       const Vec3 covered = silhouetteCoverage ? overBackground(c, point, eye, derivatives, environment, rayF,
-                                                               &edges[size_t(bestObject)][bestTriangle / 3])
+                                                               &edges[size_t(best.object)][best.triangle / 3])
                                               : c;
       for (int k = 0; k < 3; ++k) out[k] = covered[size_t(k)];
-      image.object[size_t(py) * width + px] = bestObject;
+      image.object[size_t(py) * width + px] = best.object;
       const Vec3 dir = rotateDirection(object.worldFromObject, shadedExitDirection(*object.distortion, point, eye));
       for (int k = 0; k < 3; ++k) image.directions[(size_t(py) * width + px) * 3 + size_t(k)] = dir[size_t(k)];
     }
