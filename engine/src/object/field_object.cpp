@@ -196,10 +196,9 @@ void recordUploadsVisible(ContextImpl& c, VkCommandBuffer cmd, VkImage image) {
   recordBarriers(c, cmd, {&toRead, 1}, &buffersToRead);
 }
 
-// Allocates and writes the decompression set (every binding of createDecompressSetLayout) and the
-// raster pass's distortion set of `f`, whose buffers, views, image and sampler exist, with the
-// mesh's triangle edges (`triangleEdges`).
-Result<void> createDescriptorSets(ContextImpl& c, FieldResources& f, VkBuffer triangleEdges) {
+// The instance's pool and its two sets: the decompression set (every binding of
+// createDecompressSetLayout) and the raster pass's distortion set.
+Result<void> allocateDescriptorSets(ContextImpl& c, FieldResources& f) {
   const std::array<VkDescriptorPoolSize, 5> sizes{{
       {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1},
       {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 7},
@@ -223,7 +222,13 @@ Result<void> createDescriptorSets(ContextImpl& c, FieldResources& f, VkBuffer tr
   if (r != VK_SUCCESS) return vulkanError("vkAllocateDescriptorSets", r);
   f.decompressSet = sets[0];
   f.distortionSet = sets[1];
+  return {};
+}
 
+// Allocates and writes the decompression and distortion sets of `f`, whose buffers, views, image
+// and sampler exist, with the mesh's triangle edges (`triangleEdges`).
+Result<void> createDescriptorSets(ContextImpl& c, FieldResources& f, VkBuffer triangleEdges) {
+  if (auto r = allocateDescriptorSets(c, f); !r) return r;
   const VkDescriptorImageInfo storageInfo{VK_NULL_HANDLE, f.distortion.view, VK_IMAGE_LAYOUT_GENERAL};
   const VkDescriptorImageInfo sampledInfo{f.sampler, f.distortion.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
   // Every binding is written whichever shader and path reads it (unread ones over their first
