@@ -415,6 +415,16 @@ void writeSettings(ByteWriter& w, const BakeSettings& s, const BakeStatistics& t
   w.f32(s.maxErrorDegrees);
 }
 
+void writeMedia(ByteWriter& w, const std::vector<FieldMedium>& media) {
+  w.u32(static_cast<uint32_t>(media.size()));
+  for (const FieldMedium& m : media) {
+    w.f32(m.ior);
+    w.f32(m.absorption);
+    for (float c : m.color) w.f32(c);
+    w.string(m.name);
+  }
+}
+
 void readMedia(SectionReader& r, std::vector<FieldMedium>& media) {
   const uint32_t count = r.u32("media count");
   if (r.failed()) return;
@@ -431,6 +441,14 @@ void readMedia(SectionReader& r, std::vector<FieldMedium>& media) {
     for (float& c : m.color) c = r.f32("medium.color");
     r.string(m.name, "medium.name");
   }
+}
+
+void writeMesh(ByteWriter& w, const FieldMesh& mesh) {
+  w.arrayF32(mesh.positions);
+  w.arrayF32(mesh.normals);
+  w.arrayF32(mesh.uvs);
+  w.arrayF32(mesh.frontIor);
+  w.arrayU32(mesh.indices);
 }
 
 void readMesh(SectionReader& r, FieldMesh& mesh) {
@@ -482,6 +500,18 @@ void writeEncoding(ByteWriter& w, const Field& field) {
   w.u32(static_cast<uint32_t>(s.directionSampling));
   w.u32(field.jumpDistance ? 1u : 0u);
   w.u32(field.sampleFrameExits ? 1u : 0u);
+}
+
+void writeAtlas(ByteWriter& w, const Field& field) {
+  w.arrayU8(field.texelKinds);
+  w.arrayF32(field.frames);
+  w.u64(field.gutters.size());
+  for (const GutterTexel& g : field.gutters) {
+    w.u32(g.target);
+    w.u32(g.a);
+    w.u32(g.b);
+    w.u32(g.c);
+  }
 }
 
 void readAtlas(SectionReader& r, Field& field) {
@@ -941,50 +971,27 @@ std::vector<uint8_t> serializeField(const Field& field) {
   w.u32(static_cast<uint32_t>(field.quantization));
   w.u32(kSectionCount);
 
+  // The sections in kSections order, each the mirror of its reader in parseField.
   w.beginSection(kSections[0].tag);
   writeSettings(w, field.settings, field.statistics);
   w.endSection();
-
   w.beginSection(kSections[1].tag);
-  w.u32(static_cast<uint32_t>(field.media.size()));
-  for (const FieldMedium& m : field.media) {
-    w.f32(m.ior);
-    w.f32(m.absorption);
-    for (float c : m.color) w.f32(c);
-    w.string(m.name);
-  }
+  writeMedia(w, field.media);
   w.endSection();
-
   w.beginSection(kSections[2].tag);
-  w.arrayF32(field.mesh.positions);
-  w.arrayF32(field.mesh.normals);
-  w.arrayF32(field.mesh.uvs);
-  w.arrayF32(field.mesh.frontIor);
-  w.arrayU32(field.mesh.indices);
+  writeMesh(w, field.mesh);
   w.endSection();
-
   w.beginSection(kSections[3].tag);
-  w.arrayU8(field.texelKinds);
-  w.arrayF32(field.frames);
-  w.u64(field.gutters.size());
-  for (const GutterTexel& g : field.gutters) {
-    w.u32(g.target);
-    w.u32(g.a);
-    w.u32(g.b);
-    w.u32(g.c);
-  }
+  writeAtlas(w, field);
   w.endSection();
-
   w.beginSection(kSections[4].tag);
   w.arrayF32(field.scale);
   w.arrayF32(field.bias);
   w.endSection();
-
   w.beginSection(kSections[5].tag);
   w.arrayU8(field.coefficientsU8);
   w.arrayU16(field.coefficientsF16);
   w.endSection();
-
   w.beginSection(kSections[6].tag);
   writeEncoding(w, field);
   w.endSection();
