@@ -125,6 +125,21 @@ TEST(HemisphereFit, RejectsBadArguments) {
   EXPECT_FALSE(HemisphereFit::create(g, 2, std::nan("")).ok());
 }
 
+// Every direction the pole: the m = +-1 functions are zero there, so without a penalty the normal
+// equations have zero rows and the Cholesky factorization (Eigen's LLT) must report it, not return
+// a projection of Inf or NaN. With the penalty the same grid fits.
+TEST(HemisphereFit, SingularNormalEquationsAreRejected) {
+  DirectionGrid pole;
+  pole.rows = 4;
+  pole.columns = 4;
+  pole.directions.assign(16, glm::dvec3(0.0, 0.0, 1.0));
+  pole.weights.assign(16, 0.1);
+  auto singular = HemisphereFit::create(pole, 1, 0.0);
+  ASSERT_FALSE(singular.ok());
+  EXPECT_NE(singular.error().message.find("singular"), std::string::npos) << singular.error().message;
+  EXPECT_TRUE(HemisphereFit::create(pole, 1, kDefaultRegularization).ok());
+}
+
 TEST(Smoothing, WindowsAndSpatialAveraging) {
   const auto none = bandWindow(SmoothingWindow::None, 8);
   const auto hann = bandWindow(SmoothingWindow::Hann, 8);

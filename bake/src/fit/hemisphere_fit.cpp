@@ -4,7 +4,10 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <string>
+
+#include <Eigen/Dense>
 
 namespace shrefract::bake {
 
@@ -32,40 +35,45 @@ DirectionGrid makeHemisphereGrid(uint32_t rows, uint32_t columns) {
 
 namespace {
 
-// In-place Cholesky factorization of a symmetric positive definite n x n matrix (lower triangle).
-bool cholesky(std::vector<double>& a, int n) {
-  for (int j = 0; j < n; ++j) {
-    double d = a[size_t(j) * n + j];
-    for (int k = 0; k < j; ++k) d -= a[size_t(j) * n + k] * a[size_t(j) * n + k];
-    if (!(d > 0.0)) return false;
-    d = std::sqrt(d);
-    a[size_t(j) * n + j] = d;
-    for (int i = j + 1; i < n; ++i) {
-      double s = a[size_t(i) * n + j];
-      for (int k = 0; k < j; ++k) s -= a[size_t(i) * n + k] * a[size_t(j) * n + k];
-      a[size_t(i) * n + j] = s / d;
-    }
-  }
-  return true;
+// The basis at every grid direction, directions x basis, row-major.
+std::vector<double> basisAtDirections(const DirectionGrid& grid, int order, int nb) {
+  const size_t nd = grid.directions.size();
+  std::vector<double> y(nd * nb);
+  for (size_t d = 0; d < nd; ++d)
+    sh::evaluate(order, grid.directions[d].x, grid.directions[d].y, grid.directions[d].z, &y[d * nb]);
+  return y;
 }
 
-// Solves L L^T x = b in place.
-void choleskySolve(const std::vector<double>& l, int n, double* b) {
-  for (int i = 0; i < n; ++i) {
-    double s = b[i];
-    for (int k = 0; k < i; ++k) s -= l[size_t(i) * n + k] * b[k];
-    b[i] = s / l[size_t(i) * n + i];
+using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// Normal equations (Y^T W Y + lambda R) c = Y^T W f, with R = diag((l (l+1))^2), solved by Eigen's
+// Cholesky (LLT) for every direction's column of Y^T W: the projection, basis x directions.
+// Nothing where the system is not positive definite.
+std::optional<RowMajor> regularizedProjection(const DirectionGrid& grid, const std::vector<double>& y, int order,
+                                              int nb, double lambda) {
+  const Eigen::Index nd = Eigen::Index(grid.directions.size());
+  const Eigen::Map<const RowMajor> basis(y.data(), nd, nb);
+  const Eigen::Map<const Eigen::VectorXd> weights(grid.weights.data(), nd);
+  const RowMajor weighted = (basis.array().colwise() * weights.array()).matrix();  // W Y
+  Eigen::MatrixXd a = basis.transpose() * weighted;
+  for (int l = 0; l <= order; ++l) {
+    const double r = double(l) * (l + 1);
+    for (int m = -l; m <= l; ++m) a(sh::index(l, m), sh::index(l, m)) += lambda * r * r;
   }
-  for (int i = n - 1; i >= 0; --i) {
-    double s = b[i];
-    for (int k = i + 1; k < n; ++k) s -= l[size_t(k) * n + i] * b[k];
-    b[i] = s / l[size_t(i) * n + i];
-  }
+  const Eigen::LLT<Eigen::MatrixXd> llt(a);
+  if (llt.info() != Eigen::Success) return std::nullopt;
+  return RowMajor(llt.solve(weighted.transpose()));
 }
 
-}  // namespace
+// Plain projection: the basis weighted by each direction's solid angle, basis x directions.
+RowMajor plainProjection(const DirectionGrid& grid, const std::vector<double>& y, int nb) {
+  const Eigen::Index nd = Eigen::Index(grid.directions.size());
+  const Eigen::Map<const RowMajor> basis(y.data(), nd, nb);
+  const Eigen::Map<const Eigen::VectorXd> weights(grid.weights.data(), nd);
+  return RowMajor((basis.array().colwise() * weights.array()).matrix().transpose());
+}
 
-Result<HemisphereFit> HemisphereFit::create(const DirectionGrid& grid, int order, double lambda, FitMethod method) {
+Result<void> checkFitInput(const DirectionGrid& grid, int order, double lambda, FitMethod method) {
   if (order < 0 || order > kMaxFitOrder)
     return makeError(ErrorCode::InvalidArgument,
                      "SH order " + std::to_string(order) + " is outside 0.." + std::to_string(kMaxFitOrder));
@@ -77,57 +85,34 @@ Result<HemisphereFit> HemisphereFit::create(const DirectionGrid& grid, int order
                                                      ") than basis functions (" + std::to_string(nb) + ")");
   if (!(lambda >= 0.0) || !std::isfinite(lambda))
     return makeError(ErrorCode::InvalidArgument, "regularization must be finite and >= 0");
+  return {};
+}
 
+}  // namespace
+
+Result<HemisphereFit> HemisphereFit::create(const DirectionGrid& grid, int order, double lambda, FitMethod method) {
+  if (auto r = checkFitInput(grid, order, lambda, method); !r) return r.error();
+  const int nb = sh::basisCount(order);
+  const size_t nd = grid.directions.size();
   HemisphereFit fit;
   fit.order_ = order;
   fit.basis_ = nb;
   fit.directions_ = static_cast<uint32_t>(nd);
-  std::vector<double> y(nd * nb);  // directions x basis
-  for (size_t d = 0; d < nd; ++d)
-    sh::evaluate(order, grid.directions[d].x, grid.directions[d].y, grid.directions[d].z, &y[d * nb]);
-  fit.basisAtGrid_.resize(y.size());
-  for (size_t k = 0; k < y.size(); ++k) fit.basisAtGrid_[k] = static_cast<float>(y[k]);
-
-  std::vector<double> projection(size_t(nb) * nd);
-  if (method == FitMethod::PlainProjection) {
-    for (int i = 0; i < nb; ++i)
-      for (size_t d = 0; d < nd; ++d) projection[size_t(i) * nd + d] = grid.weights[d] * y[d * nb + i];
-  } else {
-    // Normal equations (Y^T W Y + lambda R) c = Y^T W f, with R = diag((l (l+1))^2).
-    std::vector<double> a(size_t(nb) * nb, 0.0);
-    for (size_t d = 0; d < nd; ++d) {
-      const double w = grid.weights[d];
-      const double* row = &y[d * nb];
-      for (int i = 0; i < nb; ++i) {
-        const double wi = w * row[i];
-        for (int j = 0; j <= i; ++j) a[size_t(i) * nb + j] += wi * row[j];
-      }
-    }
-    for (int l = 0; l <= order; ++l) {
-      const double r = double(l) * (l + 1);
-      for (int m = -l; m <= l; ++m) {
-        const int i = sh::index(l, m);
-        a[size_t(i) * nb + i] += lambda * r * r;
-      }
-    }
-    for (int i = 0; i < nb; ++i)
-      for (int j = i + 1; j < nb; ++j) a[size_t(i) * nb + j] = a[size_t(j) * nb + i];
-    if (!cholesky(a, nb))
-      return makeError(ErrorCode::InvalidArgument, "hemisphere fit: the normal equations are singular for order " +
-                                                       std::to_string(order) + " on a " + std::to_string(grid.rows) +
-                                                       "x" + std::to_string(grid.columns) +
-                                                       " grid; raise the regularization or the direction density");
-    std::vector<double> column(nb);
-    for (size_t d = 0; d < nd; ++d) {
-      for (int i = 0; i < nb; ++i) column[i] = grid.weights[d] * y[d * nb + i];
-      choleskySolve(a, nb, column.data());
-      for (int i = 0; i < nb; ++i) projection[size_t(i) * nd + d] = column[i];
-    }
-  }
-  fit.projectionT_.resize(projection.size());
+  const std::vector<double> y = basisAtDirections(grid, order, nb);
+  fit.basisAtGrid_.assign(y.size(), 0.0f);
+  std::transform(y.begin(), y.end(), fit.basisAtGrid_.begin(), [](double v) { return static_cast<float>(v); });
+  std::optional<RowMajor> projection =
+      method == FitMethod::PlainProjection ? plainProjection(grid, y, nb) : regularizedProjection(grid, y, order, nb, lambda);
+  if (!projection)
+    return makeError(ErrorCode::InvalidArgument, "hemisphere fit: the normal equations are singular for order " +
+                                                     std::to_string(order) + " on a " + std::to_string(grid.rows) +
+                                                     "x" + std::to_string(grid.columns) +
+                                                     " grid; raise the regularization or the direction density");
+  // Stored direction-major (P^T) for fit()'s axpy loop.
+  fit.projectionT_.resize(size_t(nb) * nd);
   for (int i = 0; i < nb; ++i)
     for (size_t d = 0; d < nd; ++d)
-      fit.projectionT_[d * size_t(nb) + size_t(i)] = static_cast<float>(projection[size_t(i) * nd + d]);
+      fit.projectionT_[d * size_t(nb) + size_t(i)] = static_cast<float>((*projection)(i, Eigen::Index(d)));
   return fit;
 }
 
