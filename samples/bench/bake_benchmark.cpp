@@ -19,6 +19,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -33,11 +34,8 @@ struct BareResult {
   double seconds = 0.0;
 };
 
-// One rtcIntersect1 per (sample, grid direction), cycling until `rays` queries are issued, with
-// origins nudged inside along the normal as the tracer does.
-BareResult bareLoop(const bake::Scene& scene, const std::vector<bake::SurfacePoint>& samples,
-                    const bake::DirectionGrid& grid, uint64_t rays, uint32_t threads) {
-  RTCDevice device = rtcNewDevice("ignore_config_files=1");
+// The scene's surfaces as Embree triangle geometry, robust and built at high quality.
+RTCScene buildRtcScene(RTCDevice device, const bake::Scene& scene) {
   RTCScene rtc = rtcNewScene(device);
   rtcSetSceneFlags(rtc, RTC_SCENE_FLAG_ROBUST);
   rtcSetSceneBuildQuality(rtc, RTC_BUILD_QUALITY_HIGH);
@@ -54,12 +52,34 @@ BareResult bareLoop(const bake::Scene& scene, const std::vector<bake::SurfacePoi
     rtcReleaseGeometry(g);
   }
   rtcCommitScene(rtc);
+  return rtc;
+}
 
+// One closest-hit query from `o` along `d`; true when it hits anything.
+bool intersects(RTCScene rtc, const glm::vec3& o, const glm::vec3& d) {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRayHit q{};
+  q.ray.org_x = o.x;
+  q.ray.org_y = o.y;
+  q.ray.org_z = o.z;
+  q.ray.dir_x = d.x;
+  q.ray.dir_y = d.y;
+  q.ray.dir_z = d.z;
+  q.ray.tnear = 0.0f;
+  q.ray.tfar = 1e30f;
+  q.ray.mask = ~0u;
+  q.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(rtc, &context, &q);
+  return q.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+}
+
+// Casts rays [0, rays) on `threads` threads taking chunks from a shared counter; returns the hits.
+uint64_t castRays(RTCScene rtc, const std::vector<bake::SurfacePoint>& samples,
+                  const std::vector<bake::LocalFrame>& frames, const bake::DirectionGrid& grid, uint64_t rays,
+                  uint32_t threads) {
   const uint64_t pairs = uint64_t(samples.size()) * grid.directions.size();
-  std::vector<bake::LocalFrame> frames(samples.size());
-  for (size_t s = 0; s < samples.size(); ++s) frames[s] = bake::frameFromNormal(samples[s].shadingNormal);
   std::atomic<uint64_t> next{0}, hits{0};
-  const auto start = std::chrono::steady_clock::now();
   auto worker = [&]() {
     uint64_t localHits = 0;
     constexpr uint64_t kChunk = 4096;
@@ -73,21 +93,7 @@ BareResult bareLoop(const bake::Scene& scene, const std::vector<bake::SurfacePoi
         const glm::vec3 w(grid.directions[pair % grid.directions.size()]);
         const glm::vec3 d = -bake::localToWorld(frames[s], w);
         const glm::vec3 o = samples[s].position - samples[s].geometricNormal * 1e-5f;
-        RTCIntersectContext context;
-        rtcInitIntersectContext(&context);
-        RTCRayHit q{};
-        q.ray.org_x = o.x;
-        q.ray.org_y = o.y;
-        q.ray.org_z = o.z;
-        q.ray.dir_x = d.x;
-        q.ray.dir_y = d.y;
-        q.ray.dir_z = d.z;
-        q.ray.tnear = 0.0f;
-        q.ray.tfar = 1e30f;
-        q.ray.mask = ~0u;
-        q.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-        rtcIntersect1(rtc, &context, &q);
-        localHits += q.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+        localHits += intersects(rtc, o, d);
       }
     }
     hits.fetch_add(localHits);
@@ -96,24 +102,30 @@ BareResult bareLoop(const bake::Scene& scene, const std::vector<bake::SurfacePoi
   for (uint32_t t = 1; t < threads; ++t) pool.emplace_back(worker);
   worker();
   for (auto& t : pool) t.join();
+  return hits.load();
+}
+
+// One rtcIntersect1 per (sample, grid direction), cycling until `rays` queries are issued, with
+// origins nudged inside along the normal as the tracer does.
+BareResult bareLoop(const bake::Scene& scene, const std::vector<bake::SurfacePoint>& samples,
+                    const bake::DirectionGrid& grid, uint64_t rays, uint32_t threads) {
+  RTCDevice device = rtcNewDevice("ignore_config_files=1");
+  RTCScene rtc = buildRtcScene(device, scene);
+  std::vector<bake::LocalFrame> frames(samples.size());
+  for (size_t s = 0; s < samples.size(); ++s) frames[s] = bake::frameFromNormal(samples[s].shadingNormal);
+  const auto start = std::chrono::steady_clock::now();
+  const uint64_t hits = castRays(rtc, samples, frames, grid, rays, threads);
   BareResult out;
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   out.rays = rays;
-  out.hits = hits.load();
+  out.hits = hits;
   rtcReleaseScene(rtc);
   rtcReleaseDevice(device);
   return out;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  std::string path = "../shared/assets/bunny.glb";
-  BakeSettings settings;
-  settings.order = 8;
-  settings.sampleBudget = 35000;
-  settings.layout = SampleLayout::Charts;  // the split layout's minimum on the bunny is one sample per vertex
-  settings.threads = std::max(1u, std::thread::hardware_concurrency());
+// Reads the flags into `path` and `settings`; returns the exit code when the command line is bad.
+std::optional<int> parseArguments(int argc, char** argv, std::string& path, BakeSettings& settings) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> std::string {
@@ -139,7 +151,12 @@ int main(int argc, char** argv) {
       path = a;
     }
   }
-  std::unique_ptr<bake::Scene> scene;
+  return std::nullopt;
+}
+
+// A built-in scene or a glTF file into `scene`; returns the exit code when the benchmark stops
+// here (0 with "SKIPPED:" for a missing file, 1 for one that does not load).
+std::optional<int> loadScene(const std::string& path, std::unique_ptr<bake::Scene>& scene) {
   if (path.rfind("builtin:", 0) == 0) {
     auto s = bake::makeBuiltinScene(path.substr(8));
     if (!s) return std::fprintf(stderr, "%s\n", s.error().message.c_str()), 1;
@@ -153,6 +170,38 @@ int main(int argc, char** argv) {
     if (!s) return std::fprintf(stderr, "%s\n", s.error().message.c_str()), 1;
     scene = std::make_unique<bake::Scene>(std::move(s).value());
   }
+  return std::nullopt;
+}
+
+// The bare loop on the bake's own sample points and directions, as many rays as the bake traced.
+int compareBareLoop(const bake::Scene& scene, const BakeSettings& settings, const BakeStatistics& st) {
+  bake::LayoutOptions lo;
+  lo.sampleBudget = settings.sampleBudget;
+  auto atlas = settings.layout == SampleLayout::Split ? bake::buildSplitLayout(scene, lo)
+                                                      : bake::buildChartsLayout(scene, lo);
+  if (!atlas) return std::fprintf(stderr, "%s\n", atlas.error().message.c_str()), 1;
+  const bake::DirectionGrid grid = bake::makeHemisphereGrid(settings.directionsTheta, settings.directionsPhi);
+  const BareResult bare = bareLoop(scene, atlas.value().samples, grid, st.rays, settings.threads);
+  const double bareRate = double(bare.rays) / bare.seconds;
+  std::printf("bare loop: %" PRIu64 " rtcIntersect1 rays (%.1f%% hit) in %.2f s = %.3f Mrays/s\n", bare.rays,
+              100.0 * double(bare.hits) / double(bare.rays), bare.seconds, bareRate / 1e6);
+  std::printf("ratio: bake trace time / bare loop time = %.3f (target <= 1.2); whole bake / bare loop = %.3f\n",
+              st.traceSeconds / bare.seconds, st.bakeSeconds / bare.seconds);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string path = "../shared/assets/bunny.glb";
+  BakeSettings settings;
+  settings.order = 8;
+  settings.sampleBudget = 35000;
+  settings.layout = SampleLayout::Charts;  // the split layout's minimum on the bunny is one sample per vertex
+  settings.threads = std::max(1u, std::thread::hardware_concurrency());
+  if (auto exitCode = parseArguments(argc, argv, path, settings)) return *exitCode;
+  std::unique_ptr<bake::Scene> scene;
+  if (auto exitCode = loadScene(path, scene)) return *exitCode;
   settings.source = path;
   std::printf("bake benchmark: %s, %" PRIu64 " sample budget, %ux%u directions, order %u, %s layout, %u threads\n",
               path.c_str(), settings.sampleBudget, settings.directionsTheta, settings.directionsPhi, settings.order,
@@ -169,18 +218,5 @@ int main(int argc, char** argv) {
               " rays in %.2f s trace (%.2f s total) = %.3f Mrays/s\n",
               st.uniqueSamples, st.directions, st.paths, st.rays, st.traceSeconds, st.bakeSeconds,
               st.raysPerSecond / 1e6);
-
-  bake::LayoutOptions lo;
-  lo.sampleBudget = settings.sampleBudget;
-  auto atlas = settings.layout == SampleLayout::Split ? bake::buildSplitLayout(*scene, lo)
-                                                      : bake::buildChartsLayout(*scene, lo);
-  if (!atlas) return std::fprintf(stderr, "%s\n", atlas.error().message.c_str()), 1;
-  const bake::DirectionGrid grid = bake::makeHemisphereGrid(settings.directionsTheta, settings.directionsPhi);
-  const BareResult bare = bareLoop(*scene, atlas.value().samples, grid, st.rays, settings.threads);
-  const double bareRate = double(bare.rays) / bare.seconds;
-  std::printf("bare loop: %" PRIu64 " rtcIntersect1 rays (%.1f%% hit) in %.2f s = %.3f Mrays/s\n", bare.rays,
-              100.0 * double(bare.hits) / double(bare.rays), bare.seconds, bareRate / 1e6);
-  std::printf("ratio: bake trace time / bare loop time = %.3f (target <= 1.2); whole bake / bare loop = %.3f\n",
-              st.traceSeconds / bare.seconds, st.bakeSeconds / bare.seconds);
-  return 0;
+  return compareBareLoop(*scene, settings, st);
 }

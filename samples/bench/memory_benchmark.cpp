@@ -53,63 +53,70 @@ void printRow(const Row& r) {
               perSample / double(r.paper), double(r.objectBytes) / 1048576.0);
 }
 
-int run(const Options& options) {
-  bool noDevice = false;
-  auto gpu = createGpu(options.validation, &noDevice);
-  if (!gpu) return noDevice ? 0 : 1;
-  Context& context = *gpu->context;
-  auto measure = [&](const Field& field, const std::string& name, Row& row) -> bool {
-    std::unique_ptr<Object> object;
-    auto uploaded = context.uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
-      auto created = Object::createFromField(context, field, cmd);
-      if (!created) return created.error();
-      object = std::move(created).value();
-      return {};
-    });
-    if (!uploaded) {
-      std::fprintf(stderr, "%s: %s\n", name.c_str(), uploaded.error().message.c_str());
-      return false;
-    }
-    row.name = name;
-    const bool sh = field.encoding == Encoding::Sh;
-    row.encoding = sh ? std::to_string(field.order) : encodingLabel(field);
-    row.layers = field.layerCount();
-    row.coefficientBytes = field.bytesPerSample();
-    row.paper = sh ? uint64_t(field.layerCount()) * 4 : 324;  // (L+1)^2 x 4 channels x 8 bits
-    row.channels = field.channels;
-    row.quantization = field.quantization;
-    row.texels = field.texelCount();
-    row.triangles = field.mesh.indices.size() / 3;
-    row.samples = 0;
-    for (uint8_t k : field.texelKinds) row.samples += k == kTexelSample;
-    row.objectBytes = object->gpuMemoryBytes();
-    object.reset();
-    context.releaseDeferred();
-    return true;
-  };
+// Uploads `field` as the engine would and fills `row` with its layout and the object's device
+// memory; the object is released before returning, so rows never add up on the device.
+bool measure(Context& context, const Field& field, const std::string& name, Row& row) {
+  std::unique_ptr<Object> object;
+  auto uploaded = context.uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
+    auto created = Object::createFromField(context, field, cmd);
+    if (!created) return created.error();
+    object = std::move(created).value();
+    return {};
+  });
+  if (!uploaded) {
+    std::fprintf(stderr, "%s: %s\n", name.c_str(), uploaded.error().message.c_str());
+    return false;
+  }
+  row.name = name;
+  const bool sh = field.encoding == Encoding::Sh;
+  row.encoding = sh ? std::to_string(field.order) : encodingLabel(field);
+  row.layers = field.layerCount();
+  row.coefficientBytes = field.bytesPerSample();
+  row.paper = sh ? uint64_t(field.layerCount()) * 4 : 324;  // (L+1)^2 x 4 channels x 8 bits
+  row.channels = field.channels;
+  row.quantization = field.quantization;
+  row.texels = field.texelCount();
+  row.triangles = field.mesh.indices.size() / 3;
+  row.samples = 0;
+  for (uint8_t k : field.texelKinds) row.samples += k == kTexelSample;
+  row.objectBytes = object->gpuMemoryBytes();
+  object.reset();
+  context.releaseDeferred();
+  return true;
+}
 
-  std::printf("device: %s\n", gpu->harness->deviceName().c_str());
+void printHeader(const std::string& deviceName, const SyntheticOptions& synthetic) {
+  std::printf("device: %s\n", deviceName.c_str());
   std::printf("synthetic atlas %ux%u, %.1f%% of the texels are samples; bytes per sample = all of the object's "
               "device memory / samples\n",
-              options.synthetic.width, options.synthetic.height, 100.0 * double(options.synthetic.sampleFraction));
+              synthetic.width, synthetic.height, 100.0 * double(synthetic.sampleFraction));
   std::printf("paper: (L+1)^2 x 4 channels x 1 byte per sample (order 8, 8 bits: 324 bytes); a table or pca field is "
               "set against 324\n\n");
   std::printf("| field      | order or encoding | layers | q   | c | bytes/sample | coeff/sample | paper | ratio | MiB/object |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
-  Row paperCase;
+}
+
+// One row per synthetic order, quantization and channel count; `paperCase` receives the row the
+// paper's figure is set against (order 8, u8, 4 channels).
+bool measureSynthetic(Context& context, const SyntheticOptions& synthetic, Row& paperCase) {
   for (uint32_t order : {1u, 2u, 4u, 8u, 12u, 16u})
     for (Quantization q : {Quantization::U8, Quantization::F16})
       for (uint32_t channels : {4u, 3u}) {
-        SyntheticOptions o = options.synthetic;
+        SyntheticOptions o = synthetic;
         o.order = order;
         o.quantization = q;
         o.channels = channels;
         Row row;
-        if (!measure(syntheticField(o), "synthetic", row)) return 1;
+        if (!measure(context, syntheticField(o), "synthetic", row)) return false;
         printRow(row);
         if (order == 8 && q == Quantization::U8 && channels == 4) paperCase = row;
       }
-  for (const std::string& path : options.fields) {
+  return true;
+}
+
+// One row per FIELD.shrf given; a missing file is skipped, an unreadable one fails.
+bool measureFields(Context& context, const std::vector<std::string>& fields) {
+  for (const std::string& path : fields) {
     if (!std::filesystem::exists(path)) {
       std::printf("SKIPPED: %s does not exist\n", path.c_str());
       continue;
@@ -117,19 +124,35 @@ int run(const Options& options) {
     auto field = readField(path);
     if (!field) {
       std::fprintf(stderr, "%s\n", field.error().message.c_str());
-      return 1;
+      return false;
     }
     Row row;
-    if (!measure(field.value(), std::filesystem::path(path).filename().string(), row)) return 1;
+    if (!measure(context, field.value(), std::filesystem::path(path).filename().string(), row)) return false;
     printRow(row);
     std::printf("  (%s: %llu samples in a %llu-texel atlas, %llu triangles)\n", path.c_str(),
                 static_cast<unsigned long long>(row.samples), static_cast<unsigned long long>(row.texels),
                 static_cast<unsigned long long>(row.triangles));
   }
+  return true;
+}
+
+void printPaperComparison(const Row& paperCase) {
   const double perSample = double(paperCase.objectBytes) / double(paperCase.samples);
   std::printf("\norder 8, u8, 4 channels: %.1f bytes per sample in all, against the paper's 324 (ratio %.2f); of "
               "which coefficients 324, frame 48, texel index 4, and the distortion image and mesh the rest\n",
               perSample, perSample / 324.0);
+}
+
+int run(const Options& options) {
+  bool noDevice = false;
+  auto gpu = createGpu(options.validation, &noDevice);
+  if (!gpu) return noDevice ? 0 : 1;
+  Context& context = *gpu->context;
+  printHeader(gpu->harness->deviceName(), options.synthetic);
+  Row paperCase;
+  if (!measureSynthetic(context, options.synthetic, paperCase)) return 1;
+  if (!measureFields(context, options.fields)) return 1;
+  printPaperComparison(paperCase);
   if (const uint32_t messages = gpu->harness->messageCount(); messages) {
     std::fprintf(stderr, "%u Vulkan validation message(s)\n", messages);
     return 1;

@@ -408,35 +408,32 @@ void printGpuSummary(const Args& args, const Request& r, const Inputs& in, const
               wallMean, wallMedian, wall.empty() ? 0.0 : wall.front(), wall.empty() ? 0.0 : wall.back(), seconds);
 }
 
-// SH field and single-interface modes: the engine's passes on the GPU.
-int renderGpu(const Args& args, const Request& r, const Inputs& in, const Camera& camera) {
-  const auto start = std::chrono::steady_clock::now();
-  harness::HarnessOptions options;
-  options.enableValidation = !args.has("no-validation");
-  options.deviceIndex = r.device;
-  auto session = offscreen::createSession(options);
-  if (!session) {
-    // A device index the machine does not have is a usage error naming the flag.
-    if (r.device >= 0 && session.error().code == ErrorCode::InvalidArgument)
-      return fail(usage("shrefract render: --device " + std::to_string(r.device) + ": " + session.error().message), 2);
-    return fail(session.error());
-  }
-  offscreen::Session& s = *session.value();
-  auto env = offscreen::uploadEnvironment(s, in.environment, args.has("cube-env"));
-  if (!env) return fail(env.error());
+// A session that could not be created; exits 2 when the --device flag is to blame.
+int sessionFailure(const Request& r, const Error& error) {
+  // A device index the machine does not have is a usage error naming the flag.
+  if (r.device >= 0 && error.code == ErrorCode::InvalidArgument)
+    return fail(usage("shrefract render: --device " + std::to_string(r.device) + ": " + error.message), 2);
+  return fail(error);
+}
+
+// The field, or the scene's objects, on the device, with --absorption applied.
+Result<std::vector<std::unique_ptr<Object>>> uploadObjects(offscreen::Session& s, const Request& r, const Inputs& in) {
   std::vector<std::unique_ptr<Object>> objects;
   if (in.field) {
     auto uploaded = offscreen::uploadField(s, *in.field);
-    if (!uploaded) return fail(makeError(uploaded.error().code, r.input + ": " + uploaded.error().message));
+    if (!uploaded) return makeError(uploaded.error().code, r.input + ": " + uploaded.error().message);
     objects.push_back(std::move(uploaded).value());
   } else {
     auto uploaded = offscreen::uploadScene(s, *in.scene);
-    if (!uploaded) return fail(uploaded.error());
+    if (!uploaded) return uploaded.error();
     objects = std::move(uploaded).value();
   }
   for (auto& o : objects)
     if (r.absorption) o->shading.absorptionScale = *r.absorption;
+  return objects;
+}
 
+offscreen::FrameSettings frameSettingsFor(const Request& r, const Camera& camera) {
   offscreen::FrameSettings frame;
   frame.camera = camera;
   if (r.size) {
@@ -449,16 +446,38 @@ int renderGpu(const Args& args, const Request& r, const Inputs& in, const Camera
   frame.samplesPerAxis = r.samplesPerAxis;
   frame.environmentTapsPerAxis = r.environmentTaps.value_or(frame.environmentTapsPerAxis);
   frame.msaaSamples = static_cast<VkSampleCountFlagBits>(r.msaa);  // 1, 2, 4, 8 are the flag bits
+  return frame;
+}
+
+// A frame that could not be rendered; exits 2 when the --msaa flag is to blame.
+int frameFailure(const Request& r, const Error& error) {
+  // A sample count the device does not offer is the flag's fault: name it.
+  if (r.msaa > 1 && error.code == ErrorCode::Unsupported)
+    return fail(usage("shrefract render: --msaa " + std::to_string(r.msaa) + ": " + error.message), 2);
+  return fail(error);
+}
+
+// SH field and single-interface modes: the engine's passes on the GPU.
+int renderGpu(const Args& args, const Request& r, const Inputs& in, const Camera& camera) {
+  const auto start = std::chrono::steady_clock::now();
+  harness::HarnessOptions options;
+  options.enableValidation = !args.has("no-validation");
+  options.deviceIndex = r.device;
+  auto session = offscreen::createSession(options);
+  if (!session) return sessionFailure(r, session.error());
+  offscreen::Session& s = *session.value();
+  auto env = offscreen::uploadEnvironment(s, in.environment, args.has("cube-env"));
+  if (!env) return fail(env.error());
+  auto uploaded = uploadObjects(s, r, in);
+  if (!uploaded) return fail(uploaded.error());
+  std::vector<std::unique_ptr<Object>> objects = std::move(uploaded).value();
+
+  const offscreen::FrameSettings frame = frameSettingsFor(r, camera);
   std::vector<Object*> drawList;
   for (auto& o : objects) drawList.push_back(o.get());
   offscreen::FrameTimings timings;
   auto image = offscreen::renderFrame(s, *env.value(), drawList, frame, &timings);
-  if (!image) {
-    // A sample count the device does not offer is the flag's fault: name it.
-    if (r.msaa > 1 && image.error().code == ErrorCode::Unsupported)
-      return fail(usage("shrefract render: --msaa " + std::to_string(r.msaa) + ": " + image.error().message), 2);
-    return fail(image.error());
-  }
+  if (!image) return frameFailure(r, image.error());
   objects.clear();
   env.value().reset();
 

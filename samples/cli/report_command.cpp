@@ -1,7 +1,6 @@
 // `shrefract report [SCENES...] -o DIR`: error against run time for every setting.
 #include <cstdio>
 #include <filesystem>
-#include <optional>
 #include <string>
 
 #include <unistd.h>
@@ -87,33 +86,23 @@ void printSummary(const report::ReportResult& result, const std::string& out) {
   }
 }
 
-}  // namespace
+void printHelp(const std::vector<FlagSpec>& flags) {
+  std::printf("usage: shrefract report [SCENES...] -o DIR [flags]\n"
+              "  SCENES: builtin:NAME or glTF files; --allow-open, --ior, --absorption and --tessellation apply\n"
+              "  to them as in bake. Default: builtin:sphere and builtin:glass-of-water for the settings sweeps;\n"
+              "  the fidelity section takes the four built-in scenes and ../shared/assets/bunny.glb when it exists\n%s",
+              usageLines(flags).c_str());
+}
 
-int reportCommand(int argc, char** argv) {
-  const std::vector<FlagSpec> flags = reportFlags();
-  auto parsed = Args::parse("report", argc, argv, 2, flags);
-  if (!parsed) return usageError(parsed.error().message);
-  const Args& args = parsed.value();
-  if (args.has("help")) {
-    std::printf("usage: shrefract report [SCENES...] -o DIR [flags]\n"
-                "  SCENES: builtin:NAME or glTF files; --allow-open, --ior, --absorption and --tessellation apply\n"
-                "  to them as in bake. Default: builtin:sphere and builtin:glass-of-water for the settings sweeps;\n"
-                "  the fidelity section takes the four built-in scenes and ../shared/assets/bunny.glb when it exists\n%s",
-                usageLines(flags).c_str());
-    return 0;
-  }
-  if (!args.get("output")) return usageError("shrefract report: missing -o DIR");
+// -o DIR as a path without a trailing separator.
+std::string outputDirectoryOf(const Args& args) {
   // "out/" names the directory out, and its staging sibling must not land inside it.
   fs::path outPath = fs::path(*args.get("output")).lexically_normal();
   if (outPath.filename().empty()) outPath = outPath.parent_path();
-  const auto out = std::optional<std::string>(outPath.string());
-  if (args.has("full") && args.has("smoke")) return usageError("shrefract report: --full and --smoke exclude each other");
-  const SceneOverrides overrides = sceneOverridesFrom(args, true);
-  const bool sceneFlag = args.has("allow-open") || args.has("ior") || args.has("absorption") || args.has("tessellation");
-  if (sceneFlag && args.positional().empty())
-    return usageError("shrefract report: --allow-open, --ior, --absorption and --tessellation apply to the SCENES "
-                      "given; give at least one");
+  return outPath.string();
+}
 
+report::ReportOptions reportOptionsFrom(const Args& args, const SceneOverrides& overrides) {
   report::ReportOptions options;
   for (const std::string& scene : args.positional()) options.scenes.push_back(canonicalSceneSpec(scene, overrides));
   options.size = args.has("full") ? report::ReportSize::Full
@@ -129,33 +118,64 @@ int reportCommand(int argc, char** argv) {
   if (auto v = args.integer("samples").value()) options.samples = static_cast<uint64_t>(*v);
   if (auto v = args.integer("device").value()) options.deviceIndex = static_cast<int>(*v);
   options.fidelityOnly = args.has("fidelity-only");
+  return options;
+}
 
-  if (auto ok = checkOutputDirectory(*out); !ok) {
-    std::fprintf(stderr, "%s\n", ok.error().message.c_str());
-    return 1;
-  }
+// A failed report: its staging directory goes, and the exit code says whose fault it was.
+int reportFailure(const Error& error, const fs::path& staging, int deviceIndex) {
+  std::error_code ec;
+  fs::remove_all(staging, ec);
+  // A device index the machine does not have is a usage error naming the flag.
+  const std::string message = error.message;
+  const bool badDevice = deviceIndex >= 0 && message.find("device index") != std::string::npos;
+  if (badDevice) return usageError("shrefract report: --device " + std::to_string(deviceIndex) + ": " + message);
+  std::fprintf(stderr, "%s\n", message.c_str());
+  return error.code == ErrorCode::NoDevice ? kExitNoDevice : 1;
+}
+
+// Runs the report into a staging directory and moves it to `out` once complete.
+int runStaged(report::ReportOptions& options, const std::string& out) {
   // Written beside DIR and moved into place once complete: a failed run leaves nothing behind.
   // An interrupt removes it as well (the report runs for hours).
-  const fs::path staging = *out + ".partial-" + std::to_string(getpid());
+  const fs::path staging = out + ".partial-" + std::to_string(getpid());
   const RemoveOnInterrupt removeStaging(staging);
   options.outputDirectory = staging.string();
   auto result = report::runReport(options);
   if (result) {
     const auto held = holdInterrupts();
-    if (auto moved = publish(staging, *out); !moved) result = moved.error();
+    if (auto moved = publish(staging, out); !moved) result = moved.error();
   }
-  if (!result) {
-    std::error_code ec;
-    fs::remove_all(staging, ec);
-    // A device index the machine does not have is a usage error naming the flag.
-    const std::string message = result.error().message;
-    const bool badDevice = options.deviceIndex >= 0 && message.find("device index") != std::string::npos;
-    if (badDevice) return usageError("shrefract report: --device " + std::to_string(options.deviceIndex) + ": " + message);
-    std::fprintf(stderr, "%s\n", message.c_str());
-    return result.error().code == ErrorCode::NoDevice ? kExitNoDevice : 1;
-  }
-  printSummary(result.value(), *out);
+  if (!result) return reportFailure(result.error(), staging, options.deviceIndex);
+  printSummary(result.value(), out);
   return 0;
+}
+
+}  // namespace
+
+int reportCommand(int argc, char** argv) {
+  const std::vector<FlagSpec> flags = reportFlags();
+  auto parsed = Args::parse("report", argc, argv, 2, flags);
+  if (!parsed) return usageError(parsed.error().message);
+  const Args& args = parsed.value();
+  if (args.has("help")) {
+    printHelp(flags);
+    return 0;
+  }
+  if (!args.get("output")) return usageError("shrefract report: missing -o DIR");
+  const std::string out = outputDirectoryOf(args);
+  if (args.has("full") && args.has("smoke")) return usageError("shrefract report: --full and --smoke exclude each other");
+  const SceneOverrides overrides = sceneOverridesFrom(args, true);
+  const bool sceneFlag = args.has("allow-open") || args.has("ior") || args.has("absorption") || args.has("tessellation");
+  if (sceneFlag && args.positional().empty())
+    return usageError("shrefract report: --allow-open, --ior, --absorption and --tessellation apply to the SCENES "
+                      "given; give at least one");
+
+  report::ReportOptions options = reportOptionsFrom(args, overrides);
+  if (auto ok = checkOutputDirectory(out); !ok) {
+    std::fprintf(stderr, "%s\n", ok.error().message.c_str());
+    return 1;
+  }
+  return runStaged(options, out);
 }
 
 }  // namespace shrefract::cli
