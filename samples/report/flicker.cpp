@@ -52,6 +52,49 @@ Camera orbitCamera(uint32_t t) {
   return c;
 }
 
+// The tool's default field for `spec`, at the profile's sample budget.
+bake::BakeOptions orbitBakeOptions(const FlickerOptions& options, const OrbitProfile& p, const std::string& spec) {
+  bake::BakeOptions bo;
+  bo.settings = defaultFieldSettings();
+  bo.settings.source = spec;
+  bo.settings.sampleBudget = p.samples;
+  bo.settings.threads = options.threads;
+  bo.heldOutDirections = 0;
+  return bo;
+}
+
+offscreen::FrameSettings orbitFrameSettings(const OrbitProfile& p, uint32_t t) {
+  offscreen::FrameSettings fs;
+  fs.width = p.width;
+  fs.height = p.height;
+  fs.camera = orbitCamera(t);
+  fs.mode = ShadingMode::Field;
+  return fs;
+}
+
+bake::ReferenceOptions orbitReferenceOptions(const FlickerOptions& options, const OrbitProfile& p,
+                                             const Camera& camera) {
+  bake::ReferenceOptions ro;
+  ro.mode = bake::ReferenceMode::FullTree;
+  ro.width = p.width;
+  ro.height = p.height;
+  ro.camera = camera;
+  ro.samplesPerAxis = 4;
+  ro.threads = options.threads;
+  return ro;
+}
+
+// Writes frame t's field and reference images as FOLDER/field_TT.png and FOLDER/reference_TT.png.
+Result<void> writeOrbitFrame(const FlickerOptions& options, const std::string& folder, uint32_t t,
+                             const bake::Image& field, const bake::Image& reference, std::vector<std::string>& files) {
+  for (const auto& [name, image] : {std::pair{"field", &field}, std::pair{"reference", &reference}}) {
+    const std::string file = folder + fmt("/%s_%02u.png", name, t);
+    if (auto w = bake::writeImage(options.outputDirectory + "/" + file, *image); !w) return w.error();
+    files.push_back(file);
+  }
+  return {};
+}
+
 Result<FlickerScene> orbitScene(const FlickerOptions& options, const OrbitProfile& p, const std::string& spec,
                                 offscreen::Session& session, const Environment& gpuEnvironment,
                                 const bake::Image& environment, std::vector<std::string>& files) {
@@ -60,12 +103,7 @@ Result<FlickerScene> orbitScene(const FlickerOptions& options, const OrbitProfil
   if (!scene) return scene.error();
   auto tracer = bake::Tracer::create(scene.value());
   if (!tracer) return makeError(tracer.error().code, spec + ": " + tracer.error().message);
-  bake::BakeOptions bo;
-  bo.settings = defaultFieldSettings();
-  bo.settings.source = spec;
-  bo.settings.sampleBudget = p.samples;
-  bo.settings.threads = options.threads;
-  bo.heldOutDirections = 0;
+  const bake::BakeOptions bo = orbitBakeOptions(options, p, spec);
   auto field = bake::bakeField(scene.value(), bo);
   if (!field) return makeError(field.error().code, spec + ": bake: " + field.error().message);
   auto object = offscreen::uploadField(session, field.value());
@@ -76,27 +114,14 @@ Result<FlickerScene> orbitScene(const FlickerOptions& options, const OrbitProfil
   std::vector<bake::Image> fieldFrames, referenceFrames;
   std::vector<std::vector<uint8_t>> masks;
   for (uint32_t t = 0; t < p.frames; ++t) {
-    offscreen::FrameSettings fs;
-    fs.width = p.width;
-    fs.height = p.height;
-    fs.camera = orbitCamera(t);
-    fs.mode = ShadingMode::Field;
+    const offscreen::FrameSettings fs = orbitFrameSettings(p, t);
     auto frame = offscreen::renderFrame(session, gpuEnvironment, {object.value().get()}, fs);
     if (!frame) return frame.error();
-    bake::ReferenceOptions ro;
-    ro.mode = bake::ReferenceMode::FullTree;
-    ro.width = p.width;
-    ro.height = p.height;
-    ro.camera = fs.camera;
-    ro.samplesPerAxis = 4;
-    ro.threads = options.threads;
+    const bake::ReferenceOptions ro = orbitReferenceOptions(options, p, fs.camera);
     auto reference = bake::renderReference(*tracer.value(), scene.value(), environment, ro);
     if (!reference) return makeError(reference.error().code, spec + ": reference: " + reference.error().message);
-    for (const auto& [name, image] : {std::pair{"field", &frame.value()}, std::pair{"reference", &reference.value().color}}) {
-      const std::string file = folder + fmt("/%s_%02u.png", name, t);
-      if (auto w = bake::writeImage(options.outputDirectory + "/" + file, *image); !w) return w.error();
-      files.push_back(file);
-    }
+    if (auto w = writeOrbitFrame(options, folder, t, frame.value(), reference.value().color, files); !w)
+      return w.error();
     fieldFrames.push_back(std::move(frame).value());
     masks.push_back(reference.value().mask);
     referenceFrames.push_back(std::move(reference.value().color));

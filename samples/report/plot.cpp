@@ -113,24 +113,34 @@ void drawText(bake::Image& image, int x, int y, const std::string& text, std::ar
   }
 }
 
-bake::Image renderPlot(const Plot& plot, uint32_t width, uint32_t height) {
-  bake::Image img;
-  img.width = width;
-  img.height = height;
-  img.rgba.assign(size_t(width) * height * 4, 1.0f);
-  const std::array<float, 3> black{0.0f, 0.0f, 0.0f}, grey{0.85f, 0.85f, 0.85f};
-  size_t longestName = 0;
-  for (const auto& series : plot.series) longestName = std::max(longestName, series.name.size());
-  const int legendWidth = plot.legendOutside ? 6 * static_cast<int>(longestName) + 24 : 0;
-  const int left = 70, right = static_cast<int>(width) - 20 - legendWidth, top = 52,
-            bottom = static_cast<int>(height) - 50;
+namespace {
 
-  auto xOf = [&](double v) { return plot.logX ? std::log10(std::max(v, 1e-12)) : v; };
+const std::array<float, 3> kBlack{0.0f, 0.0f, 0.0f}, kGrey{0.85f, 0.85f, 0.85f};
+
+// Where the axes lie in the image (pixels) and the data range they span (x in axis units: log10
+// where the axis is logarithmic).
+struct PlotFrame {
+  int left = 0, right = 0, top = 0, bottom = 0;
+  bool logX = false;
+  double x0 = 0.0, x1 = 0.0, y0 = 0.0, y1 = 0.0;
+
+  double axisX(double v) const { return logX ? std::log10(std::max(v, 1e-12)) : v; }
+  int px(double v) const { return left + static_cast<int>((axisX(v) - x0) / (x1 - x0) * (right - left)); }
+  int py(double v) const { return bottom - static_cast<int>((v - y0) / (y1 - y0) * (bottom - top)); }
+};
+
+// Non-finite points, and points at x <= 0 on a logarithmic axis, are not drawn.
+bool plottable(const Plot& plot, const PlotPoint& p) {
+  return std::isfinite(p.x) && std::isfinite(p.y) && !(plot.logX && p.x <= 0.0);
+}
+
+// The data range of the plottable points, widened where empty or degenerate, then padded.
+void fitRange(const Plot& plot, PlotFrame& f) {
   double x0 = 1e300, x1 = -1e300, y0 = plot.yFromZero ? 0.0 : 1e300, y1 = -1e300;
   for (const auto& p : plot.points) {
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || (plot.logX && p.x <= 0.0)) continue;
-    x0 = std::min(x0, xOf(p.x));
-    x1 = std::max(x1, xOf(p.x));
+    if (!plottable(plot, p)) continue;
+    x0 = std::min(x0, f.axisX(p.x));
+    x1 = std::max(x1, f.axisX(p.x));
     y0 = std::min(y0, p.y);
     y1 = std::max(y1, p.y);
   }
@@ -152,51 +162,82 @@ bake::Image renderPlot(const Plot& plot, uint32_t width, uint32_t height) {
   x1 += padX;
   if (!plot.yFromZero) y0 -= 0.08 * (y1 - y0);
   y1 += 0.08 * (y1 - y0);
-  auto px = [&](double v) { return left + static_cast<int>((xOf(v) - x0) / (x1 - x0) * (right - left)); };
-  auto py = [&](double v) { return bottom - static_cast<int>((v - y0) / (y1 - y0) * (bottom - top)); };
+  f.x0 = x0;
+  f.x1 = x1;
+  f.y0 = y0;
+  f.y1 = y1;
+}
 
-  for (double t : niceTicks(y0, y1)) {
-    const int y = py(t);
-    drawLine(img, left, y, right, y, grey);
+PlotFrame frameFor(const Plot& plot, uint32_t width, uint32_t height) {
+  size_t longestName = 0;
+  for (const auto& series : plot.series) longestName = std::max(longestName, series.name.size());
+  const int legendWidth = plot.legendOutside ? 6 * static_cast<int>(longestName) + 24 : 0;
+  PlotFrame f;
+  f.left = 70;
+  f.right = static_cast<int>(width) - 20 - legendWidth;
+  f.top = 52;
+  f.bottom = static_cast<int>(height) - 50;
+  f.logX = plot.logX;
+  fitRange(plot, f);
+  return f;
+}
+
+// Grid lines with their tick values, the axis lines, the title and the axis labels.
+void drawAxes(bake::Image& img, const Plot& plot, const PlotFrame& f) {
+  for (double t : niceTicks(f.y0, f.y1)) {
+    const int y = f.py(t);
+    drawLine(img, f.left, y, f.right, y, kGrey);
     const std::string s = tickText(t);
-    drawText(img, left - 6 - 6 * static_cast<int>(s.size()), y - 3, s, black);
+    drawText(img, f.left - 6 - 6 * static_cast<int>(s.size()), y - 3, s, kBlack);
   }
-  for (double t : niceTicks(x0, x1)) {
-    const int x = left + static_cast<int>((t - x0) / (x1 - x0) * (right - left));
-    drawLine(img, x, top, x, bottom, grey);
+  for (double t : niceTicks(f.x0, f.x1)) {
+    const int x = f.left + static_cast<int>((t - f.x0) / (f.x1 - f.x0) * (f.right - f.left));
+    drawLine(img, x, f.top, x, f.bottom, kGrey);
     const std::string s = tickText(plot.logX ? std::pow(10.0, t) : t);
-    drawText(img, x - 3 * static_cast<int>(s.size()), bottom + 6, s, black);
+    drawText(img, x - 3 * static_cast<int>(s.size()), f.bottom + 6, s, kBlack);
   }
-  drawLine(img, left, bottom, right, bottom, black);
-  drawLine(img, left, top, left, bottom, black);
-  drawText(img, left, 10, plot.title, black, 2);
-  drawText(img, (left + right) / 2 - 3 * static_cast<int>(plot.xLabel.size()), bottom + 22, plot.xLabel, black);
-  drawText(img, 4, top - 16, plot.yLabel, black);
+  drawLine(img, f.left, f.bottom, f.right, f.bottom, kBlack);
+  drawLine(img, f.left, f.top, f.left, f.bottom, kBlack);
+  drawText(img, f.left, 10, plot.title, kBlack, 2);
+  drawText(img, (f.left + f.right) / 2 - 3 * static_cast<int>(plot.xLabel.size()), f.bottom + 22, plot.xLabel, kBlack);
+  drawText(img, 4, f.top - 16, plot.yLabel, kBlack);
+}
 
-  for (size_t s = 0; s < plot.series.size(); ++s) {
-    const PlotSeries& series = plot.series[s];
-    int lastX = 0, lastY = 0;
-    bool have = false;
-    for (const auto& p : plot.points) {
-      if (p.series != static_cast<int>(s) || !std::isfinite(p.x) || !std::isfinite(p.y) || (plot.logX && p.x <= 0.0))
-        continue;
-      const int x = px(p.x), y = py(p.y);
-      if (have && series.connect) drawLine(img, lastX, lastY, x, y, series.color);
-      for (int dy = -3; dy <= 3; ++dy)
-        for (int dx = -3; dx <= 3; ++dx)
-          if (dx * dx + dy * dy <= 9) setPixel(img, x + dx, y + dy, series.color);
-      drawText(img, x + 5, y - 10, p.label, series.color);
-      lastX = x;
-      lastY = y;
-      have = true;
-    }
-    // Legend, top right (inside the axes, or in the margin right of them).
-    const int ly = top + 4 + static_cast<int>(s) * 12;
-    const int lx = plot.legendOutside ? right + 20 : right - 6 * static_cast<int>(series.name.size()) - 16;
-    for (int dy = -2; dy <= 2; ++dy)
-      for (int dx = -2; dx <= 2; ++dx) setPixel(img, lx - 8 + dx, ly + 3 + dy, series.color);
-    drawText(img, lx, ly, series.name, series.color);
+// Series `s`: its points (dots, labels, and lines between them where it connects) and its legend entry.
+void drawSeries(bake::Image& img, const Plot& plot, const PlotFrame& f, size_t s) {
+  const PlotSeries& series = plot.series[s];
+  int lastX = 0, lastY = 0;
+  bool have = false;
+  for (const auto& p : plot.points) {
+    if (p.series != static_cast<int>(s) || !plottable(plot, p)) continue;
+    const int x = f.px(p.x), y = f.py(p.y);
+    if (have && series.connect) drawLine(img, lastX, lastY, x, y, series.color);
+    for (int dy = -3; dy <= 3; ++dy)
+      for (int dx = -3; dx <= 3; ++dx)
+        if (dx * dx + dy * dy <= 9) setPixel(img, x + dx, y + dy, series.color);
+    drawText(img, x + 5, y - 10, p.label, series.color);
+    lastX = x;
+    lastY = y;
+    have = true;
   }
+  // Legend, top right (inside the axes, or in the margin right of them).
+  const int ly = f.top + 4 + static_cast<int>(s) * 12;
+  const int lx = plot.legendOutside ? f.right + 20 : f.right - 6 * static_cast<int>(series.name.size()) - 16;
+  for (int dy = -2; dy <= 2; ++dy)
+    for (int dx = -2; dx <= 2; ++dx) setPixel(img, lx - 8 + dx, ly + 3 + dy, series.color);
+  drawText(img, lx, ly, series.name, series.color);
+}
+
+}  // namespace
+
+bake::Image renderPlot(const Plot& plot, uint32_t width, uint32_t height) {
+  bake::Image img;
+  img.width = width;
+  img.height = height;
+  img.rgba.assign(size_t(width) * height * 4, 1.0f);
+  const PlotFrame frame = frameFor(plot, width, height);
+  drawAxes(img, plot, frame);
+  for (size_t s = 0; s < plot.series.size(); ++s) drawSeries(img, plot, frame, s);
   return img;
 }
 
