@@ -208,4 +208,16 @@ double processCpuMs() {
   return double(ts.tv_sec) * 1e3 + double(ts.tv_nsec) * 1e-6;
 }
 
+Result<std::unique_ptr<Object>> uploadObject(Context& context, const Field& field) {
+  std::unique_ptr<Object> object;
+  auto uploaded = context.uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
+    auto created = Object::createFromField(context, field, cmd);
+    if (!created) return created.error();
+    object = std::move(created).value();
+    return {};
+  });
+  if (!uploaded) return uploaded.error();
+  return object;
+}
+
 }  // namespace shrefract::bench

@@ -6,6 +6,7 @@
 #include <shrefract/context.h>
 #include <shrefract/field.h>
 #include <shrefract/harness/harness.h>
+#include <shrefract/renderer.h>
 
 #include <cstdint>
 #include <memory>
@@ -91,5 +92,8 @@ double median(std::vector<double> values);
 // device's worker threads belong to the process, so the difference around a submission is the
 // CPU cost of its work, however busy the machine is.
 double processCpuMs();
+
+// `field` uploaded as the engine would (Object::createFromField through Context::uploadNow).
+Result<std::unique_ptr<Object>> uploadObject(Context& context, const Field& field);
 
 }  // namespace shrefract::bench

@@ -748,18 +748,6 @@ std::optional<int> loadField(const Options& options, Field& field) {
   return std::nullopt;
 }
 
-Result<std::unique_ptr<Object>> uploadObject(Context& context, const Field& field) {
-  std::unique_ptr<Object> object;
-  auto uploaded = context.uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
-    auto created = Object::createFromField(context, field, cmd);
-    if (!created) return created.error();
-    object = std::move(created).value();
-    return {};
-  });
-  if (!uploaded) return uploaded.error();
-  return object;
-}
-
 int run(const Options& options) {
   Field field;
   if (const std::optional<int> exitCode = loadField(options, field)) return *exitCode;

@@ -56,17 +56,12 @@ void printRow(const Row& r) {
 // Uploads `field` as the engine would and fills `row` with its layout and the object's device
 // memory; the object is released before returning, so rows never add up on the device.
 bool measure(Context& context, const Field& field, const std::string& name, Row& row) {
-  std::unique_ptr<Object> object;
-  auto uploaded = context.uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
-    auto created = Object::createFromField(context, field, cmd);
-    if (!created) return created.error();
-    object = std::move(created).value();
-    return {};
-  });
+  auto uploaded = uploadObject(context, field);
   if (!uploaded) {
     std::fprintf(stderr, "%s: %s\n", name.c_str(), uploaded.error().message.c_str());
     return false;
   }
+  std::unique_ptr<Object> object = std::move(uploaded).value();
   row.name = name;
   const bool sh = field.encoding == Encoding::Sh;
   row.encoding = sh ? std::to_string(field.order) : encodingLabel(field);
