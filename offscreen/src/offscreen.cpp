@@ -237,10 +237,10 @@ Result<FrameTargets> createFrameTargets(harness::Harness& h, uint32_t width, uin
   return FrameTargets{color.value(), depth.value(), resolve.value()};
 }
 
-void destroyFrameTargets(harness::Harness& h, FrameTargets& targets, bool msaa) {
+void destroyFrameTargets(harness::Harness& h, FrameTargets& targets) {
   h.destroyImage(targets.color);
   h.destroyImage(targets.depth);
-  if (msaa) h.destroyImage(targets.resolve);
+  if (targets.resolve.image) h.destroyImage(targets.resolve);
 }
 
 // What every frame of renderFrame records and where its timings go.
@@ -352,7 +352,7 @@ Result<bake::Image> renderFrame(Session& session, const Environment& environment
       !rendered.ok() ? Result<std::vector<float>>(rendered.error())
                      : h.readbackColor(msaa ? targets.value().resolve : targets.value().color,
                                        VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
-  destroyFrameTargets(h, targets.value(), msaa);
+  destroyFrameTargets(h, targets.value());
   if (!pixels) return pixels.error();
   bake::Image out;
   out.width = width;

@@ -46,15 +46,21 @@ std::vector<double> basisAtDirections(const DirectionGrid& grid, int order, int 
 
 using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
-// Normal equations (Y^T W Y + lambda R) c = Y^T W f, with R = diag((l (l+1))^2), solved by Eigen's
-// Cholesky (LLT) for every direction's column of Y^T W: the projection, basis x directions.
-// Nothing where the system is not positive definite.
-std::optional<RowMajor> regularizedProjection(const DirectionGrid& grid, const std::vector<double>& y, int order,
-                                              int nb, double lambda) {
+// W Y: the basis at each grid direction weighted by the direction's solid angle, directions x basis.
+// Its transpose is the plain projection (FitMethod::PlainProjection), basis x directions.
+RowMajor weightedBasis(const DirectionGrid& grid, const std::vector<double>& y, int nb) {
   const Eigen::Index nd = Eigen::Index(grid.directions.size());
   const Eigen::Map<const RowMajor> basis(y.data(), nd, nb);
   const Eigen::Map<const Eigen::VectorXd> weights(grid.weights.data(), nd);
-  const RowMajor weighted = (basis.array().colwise() * weights.array()).matrix();  // W Y
+  return (basis.array().colwise() * weights.array()).matrix();
+}
+
+// Normal equations (Y^T W Y + lambda R) c = Y^T W f, with R = diag((l (l+1))^2), solved by Eigen's
+// Cholesky (LLT) for every direction's column of Y^T W: the projection, basis x directions.
+// Nothing where the system is not positive definite.
+std::optional<RowMajor> regularizedProjection(const std::vector<double>& y, const RowMajor& weighted, int order,
+                                              double lambda) {
+  const Eigen::Map<const RowMajor> basis(y.data(), weighted.rows(), weighted.cols());
   Eigen::MatrixXd a = basis.transpose() * weighted;
   for (int l = 0; l <= order; ++l) {
     const double r = double(l) * (l + 1);
@@ -63,14 +69,6 @@ std::optional<RowMajor> regularizedProjection(const DirectionGrid& grid, const s
   const Eigen::LLT<Eigen::MatrixXd> llt(a);
   if (llt.info() != Eigen::Success) return std::nullopt;
   return RowMajor(llt.solve(weighted.transpose()));
-}
-
-// Plain projection: the basis weighted by each direction's solid angle, basis x directions.
-RowMajor plainProjection(const DirectionGrid& grid, const std::vector<double>& y, int nb) {
-  const Eigen::Index nd = Eigen::Index(grid.directions.size());
-  const Eigen::Map<const RowMajor> basis(y.data(), nd, nb);
-  const Eigen::Map<const Eigen::VectorXd> weights(grid.weights.data(), nd);
-  return RowMajor((basis.array().colwise() * weights.array()).matrix().transpose());
 }
 
 Result<void> checkFitInput(const DirectionGrid& grid, int order, double lambda, FitMethod method) {
@@ -101,8 +99,10 @@ Result<HemisphereFit> HemisphereFit::create(const DirectionGrid& grid, int order
   const std::vector<double> y = basisAtDirections(grid, order, nb);
   fit.basisAtGrid_.assign(y.size(), 0.0f);
   std::transform(y.begin(), y.end(), fit.basisAtGrid_.begin(), [](double v) { return static_cast<float>(v); });
-  std::optional<RowMajor> projection =
-      method == FitMethod::PlainProjection ? plainProjection(grid, y, nb) : regularizedProjection(grid, y, order, nb, lambda);
+  const RowMajor weighted = weightedBasis(grid, y, nb);
+  std::optional<RowMajor> projection = method == FitMethod::PlainProjection
+                                           ? RowMajor(weighted.transpose())
+                                           : regularizedProjection(y, weighted, order, lambda);
   if (!projection)
     return makeError(ErrorCode::InvalidArgument, "hemisphere fit: the normal equations are singular for order " +
                                                      std::to_string(order) + " on a " + std::to_string(grid.rows) +

@@ -413,12 +413,10 @@ class Importer {
   Result<PrimitiveData> readPrimitive(const std::string& where,
                                       const tinygltf::Primitive& primitive) const;
   Result<void> checkPerVertex(const std::string& what, size_t count, size_t vertexCount) const;
-  Result<std::vector<glm::vec3>> readNormals(const std::string& where,
-                                             const tinygltf::Primitive& primitive,
-                                             size_t vertexCount) const;
-  Result<std::vector<glm::vec2>> readUvs(const std::string& where,
-                                          const tinygltf::Primitive& primitive,
-                                          size_t vertexCount) const;
+  template <class T>
+  Result<std::vector<T>> readPerVertex(const std::string& where, const tinygltf::Primitive& primitive,
+                                       const char* semantic, size_t vertexCount,
+                                       Result<std::vector<T>> (Importer::*read)(int, const std::string&) const) const;
   Result<std::vector<uint32_t>> readTriangles(const std::string& where,
                                               const tinygltf::Primitive& primitive,
                                               size_t vertexCount) const;
@@ -884,42 +882,26 @@ Result<void> Importer::checkPerVertex(const std::string& what, size_t count,
   return {};
 }
 
-// The primitive's NORMAL, empty when it has none.
-Result<std::vector<glm::vec3>> Importer::readNormals(const std::string& where,
-                                                    const tinygltf::Primitive& primitive,
-                                                    size_t vertexCount) const {
-  const int accessor = attributeAccessor(primitive, "NORMAL");
+// The primitive's per-vertex attribute `semantic` read by `read` (readVec3, readTexcoords), empty
+// when it has none; one element per position or an error.
+template <class T>
+Result<std::vector<T>> Importer::readPerVertex(const std::string& where, const tinygltf::Primitive& primitive,
+                                               const char* semantic, size_t vertexCount,
+                                               Result<std::vector<T>> (Importer::*read)(int, const std::string&)
+                                                   const) const {
+  const int accessor = attributeAccessor(primitive, semantic);
   if (accessor < 0) {
-    return std::vector<glm::vec3>();
+    return std::vector<T>();
   }
-  const std::string what = describeAccessor(where, accessor, "NORMAL");
-  Result<std::vector<glm::vec3>> read = readVec3(accessor, what);
-  if (!read) {
-    return read.error();
+  const std::string what = describeAccessor(where, accessor, semantic);
+  Result<std::vector<T>> values = (this->*read)(accessor, what);
+  if (!values) {
+    return values.error();
   }
-  if (Result<void> counted = checkPerVertex(what, read->size(), vertexCount); !counted) {
+  if (Result<void> counted = checkPerVertex(what, values->size(), vertexCount); !counted) {
     return counted.error();
   }
-  return read;
-}
-
-// The primitive's TEXCOORD_0, empty when it has none.
-Result<std::vector<glm::vec2>> Importer::readUvs(const std::string& where,
-                                                 const tinygltf::Primitive& primitive,
-                                                 size_t vertexCount) const {
-  const int accessor = attributeAccessor(primitive, "TEXCOORD_0");
-  if (accessor < 0) {
-    return std::vector<glm::vec2>();
-  }
-  const std::string what = describeAccessor(where, accessor, "TEXCOORD_0");
-  Result<std::vector<glm::vec2>> read = readTexcoords(accessor, what);
-  if (!read) {
-    return read.error();
-  }
-  if (Result<void> counted = checkPerVertex(what, read->size(), vertexCount); !counted) {
-    return counted.error();
-  }
-  return read;
+  return values;
 }
 
 // The primitive's triangle corners: its indices, or every vertex in order when it has none.
@@ -958,12 +940,12 @@ Result<PrimitiveData> Importer::readPrimitive(const std::string& where,
   }
   data.positions = std::move(positions.value());
   const size_t vertexCount = data.positions.size();
-  Result<std::vector<glm::vec3>> normals = readNormals(where, primitive, vertexCount);
+  Result<std::vector<glm::vec3>> normals = readPerVertex(where, primitive, "NORMAL", vertexCount, &Importer::readVec3);
   if (!normals) {
     return normals.error();
   }
   data.normals = std::move(normals.value());
-  Result<std::vector<glm::vec2>> uvs = readUvs(where, primitive, vertexCount);
+  Result<std::vector<glm::vec2>> uvs = readPerVertex(where, primitive, "TEXCOORD_0", vertexCount, &Importer::readTexcoords);
   if (!uvs) {
     return uvs.error();
   }
