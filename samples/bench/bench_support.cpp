@@ -8,7 +8,10 @@
 
 namespace shrefract::bench {
 
-Field syntheticField(const SyntheticOptions& o) {
+namespace {
+
+// The field's header from the options: sizes, encoding, channels, settings and its two media.
+Field syntheticHeader(const SyntheticOptions& o) {
   const bool sh = o.encoding == Encoding::Sh;
   Field f;
   f.width = o.width;
@@ -32,57 +35,84 @@ Field syntheticField(const SyntheticOptions& o) {
   f.settings.source = "synthetic";
   f.media.push_back(FieldMedium{"air", 1.0f, 0.0f, {1.0f, 1.0f, 1.0f}});
   f.media.push_back(FieldMedium{"glass", 1.5f, f.hasOpticalDepth() ? 0.5f : 0.0f, {1.0f, 1.0f, 1.0f}});
+  return f;
+}
 
+// The first `samples` texels are samples of a unit square in z = 0, each with the identity
+// rotation and the translation that takes (x, y, 0) to its origin: w = eye - p.
+void placeSamples(Field& f, uint64_t samples, uint32_t width, uint32_t height) {
   const uint64_t texels = f.texelCount();
-  const uint64_t samples =
-      std::min<uint64_t>(texels, static_cast<uint64_t>(double(texels) * double(std::clamp(o.sampleFraction, 0.0f, 1.0f))));
   f.texelKinds.assign(texels, kTexelEmpty);
   f.frames.assign(texels * 12, 0.0f);
   for (uint64_t t = 0; t < samples; ++t) {
     f.texelKinds[t] = kTexelSample;
-    // Identity rotation, the sample at (x, y, 0) of a unit square: w = eye - p.
-    const float x = (float(t % o.width) + 0.5f) / float(o.width) - 0.5f;
-    const float y = (float(t / o.width) + 0.5f) / float(o.height) - 0.5f;
+    const float x = (float(t % width) + 0.5f) / float(width) - 0.5f;
+    const float y = (float(t / width) + 0.5f) / float(height) - 0.5f;
     float* m = &f.frames[t * 12];
     m[0] = 1.0f, m[3] = -x;
     m[5] = 1.0f, m[7] = -y;
     m[10] = 1.0f;
   }
+}
 
-  std::mt19937 rng(o.seed);
+// Pca: a random basis whose mean component points mostly along -z (never a zero sum), with
+// plausible jump distances and throughputs in their channels.
+void randomBasis(Field& f, const SyntheticOptions& o, std::mt19937& rng) {
   std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+  const uint32_t decoded = f.decodedChannels();
+  const size_t nodes = size_t(o.tableSize) * o.tableSize;
+  f.basis.resize(size_t(o.components) * nodes * o.channels);
+  for (size_t i = 0; i < f.basis.size(); ++i) {
+    const size_t k = i / (nodes * o.channels), c = i % o.channels;
+    f.basis[i] = 0.25f * uniform(rng);
+    if (c == decoded) f.basis[i] = k == 0 ? 0.1f + 0.5f * f.basis[i] : 0.01f * f.basis[i];  // jump distance
+    else if (o.throughput && c == decoded - 1) f.basis[i] = k == 0 ? 0.5f + f.basis[i] : 0.1f * f.basis[i];
+    else if (k == 0 && c == 2) f.basis[i] -= 1.0f;
+  }
+}
+
+// Random coefficients for the sample texels, layer-major as encodeCoefficients takes them.
+std::vector<float> randomCoefficients(const Field& f, const SyntheticOptions& o, uint64_t samples, std::mt19937& rng) {
+  std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+  const uint64_t texels = f.texelCount();
   const uint32_t layers = f.layerCount(), values = f.valuesPerLayer();
   const uint32_t decoded = f.decodedChannels();
-  auto isThroughput = [&](uint32_t c) { return o.throughput && c == decoded - 1; };
-  if (o.encoding == Encoding::Pca) {  // before the coefficients: encodeCoefficients checks its size
-    const size_t nodes = size_t(o.tableSize) * o.tableSize;
-    f.basis.resize(size_t(o.components) * nodes * o.channels);
-    for (size_t i = 0; i < f.basis.size(); ++i) {
-      const size_t k = i / (nodes * o.channels), c = i % o.channels;
-      f.basis[i] = 0.25f * uniform(rng);
-      if (c == decoded) f.basis[i] = k == 0 ? 0.1f + 0.5f * f.basis[i] : 0.01f * f.basis[i];  // jump distance
-      else if (isThroughput(uint32_t(c))) f.basis[i] = k == 0 ? 0.5f + f.basis[i] : 0.1f * f.basis[i];
-      else if (k == 0 && c == 2) f.basis[i] -= 1.0f;
-    }
-  }
   std::vector<float> coefficients(size_t(layers) * texels * values, 0.0f);
   for (uint32_t layer = 0; layer < layers; ++layer)
     for (uint64_t t = 0; t < samples; ++t)
       for (uint32_t v = 0; v < values; ++v) {
         float x = uniform(rng);
         if (o.encoding == Encoding::Pca) x += layer == 0 ? 4.0f : 0.0f;  // the mean component
-        else if (isThroughput(v)) x = 0.5f + 0.5f * x;
+        else if (o.throughput && v == decoded - 1) x = 0.5f + 0.5f * x;
         else if (v == 2 && (layer == 0 || o.encoding == Encoding::Table)) x -= 4.0f;  // mostly -z: never a zero sum
         coefficients[(size_t(layer) * texels + t) * values + v] = x;
       }
-  (void)encodeCoefficients(f, coefficients);
+  return coefficients;
+}
 
-  // Render mesh: the unit square in z = 0, facing +z, atlas coordinates over the whole atlas.
-  f.mesh.positions = {-0.5f, -0.5f, 0.0f, 0.5f, -0.5f, 0.0f, 0.5f, 0.5f, 0.0f, -0.5f, 0.5f, 0.0f};
-  f.mesh.normals = {0.0f, 0.0f, 1.0f, 0.0f, 0.0f, 1.0f, 0.0f, 0.0f, 1.0f, 0.0f, 0.0f, 1.0f};
-  f.mesh.uvs = {0.0f, 0.0f, 1.0f, 0.0f, 1.0f, 1.0f, 0.0f, 1.0f};
-  f.mesh.frontIor = {1.5f, 1.5f, 1.5f, 1.5f};
-  f.mesh.indices = {0, 1, 2, 0, 2, 3};
+// The unit square in z = 0, facing +z, atlas coordinates over the whole atlas.
+FieldMesh unitSquareMesh() {
+  FieldMesh mesh;
+  mesh.positions = {-0.5f, -0.5f, 0.0f, 0.5f, -0.5f, 0.0f, 0.5f, 0.5f, 0.0f, -0.5f, 0.5f, 0.0f};
+  mesh.normals = {0.0f, 0.0f, 1.0f, 0.0f, 0.0f, 1.0f, 0.0f, 0.0f, 1.0f, 0.0f, 0.0f, 1.0f};
+  mesh.uvs = {0.0f, 0.0f, 1.0f, 0.0f, 1.0f, 1.0f, 0.0f, 1.0f};
+  mesh.frontIor = {1.5f, 1.5f, 1.5f, 1.5f};
+  mesh.indices = {0, 1, 2, 0, 2, 3};
+  return mesh;
+}
+
+}  // namespace
+
+Field syntheticField(const SyntheticOptions& o) {
+  Field f = syntheticHeader(o);
+  const uint64_t texels = f.texelCount();
+  const uint64_t samples =
+      std::min<uint64_t>(texels, static_cast<uint64_t>(double(texels) * double(std::clamp(o.sampleFraction, 0.0f, 1.0f))));
+  placeSamples(f, samples, o.width, o.height);
+  std::mt19937 rng(o.seed);  // one generator: the basis's draws, then the coefficients'
+  if (o.encoding == Encoding::Pca) randomBasis(f, o, rng);  // before the coefficients: encodeCoefficients checks its size
+  (void)encodeCoefficients(f, randomCoefficients(f, o, samples, rng));
+  f.mesh = unitSquareMesh();
   return f;
 }
 

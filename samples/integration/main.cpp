@@ -496,6 +496,55 @@ struct BoxPush {
   std::array<float, 4> color;
 };
 
+VkShaderModule createShaderModule(VkDevice device, const uint32_t* code, size_t bytes) {
+  VkShaderModuleCreateInfo smci{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+  smci.codeSize = bytes;
+  smci.pCode = code;
+  VkShaderModule m = VK_NULL_HANDLE;
+  check(vkCreateShaderModule(device, &smci, nullptr, &m), "vkCreateShaderModule");
+  return m;
+}
+
+// The boxes' fixed-function state, kept together because the create info points into it.
+struct BoxFixedState {
+  VkPipelineVertexInputStateCreateInfo vertexInput{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+  VkPipelineInputAssemblyStateCreateInfo assembly{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
+  VkPipelineViewportStateCreateInfo viewport{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
+  VkPipelineRasterizationStateCreateInfo raster{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
+  VkPipelineMultisampleStateCreateInfo multisample{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
+  VkPipelineDepthStencilStateCreateInfo depth{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
+  VkPipelineColorBlendAttachmentState blendAttachment{};
+  VkPipelineColorBlendStateCreateInfo blend{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
+  std::array<VkDynamicState, 2> dynamicStates{VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+  VkPipelineDynamicStateCreateInfo dynamic{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
+  VkFormat colorFormat = kColorFormat;
+  VkPipelineRenderingCreateInfo rendering{VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO};
+
+  BoxFixedState() {
+    assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+    viewport.viewportCount = viewport.scissorCount = 1;
+    raster.polygonMode = VK_POLYGON_MODE_FILL;
+    raster.cullMode = VK_CULL_MODE_BACK_BIT;
+    raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+    raster.lineWidth = 1.0f;
+    multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+    depth.depthTestEnable = VK_TRUE;
+    depth.depthWriteEnable = VK_TRUE;
+    depth.depthCompareOp = VK_COMPARE_OP_LESS;
+    blendAttachment.colorWriteMask =
+        VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
+    blend.attachmentCount = 1;
+    blend.pAttachments = &blendAttachment;
+    dynamic.dynamicStateCount = static_cast<uint32_t>(dynamicStates.size());
+    dynamic.pDynamicStates = dynamicStates.data();
+    rendering.colorAttachmentCount = 1;
+    rendering.pColorAttachmentFormats = &colorFormat;
+    rendering.depthAttachmentFormat = kDepthFormat;
+  }
+  BoxFixedState(const BoxFixedState&) = delete;  // its members point at each other
+  BoxFixedState& operator=(const BoxFixedState&) = delete;
+};
+
 BoxPipeline createBoxPipeline(VkDevice device) {
   BoxPipeline p;
   VkPushConstantRange range{VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(BoxPush)};
@@ -504,16 +553,8 @@ BoxPipeline createBoxPipeline(VkDevice device) {
   plci.pPushConstantRanges = &range;
   check(vkCreatePipelineLayout(device, &plci, nullptr, &p.layout), "vkCreatePipelineLayout");
 
-  auto module = [&](const uint32_t* code, size_t bytes) {
-    VkShaderModuleCreateInfo smci{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
-    smci.codeSize = bytes;
-    smci.pCode = code;
-    VkShaderModule m = VK_NULL_HANDLE;
-    check(vkCreateShaderModule(device, &smci, nullptr, &m), "vkCreateShaderModule");
-    return m;
-  };
-  const VkShaderModule vert = module(kSpirv_box_vert, sizeof(kSpirv_box_vert));
-  const VkShaderModule frag = module(kSpirv_box_frag, sizeof(kSpirv_box_frag));
+  const VkShaderModule vert = createShaderModule(device, kSpirv_box_vert, sizeof(kSpirv_box_vert));
+  const VkShaderModule frag = createShaderModule(device, kSpirv_box_frag, sizeof(kSpirv_box_frag));
   std::array<VkPipelineShaderStageCreateInfo, 2> stages{};
   stages[0] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
   stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
@@ -523,50 +564,19 @@ BoxPipeline createBoxPipeline(VkDevice device) {
   stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
   stages[1].module = frag;
 
-  VkPipelineVertexInputStateCreateInfo vertexInput{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
-  VkPipelineInputAssemblyStateCreateInfo assembly{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
-  assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
-  VkPipelineViewportStateCreateInfo viewport{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
-  viewport.viewportCount = viewport.scissorCount = 1;
-  VkPipelineRasterizationStateCreateInfo raster{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
-  raster.polygonMode = VK_POLYGON_MODE_FILL;
-  raster.cullMode = VK_CULL_MODE_BACK_BIT;
-  raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
-  raster.lineWidth = 1.0f;
-  VkPipelineMultisampleStateCreateInfo multisample{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
-  multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
-  VkPipelineDepthStencilStateCreateInfo depth{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
-  depth.depthTestEnable = VK_TRUE;
-  depth.depthWriteEnable = VK_TRUE;
-  depth.depthCompareOp = VK_COMPARE_OP_LESS;
-  VkPipelineColorBlendAttachmentState blendAttachment{};
-  blendAttachment.colorWriteMask =
-      VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
-  VkPipelineColorBlendStateCreateInfo blend{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
-  blend.attachmentCount = 1;
-  blend.pAttachments = &blendAttachment;
-  const std::array<VkDynamicState, 2> dynamicStates{VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
-  VkPipelineDynamicStateCreateInfo dynamic{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
-  dynamic.dynamicStateCount = static_cast<uint32_t>(dynamicStates.size());
-  dynamic.pDynamicStates = dynamicStates.data();
-  VkPipelineRenderingCreateInfo rendering{VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO};
-  const VkFormat colorFormat = kColorFormat;
-  rendering.colorAttachmentCount = 1;
-  rendering.pColorAttachmentFormats = &colorFormat;
-  rendering.depthAttachmentFormat = kDepthFormat;
-
+  const BoxFixedState state;
   VkGraphicsPipelineCreateInfo gpci{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
-  gpci.pNext = &rendering;  // dynamic rendering: no VkRenderPass
+  gpci.pNext = &state.rendering;  // dynamic rendering: no VkRenderPass
   gpci.stageCount = static_cast<uint32_t>(stages.size());
   gpci.pStages = stages.data();
-  gpci.pVertexInputState = &vertexInput;
-  gpci.pInputAssemblyState = &assembly;
-  gpci.pViewportState = &viewport;
-  gpci.pRasterizationState = &raster;
-  gpci.pMultisampleState = &multisample;
-  gpci.pDepthStencilState = &depth;
-  gpci.pColorBlendState = &blend;
-  gpci.pDynamicState = &dynamic;
+  gpci.pVertexInputState = &state.vertexInput;
+  gpci.pInputAssemblyState = &state.assembly;
+  gpci.pViewportState = &state.viewport;
+  gpci.pRasterizationState = &state.raster;
+  gpci.pMultisampleState = &state.multisample;
+  gpci.pDepthStencilState = &state.depth;
+  gpci.pColorBlendState = &state.blend;
+  gpci.pDynamicState = &state.dynamic;
   gpci.layout = p.layout;
   const VkResult r = vkCreateGraphicsPipelines(device, VK_NULL_HANDLE, 1, &gpci, nullptr, &p.pipeline);
   vkDestroyShaderModule(device, vert, nullptr);

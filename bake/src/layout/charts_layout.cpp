@@ -264,6 +264,35 @@ bool boxMeetsTriangle(glm::dvec2 c, double half, const Tri2& q) {
   return true;
 }
 
+struct NearestTexel {
+  uint32_t texel = kNoSample;
+  double distance2 = std::numeric_limits<double>::infinity();  // squared, in texels
+};
+
+// The nearest texel of `chart` holding its own sample to texel (x, y): rings of growing Chebyshev
+// radius until no closer one can come.
+NearestTexel nearestChartTexel(const Raster& raster, uint32_t width, uint32_t height, uint32_t x, uint32_t y,
+                               uint32_t chart) {
+  NearestTexel best;
+  const int64_t cx = x, cy = y;
+  for (int64_t r = 1;; ++r) {
+    for (int64_t dy = -r; dy <= r; ++dy) {
+      const int64_t yy = cy + dy;
+      if (yy < 0 || yy >= int64_t(height)) continue;
+      const bool edgeRow = dy == -r || dy == r;
+      for (int64_t dx = -r; dx <= r; dx += edgeRow ? 1 : 2 * r) {
+        const int64_t xx = cx + dx;
+        if (xx < 0 || xx >= int64_t(width)) continue;
+        const uint32_t other = static_cast<uint32_t>(yy * width + xx);
+        if (!raster.primary[other] || raster.texelChart[other] != chart) continue;
+        const double d2 = double(dx * dx + dy * dy);
+        if (d2 < best.distance2) best = {other, d2};
+      }
+    }
+    if (best.distance2 <= double((r + 1) * (r + 1)) || r > int64_t(std::max(width, height))) return best;
+  }
+}
+
 // Fills the texels within kGutter texels of each chart (and not inside one) with the sample of the
 // nearest texel of that chart; where two charts reach a texel, the nearer sample wins. Returns,
 // per texel, the squared distance in texels to the sample it copies (infinity where none).
@@ -296,33 +325,10 @@ std::vector<double> fillGutters(const FrontMesh& front, const Placement& placeme
           if (raster.primary[texel] || visited[texel] == chart) continue;
           if (!boxMeetsTriangle(glm::dvec2(x + 0.5, y + 0.5), half, q)) continue;
           visited[texel] = chart;
-          // Nearest texel of the chart holding its own sample: rings of growing Chebyshev radius
-          // until no closer one can come.
-          double best = std::numeric_limits<double>::infinity();
-          uint32_t bestTexel = kNoSample;
-          const int64_t cx = x, cy = y;
-          for (int64_t r = 1;; ++r) {
-            for (int64_t dy = -r; dy <= r; ++dy) {
-              const int64_t yy = cy + dy;
-              if (yy < 0 || yy >= int64_t(height)) continue;
-              const bool edgeRow = dy == -r || dy == r;
-              for (int64_t dx = -r; dx <= r; dx += edgeRow ? 1 : 2 * r) {
-                const int64_t xx = cx + dx;
-                if (xx < 0 || xx >= int64_t(width)) continue;
-                const uint32_t other = static_cast<uint32_t>(yy * width + xx);
-                if (!raster.primary[other] || raster.texelChart[other] != chart) continue;
-                const double d2 = double(dx * dx + dy * dy);
-                if (d2 < best) {
-                  best = d2;
-                  bestTexel = other;
-                }
-              }
-            }
-            if (best <= double((r + 1) * (r + 1)) || r > int64_t(std::max(width, height))) break;
-          }
-          if (bestTexel != kNoSample && best < assigned[texel]) {
-            assigned[texel] = best;
-            raster.texelSample[texel] = raster.texelSample[bestTexel];
+          const NearestTexel nearest = nearestChartTexel(raster, width, height, x, y, chart);
+          if (nearest.texel != kNoSample && nearest.distance2 < assigned[texel]) {
+            assigned[texel] = nearest.distance2;
+            raster.texelSample[texel] = raster.texelSample[nearest.texel];
             raster.texelChart[texel] = chart;
           }
         }
