@@ -283,13 +283,14 @@ struct Probe {
 // discontinuity on either side of the sample is seen (one probe per axis, toward the quad
 // neighbour, missed half of them).
 // Per lookup and axis, the derivative is the central difference where both probes went the same
-// way for that lookup (same surface, same key), the one-sided difference where one did: the
+// way for that lookup (same surface, same key; the front reflection: same surface, no crease
+// between; see counterpart), the one-sided difference where one did: the
 // engine's fine derivatives, measured inside the cell. Where neither did, a discontinuity lies
 // inside the cell; the difference to a probe with as many lookups (the exact path's exit beyond
 // it, a tree of the same size) stays the derivative, so the lookup spreads over the directions
 // the cell sees, as the engine's quad derivatives do, where a point lookup would sparkle.
-// A probe that went another way (a silhouette, another highest-energy branch, another number of
-// interfaces) has a discontinuity between it and the sample. Where it lies is found by
+// A probe that went another way (a silhouette, a crease, another highest-energy branch, another
+// number of interfaces) has a discontinuity between it and the sample. Where it lies is found by
 // bisection (kCrossingBisections traces, to 1/16 of a cell): at distance t, the box filter over
 // the cell sees the probe's side over 1/2 - t of that axis, and the probe's colour enters with
 // that share (shareBeyondCrossings: where crossings on one x and one y half-axis fix a straight
@@ -349,6 +350,7 @@ class SubSampler {
   void probeAt(float bx, float by, Probe& p, uint64_t& rays) const;
   static bool sameWay(const Probe& a, const Probe& b);
   static glm::vec3 axisDerivative(const Probe& self, const Probe& after, const Probe& before, size_t i);
+  static const glm::vec3* counterpart(const Probe& self, const Probe& p, size_t i);
   float crossingDistance(Neighbourhood& n, size_t k, uint64_t& rays) const;
   glm::vec3 blendAcross(Neighbourhood& n, glm::vec3 own, uint64_t& rays) const;
   glm::vec3 ownSideMean(const Neighbourhood& n, glm::vec3 own, const std::array<bool, 4>& across,
@@ -472,21 +474,43 @@ void SubSampler::probeAt(float bx, float by, Probe& p, uint64_t& rays) const {
   lookups(p);
 }
 
+// Shading normals further apart than acos(kCreaseCosine) meet at a crease (the cube's edges): the
+// reflection, and the light through the face, change there as at a path discontinuity. Between 15
+// and 60 deg the four built-in scenes render the same; half a pixel apart a smooth surface's normals
+// turn that far only at its silhouette.
+constexpr float kCreaseCosine = 0.8660254f;  // cos 30 deg
+
+// Two probes went the same way: both missed, or both hit the same surface on the same side of any
+// crease, with the same lookup keys.
 bool SubSampler::sameWay(const Probe& a, const Probe& b) {
-  return a.t.hit.hit == b.t.hit.hit && (!a.t.hit.hit || a.t.hit.surface == b.t.hit.surface) && a.keys == b.keys;
+  if (a.t.hit.hit != b.t.hit.hit || a.keys != b.keys) return false;
+  return !a.t.hit.hit || (a.t.hit.surface == b.t.hit.surface &&
+                          glm::dot(a.t.hit.shadingNormal, b.t.hit.shadingNormal) > kCreaseCosine);
+}
+
+// Probe p's direction for the sample's lookup i, or null where p went another way for it.
+// - The front reflection (lookup 0) depends on the surface alone: p's reflection where p hit the
+//   same surface on the same side of any crease, whatever the paths behind do. A tree of another
+//   shape left it at level 0, where it sparkled; a difference across a crease spread it over both
+//   faces' reflections.
+// - Any other lookup: p's lookup i where p's lookups correspond (as many) and it has the same key.
+// (docs/antialiasing.md, "Creases and the front reflection".)
+const glm::vec3* SubSampler::counterpart(const Probe& self, const Probe& p, size_t i) {
+  if (!p.t.hit.hit || p.t.hit.surface != self.t.hit.surface) return nullptr;
+  if (i == 0) return glm::dot(p.t.hit.shadingNormal, self.t.hit.shadingNormal) > kCreaseCosine ? &p.dirs[0] : nullptr;
+  return p.dirs.size() == self.dirs.size() && p.keys[i] == self.keys[i] ? &p.dirs[i] : nullptr;
 }
 
 // Lookup i's derivative along one axis from the probes half a cell before and after the sample.
 glm::vec3 SubSampler::axisDerivative(const Probe& self, const Probe& after, const Probe& before, size_t i) {
-  auto same = [&](const Probe& p) {
-    return p.t.hit.hit && p.t.hit.surface == self.t.hit.surface && p.dirs.size() == self.dirs.size() &&
-           p.keys[i] == self.keys[i];
-  };
-  const bool a = same(after), b = same(before);
-  if (a && b) return (after.dirs[i] - before.dirs[i]) / (2.0f * kProbeOffset);
+  const glm::vec3* a = counterpart(self, after, i);
+  const glm::vec3* b = counterpart(self, before, i);
+  if (a && b) return (*a - *b) / (2.0f * kProbeOffset);
   auto alike = [&](const Probe& p) { return p.dirs.size() == self.dirs.size(); };
-  if (a || (!b && alike(after))) return (after.dirs[i] - self.dirs[i]) / kProbeOffset;
-  if (b || alike(before)) return (self.dirs[i] - before.dirs[i]) / kProbeOffset;
+  if (a) return (*a - self.dirs[i]) / kProbeOffset;
+  if (b) return (self.dirs[i] - *b) / kProbeOffset;
+  if (alike(after)) return (after.dirs[i] - self.dirs[i]) / kProbeOffset;
+  if (alike(before)) return (self.dirs[i] - before.dirs[i]) / kProbeOffset;
   return glm::vec3(0.0f);
 }
 
