@@ -276,11 +276,12 @@ struct EncodingCase {
 // channels: SH order 8, Table 9x9 and Pca K = 324 in u8, SH order 5 and Table 6x6 in f16 (288
 // bytes); with the throughput as a fifth channel: SH order 7 and Table 8x8 in u8 (320 bytes).
 // Pca K = 64 shows how the Pca cost scales with K; SH order 8 and Table 9x9 with 5 channels show
-// what the throughput channel alone costs at the same order or table. "nodes" is the tool's default
-// bake (Pca traced at its table nodes), whose cells are decoded jump-aware (docs/encodings.md);
-// with "+jump distance" as the tool bakes it: 5 channels for glass that absorbs (the built-in
-// scenes), 4 for glass that does not (the bunny).
-constexpr std::array<EncodingCase, 14> kEncodingCases{{
+// what the throughput channel alone costs at the same order or table. "nodes" is Pca traced at its
+// table nodes, whose cells are decoded jump-aware (docs/encodings.md), "+jump distance" with that
+// channel: 5 channels for glass that absorbs (the built-in scenes), 4 for glass that does not (the
+// bunny). The tool's default bake is the N=64 case: 64x64 node tables, a basis 16 times the N=16
+// cases' (324 x 4096 nodes x 5 channels, 26.5 MB of floats).
+constexpr std::array<EncodingCase, 15> kEncodingCases{{
     {"sh L=8 (paper)", Encoding::Sh, 8, 0, 0, 4, false, Quantization::U8},
     {"sh L=5", Encoding::Sh, 5, 0, 0, 4, false, Quantization::F16},
     {"table 9x9", Encoding::Table, 0, 9, 0, 4, false, Quantization::U8},
@@ -290,6 +291,8 @@ constexpr std::array<EncodingCase, 14> kEncodingCases{{
     {"pca K=324 N=16 nodes +jump distance", Encoding::Pca, 0, 16, 324, 5, false, Quantization::U8,
      DirectionSampling::Nodes, true},
     {"pca K=324 N=16 nodes 3ch +jump distance", Encoding::Pca, 0, 16, 324, 4, false, Quantization::U8,
+     DirectionSampling::Nodes, true},
+    {"pca K=324 N=64 nodes +jump distance (default)", Encoding::Pca, 0, 64, 324, 5, false, Quantization::U8,
      DirectionSampling::Nodes, true},
     {"pca K=64 N=16", Encoding::Pca, 0, 16, 64, 4, false, Quantization::U8},
     {"sh L=8 +throughput", Encoding::Sh, 8, 0, 0, 5, true, Quantization::U8},
