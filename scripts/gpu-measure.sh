@@ -4,7 +4,7 @@
 # the frame and decompression benchmarks with --validation (exit 1 on any message), then times:
 # the synthetic field filling the view (BEFORE's build against this one, alternated), each packed
 # field in a row of 4 at 1, 2 and 4 taps per axis, the single-interface shading, the host's 4x
-# MSAA and 4K, and each field's decompression. Writes ${OUT:-.}/gpu.log. As root (dpkg -x to /).
+# MSAA and 4K, each field's decompression and the encodings table (54289 and 1M samples). Writes ${OUT:-.}/gpu.log. As root (dpkg -x to /).
 #
 #   bash scripts/gpu-measure.sh DEST
 set -uo pipefail
@@ -53,3 +53,8 @@ for f in "${fields[@]}"; do
   echo "-- 3840x2160, taps 1,4"; frame --size 3840x2160 --frames 100 --env-taps 1,4 "$f" | grep -A4 "ratios to 1"
   echo "-- decompression"; "$B/shrefract_decompression_benchmark" "$f" --reps 15 | grep 'field:\|decompression pass\|fastest copy'
 done
+
+echo "== encodings (synthetic fields; the tool's default is the N=64 row)"
+"$B/shrefract_decompression_benchmark" --encodings --reps 2 --validation > /dev/null; echo "validation rc=$?"
+"$B/shrefract_decompression_benchmark" --encodings --reps 15
+"$B/shrefract_decompression_benchmark" --encodings --size 1000x1000 --reps 5
