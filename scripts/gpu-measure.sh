@@ -4,7 +4,8 @@
 # the frame and decompression benchmarks with --validation (exit 1 on any message), then times:
 # the synthetic field filling the view (BEFORE's build against this one, alternated), each packed
 # field in a row of 4 at 1, 2 and 4 taps per axis, the single-interface shading, the host's 4x
-# MSAA and 4K, each field's decompression and the encodings table (54289 and 1M samples). Writes ${OUT:-.}/gpu.log. As root (dpkg -x to /).
+# MSAA and 4K, each field's decompression, and the encodings table (54289 and 1M samples).
+# Writes ${OUT:-.}/gpu.log. As root (dpkg -x to /).
 #
 #   bash scripts/gpu-measure.sh DEST
 set -uo pipefail
