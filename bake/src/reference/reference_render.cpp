@@ -307,6 +307,7 @@ struct Neighbourhood {
   std::array<Probe, 4> around;  // +x, -x, +y, -y
   Probe between;                // scratch: a bisection's probe
   float x = 0.0f, y = 0.0f;     // the sample, in sub-pixels
+  bool keys = true;             // whether the probes' lookup keys tell ways apart (blendAcross)
   std::vector<Derivatives> derivatives;
   std::vector<Derivatives> footprints;  // scratch: a probe's, in blendAcross
 };
@@ -348,7 +349,7 @@ class SubSampler {
   Sample shade(const Probe& p, const std::vector<Derivatives>& derivatives) const;
   glm::vec3 transmitted(const Probe& p, const std::vector<Derivatives>& derivatives, Sample& sample) const;
   void probeAt(float bx, float by, Probe& p, uint64_t& rays) const;
-  static bool sameWay(const Probe& a, const Probe& b);
+  static bool sameWay(const Probe& a, const Probe& b, bool keys = true);
   static glm::vec3 axisDerivative(const Probe& self, const Probe& after, const Probe& before, size_t i);
   static const glm::vec3* counterpart(const Probe& self, const Probe& p, size_t i);
   float crossingDistance(Neighbourhood& n, size_t k, uint64_t& rays) const;
@@ -482,8 +483,8 @@ constexpr float kCreaseCosine = 0.8660254f;  // cos 30 deg
 
 // Two probes went the same way: both missed, or both hit the same surface on the same side of any
 // crease, with the same lookup keys.
-bool SubSampler::sameWay(const Probe& a, const Probe& b) {
-  if (a.t.hit.hit != b.t.hit.hit || a.keys != b.keys) return false;
+bool SubSampler::sameWay(const Probe& a, const Probe& b, bool keys) {
+  if (a.t.hit.hit != b.t.hit.hit || (keys && a.keys != b.keys)) return false;
   return !a.t.hit.hit || (a.t.hit.surface == b.t.hit.surface &&
                           glm::dot(a.t.hit.shadingNormal, b.t.hit.shadingNormal) > kCreaseCosine);
 }
@@ -521,7 +522,7 @@ float SubSampler::crossingDistance(Neighbourhood& n, size_t k, uint64_t& rays) c
   for (int b = 0; b < kCrossingBisections; ++b) {
     const float mid = 0.5f * (inside + beyond);
     probeAt(n.x + mid * kAroundX[k], n.y + mid * kAroundY[k], n.between, rays);
-    (sameWay(n.self, n.between) ? inside : beyond) = mid;
+    (sameWay(n.self, n.between, n.keys) ? inside : beyond) = mid;
   }
   return 0.5f * (inside + beyond);
 }
@@ -531,7 +532,17 @@ float SubSampler::crossingDistance(Neighbourhood& n, size_t k, uint64_t& rays) c
 // correspond: all of them in a probe with as many lookups, else those of the same key.
 glm::vec3 SubSampler::blendAcross(Neighbourhood& n, glm::vec3 own, uint64_t& rays) const {
   std::array<bool, 4> across{};
-  for (size_t k = 0; k < n.around.size(); ++k) across[k] = !sameWay(n.self, n.around[k]);
+  // The blend models one straight edge per cell. Where the silhouette crosses the cell, that edge
+  // is the silhouette, and in the full tree the probes that hit count as the sample's side
+  // whatever their keys. Near a rim the tree's keys change within a pixel: counted as
+  // discontinuities they put every probe across, each at the expected share whatever the
+  // coverage (the sphere's rim read as glass at half coverage). The exact mode keeps the keys:
+  // one path's colour jumps with its key there (sphere -0.57 dB without them;
+  // docs/antialiasing.md, "Silhouettes before keys").
+  bool silhouette = false;
+  for (const Probe& p : n.around) silhouette = silhouette || !p.t.hit.hit;
+  n.keys = !(o_.mode == ReferenceMode::FullTree && n.self.t.hit.hit && silhouette);
+  for (size_t k = 0; k < n.around.size(); ++k) across[k] = !sameWay(n.self, n.around[k], n.keys);
   // With both probes of an axis across, shareBeyondCrossings takes the expected share whatever
   // the distances: nothing to bisect.
   const bool bisect = !(across[0] && across[1]) && !(across[2] && across[3]);
