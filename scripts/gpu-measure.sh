@@ -20,7 +20,9 @@ unxz "$G/bins.tar.xz" | tar -x -C "$G"
 for f in "$F"/*.xz; do [ -e "$f" ] && unxz "$f" > "${f%.xz}"; done
 fields=("$F"/*.shrf)
 [ -e "${fields[0]}" ] || fields=()
+clocks() { nvidia-smi --query-gpu=clocks.sm,clocks.mem,temperature.gpu,power.draw --format=csv,noheader 2> /dev/null; }
 nvidia-smi --query-gpu=name,driver_version --format=csv 2> /dev/null
+echo "clocks (SM, memory, temperature, power): $(clocks)"
 frame() { "$B/shrefract_frame_benchmark" "$@"; }
 
 echo "== engine-only GPU tests"
@@ -55,7 +57,9 @@ for f in "${fields[@]}"; do
   echo "-- decompression"; "$B/shrefract_decompression_benchmark" "$f" --reps 15 | grep 'field:\|decompression pass\|fastest copy'
 done
 
-echo "== encodings (synthetic fields; the tool's default is the N=64 row)"
+echo "== encodings (synthetic fields; the tool's default is the N=64 row); clocks: $(clocks)"
 "$B/shrefract_decompression_benchmark" --encodings --reps 2 --validation > /dev/null; echo "validation rc=$?"
 "$B/shrefract_decompression_benchmark" --encodings --reps 15
+echo "clocks before 1M samples: $(clocks)"
 "$B/shrefract_decompression_benchmark" --encodings --size 1000x1000 --reps 5
+echo "clocks after: $(clocks)"
