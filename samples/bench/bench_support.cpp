@@ -55,6 +55,9 @@ void placeSamples(Field& f, uint64_t samples, uint32_t width, uint32_t height) {
   }
 }
 
+// Whether channel c of the field's decoded values is the throughput (the last, when it has one).
+bool isThroughputChannel(const Field& f, uint32_t c) { return f.throughput && c == f.decodedChannels() - 1; }
+
 // Pca: a random basis whose mean component points mostly along -z (never a zero sum), with
 // plausible jump distances and throughputs in their channels.
 void randomBasis(Field& f, const SyntheticOptions& o, std::mt19937& rng) {
@@ -66,7 +69,7 @@ void randomBasis(Field& f, const SyntheticOptions& o, std::mt19937& rng) {
     const size_t k = i / (nodes * o.channels), c = i % o.channels;
     f.basis[i] = 0.25f * uniform(rng);
     if (c == decoded) f.basis[i] = k == 0 ? 0.1f + 0.5f * f.basis[i] : 0.01f * f.basis[i];  // jump distance
-    else if (o.throughput && c == decoded - 1) f.basis[i] = k == 0 ? 0.5f + f.basis[i] : 0.1f * f.basis[i];
+    else if (isThroughputChannel(f, uint32_t(c))) f.basis[i] = k == 0 ? 0.5f + f.basis[i] : 0.1f * f.basis[i];
     else if (k == 0 && c == 2) f.basis[i] -= 1.0f;
   }
 }
@@ -76,14 +79,13 @@ std::vector<float> randomCoefficients(const Field& f, const SyntheticOptions& o,
   std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
   const uint64_t texels = f.texelCount();
   const uint32_t layers = f.layerCount(), values = f.valuesPerLayer();
-  const uint32_t decoded = f.decodedChannels();
   std::vector<float> coefficients(size_t(layers) * texels * values, 0.0f);
   for (uint32_t layer = 0; layer < layers; ++layer)
     for (uint64_t t = 0; t < samples; ++t)
       for (uint32_t v = 0; v < values; ++v) {
         float x = uniform(rng);
         if (o.encoding == Encoding::Pca) x += layer == 0 ? 4.0f : 0.0f;  // the mean component
-        else if (o.throughput && v == decoded - 1) x = 0.5f + 0.5f * x;
+        else if (isThroughputChannel(f, v)) x = 0.5f + 0.5f * x;
         else if (v == 2 && (layer == 0 || o.encoding == Encoding::Table)) x -= 4.0f;  // mostly -z: never a zero sum
         coefficients[(size_t(layer) * texels + t) * values + v] = x;
       }

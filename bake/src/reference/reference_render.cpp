@@ -307,7 +307,6 @@ struct Neighbourhood {
   std::array<Probe, 4> around;  // +x, -x, +y, -y
   Probe between;                // scratch: a bisection's probe
   float x = 0.0f, y = 0.0f;     // the sample, in sub-pixels
-  bool keys = true;             // whether the probes' lookup keys tell ways apart (blendAcross)
   std::vector<Derivatives> derivatives;
   std::vector<Derivatives> footprints;  // scratch: a probe's, in blendAcross
 };
@@ -352,7 +351,7 @@ class SubSampler {
   static bool sameWay(const Probe& a, const Probe& b, bool keys = true);
   static glm::vec3 axisDerivative(const Probe& self, const Probe& after, const Probe& before, size_t i);
   static const glm::vec3* counterpart(const Probe& self, const Probe& p, size_t i);
-  float crossingDistance(Neighbourhood& n, size_t k, uint64_t& rays) const;
+  float crossingDistance(Neighbourhood& n, size_t k, bool keys, uint64_t& rays) const;
   glm::vec3 blendAcross(Neighbourhood& n, glm::vec3 own, uint64_t& rays) const;
   glm::vec3 ownSideMean(const Neighbourhood& n, glm::vec3 own, const std::array<bool, 4>& across,
                         const std::array<float, 4>& crossing) const;
@@ -501,9 +500,11 @@ bool SubSampler::sameWay(const Probe& a, const Probe& b, bool keys) {
 // - Any other lookup: p's lookup i where p's lookups correspond (as many) and it has the same key.
 // (docs/antialiasing.md, "Creases and the front reflection".)
 const glm::vec3* SubSampler::counterpart(const Probe& self, const Probe& p, size_t i) {
-  if (!p.t.hit.hit || p.t.hit.surface != self.t.hit.surface) return nullptr;
+  if (!p.t.hit.hit) return nullptr;
   if (i == 0) return sameFace(p.t.hit, self.t.hit) ? &p.dirs[0] : nullptr;
-  return p.dirs.size() == self.dirs.size() && p.keys[i] == self.keys[i] ? &p.dirs[i] : nullptr;
+  return p.t.hit.surface == self.t.hit.surface && p.dirs.size() == self.dirs.size() && p.keys[i] == self.keys[i]
+             ? &p.dirs[i]
+             : nullptr;
 }
 
 // Lookup i's derivative along one axis from the probes half a cell before and after the sample.
@@ -521,12 +522,12 @@ glm::vec3 SubSampler::axisDerivative(const Probe& self, const Probe& after, cons
 
 // Where between the sample and probe k, which went another way, the way changes: its distance
 // from the sample in cells, in (0, kProbeOffset).
-float SubSampler::crossingDistance(Neighbourhood& n, size_t k, uint64_t& rays) const {
+float SubSampler::crossingDistance(Neighbourhood& n, size_t k, bool keys, uint64_t& rays) const {
   float inside = 0.0f, beyond = kProbeOffset;
   for (int b = 0; b < kCrossingBisections; ++b) {
     const float mid = 0.5f * (inside + beyond);
     probeAt(n.x + mid * kAroundX[k], n.y + mid * kAroundY[k], n.between, rays);
-    (sameWay(n.self, n.between, n.keys) ? inside : beyond) = mid;
+    (sameWay(n.self, n.between, keys) ? inside : beyond) = mid;
   }
   return 0.5f * (inside + beyond);
 }
@@ -545,8 +546,8 @@ glm::vec3 SubSampler::blendAcross(Neighbourhood& n, glm::vec3 own, uint64_t& ray
   // docs/antialiasing.md, "Silhouettes before keys").
   bool silhouette = false;
   for (const Probe& p : n.around) silhouette = silhouette || !p.t.hit.hit;
-  n.keys = !(o_.mode == ReferenceMode::FullTree && n.self.t.hit.hit && silhouette);
-  for (size_t k = 0; k < n.around.size(); ++k) across[k] = !sameWay(n.self, n.around[k], n.keys);
+  const bool keys = !(o_.mode == ReferenceMode::FullTree && n.self.t.hit.hit && silhouette);
+  for (size_t k = 0; k < n.around.size(); ++k) across[k] = !sameWay(n.self, n.around[k], keys);
   // With both probes of an axis across, shareBeyondCrossings takes the expected share whatever
   // the distances: nothing to bisect.
   const bool bisect = !(across[0] && across[1]) && !(across[2] && across[3]);
@@ -559,7 +560,7 @@ glm::vec3 SubSampler::blendAcross(Neighbourhood& n, glm::vec3 own, uint64_t& ray
     for (size_t i = 0; i < p.dirs.size() && i < n.self.dirs.size(); ++i)
       if (p.dirs.size() == n.self.dirs.size() || p.keys[i] == n.self.keys[i]) n.footprints[i] = n.derivatives[i];
     colour[k] = shade(p, n.footprints).color;
-    crossing[k] = bisect ? crossingDistance(n, k, rays) : kProbeOffset;
+    crossing[k] = bisect ? crossingDistance(n, k, keys, rays) : kProbeOffset;
   }
   const std::array<float, 4> share = shareBeyondCrossings(crossing);
   if (bisect && o_.mode == ReferenceMode::FullTree) own = ownSideMean(n, own, across, crossing);
