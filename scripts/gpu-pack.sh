@@ -10,6 +10,10 @@
 # DEST must be a folder git ignores (e.g. .gl, listed in .git/info/exclude); copy it to the
 # machine beside the checkout and run `bash scripts/gpu-measure.sh DEST` there.
 set -euo pipefail
+if [ $# -lt 2 ] || [ ! -x "${1}/samples/shrefract_frame_benchmark" ]; then
+  echo "usage: scripts/gpu-pack.sh BUILD DEST [BEFORE_FRAME_BENCHMARK] [FIELD.shrf ...] (BUILD: a build folder with the benchmarks)" >&2
+  exit 2
+fi
 build=$1 dest=$2
 shift 2
 before=""
