@@ -29,6 +29,9 @@ layout(std430, set = 0, binding = kBindingCoefficientsStorage) readonly buffer C
 layout(std430, set = 0, binding = kBindingFrames) readonly buffer Frames { vec4 frames[]; };
 layout(std430, set = 0, binding = kBindingSampleTexels) readonly buffer SampleTexels { uint sampleTexels[]; };
 layout(set = 0, binding = kBindingDistortionOut, rgba16f) uniform writeonly image2D distortion;
+// The eye's distance from each sample's nearest table jump (gpu_layout.h kBindingJumpOut); only
+// decompress_table.comp writes it, for fields with the jump distance channel.
+layout(set = 0, binding = kBindingJumpOut, r32f) uniform writeonly image2D jumpImage;
 
 uint fetchWord(uint index) {
   return COEFFICIENTS_STORAGE ? coefficientStorage[index] : texelFetch(coefficientWords, int(index)).x;
@@ -68,4 +71,9 @@ vec4 distortionTexel(vec3 xyz, float channel3, float channel4) {
 void storeSample(uint s, vec4 texel) {
   uint t = sampleTexels[s];
   imageStore(distortion, ivec2(t % pc.size.x, t / pc.size.x), texel);
+}
+
+void storeJump(uint s, float cells) {
+  uint t = sampleTexels[s];
+  imageStore(jumpImage, ivec2(t % pc.size.x, t / pc.size.x), vec4(cells));
 }

@@ -5,8 +5,9 @@
 //   Table: a_n,c(s);
 //   Pca:   the sum over the K components k of a_k(s) * B_k(n, c);
 // blended bilinearly, or jump-aware where the corners disagree (interpolateCorners below); the
-// sample's texel gets the result's distortion texel (decompress_common.glsl). Empty texels keep the
-// zero the image was created with; the gutter pass fills gutter texels. Mirrored by
+// sample's texel gets the result's distortion texel (decompress_common.glsl), and with the jump
+// distance channel the jump image its eyeJump. Empty texels keep the zero (the jump image: the
+// cap) the images were created with; the gutter pass fills gutter texels. Mirrored by
 // engine/src/field/field_decode.cpp (evaluateSample), which cpu_reference.cpp (decodeTexel) uses.
 //
 // One invocation per sample, reading its values sample-major (gpu_layout.h): a sample reads only
@@ -81,7 +82,9 @@ void sideCoefficients(HemiOctBilinear b, float kept[4], float keep[4], out float
 
 // Jump-aware interpolation of the cell's corners v (field_decode.cpp interpolateCorners, which
 // explains it; constants in gpu_layout.h), in the same float operations. sum: the DECODED channels.
-void interpolateCorners(uint s, HemiOctBilinear b, vec3 w, float v[4][6], inout float sum[5]) {
+// eyeJump: the eye's distance from the cell's jump (field_decode.cpp interpolateCorners' eyeJump),
+// left as it is where the decode does not get that far.
+void interpolateCorners(uint s, HemiOctBilinear b, vec3 w, float v[4][6], inout float sum[5], inout float eyeJump) {
   // Node-sampled exits blend by b_j |o_j| (field_decode.cpp interpolateCorners says why).
   float lengths[4] = float[4](1.0, 1.0, 1.0, 1.0);
   float exitWeight[4];
@@ -105,6 +108,7 @@ void interpolateCorners(uint s, HemiOctBilinear b, vec3 w, float v[4][6], inout 
   float distance[4] = float[4](0.0, 0.0, 0.0, 0.0);
   float estimate[5] = float[5](0.0, 0.0, 0.0, 0.0, 0.0);
   float dominance = 0.0, discounted = 0.0;
+  float nearest = -kJumpDistanceMaxCells;
   // field_decode.cpp jumpCosines: the reference angles, scaled down for finer cells, floored.
   float scale = TABLE_SIZE > kJumpReferenceTableSize ? float(kJumpReferenceTableSize) / float(TABLE_SIZE) : 1.0;
   float cosineFull = cos(radians(max(kJumpFullDegrees * scale, kJumpFullMinDegrees)));
@@ -115,7 +119,6 @@ void interpolateCorners(uint s, HemiOctBilinear b, vec3 w, float v[4][6], inout 
       distance[j] = clamp(v[j][DECODED] * (float(TABLE_SIZE - 1u) / kJumpDistanceScale), 0.0, kJumpDistanceMaxCells);
   for (int m = 0; m < 4; ++m) {
     float pm = JUMP_DISTANCE ? b.weight[m] : pow(b.weight[m], kJumpDominancePower);
-    if (!(pm > 0.0)) continue;
     float keep[4], kept[4];
     float signedDistance = 0.0;
     for (int j = 0; j < 4; ++j) {
@@ -125,6 +128,8 @@ void interpolateCorners(uint s, HemiOctBilinear b, vec3 w, float v[4][6], inout 
       kept[j] = b.weight[j] * keep[j];
       signedDistance += b.weight[j] * distance[j] * (2.0 * keep[j] - 1.0);
     }
+    nearest = max(nearest, signedDistance);  // every view's (field_decode.cpp says why)
+    if (!(pm > 0.0)) continue;
     if (JUMP_DISTANCE) pm *= clamp(0.5 + signedDistance / kJumpDistanceSoftness, 0.0, 1.0) + kJumpDistanceFloor;
     for (int j = 0; j < 4; ++j) discounted += pm * (b.weight[j] - kept[j]);
     float alpha[4];
@@ -136,6 +141,7 @@ void interpolateCorners(uint s, HemiOctBilinear b, vec3 w, float v[4][6], inout 
     }
     dominance += pm;
   }
+  if (JUMP_DISTANCE) eyeJump = clamp(nearest, 0.0, kJumpDistanceMaxCells);
   float blend = min(1.0, kJumpBlendGain * discounted / dominance);
   if (!(blend > 0.0)) return;
   for (int c = 0; c < DECODED; ++c) sum[c] += blend * (estimate[c] / dominance - sum[c]);
@@ -167,6 +173,8 @@ void main() {
     }
   }
   float sum[5] = float[5](0.0, 0.0, 0.0, 0.0, 0.0);
-  interpolateCorners(s, b, w, v, sum);
+  float eyeJump = kJumpDistanceMaxCells;
+  interpolateCorners(s, b, w, v, sum, eyeJump);
   storeSample(s, distortionTexel(objectExit(s, vec3(sum[0], sum[1], sum[2])), sum[3], sum[4]));
+  if (JUMP_DISTANCE) storeJump(s, eyeJump);
 }

@@ -6,6 +6,7 @@
 
 layout(push_constant) uniform Push { ObjectPushConstants pc; };
 layout(set = 1, binding = kBindingDistortion) uniform sampler2D distortionMap;
+layout(set = 1, binding = kBindingJumpDistance) uniform sampler2D jumpMap;  // texelFetch only
 
 layout(location = 0) in vec3 inPosition;
 layout(location = 1) in vec3 inNormal;
@@ -26,6 +27,8 @@ layout(constant_id = kSpecSilhouetteCoverage) const bool SILHOUETTE_COVERAGE = f
 struct TexelCell {
   vec3 exit[4];  // unit, object space; zero where the texel is empty
   float weight[4];
+  float jumpCells[4];  // the jump image's distances
+  vec2 fraction;       // where the coordinate lies between the texels, along x and y
   float jump;
 };
 
@@ -54,10 +57,13 @@ TexelCell readCell(vec2 uv) {
   vec2 f = p - floor(p);
   TexelCell cell;
   cell.weight = float[]((1.0 - f.x) * (1.0 - f.y), f.x * (1.0 - f.y), (1.0 - f.x) * f.y, f.x * f.y);
+  cell.fraction = f;
   for (int k = 0; k < 4; ++k) {
-    vec3 d = texelFetch(distortionMap, clamp(corner + ivec2(k & 1, k >> 1), ivec2(0), size - 1), 0).xyz;
+    ivec2 texel = clamp(corner + ivec2(k & 1, k >> 1), ivec2(0), size - 1);
+    vec3 d = texelFetch(distortionMap, texel, 0).xyz;
     float len2 = dot(d, d);
     cell.exit[k] = len2 > kMinDirectionLength2 ? d * inversesqrt(len2) : vec3(0.0);
+    cell.jumpCells[k] = texelFetch(jumpMap, texel, 0).x;
   }
   float minCos = 1.0;
   for (int a = 0; a < 4; ++a)
@@ -67,15 +73,62 @@ TexelCell readCell(vec2 uv) {
   return cell;
 }
 
-// The cell's texels' own lookups blended by their bilinear weights, each divided by 1 + its luma
-// (a firefly-robust average: gpu_layout.h kLumaRed); w = 0 where no texel with weight holds an exit.
-vec4 cellColours(TexelCell cell, float footprint) {
+// Where the jump between the cell's texels lies, from the jump image (gpu_layout.h
+// kSpatialPlaceTrust says how): the share of the pixel on the side of the texel of largest weight
+// (own[k]: texel k is on it), or -1 where the cell does not qualify. texelsDx, texelsDy: the screen
+// axes' steps in texels. Mirrored by cpu_reference.cpp placedShare.
+float placedShare(TexelCell cell, vec2 texelsDx, vec2 texelsDy, out bool own[4]) {
+  int r = 0;
+  for (int k = 1; k < 4; ++k)
+    if (cell.weight[k] > cell.weight[r]) r = k;
+  float side[4];  // + the distance on r's side, - beyond
+  float ownWeight = 0.0;
+  bool across = false;
+  for (int k = 0; k < 4; ++k) {
+    own[k] = false;
+    if (cell.exit[k] == vec3(0.0) || !(cell.jumpCells[k] < kSpatialPlaceMaxCells)) return -1.0;
+    own[k] = dot(cell.exit[k], cell.exit[r]) > kSpatialSplitCosine;
+    across = across || !own[k];
+    side[k] = own[k] ? cell.jumpCells[k] : -cell.jumpCells[k];
+    ownWeight += own[k] ? cell.weight[k] : 0.0;
+  }
+  if (!across || scatterAfterOneJump(cell.exit) > kSpatialPlaceMaxScatter) return -1.0;
+  float fx = cell.fraction.x, fy = cell.fraction.y;
+  float at = (1.0 - fy) * ((1.0 - fx) * side[0] + fx * side[1]) + fy * ((1.0 - fx) * side[2] + fx * side[3]);
+  float alongX = (1.0 - fy) * (side[1] - side[0]) + fy * (side[3] - side[2]);
+  float alongY = (1.0 - fx) * (side[2] - side[0]) + fx * (side[3] - side[1]);
+  // The side function's change across the pixel: a linear function's box-filtered step.
+  float width = abs(alongX * texelsDx.x + alongY * texelsDx.y) + abs(alongX * texelsDy.x + alongY * texelsDy.y);
+  float placed = clamp(0.5 + at / max(width, 1e-6), 0.0, 1.0);
+  return ownWeight + kSpatialPlaceTrust * (placed - ownWeight);
+}
+
+// The texels' weights for a placed jump: `share` of the pixel to the texels of side `own`, the rest
+// to the others, each side's spread over its texels by their bilinear weights (at least 1e-4, so
+// that a side the coordinate sits away from still has a colour). Mirrored by cpu_reference.cpp
+// placedWeights.
+float[4] placedWeights(TexelCell cell, bool own[4], float share) {
+  float floorWeight[4], weights[4];
+  float ownSum = 0.0, otherSum = 0.0;
+  for (int k = 0; k < 4; ++k) {
+    floorWeight[k] = max(cell.weight[k], 1e-4);
+    if (own[k]) ownSum += floorWeight[k];
+    else otherSum += floorWeight[k];
+  }
+  for (int k = 0; k < 4; ++k) weights[k] = floorWeight[k] * (own[k] ? share / ownSum : (1.0 - share) / otherSum);
+  return weights;
+}
+
+// The cell's texels' own lookups blended by `weights` (the bilinear ones, or placedWeights), each
+// divided by 1 + its luma (a firefly-robust average: gpu_layout.h kLumaRed); w = 0 where no texel
+// with weight holds an exit.
+vec4 cellColours(TexelCell cell, float weights[4], float footprint) {
   vec3 sum = vec3(0.0);
   float weight = 0.0;
   for (int k = 0; k < 4; ++k) {
     if (cell.exit[k] == vec3(0.0)) continue;
     vec3 c = lookupEnvironment(rotateByQuaternion(pc.worldFromObjectRotation, cell.exit[k]), footprint);
-    float w = cell.weight[k] / (1.0 + dot(c, vec3(kLumaRed, kLumaGreen, kLumaBlue)));
+    float w = weights[k] / (1.0 + dot(c, vec3(kLumaRed, kLumaGreen, kLumaBlue)));
     sum += w * c;
     weight += w;
   }
@@ -130,8 +183,8 @@ vec3 directionsOverPixel(vec3 exitWorld, float exitBlur, vec3 ddx, vec3 ddy, vec
 
 // The transmitted light over the pixel: directionsOverPixel where the texels around the centre
 // agree, their own lookups' blend (cellColours, each at one tap's share of the footprint, widened
-// by the cell's scatter beyond kSpatialScatterThreshold) where they straddle a jump, linearly
-// between (TexelCell.jump). Once per pixel, not per tap: at 4x4 supersampling the same images
+// by the cell's scatter beyond kSpatialScatterThreshold; placed by the jump image where the cell
+// qualifies: placedShare) where they straddle a jump, linearly between (TexelCell.jump). Once per pixel, not per tap: at 4x4 supersampling the same images
 // (within 0.01 dB), at 1 spp 0.06 dB less, for a quarter of the lookups (docs/encodings.md
 // "Jumps across texels").
 vec3 transmittedOverPixel(vec3 exitWorld, float exitBlur, vec3 ddx, vec3 ddy, vec2 uv, vec2 uvDx, vec2 uvDy) {
@@ -140,7 +193,10 @@ vec3 transmittedOverPixel(vec3 exitWorld, float exitBlur, vec3 ddx, vec3 ddy, ve
   float footprint = directionFootprint(ddx / float(ENVIRONMENT_TAPS), ddy / float(ENVIRONMENT_TAPS));
   // Only here: a cell whose texels agree has no scatter to measure.
   float blur = kSpatialScatterBlur * max(scatterAfterOneJump(cell.exit) - kSpatialScatterThreshold, 0.0);
-  vec4 colours = cellColours(cell, widenedFootprint(footprint, blur));
+  vec2 size = vec2(textureSize(distortionMap, 0));
+  bool own[4];
+  float share = placedShare(cell, uvDx * size, uvDy * size, own);
+  vec4 colours = cellColours(cell, share < 0.0 ? cell.weight : placedWeights(cell, own, share), widenedFootprint(footprint, blur));
   float t = cell.jump * colours.w;
   if (t == 1.0) return colours.rgb;  // the direction taps would weigh nothing
   return mix(directionsOverPixel(exitWorld, exitBlur, ddx, ddy, uv, uvDx, uvDy), colours.rgb, t);

@@ -310,23 +310,34 @@ TEST(CpuReference, ShadeFieldOnAConstantEnvironment) {
 // Jumps across texels (gpu_layout.h kSpatialAgreeCosine): two texels whose exits are 90 deg apart
 // blend as colours, each texel's lookup weighed by its bilinear weight / (1 + luma), where the
 // blended direction would read a third colour no path sees; texels that agree blend as directions.
-// An environment of three regions: red where y > 0.5, green where x > 0.5, yellow where both.
+// A 64 x 32 lat-long environment of three regions, read at level 0: red where y > 0.5, green
+// where x > 0.5, yellow where both.
+struct RedUpGreenRight {
+  static constexpr uint32_t kW = 64, kH = 32;
+  std::vector<float> pixels = makePixels();
+  std::vector<std::vector<float>> noChain;
+  reference::LatLongImage env{kW, kH, pixels.data(), &noChain};
+
+  static std::vector<float> makePixels() {
+    std::vector<float> out(size_t(kW) * kH * 4);
+    for (uint32_t y = 0; y < kH; ++y)
+      for (uint32_t x = 0; x < kW; ++x) {
+        const float theta = (float(y) + 0.5f) / float(kH) * std::numbers::pi_v<float>;
+        const float phi = ((float(x) + 0.5f) / float(kW) - 0.5f) * 2.0f * std::numbers::pi_v<float>;
+        const float dx = std::sin(theta) * std::sin(phi), dy = std::cos(theta);
+        float* p = &out[(size_t(y) * kW + x) * 4];
+        p[0] = dy > 0.5f ? 1.0f : 0.0f;
+        p[1] = dx > 0.5f ? 1.0f : 0.0f;
+        p[2] = 0.0f;
+        p[3] = 1.0f;
+      }
+    return out;
+  }
+};
+
 TEST(CpuReference, TexelsAcrossAJumpBlendTheirColours) {
-  constexpr uint32_t kW = 64, kH = 32;
-  std::vector<float> envPixels(size_t(kW) * kH * 4);
-  for (uint32_t y = 0; y < kH; ++y)
-    for (uint32_t x = 0; x < kW; ++x) {
-      const float theta = (float(y) + 0.5f) / float(kH) * std::numbers::pi_v<float>;
-      const float phi = ((float(x) + 0.5f) / float(kW) - 0.5f) * 2.0f * std::numbers::pi_v<float>;
-      const float dx = std::sin(theta) * std::sin(phi), dy = std::cos(theta);
-      float* p = &envPixels[(size_t(y) * kW + x) * 4];
-      p[0] = dy > 0.5f ? 1.0f : 0.0f;
-      p[1] = dx > 0.5f ? 1.0f : 0.0f;
-      p[2] = 0.0f;
-      p[3] = 1.0f;
-    }
-  const std::vector<std::vector<float>> noChain;
-  const reference::LatLongImage env{kW, kH, envPixels.data(), &noChain};
+  const RedUpGreenRight regions;
+  const reference::LatLongImage& env = regions.env;
   reference::DistortionImage distortion;
   distortion.width = 2;
   distortion.height = 1;
@@ -364,6 +375,50 @@ TEST(CpuReference, TexelsAcrossAJumpBlendTheirColours) {
   p.uv = {0.25f, 0.25f};  // texel (0, 0)'s centre: bilinear weight 1 on the empty texel
   const reference::Vec3 empty = reference::shadeField(distortion, env, p, {0, 0, 4}, shading);
   for (int k = 0; k < 3; ++k) EXPECT_EQ(empty[k], 0.0f) << k;
+}
+
+// Placing the jump between texels (gpu_layout.h kSpatialPlaceTrust): texel 0 leaves +y (red), texel 1
+// +x (green), and the jump image says texel 0's view lies 0.1 cells from its table's jump and
+// texel 1's 0.3: the side function, +0.1 at texel 0 and -0.3 at texel 1, is zero a quarter of the
+// way from texel 0 (u = 0.375 between the centres at 0.25 and 0.75). Either side of it the red
+// share is the bilinear weight moved by kSpatialPlaceTrust toward 1 or 0, then weighed by
+// 1 / (1 + luma) as every jump cell's colours are. Derivatives of 1/100 of a texel: a sharp step.
+TEST(CpuReference, JumpImagePlacesTheJumpBetweenTexels) {
+  const RedUpGreenRight regions;
+  reference::DistortionImage distortion;
+  distortion.width = 2;
+  distortion.height = 1;
+  distortion.rgba = {0, 1, 0, 0, 1, 0, 0, 0};
+  reference::SurfacePoint p;
+  p.normal = {0, 0, 1};
+  p.frontIor = 1.0f;  // no reflection: the colour is the transmitted light
+  reference::LookupDerivatives d;
+  d.uvDx = {0.005f, 0.0f};  // a hundredth of a texel's 0.5
+  d.uvDy = {0.0f, 0.01f};
+  auto redAt = [&](float u) {
+    p.uv = {u, 0.5f};
+    const reference::Vec3 c = reference::shadeField(distortion, regions.env, p, {0, 0, 4}, ObjectShading{}, 1.0f,
+                                                    Transform{}, d);
+    return c[0];
+  };
+  // The colour of a red share s (one texel a side): luma-weighted as the blend is.
+  auto blended = [](float s) {
+    const float red = s / (1.0f + gpu::kLumaRed), green = (1.0f - s) / (1.0f + gpu::kLumaGreen);
+    return red / (red + green);
+  };
+  const float trust = gpu::kSpatialPlaceTrust;
+  distortion.jump = {0.1f, 0.3f};
+  EXPECT_NEAR(redAt(0.35f), blended(0.8f + trust * (1.0f - 0.8f)), 1e-4f) << "before the jump (t = 0.2)";
+  EXPECT_NEAR(redAt(0.40f), blended(0.7f + trust * (0.0f - 0.7f)), 1e-4f) << "past it (t = 0.3)";
+  EXPECT_NEAR(redAt(0.65f), blended(0.2f + trust * (0.0f - 0.2f)), 1e-4f) << "near texel 1, its side";
+  // The distances swapped: the jump three quarters of the way, so t = 0.3 is still red's side.
+  distortion.jump = {0.3f, 0.1f};
+  EXPECT_NEAR(redAt(0.40f), blended(0.7f + trust * (1.0f - 0.7f)), 1e-4f);
+  // A texel at the cap (no jump within a cell of its view), or no jump image: the bilinear blend.
+  for (const std::vector<float>& none : {std::vector<float>{0.1f, gpu::kJumpDistanceMaxCells}, std::vector<float>{}}) {
+    distortion.jump = none;
+    EXPECT_NEAR(redAt(0.40f), blended(0.7f), 1e-4f);
+  }
 }
 
 // A 64 x 32 lat-long environment of vertical stripes, red in every other 8 columns, green 0.5

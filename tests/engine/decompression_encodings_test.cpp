@@ -34,6 +34,9 @@ using testing::SyntheticFieldOptions;
 // float noise. A throughput only scales the unit direction down. Gutter texels are a + b - c of
 // three stored values, rounded once more: 3 x 1e-3 plus one ulp of the result.
 constexpr testing::DistortionTolerance kTolerance{/*direction=*/1e-3f, /*tauRelative=*/1e-3f, /*gutter=*/3e-3f};
+// The jump image (R32F, no rounding): the eye's distance in cells, from the corners' distances and
+// the sides' cosines, continuous in both, summed in the same order: float noise, ~1e-6.
+constexpr float kJumpTolerance = 1e-4f;
 
 struct ChannelLayout {
   uint32_t channels;
@@ -96,13 +99,20 @@ class DecompressionEncodings : public ::testing::Test {
     ObjectAccess::impl(*object.value()).field->coefficientsStorage |= forceCoefficientsStorage;
     testing::DistortionStats stats;
     std::vector<std::vector<float>> perEye;
+    uint32_t nearJump = 0;
     for (const auto& eye : kEyes) {
       auto gpu = testing::decompressAndRead(*h, *decompressor, *object.value(), eye);
       ASSERT_TRUE(gpu.ok()) << gpu.error().message;
-      ASSERT_NO_FATAL_FAILURE(
-          testing::compareDistortion(field, gpu.value(), reference::decompress(field, eye), kTolerance, stats));
+      const reference::DistortionImage cpu = reference::decompress(field, eye);
+      ASSERT_NO_FATAL_FAILURE(testing::compareDistortion(field, gpu.value(), cpu, kTolerance, stats));
+      auto jump = testing::readJumpImage(*h, *object.value());
+      ASSERT_TRUE(jump.ok()) << jump.error().message;
+      ASSERT_NO_FATAL_FAILURE(testing::compareJumpImage(field, jump.value(), cpu, kJumpTolerance, nearJump));
       perEye.push_back(std::move(gpu).value());
     }
+    // The jump image holds distances only where the field stores them.
+    if (o.jumpDistance) EXPECT_GT(nearJump, 50u) << "no sample's view lies within a cell of a jump";
+    else EXPECT_EQ(nearJump, 0u);
     EXPECT_GT(testing::countChanged(perEye[0], perEye[1]), 100u) << "the decoded field does not follow the eye";
     EXPECT_GT(stats.samples, 0u);
     EXPECT_GT(stats.gutters, 0u);
@@ -115,10 +125,10 @@ class DecompressionEncodings : public ::testing::Test {
       EXPECT_NEAR(lengths.back(), 1.0f, 1e-3f);
     }
     std::printf("%-40s%s: max |direction diff| %.2e, max tau rel diff %.2e, max gutter diff %.2e, |xyz| %.3f..%.3f "
-                "(%u sample, %u gutter, %u empty texel checks)\n",
+                "(%u sample, %u gutter, %u empty texel checks; %u sample views within a cell of a jump)\n",
                 describe(o).c_str(), forceCoefficientsStorage ? " storage" : "", double(stats.maxDirection),
                 double(stats.maxTau), double(stats.maxGutter), double(lengths.front()), double(lengths.back()),
-                stats.samples, stats.gutters, stats.empty);
+                stats.samples, stats.gutters, stats.empty, nearJump);
     object.value().reset();
     context->releaseDeferred();
   }

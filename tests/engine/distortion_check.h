@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <shrefract/cpu_reference.h>
 #include <shrefract/decompressor.h>
+#include <shrefract/gpu_layout.h>
 
 #include <algorithm>
 #include <cmath>
@@ -86,6 +87,27 @@ inline void compareDistortion(const Field& field, const std::vector<float>& gpu,
         ASSERT_LE(e, tolerance.gutter * std::max(1.0f, std::fabs(c[k]))) << "gutter texel " << t;
       }
     }
+  }
+}
+
+// Compares the jump image read back (`gpu`, one float a texel) with reference::decompress's: texels
+// that are not samples hold the cap exactly (cleared, or a gutter rule over capped values of a field
+// without distances: within `cells`), sample texels within `cells` (float sums in the same order on
+// both sides: the decode's differences of ~1e-6, far inside). Returns how many sample texels hold a
+// distance under the cap (a jump near the eye's view); fails (fatally) at the first texel outside.
+inline void compareJumpImage(const Field& field, const std::vector<float>& gpuJump,
+                             const reference::DistortionImage& cpu, float cells, uint32_t& nearJump) {
+  const std::vector<float>& g = gpuJump;
+  ASSERT_EQ(g.size(), cpu.jump.size());
+  for (uint64_t t = 0; t < field.texelCount(); ++t) {
+    const uint8_t kind = field.texelKinds[t];
+    if (kind == kTexelEmpty) {
+      ASSERT_EQ(g[t], gpu::kJumpDistanceMaxCells) << "empty texel " << t;
+      continue;
+    }
+    ASSERT_LE(std::fabs(g[t] - cpu.jump[t]), kind == kTexelSample ? cells : 3.0f * cells)
+        << "texel " << t << ": gpu " << g[t] << " cpu " << cpu.jump[t];
+    nearJump += kind == kTexelSample && cpu.jump[t] < gpu::kJumpDistanceMaxCells;
   }
 }
 

@@ -1,5 +1,5 @@
 // Shared by the engine's GPU tests: a context on the test harness, one-shot uploads, and the
-// read-back of an object's distortion image.
+// read-back of an object's distortion and jump images.
 #pragma once
 
 #include <shrefract/context.h>
@@ -40,11 +40,13 @@ inline float halfToFloat(uint16_t h) {
   return (h & 0x8000) ? -value : value;
 }
 
-// Copies the object's distortion image (RGBA16F, SHADER_READ_ONLY_OPTIMAL, as the engine leaves
-// it) to the host as floats, and returns it to SHADER_READ_ONLY_OPTIMAL.
-inline Result<std::vector<float>> readDistortion(harness::Harness& h, const Object& object) {
+// Copies one of the object's images of extent fieldExtent() (SHADER_READ_ONLY_OPTIMAL, as the
+// engine leaves them) to the host as `bytesPerTexel` bytes a texel, and returns it to
+// SHADER_READ_ONLY_OPTIMAL.
+inline Result<std::vector<uint8_t>> readFieldImage(harness::Harness& h, const Object& object, VkImage image,
+                                                   uint32_t bytesPerTexel) {
   const VkExtent2D extent = object.fieldExtent();
-  const VkDeviceSize bytes = VkDeviceSize(extent.width) * extent.height * 8;
+  const VkDeviceSize bytes = VkDeviceSize(extent.width) * extent.height * bytesPerTexel;
   auto staging = h.createHostBuffer(bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
   if (!staging) return staging.error();
   harness::Harness::Buffer buffer = staging.value();
@@ -57,7 +59,7 @@ inline Result<std::vector<float>> readDistortion(harness::Harness& h, const Obje
     toSrc.oldLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
     toSrc.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
     toSrc.srcQueueFamilyIndex = toSrc.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    toSrc.image = object.distortionImage();
+    toSrc.image = image;
     toSrc.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
     VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
     dep.imageMemoryBarrierCount = 1;
@@ -66,8 +68,7 @@ inline Result<std::vector<float>> readDistortion(harness::Harness& h, const Obje
     VkBufferImageCopy region{};
     region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
     region.imageExtent = {extent.width, extent.height, 1};
-    vkCmdCopyImageToBuffer(cmd, object.distortionImage(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, buffer.buffer, 1,
-                           &region);
+    vkCmdCopyImageToBuffer(cmd, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, buffer.buffer, 1, &region);
     VkImageMemoryBarrier2 back = toSrc;
     back.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
     back.srcAccessMask = 0;
@@ -85,14 +86,35 @@ inline Result<std::vector<float>> readDistortion(harness::Harness& h, const Obje
     dep.pMemoryBarriers = &host;
     vkCmdPipelineBarrier2(cmd, &dep);
   });
-  std::vector<float> out;
+  std::vector<uint8_t> out;
   if (submitted) {
-    const auto* p = static_cast<const uint16_t*>(buffer.mapped);
-    out.resize(size_t(extent.width) * extent.height * 4);
-    for (size_t i = 0; i < out.size(); ++i) out[i] = halfToFloat(p[i]);
+    const auto* p = static_cast<const uint8_t*>(buffer.mapped);
+    out.assign(p, p + bytes);
   }
   h.destroyBuffer(buffer);
   if (!submitted) return submitted.error();
+  return out;
+}
+
+// The object's distortion image (RGBA16F) as floats, four a texel.
+inline Result<std::vector<float>> readDistortion(harness::Harness& h, const Object& object) {
+  auto bytes = readFieldImage(h, object, object.distortionImage(), 8);
+  if (!bytes) return bytes.error();
+  std::vector<float> out(bytes.value().size() / 2);
+  for (size_t i = 0; i < out.size(); ++i) {
+    uint16_t half = 0;
+    std::memcpy(&half, &bytes.value()[i * 2], 2);
+    out[i] = halfToFloat(half);
+  }
+  return out;
+}
+
+// The object's jump image (R32F), one float a texel.
+inline Result<std::vector<float>> readJumpImage(harness::Harness& h, const Object& object) {
+  auto bytes = readFieldImage(h, object, object.jumpImage(), 4);
+  if (!bytes) return bytes.error();
+  std::vector<float> out(bytes.value().size() / 4);
+  std::memcpy(out.data(), bytes.value().data(), out.size() * 4);
   return out;
 }
 

@@ -6,6 +6,7 @@
 // to the test's working directory as PNG (GPU, CPU reference, and the per-pixel difference x10);
 // with SHREFRACT_WRITE_TEST_IMAGES set in the environment they are written on success too.
 #include <gtest/gtest.h>
+#include <shrefract/bake/bake.h>
 #include <shrefract/cpu_reference.h>
 #include <shrefract/gpu_layout.h>
 
@@ -372,6 +373,110 @@ TEST_F(FieldRender, ScatteredTexelsMatchCpuMirror) {
     writeForInspection("scattered_gpu.png", gpu.value());
     writeForInspection("scattered_cpu.png", bake::Image{cpu.width, cpu.height, cpu.rgba});
     writeForInspection("scattered_diff_x10.png", diff);
+  }
+}
+
+// The share of `distortion`'s texel cells where the raster pass places a jump
+// (object_field_body.glsl placedShare): the texels disagree beyond kSpatialAgreeCosine, every one
+// holds an exit and a distance under kSpatialPlaceMaxCells, and their scatter is within
+// kSpatialPlaceMaxScatter.
+uint32_t placedCells(const reference::DistortionImage& distortion) {
+  uint32_t placed = 0;
+  for (uint32_t y = 0; y + 1 < distortion.height; ++y)
+    for (uint32_t x = 0; x + 1 < distortion.width; ++x) {
+      std::array<reference::Vec3, 4> exits;
+      bool near = true;
+      float minCos = 1.0f;
+      for (uint32_t k = 0; k < 4; ++k) {
+        const size_t t = size_t(y + k / 2) * distortion.width + x + k % 2;
+        const float* d = &distortion.rgba[t * 4];
+        const float len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        near = near && len > 0.0f && distortion.jump[t] < gpu::kSpatialPlaceMaxCells;
+        exits[k] = len > 0.0f ? reference::Vec3{d[0] / len, d[1] / len, d[2] / len} : reference::Vec3{};
+        for (uint32_t j = 0; j < k; ++j)
+          minCos = std::min(minCos, exits[j][0] * exits[k][0] + exits[j][1] * exits[k][1] + exits[j][2] * exits[k][2]);
+      }
+      placed += near && minCos < gpu::kSpatialAgreeCosine &&
+                reference::scatterAfterOneJump(exits) <= gpu::kSpatialPlaceMaxScatter;
+    }
+  return placed;
+}
+
+// Jumps placed between texels by the jump image (docs/encodings.md, "Placing the jump between
+// texels"): a small bake of the built-in cube in the tool's encoding (Pca over 16x16 node tables
+// with the jump distance, exits in the sample's frame, first refraction), whose exits jump where
+// the paths change the face they leave by, decoded on the GPU (distortion and jump images) and
+// drawn over the built-in environment; the GPU matches the CPU mirror, and follows it where the
+// placement moves a pixel.
+TEST_F(FieldRender, PlacedJumpsMatchCpuMirror) {
+  auto scene = bake::makeBuiltinScene("cube", bake::BuiltinSceneOptions{});
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  bake::BakeOptions options;
+  BakeSettings& s = options.settings;
+  s.source = "builtin:cube";
+  s.sampleBudget = 1500;
+  s.layout = SampleLayout::Charts;
+  s.encoding = Encoding::Pca;
+  s.components = 324;
+  s.tableSize = 16;
+  s.directionSampling = DirectionSampling::Nodes;
+  s.pathRule = PathRule::FirstRefraction;
+  s.jumpDistance = true;
+  s.exitFrame = ExitFrame::Sample;
+  s.threads = 2;
+  options.heldOutDirections = 0;
+  auto baked = bake::bakeField(scene.value(), options);
+  ASSERT_TRUE(baked.ok()) << baked.error().message;
+  const Field& field = baked.value();
+  auto envImage = offscreen::loadEnvironmentImage("builtin", 512);
+  ASSERT_TRUE(envImage.ok()) << envImage.error().message;
+  const bake::Image& env = envImage.value();
+  auto gpuEnv = offscreen::uploadEnvironment(*session, env);
+  ASSERT_TRUE(gpuEnv.ok()) << gpuEnv.error().message;
+  auto object = offscreen::uploadField(*session, field);
+  ASSERT_TRUE(object.ok()) << object.error().message;
+  offscreen::FrameSettings frame = bandFrame();
+  frame.camera = offscreen::defaultCamera(scene.value(), frame.camera.verticalFovDegrees);
+  const reference::DistortionImage distortion = reference::decompress(field, frame.camera.eye);
+  const uint32_t placed = placedCells(distortion);
+  std::printf("%u of %u texel cells place a jump\n", placed, (distortion.width - 1) * (distortion.height - 1));
+  EXPECT_GT(placed, 20u) << "the case under test";
+  auto gpu = offscreen::renderFrame(*session, *gpuEnv.value(), {object.value().get()}, frame);
+  ASSERT_TRUE(gpu.ok()) << gpu.error().message;
+  const reference::LatLongImage cpuEnv{env.width, env.height, env.rgba.data()};
+  const std::vector<reference::RenderObject> cpuObjects{{&field.mesh, &distortion, object.value()->shading}};
+  const reference::RenderedImage cpu = reference::render(cpuObjects, cpuEnv, frame.camera, frame.width, frame.height);
+  reference::DistortionImage unplaced = distortion;
+  unplaced.jump.clear();
+  const reference::RenderedImage blend = reference::render({{&field.mesh, &unplaced, object.value()->shading}}, cpuEnv,
+                                                           frame.camera, frame.width, frame.height);
+  bake::Image diff;
+  const Comparison mirror = compare(gpu.value(), cpu.rgba, kFieldTolerance, &cpu.object, &diff);
+  // Where the placement moves a pixel by more than the tolerance, the GPU must follow it there.
+  uint32_t moved = 0, followed = 0;
+  for (size_t p = 0; p < size_t(frame.width) * frame.height; ++p) {
+    if (cpu.object[p] < 0) continue;
+    float change = 0.0f, error = 0.0f;
+    for (size_t k = 0; k < 3; ++k) {
+      change = std::max(change, std::fabs(cpu.rgba[p * 4 + k] - blend.rgba[p * 4 + k]));
+      error = std::max(error, std::fabs(gpu.value().rgba[p * 4 + k] - cpu.rgba[p * 4 + k]));
+    }
+    if (change <= kFieldTolerance.absolute) continue;
+    ++moved;
+    followed += error <= kFieldTolerance.absolute;
+  }
+  std::printf("placed jumps: %u of %u object pixels outside tolerance against the CPU mirror (max |diff| %.4f); the "
+              "placement moves %u pixels beyond it, the GPU follows %u\n",
+              mirror.failed, mirror.pixels, double(mirror.maxDiff), moved, followed);
+  EXPECT_GT(mirror.pixels, 3000u);
+  const bool pass = float(mirror.failed) <= kFieldTolerance.failFraction * float(mirror.pixels);
+  EXPECT_TRUE(pass) << mirror.failed << " of " << mirror.pixels << " object pixels outside tolerance";
+  EXPECT_GT(moved, 30u) << "the placement must change what the glass shows";
+  EXPECT_GE(followed, moved - moved / 20) << "the GPU must place the jumps where the CPU mirror does";
+  if (!pass || std::getenv("SHREFRACT_WRITE_TEST_IMAGES")) {
+    writeForInspection("placed_gpu.png", gpu.value());
+    writeForInspection("placed_cpu.png", bake::Image{cpu.width, cpu.height, cpu.rgba});
+    writeForInspection("placed_diff_x10.png", diff);
   }
 }
 

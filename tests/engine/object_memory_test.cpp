@@ -1,6 +1,6 @@
 // Device memory is sub-allocated per object: a field object holds three allocations (one block for
-// its mesh buffers, one for its field buffers, its distortion image), an instance one (its image),
-// whatever the number of buffers. Counted through the engine's only way to Vulkan, the host's
+// its mesh buffers, one for its field buffers, one for its distortion and jump images), an instance
+// one (its two images), whatever the number of buffers. Counted through the engine's only way to Vulkan, the host's
 // vkGetInstanceProcAddr: the test hands it a wrapper that counts vkAllocateMemory and vkFreeMemory.
 #include <gtest/gtest.h>
 
@@ -66,7 +66,7 @@ TEST(ObjectMemory, OneAllocationPerKindOfStorage) {
   const Field field = testing::makeSyntheticField(o);
   auto object = testing::uploadFieldNow(ctx, field);  // uploadNow frees its staging buffers
   ASSERT_TRUE(object.ok()) << object.error().message;
-  EXPECT_EQ(gAllocations.load() - before, 3) << "mesh block, field block, distortion image";
+  EXPECT_EQ(gAllocations.load() - before, 3) << "mesh block, field block, distortion and jump images";
   std::unique_ptr<Object> instance;
   ASSERT_TRUE(ctx.uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
                    auto created = Object::createInstance(ctx, *object.value(), cmd);
@@ -74,7 +74,7 @@ TEST(ObjectMemory, OneAllocationPerKindOfStorage) {
                    instance = std::move(created).value();
                    return {};
                  }).ok());
-  EXPECT_EQ(gAllocations.load() - before, 4) << "an instance adds its distortion image only";
+  EXPECT_EQ(gAllocations.load() - before, 4) << "an instance adds its distortion and jump images only";
   EXPECT_EQ(ctx.deviceMemoryBytes(), object.value()->gpuMemoryBytes() + instance->gpuMemoryBytes());
 
   object.value().reset();  // the instance keeps the shared blocks alive

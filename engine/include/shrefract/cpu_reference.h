@@ -41,7 +41,10 @@ float roundToBinary16(float value);
 //   w = s.tau clamped to +-65504 when the field has an optical depth channel, 0 otherwise;
 // zero for empty and gutter texels. Preconditions: validateField(field) succeeded, texel in range.
 // `order`: an SH field decoded at a lower order (Object::setDecodeOrder); ignored otherwise.
-Vec4 decodeTexel(const Field& field, uint64_t texel, const Vec3& eye, uint32_t order = UINT32_MAX);
+// eyeJump (optional): what the jump image holds for the texel (evaluateSample's eyeJump; the cap
+// gpu::kJumpDistanceMaxCells for empty and gutter texels).
+Vec4 decodeTexel(const Field& field, uint64_t texel, const Vec3& eye, uint32_t order = UINT32_MAX,
+                 float* eyeJump = nullptr);
 
 // A distortion image as the engine leaves it: width * height RGBA texels, row-major, each value
 // representable in binary16.
@@ -51,10 +54,16 @@ struct DistortionImage {
   std::vector<float> rgba;  // ((y * width) + x) * 4 + channel
   // The field has a throughput channel: |xyz| is the clamped throughput, not 1 (decompress sets it).
   bool throughput = false;
+  // The jump image (R32F, gpu_layout.h kBindingJumpOut): per texel, the eye's distance from the
+  // nearest jump of the texel's table, in cells. Empty, or all at gpu::kJumpDistanceMaxCells: no
+  // jump is placed between texels (an image of exact paths, a field without the jump distance).
+  std::vector<float> jump;
 };
 
 // The whole atlas for `eye`: decodeTexel for every texel, rounded to binary16, then every gutter
-// rule target = a + b - c computed in float on the rounded values and rounded again.
+// rule target = a + b - c computed in float on the rounded values and rounded again. The jump
+// image: each texel's eyeJump, then the same gutter rules in float, clamped to
+// 0..gpu::kJumpDistanceMaxCells (gutter.comp).
 // Precondition: validateField(field) succeeded.
 DistortionImage decompress(const Field& field, const Vec3& eye, uint32_t order = UINT32_MAX);
 

@@ -307,8 +307,12 @@ inline constexpr uint32_t kMaxEncodedChannels = kMaxFieldChannels + 1;
 // (frameRows: the 12 floats of M_s, as `frames` holds them) gives object-space exits: a field with
 // shape.sampleFrameExits is rotated by it (without it, out stays in the sample's frame), and an
 // object-space jump-aware field needs it for the straight-through exit (without it, bilinear).
+// eyeJump (optional): the direction's distance from the nearest jump of the sample's table, in
+// cells, as the decode placed it (0..gpu::kJumpDistanceMaxCells, the cap where the field stores no
+// jump distance or none is within a cell): what the jump image holds (gpu_layout.h kBindingJumpOut).
 void evaluateCoefficients(const EncodingShape& shape, const float* coefficients, const float* basis,
-                          const std::array<float, 3>& localDirection, float* out, const float* frameRows = nullptr);
+                          const std::array<float, 3>& localDirection, float* out, const float* frameRows = nullptr,
+                          float* eyeJump = nullptr);
 
 // One sample's dequantized coefficients (texel of kind kTexelSample), as evaluateCoefficients reads
 // them: out[layer * valuesPerLayer() + value], layerCount() * valuesPerLayer() floats. A caller that
@@ -320,7 +324,7 @@ void dequantizeSample(const Field& field, uint64_t texel, std::vector<float>& ou
 // (order + 1)^2 bands only (Object::setDecodeOrder). Preconditions: validateField(field)
 // succeeded, texel in range and a sample.
 void evaluateSample(const Field& field, uint64_t texel, const std::array<float, 3>& localDirection, float* out,
-                    uint32_t order = UINT32_MAX);
+                    uint32_t order = UINT32_MAX, float* eyeJump = nullptr);
 
 // Dequantized coefficient a_layer(texel), value v < valuesPerLayer(). Preconditions:
 // validateField(field) succeeded, indices in range.

@@ -142,6 +142,12 @@ class Object {
   // and tests can copy it out; a host that does must return it to SHADER_READ_ONLY_OPTIMAL with its
   // contents kept (from the layout it used, not UNDEFINED): empty texels are never rewritten.
   VkImage distortionImage() const;
+  // The jump image (R32_SFLOAT, the same extent, level, layer, layout and usage): texel (x, y)
+  // holds how far the eye's view lies from the nearest jump of that sample's table, in table cells
+  // (gpu_layout.h kBindingJumpOut), for the same decompression; 1 (no jump within a cell) where
+  // nothing is decoded or the field stores no jump distance. The raster pass places jumps between
+  // texels with it (docs/encodings.md, "Placing the jump between texels").
+  VkImage jumpImage() const;
   // Forgets which eye the distortion image was decompressed for, so that the next
   // Decompressor::record() rewrites it. Needed only by a host that records a decompression into a
   // command buffer it then never submits, or that writes the image itself (see decompressor.h).

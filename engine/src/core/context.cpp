@@ -250,37 +250,64 @@ void ContextImpl::destroyBuffer(BufferAllocation& b) {
 
 Result<ImageAllocation> ContextImpl::createImage(const VkImageCreateInfo& ici, VkImageViewType viewType,
                                                  VkImageAspectFlags aspect) {
-  ImageAllocation img;
-  VkResult r = vk.vkCreateImage(device(), &ici, alloc(), &img.image);
-  if (r != VK_SUCCESS) return vulkanError("vkCreateImage", r);
-  VkMemoryRequirements req{};
-  vk.vkGetImageMemoryRequirements(device(), img.image, &req);
+  auto images = createImages({ici}, viewType, aspect);
+  if (!images) return images.error();
+  return images.value()[0];
+}
+
+namespace {
+// Where each image goes in one allocation, its size, and the memory types all of them accept.
+struct ImagePlacement {
+  std::vector<VkDeviceSize> offsets;
+  VkDeviceSize size = 0;
+  uint32_t typeBits = ~0u;
+};
+
+ImagePlacement placeImages(const ContextImpl& c, const std::vector<ImageAllocation>& images) {
+  ImagePlacement p;
+  for (const ImageAllocation& img : images) {
+    VkMemoryRequirements req{};
+    c.vk.vkGetImageMemoryRequirements(c.device(), img.image, &req);
+    const VkDeviceSize offset = (p.size + req.alignment - 1) / req.alignment * req.alignment;
+    p.offsets.push_back(offset);
+    p.size = offset + req.size;
+    p.typeBits &= req.memoryTypeBits;
+  }
+  return p;
+}
+}  // namespace
+
+Result<std::vector<ImageAllocation>> ContextImpl::createImages(const std::vector<VkImageCreateInfo>& infos,
+                                                               VkImageViewType viewType, VkImageAspectFlags aspect) {
+  std::vector<ImageAllocation> images(infos.size());
+  auto fail = [&](Error e) -> Result<std::vector<ImageAllocation>> {
+    for (size_t i = images.size(); i-- > 0;) destroyImage(images[i]);  // the memory's holder last
+    return e;
+  };
+  for (size_t i = 0; i < infos.size(); ++i) {
+    const VkResult r = vk.vkCreateImage(device(), &infos[i], alloc(), &images[i].image);
+    if (r != VK_SUCCESS) return fail(vulkanError("vkCreateImage", r));
+  }
+  const ImagePlacement placement = placeImages(*this, images);
   VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-  mai.allocationSize = req.size;
-  mai.memoryTypeIndex = findMemoryType(req.memoryTypeBits, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
-  if (mai.memoryTypeIndex == UINT32_MAX) {
-    destroyImage(img);
-    return makeError(ErrorCode::MissingFeature, "no suitable memory type for an image");
+  mai.allocationSize = placement.size;
+  mai.memoryTypeIndex = findMemoryType(placement.typeBits, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+  if (mai.memoryTypeIndex == UINT32_MAX) return fail(makeError(ErrorCode::MissingFeature, "no suitable memory type for an image"));
+  const VkResult r = vk.vkAllocateMemory(device(), &mai, alloc(), &images[0].memory);
+  if (r != VK_SUCCESS) return fail(vulkanError("vkAllocateMemory", r));
+  images[0].memoryBytes = mai.allocationSize;
+  memoryBytes += mai.allocationSize;
+  for (size_t i = 0; i < images.size(); ++i) {
+    vk.vkBindImageMemory(device(), images[i].image, images[0].memory, placement.offsets[i]);
+    VkImageViewCreateInfo vci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+    vci.image = images[i].image;
+    vci.viewType = viewType;
+    vci.format = infos[i].format;
+    vci.subresourceRange = {aspect, 0, infos[i].mipLevels, 0, infos[i].arrayLayers};
+    const VkResult v = vk.vkCreateImageView(device(), &vci, alloc(), &images[i].view);
+    if (v != VK_SUCCESS) return fail(vulkanError("vkCreateImageView", v));
   }
-  r = vk.vkAllocateMemory(device(), &mai, alloc(), &img.memory);
-  if (r != VK_SUCCESS) {
-    destroyImage(img);
-    return vulkanError("vkAllocateMemory", r);
-  }
-  img.memoryBytes = mai.allocationSize;
-  memoryBytes += img.memoryBytes;
-  vk.vkBindImageMemory(device(), img.image, img.memory, 0);
-  VkImageViewCreateInfo vci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
-  vci.image = img.image;
-  vci.viewType = viewType;
-  vci.format = ici.format;
-  vci.subresourceRange = {aspect, 0, ici.mipLevels, 0, ici.arrayLayers};
-  r = vk.vkCreateImageView(device(), &vci, alloc(), &img.view);
-  if (r != VK_SUCCESS) {
-    destroyImage(img);
-    return vulkanError("vkCreateImageView", r);
-  }
-  return img;
+  return images;
 }
 
 void ContextImpl::destroyImage(ImageAllocation& img) {

@@ -31,9 +31,9 @@ struct MemoryBlock {
 
 struct ImageAllocation {
   VkImage image = VK_NULL_HANDLE;
-  VkDeviceMemory memory = VK_NULL_HANDLE;
+  VkDeviceMemory memory = VK_NULL_HANDLE;  // null for an image bound into another's (createImages)
   VkImageView view = VK_NULL_HANDLE;
-  VkDeviceSize memoryBytes = 0;  // the allocation's size (memory requirements)
+  VkDeviceSize memoryBytes = 0;  // the allocation's size (memory requirements); 0 with no memory of its own
 };
 
 struct ContextImpl {
@@ -76,6 +76,10 @@ struct ContextImpl {
   void destroyBuffer(BufferAllocation& buffer);
   Result<ImageAllocation> createImage(const VkImageCreateInfo& imageInfo, VkImageViewType viewType,
                                       VkImageAspectFlags aspect);
+  // Images with views in one device-local allocation, each at an offset aligned to its
+  // requirement: the first holds the memory, so it is destroyed last (destroyImage frees it).
+  Result<std::vector<ImageAllocation>> createImages(const std::vector<VkImageCreateInfo>& imageInfos,
+                                                    VkImageViewType viewType, VkImageAspectFlags aspect);
   void destroyImage(ImageAllocation& image);
   Result<VkShaderModule> createShaderModule(const uint32_t* code, size_t bytes);
 

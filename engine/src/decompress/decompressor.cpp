@@ -254,13 +254,14 @@ FieldsToDecode fieldsToDecode(const DecompressorImpl& d, const std::array<float,
   return out;
 }
 
-// One pipeline barrier over the distortion images of `fields` (those with gutters only, if
-// `gutteredOnly`).
+// One pipeline barrier over the distortion and jump images of `fields` (those with gutters only,
+// if `gutteredOnly`).
 void recordImageBarriers(ContextImpl& c, VkCommandBuffer cmd, const std::vector<FieldResources*>& fields,
                          bool gutteredOnly, const ImageTransition& t) {
   std::vector<VkImageMemoryBarrier2> barriers;
   for (const FieldResources* f : fields)
-    if (!gutteredOnly || f->gutterCount) barriers.push_back(imageBarrier(f->distortion.image, t));
+    if (!gutteredOnly || f->gutterCount)
+      for (VkImage image : {f->distortion.image, f->jump.image}) barriers.push_back(imageBarrier(image, t));
   recordBarriers(c, cmd, barriers);
 }
 

@@ -25,7 +25,7 @@ Result<VkDescriptorSetLayout> createDecompressSetLayout(ContextImpl& c) {
   auto binding = [](uint32_t index, VkDescriptorType type) {
     return VkDescriptorSetLayoutBinding{index, type, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   };
-  const std::array<VkDescriptorSetLayoutBinding, 9> bindings{{
+  const std::array<VkDescriptorSetLayoutBinding, 10> bindings{{
       binding(gpu::kBindingCoefficients, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER),
       binding(gpu::kBindingScaleBias, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER),
       binding(gpu::kBindingScaleBiasStorage, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
@@ -35,6 +35,7 @@ Result<VkDescriptorSetLayout> createDecompressSetLayout(ContextImpl& c) {
       binding(gpu::kBindingDistortionOut, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE),
       binding(gpu::kBindingGutters, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
       binding(gpu::kBindingBasis, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER),
+      binding(gpu::kBindingJumpOut, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE),
   }};
   return createLayout(c, bindings.data(), static_cast<uint32_t>(bindings.size()));
 }
@@ -48,9 +49,10 @@ bool shScaleBiasStorage(uint32_t order, uint32_t channels) {
 }
 
 Result<VkDescriptorSetLayout> createDistortionSetLayout(ContextImpl& c) {
-  const std::array<VkDescriptorSetLayoutBinding, 2> bindings{{
+  const std::array<VkDescriptorSetLayoutBinding, 3> bindings{{
       {gpu::kBindingDistortion, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
       {gpu::kBindingTriangleEdges, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+      {gpu::kBindingJumpDistance, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
   }};
   return createLayout(c, bindings.data(), uint32_t(bindings.size()));
 }

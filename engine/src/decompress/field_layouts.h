@@ -7,8 +7,8 @@
 
 namespace shrefract {
 
-// Decompression (compute): coefficients, scale/bias, frames, sample texels, distortion image
-// (storage), gutter rules, Pca basis; bindings and layouts in gpu_layout.h. Both decompression
+// Decompression (compute): coefficients, scale/bias, frames, sample texels, distortion image and
+// jump image (storage), gutter rules, Pca basis; bindings and layouts in gpu_layout.h. Both decompression
 // shaders use this one layout, so a field object has one set whatever its encoding.
 Result<VkDescriptorSetLayout> createDecompressSetLayout(ContextImpl& c);
 
@@ -18,7 +18,8 @@ Result<VkDescriptorSetLayout> createDecompressSetLayout(ContextImpl& c);
 VkDeviceSize shScaleBiasBytes(uint32_t order, uint32_t channels);
 bool shScaleBiasStorage(uint32_t order, uint32_t channels);
 
-// Field raster pass, set 1: the distortion image as a combined image sampler (fragment stage).
+// Field raster pass, set 1: the distortion image and the jump image as combined image samplers,
+// and the triangle edges (fragment stage).
 Result<VkDescriptorSetLayout> createDistortionSetLayout(ContextImpl& c);
 
 }  // namespace shrefract

@@ -131,11 +131,15 @@ std::array<float, 4> sideCoefficients(const HemiOctBilinear& b, const float* kep
 // bilinearly to a function that is zero on the jump (exactly, for a straight jump), and view m
 // counts by its bilinear weight where that function puts w on m's side (a ramp of
 // kJumpDistanceSoftness cells across the jump) instead of by w_m^p. Mirrored by
-// decompress_table.comp. out: the decoded channels (the jump distance is not one).
+// decompress_table.comp. out: the decoded channels (the jump distance is not one). eyeJump (when
+// not null): the eye's distance from the cell's jump, the largest view's signed distance (the eye's
+// own side counts it positive), clamped to 0..kJumpDistanceMaxCells; the cap where the field has no
+// jump distance (gpu_layout.h kBindingJumpOut).
 // rows: M_s for an object-space field (nullptr: plain bilinear), ignored for a sample-frame one.
 void interpolateCorners(const HemiOctBilinear& b, const EncodingShape& shape, const float (*v)[kMaxEncodedChannels],
-                        const float* rows, const std::array<float, 3>& w, float* out) {
+                        const float* rows, const std::array<float, 3>& w, float* out, float* eyeJump) {
   const uint32_t n = shape.tableSize, channels = shape.decodedChannels();
+  if (eyeJump) *eyeJump = gpu::kJumpDistanceMaxCells;
   // Node-sampled exits blend by b_j |o_j|, o_j the node's point on the octahedron, which the grid
   // maps linearly inside each quadrant: the blend of the unit exits of a linear map of the
   // direction (a slab's straight-through exit, a rotation, a constant) is then the exit at w
@@ -162,6 +166,7 @@ void interpolateCorners(const HemiOctBilinear& b, const EncodingShape& shape, co
   // by w_m^p (p = kJumpDominancePower), so the side with the most weight wins without a step.
   const JumpCosines cosines = jumpCosines(n);
   float length[4], distance[4] = {}, estimate[kMaxFieldChannels] = {}, dominance = 0.0f, discounted = 0.0f;
+  float nearest = -gpu::kJumpDistanceMaxCells;
   for (int j = 0; j < 4; ++j) length[j] = std::sqrt(e[j][0] * e[j][0] + e[j][1] * e[j][1] + e[j][2] * e[j][2]);
   if (shape.jumpDistance)
     for (int j = 0; j < 4; ++j)
@@ -169,7 +174,6 @@ void interpolateCorners(const HemiOctBilinear& b, const EncodingShape& shape, co
                                gpu::kJumpDistanceMaxCells);
   for (int m = 0; m < 4; ++m) {
     float pm = shape.jumpDistance ? b.weight[m] : std::pow(b.weight[m], gpu::kJumpDominancePower);
-    if (!(pm > 0.0f)) continue;
     float keep[4], kept[4], signedDistance = 0.0f;
     for (int j = 0; j < 4; ++j) {
       const float dot = e[j][0] * e[m][0] + e[j][1] * e[m][1] + e[j][2] * e[m][2];
@@ -178,6 +182,9 @@ void interpolateCorners(const HemiOctBilinear& b, const EncodingShape& shape, co
       kept[j] = b.weight[j] * keep[j];
       signedDistance += b.weight[j] * distance[j] * (2.0f * keep[j] - 1.0f);
     }
+    // Every view's, weighted or not: the nearest distance stays continuous where a weight reaches 0.
+    nearest = std::max(nearest, signedDistance);
+    if (!(pm > 0.0f)) continue;
     if (shape.jumpDistance)
       pm *= std::clamp(0.5f + signedDistance / gpu::kJumpDistanceSoftness, 0.0f, 1.0f) + gpu::kJumpDistanceFloor;
     for (int j = 0; j < 4; ++j) discounted += pm * (b.weight[j] - kept[j]);
@@ -189,6 +196,7 @@ void interpolateCorners(const HemiOctBilinear& b, const EncodingShape& shape, co
     }
     dominance += pm;
   }
+  if (eyeJump && shape.jumpDistance) *eyeJump = std::clamp(nearest, 0.0f, gpu::kJumpDistanceMaxCells);
   const float blend = std::min(1.0f, gpu::kJumpBlendGain * discounted / dominance);
   if (!(blend > 0.0f)) return;
   for (uint32_t c = 0; c < channels; ++c) out[c] += blend * (estimate[c] / dominance - out[c]);
@@ -196,9 +204,10 @@ void interpolateCorners(const HemiOctBilinear& b, const EncodingShape& shape, co
 
 // evaluateCoefficients in the space the field stores its exits in.
 void evaluateStored(const EncodingShape& shape, const float* a, const float* basis, const std::array<float, 3>& w,
-                    float* out, const float* frameRows) {
+                    float* out, const float* frameRows, float* eyeJump) {
   const uint32_t channels = shape.channels;  // encoded; Sh and Table fields without a jump distance decode all
   std::fill(out, out + shape.decodedChannels(), 0.0f);
+  if (eyeJump) *eyeJump = gpu::kJumpDistanceMaxCells;
   const float z = std::max(w[2], 0.0f);
   if (shape.encoding == Encoding::Sh) {
     const int order = static_cast<int>(shape.order);
@@ -223,14 +232,14 @@ void evaluateStored(const EncodingShape& shape, const float* a, const float* bas
         for (uint32_t c = 0; c < channels; ++c) corners[j][c] += a[k] * f[c];
       }
   }
-  interpolateCorners(b, shape, corners, frameRows, {w[0], w[1], z}, out);
+  interpolateCorners(b, shape, corners, frameRows, {w[0], w[1], z}, out, eyeJump);
 }
 
 }  // namespace
 
 void evaluateCoefficients(const EncodingShape& shape, const float* a, const float* basis,
-                          const std::array<float, 3>& w, float* out, const float* frameRows) {
-  evaluateStored(shape, a, basis, w, out, frameRows);
+                          const std::array<float, 3>& w, float* out, const float* frameRows, float* eyeJump) {
+  evaluateStored(shape, a, basis, w, out, frameRows, eyeJump);
   if (!shape.sampleFrameExits || !frameRows) return;
   // To object space: the rows of M_s are the frame's axes, so the inverse rotation is the transpose.
   const float x = out[0], y = out[1], z = out[2];
@@ -251,14 +260,15 @@ void dequantizeSample(const Field& field, uint64_t texel, std::vector<float>& ou
   dequantizeLayers(field, texel, field.layerCount(), out);
 }
 
-void evaluateSample(const Field& field, uint64_t texel, const std::array<float, 3>& w, float* out, uint32_t order) {
+void evaluateSample(const Field& field, uint64_t texel, const std::array<float, 3>& w, float* out, uint32_t order,
+                    float* eyeJump) {
   EncodingShape shape = field.shape();
   // A lower SH order reads only the first (order + 1)^2 layers, which lead the array: only those
   // are dequantized (this runs per texel in the CPU reference's decompression).
   if (shape.encoding == Encoding::Sh) shape.order = std::min(shape.order, order);
   thread_local std::vector<float> a;
   dequantizeLayers(field, texel, shape.layerCount(), a);
-  evaluateCoefficients(shape, a.data(), field.basis.data(), w, out, &field.frames[texel * 12]);
+  evaluateCoefficients(shape, a.data(), field.basis.data(), w, out, &field.frames[texel * 12], eyeJump);
 }
 
 }  // namespace shrefract

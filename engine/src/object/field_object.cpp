@@ -152,7 +152,9 @@ Result<FieldBufferSizes> fieldBufferSizes(const Field& field, uint64_t samples, 
 
 // The distortion image: RGBA16F, storage (decompression), sampled (raster), transfer (clear, and
 // copies out for tools and tests).
-Result<ImageAllocation> createDistortionImage(ContextImpl& c, uint32_t width, uint32_t height) {
+// The instance's distortion image (RGBA16F) and jump image (R32F: a storage format every device
+// supports), in one allocation held by the distortion image.
+Result<std::vector<ImageAllocation>> createInstanceImages(ContextImpl& c, uint32_t width, uint32_t height) {
   VkImageCreateInfo ici{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
   ici.imageType = VK_IMAGE_TYPE_2D;
   ici.format = VK_FORMAT_R16G16B16A16_SFLOAT;
@@ -163,28 +165,30 @@ Result<ImageAllocation> createDistortionImage(ContextImpl& c, uint32_t width, ui
   ici.tiling = VK_IMAGE_TILING_OPTIMAL;
   ici.usage = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT |
               VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
-  return c.createImage(ici, VK_IMAGE_VIEW_TYPE_2D, VK_IMAGE_ASPECT_COLOR_BIT);
+  VkImageCreateInfo jump = ici;
+  jump.format = VK_FORMAT_R32_SFLOAT;
+  return c.createImages({ici, jump}, VK_IMAGE_VIEW_TYPE_2D, VK_IMAGE_ASPECT_COLOR_BIT);
 }
 
-// The new distortion image to TRANSFER_DST_OPTIMAL and cleared to zero.
-void recordClear(ContextImpl& c, VkCommandBuffer cmd, VkImage image) {
+// A new image to TRANSFER_DST_OPTIMAL and cleared to `value` in every channel.
+void recordClear(ContextImpl& c, VkCommandBuffer cmd, VkImage image, float value) {
   const VkImageMemoryBarrier2 toDst =
       imageBarrier(image, {VK_PIPELINE_STAGE_2_NONE, 0, VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                            VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL});
   recordBarriers(c, cmd, {&toDst, 1});
-  const VkClearColorValue zero{};
-  c.vk.vkCmdClearColorImage(cmd, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &zero, 1, &toDst.subresourceRange);
+  const VkClearColorValue clear{{value, value, value, value}};
+  c.vk.vkCmdClearColorImage(cmd, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &clear, 1, &toDst.subresourceRange);
 }
 
-// The cleared image to SHADER_READ_ONLY_OPTIMAL and the buffer copies, visible to the compute and
+// The cleared images to SHADER_READ_ONLY_OPTIMAL and the buffer copies, visible to the compute and
 // fragment shaders (Object::createFromField's contract; for an instance there are no copies, and
 // the buffer part of the barrier costs nothing).
-void recordUploadsVisible(ContextImpl& c, VkCommandBuffer cmd, VkImage image) {
-  const VkImageMemoryBarrier2 toRead = imageBarrier(
-      image, {VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-              VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
-              VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT,
-              VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL});
+void recordUploadsVisible(ContextImpl& c, VkCommandBuffer cmd, const std::array<VkImage, 2>& images) {
+  const ImageTransition cleared{VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                                VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+                                VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT,
+                                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  const std::array<VkImageMemoryBarrier2, 2> toRead{imageBarrier(images[0], cleared), imageBarrier(images[1], cleared)};
   VkMemoryBarrier2 buffersToRead{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
   buffersToRead.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
   buffersToRead.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
@@ -193,18 +197,18 @@ void recordUploadsVisible(ContextImpl& c, VkCommandBuffer cmd, VkImage image) {
   // buffer (sampled read), scale/bias as a uniform buffer, frames and basis as storage buffers.
   buffersToRead.dstAccessMask =
       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_UNIFORM_READ_BIT;
-  recordBarriers(c, cmd, {&toRead, 1}, &buffersToRead);
+  recordBarriers(c, cmd, toRead, &buffersToRead);
 }
 
 // The instance's pool and its two sets: the decompression set (every binding of
 // createDecompressSetLayout) and the raster pass's distortion set.
 Result<void> allocateDescriptorSets(ContextImpl& c, FieldResources& f) {
   const std::array<VkDescriptorPoolSize, 5> sizes{{
-      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1},
+      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2},
       {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 7},
       {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 1},
       {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-      {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1},
+      {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2},
   }};
   VkDescriptorPoolCreateInfo dpci{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
   dpci.maxSets = 2;
@@ -231,6 +235,8 @@ Result<void> createDescriptorSets(ContextImpl& c, FieldResources& f, VkBuffer tr
   if (auto r = allocateDescriptorSets(c, f); !r) return r;
   const VkDescriptorImageInfo storageInfo{VK_NULL_HANDLE, f.distortion.view, VK_IMAGE_LAYOUT_GENERAL};
   const VkDescriptorImageInfo sampledInfo{f.sampler, f.distortion.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  const VkDescriptorImageInfo jumpStorageInfo{VK_NULL_HANDLE, f.jump.view, VK_IMAGE_LAYOUT_GENERAL};
+  const VkDescriptorImageInfo jumpSampledInfo{f.sampler, f.jump.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
   // Every binding is written whichever shader and path reads it (unread ones over their first
   // bytes): the uniform scale/bias binding up to the uniform limit, the coefficients' storage
   // binding up to maxStorageBufferRange (all of them when it is the path).
@@ -257,8 +263,9 @@ Result<void> createDescriptorSets(ContextImpl& c, FieldResources& f, VkBuffer tr
     writes.push_back(w);
     return writes.back();
   };
-  writes.reserve(11);
+  writes.reserve(13);
   write(f.decompressSet, gpu::kBindingDistortionOut, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE).pImageInfo = &storageInfo;
+  write(f.decompressSet, gpu::kBindingJumpOut, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE).pImageInfo = &jumpStorageInfo;
   write(f.decompressSet, gpu::kBindingCoefficients, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER).pTexelBufferView =
       &f.coefficientWords;
   for (size_t i = 0; i < bufferBindings.size(); ++i)
@@ -266,6 +273,8 @@ Result<void> createDescriptorSets(ContextImpl& c, FieldResources& f, VkBuffer tr
   write(f.decompressSet, gpu::kBindingScaleBias, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER).pBufferInfo = &scaleBiasUniform;
   write(f.distortionSet, gpu::kBindingDistortion, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER).pImageInfo =
       &sampledInfo;
+  write(f.distortionSet, gpu::kBindingJumpDistance, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER).pImageInfo =
+      &jumpSampledInfo;
   const VkDescriptorBufferInfo edgesInfo{triangleEdges, 0, VK_WHOLE_SIZE};
   write(f.distortionSet, gpu::kBindingTriangleEdges, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER).pBufferInfo = &edgesInfo;
   c.vk.vkUpdateDescriptorSets(c.device(), static_cast<uint32_t>(writes.size()), writes.data(), 0, nullptr);
@@ -276,6 +285,7 @@ Result<void> createDescriptorSets(ContextImpl& c, FieldResources& f, VkBuffer tr
 
 void destroyFieldInstance(ContextImpl& c, FieldResources& f) {
   if (f.pool) c.vk.vkDestroyDescriptorPool(c.device(), f.pool, c.alloc());
+  c.destroyImage(f.jump);  // bound into the distortion image's memory, which goes last
   c.destroyImage(f.distortion);
   f.pool = VK_NULL_HANDLE;
   f.decompressSet = f.distortionSet = VK_NULL_HANDLE;
@@ -295,12 +305,14 @@ void destroyFieldShared(ContextImpl& c, FieldResources& f) {
 
 Result<void> createFieldInstance(ContextImpl& c, ObjectImpl& object, VkCommandBuffer cmd) {
   FieldResources& f = *object.field;
-  auto distortion = createDistortionImage(c, f.width, f.height);
-  if (!distortion) return distortion.error();
-  f.distortion = distortion.value();
+  auto images = createInstanceImages(c, f.width, f.height);
+  if (!images) return images.error();
+  f.distortion = images.value()[0];
+  f.jump = images.value()[1];
   countMemory(object, f.distortion);
-  recordClear(c, cmd, f.distortion.image);
-  recordUploadsVisible(c, cmd, f.distortion.image);
+  recordClear(c, cmd, f.distortion.image, 0.0f);
+  recordClear(c, cmd, f.jump.image, gpu::kJumpDistanceMaxCells);  // no jump placed where nothing is decoded
+  recordUploadsVisible(c, cmd, {f.distortion.image, f.jump.image});
   return createDescriptorSets(c, f, object.triangleEdges.buffer);
 }
 
@@ -320,6 +332,7 @@ VkExtent2D Object::fieldExtent() const {
   return impl_->field ? VkExtent2D{impl_->field->width, impl_->field->height} : VkExtent2D{0, 0};
 }
 VkImage Object::distortionImage() const { return impl_->field ? impl_->field->distortion.image : VK_NULL_HANDLE; }
+VkImage Object::jumpImage() const { return impl_->field ? impl_->field->jump.image : VK_NULL_HANDLE; }
 
 namespace {
 

@@ -43,6 +43,7 @@ struct FieldResources {
   BufferAllocation coefficients;  // Sh: channel planes; Table, Pca: sample-major (gpu_layout.h)
   VkBufferView coefficientWords = VK_NULL_HANDLE;  // R32_UINT texel view of `coefficients`
   ImageAllocation distortion;     // per instance: RGBA16F, written by the decompression pass
+  ImageAllocation jump;           // per instance: R32F, the eye's distance from each texel's table jump
   BufferAllocation scaleBias;     // Sh: vec4s per basis function; Table, Pca: vec2 per (layer, value)
   BufferAllocation basis;         // Pca: the basis functions as floats (a placeholder otherwise)
   BufferAllocation frames;        // 3 vec4 per sample
@@ -109,13 +110,13 @@ void countMemory(ObjectImpl& object, const ImageAllocation& image);
 // Validates `mesh`, creates the vertex and index buffers of `object` and records their upload.
 Result<void> createMeshBuffers(ContextImpl& c, const MeshDesc& mesh, VkCommandBuffer cmd, ObjectImpl& object);
 
-// Release (immediately: callers retire these calls) what an instance owns (distortion image,
-// descriptor pool), and what instances share (the rest).
+// Release (immediately: callers retire these calls) what an instance owns (distortion and jump
+// images, descriptor pool), and what instances share (the rest).
 void destroyFieldInstance(ContextImpl& c, FieldResources& field);
 void destroyFieldShared(ContextImpl& c, FieldResources& field);
 
-// Creates `f`'s distortion image (cleared to zero through `cmd`, then with the uploads made
-// visible to the passes) and its descriptor sets; the shared members must exist.
+// Creates `f`'s distortion image and jump image (cleared to zero and to the jump cap through
+// `cmd`, then with the uploads made visible to the passes) and its descriptor sets; the shared members must exist.
 Result<void> createFieldInstance(ContextImpl& c, ObjectImpl& object, VkCommandBuffer cmd);
 
 }  // namespace shrefract

@@ -42,14 +42,15 @@ const float* texelAt(const DistortionImage& image, uint32_t x, uint32_t y) {
 
 float roundToBinary16(float value) { return halfToFloat(floatToHalf(value)); }
 
-Vec4 decodeTexel(const Field& field, uint64_t texel, const Vec3& eye, uint32_t order) {
+Vec4 decodeTexel(const Field& field, uint64_t texel, const Vec3& eye, uint32_t order, float* eyeJump) {
+  if (eyeJump) *eyeJump = gpu::kJumpDistanceMaxCells;
   if (field.texelKinds[texel] != kTexelSample) return {0.0f, 0.0f, 0.0f, 0.0f};
   const float* m = &field.frames[texel * 12];
   std::array<float, 3> w{};
   for (int k = 0; k < 3; ++k) w[k] = m[4 * k] * eye[0] + m[4 * k + 1] * eye[1] + m[4 * k + 2] * eye[2] + m[4 * k + 3];
   w[2] = std::max(w[2], 0.0f);
   float sum[5] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
-  evaluateSample(field, texel, w, sum, order);
+  evaluateSample(field, texel, w, sum, order, eyeJump);
   // As decompress_common.glsl (distortionTexel).
   const float tau = field.hasOpticalDepth() ? std::clamp(sum[3], -gpu::kMaxOpticalDepth, gpu::kMaxOpticalDepth) : 0.0f;
   Vec4 out{0.0f, 0.0f, 0.0f, tau};
@@ -71,16 +72,20 @@ DistortionImage decompress(const Field& field, const Vec3& eye, uint32_t order) 
   image.height = field.height;
   image.throughput = field.throughput;
   image.rgba.resize(size_t(field.texelCount()) * 4);
+  image.jump.resize(size_t(field.texelCount()));
   for (uint64_t t = 0; t < field.texelCount(); ++t) {
-    const Vec4 v = decodeTexel(field, t, eye, order);
+    const Vec4 v = decodeTexel(field, t, eye, order, &image.jump[t]);
     for (int c = 0; c < 4; ++c) image.rgba[t * 4 + c] = roundToBinary16(v[c]);
   }
   // Rules read sample texels only (validateField), so the order of application does not matter.
-  for (const GutterTexel& g : field.gutters)
+  for (const GutterTexel& g : field.gutters) {
     for (int c = 0; c < 4; ++c)
       image.rgba[size_t(g.target) * 4 + c] = roundToBinary16(image.rgba[size_t(g.a) * 4 + c] +
                                                              image.rgba[size_t(g.b) * 4 + c] -
                                                              image.rgba[size_t(g.c) * 4 + c]);
+    image.jump[g.target] = std::clamp(image.jump[g.a] + image.jump[g.b] - image.jump[g.c], 0.0f,
+                                      gpu::kJumpDistanceMaxCells);
+  }
   return image;
 }
 
@@ -280,6 +285,8 @@ FieldFragment fieldFragment(const DistortionImage& distortion, const SurfacePoin
 struct TexelCell {
   std::array<glm::vec3, 4> exit{};  // unit, object space; zero where the texel is empty
   std::array<float, 4> weight{};
+  std::array<float, 4> jumpCells{};  // the jump image's distances
+  glm::vec2 fraction{0.0f};          // where the coordinate lies between the texels, along x and y
   float jump = 0.0f;
 };
 
@@ -287,6 +294,11 @@ TexelCell readCell(const DistortionImage& distortion, glm::vec2 uv) {
   const BilinearCorners corners = bilinearCorners(distortion, uv.x, uv.y);
   TexelCell cell;
   cell.weight = corners.weights();
+  cell.fraction = {corners.ax, corners.ay};
+  for (int k = 0; k < 4; ++k)
+    cell.jumpCells[k] = distortion.jump.empty()
+                            ? gpu::kJumpDistanceMaxCells
+                            : distortion.jump[size_t(corners.texel[k] - distortion.rgba.data()) / 4];
   for (int k = 0; k < 4; ++k) {
     const glm::vec3 d(corners.texel[k][0], corners.texel[k][1], corners.texel[k][2]);
     const float len2 = glm::dot(d, d);
@@ -302,16 +314,64 @@ TexelCell readCell(const DistortionImage& distortion, glm::vec2 uv) {
   return cell;
 }
 
-// The cell's texels' own lookups, each weighed by its bilinear weight / (1 + its luma); w = 0 where
-// no texel with weight holds an exit (object_field_body.glsl cellColours).
-glm::vec4 cellColours(const TexelCell& cell, const LatLongImage& env, float footprint,
-                      const Transform& worldFromObject) {
+// Where the jump between the cell's texels lies, from the jump image (gpu_layout.h
+// kSpatialPlaceTrust): the share of the pixel on the side of the texel of largest weight (own[k]:
+// texel k is on it), or -1 where the cell does not qualify. texelsDx, texelsDy: the screen axes'
+// steps in texels (object_field_body.glsl placedShare).
+float placedShare(const TexelCell& cell, glm::vec2 texelsDx, glm::vec2 texelsDy, std::array<bool, 4>& own) {
+  int r = 0;
+  for (int k = 1; k < 4; ++k)
+    if (cell.weight[k] > cell.weight[size_t(r)]) r = k;
+  std::array<float, 4> side{};  // + the distance on r's side, - beyond
+  float ownWeight = 0.0f;
+  bool across = false;
+  for (size_t k = 0; k < 4; ++k) {
+    if (cell.exit[k] == glm::vec3(0.0f) || !(cell.jumpCells[k] < gpu::kSpatialPlaceMaxCells)) return -1.0f;
+    own[k] = glm::dot(cell.exit[k], cell.exit[size_t(r)]) > gpu::kSpatialSplitCosine;
+    across = across || !own[k];
+    side[k] = own[k] ? cell.jumpCells[k] : -cell.jumpCells[k];
+    ownWeight += own[k] ? cell.weight[k] : 0.0f;
+  }
+  const std::array<Vec3, 4> exits{fromGlm(cell.exit[0]), fromGlm(cell.exit[1]), fromGlm(cell.exit[2]),
+                                  fromGlm(cell.exit[3])};
+  if (!across || scatterAfterOneJump(exits) > gpu::kSpatialPlaceMaxScatter) return -1.0f;
+  const float fx = cell.fraction.x, fy = cell.fraction.y;
+  const float at = (1.0f - fy) * ((1.0f - fx) * side[0] + fx * side[1]) + fy * ((1.0f - fx) * side[2] + fx * side[3]);
+  const float alongX = (1.0f - fy) * (side[1] - side[0]) + fy * (side[3] - side[2]);
+  const float alongY = (1.0f - fx) * (side[2] - side[0]) + fx * (side[3] - side[1]);
+  // The side function's change across the pixel: a linear function's box-filtered step.
+  const float width = std::abs(alongX * texelsDx.x + alongY * texelsDx.y) +
+                      std::abs(alongX * texelsDy.x + alongY * texelsDy.y);
+  const float placed = std::clamp(0.5f + at / std::max(width, 1e-6f), 0.0f, 1.0f);
+  return ownWeight + gpu::kSpatialPlaceTrust * (placed - ownWeight);
+}
+
+// The texels' weights for a placed jump: `share` of the pixel to the texels of side `own`, the rest
+// to the others, each side's spread over its texels by their bilinear weights (at least 1e-4, so
+// that a side the coordinate sits away from still has a colour; object_field_body.glsl
+// placedWeights).
+std::array<float, 4> placedWeights(const TexelCell& cell, const std::array<bool, 4>& own, float share) {
+  std::array<float, 4> floor{}, weights{};
+  float ownSum = 0.0f, otherSum = 0.0f;
+  for (size_t k = 0; k < 4; ++k) {
+    floor[k] = std::max(cell.weight[k], 1e-4f);
+    (own[k] ? ownSum : otherSum) += floor[k];
+  }
+  for (size_t k = 0; k < 4; ++k) weights[k] = floor[k] * (own[k] ? share / ownSum : (1.0f - share) / otherSum);
+  return weights;
+}
+
+// The cell's texels' own lookups, each weighed by `weights` (the bilinear ones, or placedWeights) /
+// (1 + its luma); w = 0 where no texel with weight holds an exit (object_field_body.glsl
+// cellColours).
+glm::vec4 cellColours(const TexelCell& cell, const std::array<float, 4>& weights, const LatLongImage& env,
+                      float footprint, const Transform& worldFromObject) {
   glm::vec3 sum(0.0f);
   float weight = 0.0f;
-  for (int k = 0; k < 4; ++k) {
+  for (size_t k = 0; k < 4; ++k) {
     if (cell.exit[k] == glm::vec3(0.0f)) continue;
     const glm::vec3 c = toGlm(sampleLatLong(env, rotateDirection(worldFromObject, fromGlm(cell.exit[k])), footprint));
-    const float w = cell.weight[k] / (1.0f + glm::dot(c, glm::vec3(gpu::kLumaRed, gpu::kLumaGreen, gpu::kLumaBlue)));
+    const float w = weights[k] / (1.0f + glm::dot(c, glm::vec3(gpu::kLumaRed, gpu::kLumaGreen, gpu::kLumaBlue)));
     sum += w * c;
     weight += w;
   }
@@ -367,7 +427,8 @@ glm::vec3 directionsOverPixel(const DistortionImage& distortion, const LatLongIm
 }
 
 // The transmitted light over the pixel (object_field_body.glsl transmittedOverPixel): directions
-// where the texels around the centre agree, their own lookups' blend where they straddle a jump.
+// where the texels around the centre agree, their own lookups' blend where they straddle a jump
+// (placed by the jump image where the cell qualifies: placedShare).
 Vec3 transmittedOverPixel(const DistortionImage& distortion, const LatLongImage& env, const FieldFragment& f,
                           const LookupDerivatives& d, const Transform& worldFromObject) {
   const TexelCell cell = readCell(distortion, f.uv);
@@ -377,7 +438,11 @@ Vec3 transmittedOverPixel(const DistortionImage& distortion, const LatLongImage&
   const std::array<Vec3, 4> exits{fromGlm(cell.exit[0]), fromGlm(cell.exit[1]), fromGlm(cell.exit[2]),
                                   fromGlm(cell.exit[3])};
   const float blur = gpu::kSpatialScatterBlur * std::max(scatterAfterOneJump(exits) - gpu::kSpatialScatterThreshold, 0.0f);
-  const glm::vec4 colours = cellColours(cell, env, widenedFootprint(footprint, blur), worldFromObject);
+  const glm::vec2 size(float(distortion.width), float(distortion.height));
+  std::array<bool, 4> own{};
+  const float share = placedShare(cell, glm::vec2(d.uvDx[0], d.uvDx[1]) * size, glm::vec2(d.uvDy[0], d.uvDy[1]) * size, own);
+  const glm::vec4 colours = cellColours(cell, share < 0.0f ? cell.weight : placedWeights(cell, own, share), env,
+                                        widenedFootprint(footprint, blur), worldFromObject);
   const float t = cell.jump * colours.w;
   if (t == 1.0f) return fromGlm(glm::vec3(colours));  // the direction taps would weigh nothing
   const glm::vec3 directions = directionsOverPixel(distortion, env, f, d, worldFromObject);
