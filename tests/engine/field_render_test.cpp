@@ -552,9 +552,9 @@ TEST_F(FieldRender, TwoInstancesMatchCpuReference) {
       {{&field.mesh, &unplaced, a.shading, Transform{}}}, cpuEnv, frame.camera, frame.width, frame.height);
   EXPECT_GT(compare(gpu.value(), atOrigin.rgba, kFieldTolerance).failed, all.pixels / 10);
 
-  // Memory: the instance holds its distortion image (RGBA16F, 8 bytes a texel, plus the device's
-  // alignment), the original everything else too.
-  const uint64_t image = uint64_t(field.width) * field.height * 8;
+  // Memory: the instance holds its distortion and jump images (RGBA16F and R32F, 12 bytes a texel,
+  // plus the device's alignment), the original everything else too.
+  const uint64_t image = uint64_t(field.width) * field.height * 12;
   std::printf("device memory: original %llu bytes, instance %llu bytes (image %llu)\n",
               static_cast<unsigned long long>(a.gpuMemoryBytes()), static_cast<unsigned long long>(b.gpuMemoryBytes()),
               static_cast<unsigned long long>(image));

@@ -30,7 +30,9 @@
 //    images visible to FRAGMENT_SHADER sampled reads in SHADER_READ_ONLY_OPTIMAL. It expects the
 //    images in SHADER_READ_ONLY_OPTIMAL (as createFromField and record() leave them) with their
 //    contents kept (a host that copies one out transitions it back from a defined layout): the
-//    empty texels are not rewritten.
+//    empty texels are not rewritten. "The images" are each object's distortion image and its jump
+//    image (Object::jumpImage), which the same barriers cover; a host that writes a distortion
+//    image itself writes the jump image too, or fills it with 1 (no jump placed).
 //  - frames in flight: there is one distortion image per object. Frames recorded ahead share it;
 //    that is correct on one queue (the barriers order frame N's raster before frame N+1's
 //    decompression) but serializes them. A host that submits the engine's work to two queues must
