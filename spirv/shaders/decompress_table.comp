@@ -80,12 +80,9 @@ void sideCoefficients(HemiOctBilinear b, float kept[4], float keep[4], out float
   for (int j = 0; j < 4; ++j) alpha[j] /= det;
 }
 
-// Jump-aware interpolation of the cell's corners v (field_decode.cpp interpolateCorners, which
-// explains it; constants in gpu_layout.h), in the same float operations. sum: the DECODED channels.
-// eyeJump: the eye's distance from the cell's jump (field_decode.cpp interpolateCorners' eyeJump),
-// left as it is where the decode does not get that far.
-void interpolateCorners(uint s, HemiOctBilinear b, vec3 w, float v[4][6], inout float sum[5], inout float eyeJump) {
-  // Node-sampled exits blend by b_j |o_j| (field_decode.cpp interpolateCorners says why).
+// The cell's corners blended into sum: node-sampled exits by b_j |o_j|, the rest bilinearly
+// (field_decode.cpp blendCorners says why), in the same float operations.
+void blendCorners(HemiOctBilinear b, float v[4][6], inout float sum[5]) {
   float lengths[4] = float[4](1.0, 1.0, 1.0, 1.0);
   float exitWeight[4];
   float weighted = 0.0;
@@ -95,6 +92,14 @@ void interpolateCorners(uint s, HemiOctBilinear b, vec3 w, float v[4][6], inout 
   for (int j = 0; j < 4; ++j) exitWeight[j] = b.weight[j] * lengths[j] / weighted;
   for (int j = 0; j < 4; ++j)
     for (int c = 0; c < DECODED; ++c) sum[c] += (c < 3 ? exitWeight[j] : b.weight[j]) * v[j][c];
+}
+
+// Jump-aware interpolation of the cell's corners v (field_decode.cpp interpolateCorners, which
+// explains it; constants in gpu_layout.h), in the same float operations. sum: the DECODED channels.
+// eyeJump: the eye's distance from the cell's jump (field_decode.cpp interpolateCorners' eyeJump),
+// left as it is where the decode does not get that far.
+void interpolateCorners(uint s, HemiOctBilinear b, vec3 w, float v[4][6], inout float sum[5], inout float eyeJump) {
+  blendCorners(b, v, sum);
   if (!JUMP_AWARE || TABLE_SIZE < kJumpMinTableSize) return;
   vec3 eye = straightThrough(s, w);
   vec3 e[4];

@@ -116,6 +116,24 @@ std::array<float, 4> sideCoefficients(const HemiOctBilinear& b, const float* kep
   return alpha;
 }
 
+// The cell's corners blended, into out (the decoded channels). Node-sampled exits blend by
+// b_j |o_j|, o_j the node's point on the octahedron, which the grid maps linearly inside each
+// quadrant: the blend of the unit exits of a linear map of the direction (a slab's straight-through
+// exit, a rotation, a constant) is then the exit at w itself inside a quadrant's cells, where plain
+// bilinear weights err by up to 0.09 deg at N = 32. The other channels, and least-squares tables
+// (fitted bilinearly), stay bilinear. Mirrored by decompress_table.comp blendCorners.
+void blendCorners(const HemiOctBilinear& b, const EncodingShape& shape, const float (*v)[kMaxEncodedChannels],
+                  float* out) {
+  const uint32_t n = shape.tableSize, channels = shape.decodedChannels();
+  float lengths[4] = {1.0f, 1.0f, 1.0f, 1.0f}, exitWeight[4], weighted = 0.0f;
+  if (shape.jumpAware)
+    for (int j = 0; j < 4; ++j) lengths[j] = octahedronLength(b.node[j], n);
+  for (int j = 0; j < 4; ++j) weighted += b.weight[j] * lengths[j];
+  for (int j = 0; j < 4; ++j) exitWeight[j] = b.weight[j] * lengths[j] / weighted;
+  for (int j = 0; j < 4; ++j)
+    for (uint32_t c = 0; c < channels; ++c) out[c] += (c < 3 ? exitWeight[j] : b.weight[j]) * v[j][c];
+}
+
 // Jump-aware interpolation of a cell's four corners (docs/encodings.md, "Jumps"). Bilinear
 // interpolation across a jump of the exit direction makes a direction no path takes. Each corner
 // estimates the exit at w as its own exit moved by the change of the straight-through direction
@@ -140,18 +158,7 @@ void interpolateCorners(const HemiOctBilinear& b, const EncodingShape& shape, co
                         const float* rows, const std::array<float, 3>& w, float* out, float* eyeJump) {
   const uint32_t n = shape.tableSize, channels = shape.decodedChannels();
   if (eyeJump) *eyeJump = gpu::kJumpDistanceMaxCells;
-  // Node-sampled exits blend by b_j |o_j|, o_j the node's point on the octahedron, which the grid
-  // maps linearly inside each quadrant: the blend of the unit exits of a linear map of the
-  // direction (a slab's straight-through exit, a rotation, a constant) is then the exit at w
-  // itself inside a quadrant's cells, where plain bilinear weights err by up to 0.09 deg at
-  // N = 32. The other channels, and least-squares tables (fitted bilinearly), stay bilinear.
-  float lengths[4] = {1.0f, 1.0f, 1.0f, 1.0f}, exitWeight[4], weighted = 0.0f;
-  if (shape.jumpAware)
-    for (int j = 0; j < 4; ++j) lengths[j] = octahedronLength(b.node[j], n);
-  for (int j = 0; j < 4; ++j) weighted += b.weight[j] * lengths[j];
-  for (int j = 0; j < 4; ++j) exitWeight[j] = b.weight[j] * lengths[j] / weighted;
-  for (int j = 0; j < 4; ++j)
-    for (uint32_t c = 0; c < channels; ++c) out[c] += (c < 3 ? exitWeight[j] : b.weight[j]) * v[j][c];
+  blendCorners(b, shape, v, out);
   if (shape.sampleFrameExits) rows = nullptr;
   else if (!rows) return;
   if (!shape.jumpAware || n < gpu::kJumpMinTableSize) return;
