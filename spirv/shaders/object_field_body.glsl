@@ -1,12 +1,14 @@
 // Field shading: the decompressed distortion image gives, at the fragment's field texture
 // coordinate, the direction in which the refracted path leaves the object and its optical depth.
 // Mirrored exactly by engine/src/reference/cpu_reference.cpp (shadeField).
+#extension GL_EXT_samplerless_texture_functions : require  // texelFetch of the jump image
 #include "shrefract/gpu_layout.h"
 #include "environment_select.glsl"
 
 layout(push_constant) uniform Push { ObjectPushConstants pc; };
 layout(set = 1, binding = kBindingDistortion) uniform sampler2D distortionMap;
-layout(set = 1, binding = kBindingJumpDistance) uniform sampler2D jumpMap;  // texelFetch only
+// The jump image is read texel by texel with no sampler: R32F need not support linear filtering.
+layout(set = 1, binding = kBindingJumpDistance) uniform texture2D jumpMap;
 
 layout(location = 0) in vec3 inPosition;
 layout(location = 1) in vec3 inNormal;

@@ -52,7 +52,7 @@ Result<VkDescriptorSetLayout> createDistortionSetLayout(ContextImpl& c) {
   const std::array<VkDescriptorSetLayoutBinding, 3> bindings{{
       {gpu::kBindingDistortion, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
       {gpu::kBindingTriangleEdges, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
-      {gpu::kBindingJumpDistance, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+      {gpu::kBindingJumpDistance, VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
   }};
   return createLayout(c, bindings.data(), uint32_t(bindings.size()));
 }

@@ -18,8 +18,8 @@ Result<VkDescriptorSetLayout> createDecompressSetLayout(ContextImpl& c);
 VkDeviceSize shScaleBiasBytes(uint32_t order, uint32_t channels);
 bool shScaleBiasStorage(uint32_t order, uint32_t channels);
 
-// Field raster pass, set 1: the distortion image and the jump image as combined image samplers,
-// and the triangle edges (fragment stage).
+// Field raster pass, set 1: the distortion image (combined image sampler), the jump image (sampled
+// image, no sampler) and the triangle edges (fragment stage).
 Result<VkDescriptorSetLayout> createDistortionSetLayout(ContextImpl& c);
 
 }  // namespace shrefract

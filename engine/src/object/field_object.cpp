@@ -150,10 +150,9 @@ Result<FieldBufferSizes> fieldBufferSizes(const Field& field, uint64_t samples, 
   return sizes;
 }
 
-// The distortion image: RGBA16F, storage (decompression), sampled (raster), transfer (clear, and
-// copies out for tools and tests).
 // The instance's distortion image (RGBA16F) and jump image (R32F: a storage format every device
-// supports), in one allocation held by the distortion image.
+// supports), in one allocation held by the distortion image. Both storage (decompression), sampled
+// (raster), transfer (clear, and copies out for tools and tests).
 Result<std::vector<ImageAllocation>> createInstanceImages(ContextImpl& c, uint32_t width, uint32_t height) {
   VkImageCreateInfo ici{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
   ici.imageType = VK_IMAGE_TYPE_2D;
@@ -203,8 +202,9 @@ void recordUploadsVisible(ContextImpl& c, VkCommandBuffer cmd, const std::array<
 // The instance's pool and its two sets: the decompression set (every binding of
 // createDecompressSetLayout) and the raster pass's distortion set.
 Result<void> allocateDescriptorSets(ContextImpl& c, FieldResources& f) {
-  const std::array<VkDescriptorPoolSize, 5> sizes{{
-      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2},
+  const std::array<VkDescriptorPoolSize, 6> sizes{{
+      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1},
+      {VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE, 1},
       {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 7},
       {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 1},
       {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
@@ -236,7 +236,7 @@ Result<void> createDescriptorSets(ContextImpl& c, FieldResources& f, VkBuffer tr
   const VkDescriptorImageInfo storageInfo{VK_NULL_HANDLE, f.distortion.view, VK_IMAGE_LAYOUT_GENERAL};
   const VkDescriptorImageInfo sampledInfo{f.sampler, f.distortion.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
   const VkDescriptorImageInfo jumpStorageInfo{VK_NULL_HANDLE, f.jump.view, VK_IMAGE_LAYOUT_GENERAL};
-  const VkDescriptorImageInfo jumpSampledInfo{f.sampler, f.jump.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  const VkDescriptorImageInfo jumpSampledInfo{VK_NULL_HANDLE, f.jump.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
   // Every binding is written whichever shader and path reads it (unread ones over their first
   // bytes): the uniform scale/bias binding up to the uniform limit, the coefficients' storage
   // binding up to maxStorageBufferRange (all of them when it is the path).
@@ -273,8 +273,7 @@ Result<void> createDescriptorSets(ContextImpl& c, FieldResources& f, VkBuffer tr
   write(f.decompressSet, gpu::kBindingScaleBias, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER).pBufferInfo = &scaleBiasUniform;
   write(f.distortionSet, gpu::kBindingDistortion, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER).pImageInfo =
       &sampledInfo;
-  write(f.distortionSet, gpu::kBindingJumpDistance, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER).pImageInfo =
-      &jumpSampledInfo;
+  write(f.distortionSet, gpu::kBindingJumpDistance, VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE).pImageInfo = &jumpSampledInfo;
   const VkDescriptorBufferInfo edgesInfo{triangleEdges, 0, VK_WHOLE_SIZE};
   write(f.distortionSet, gpu::kBindingTriangleEdges, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER).pBufferInfo = &edgesInfo;
   c.vk.vkUpdateDescriptorSets(c.device(), static_cast<uint32_t>(writes.size()), writes.data(), 0, nullptr);

@@ -30,8 +30,9 @@ SHR_CONST(kBindingDistortion, 0u)
 // is the first corner of (the provoking vertex: the object pass reads it flat), so that no
 // triangle needs gl_PrimitiveID (which would need the geometryShader feature).
 SHR_CONST(kBindingTriangleEdges, 1u)
-// Set 1, also: the object's jump image (R32F, read with texelFetch): per texel, how far the eye
-// lies from the nearest jump of that sample's table, in table cells (kBindingJumpOut).
+// Set 1, also: the object's jump image (R32F, a sampled image read with texelFetch and no sampler):
+// per texel, how far the eye lies from the nearest jump of that sample's table, in table cells
+// (kBindingJumpOut).
 SHR_CONST(kBindingJumpDistance, 2u)
 // shrefract/object.h TriangleEdges says what the members hold: edge[k] = (m, m . a), the edge's
 // inward unit normal in the triangle's plane and its offset; neighbour[k] = (n', n' . a), the
