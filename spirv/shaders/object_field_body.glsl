@@ -29,8 +29,8 @@ layout(constant_id = kSpecSilhouetteCoverage) const bool SILHOUETTE_COVERAGE = f
 struct TexelCell {
   vec3 exit[4];  // unit, object space; zero where the texel is empty
   float weight[4];
-  float jumpCells[4];  // the jump image's distances
-  vec2 fraction;       // where the coordinate lies between the texels, along x and y
+  ivec2 texel[4];  // where the texels are (for the jump image, read only in jump cells)
+  vec2 fraction;   // where the coordinate lies between the texels, along x and y
   float jump;
 };
 
@@ -61,11 +61,10 @@ TexelCell readCell(vec2 uv) {
   cell.weight = float[]((1.0 - f.x) * (1.0 - f.y), f.x * (1.0 - f.y), (1.0 - f.x) * f.y, f.x * f.y);
   cell.fraction = f;
   for (int k = 0; k < 4; ++k) {
-    ivec2 texel = clamp(corner + ivec2(k & 1, k >> 1), ivec2(0), size - 1);
-    vec3 d = texelFetch(distortionMap, texel, 0).xyz;
+    cell.texel[k] = clamp(corner + ivec2(k & 1, k >> 1), ivec2(0), size - 1);
+    vec3 d = texelFetch(distortionMap, cell.texel[k], 0).xyz;
     float len2 = dot(d, d);
     cell.exit[k] = len2 > kMinDirectionLength2 ? d * inversesqrt(len2) : vec3(0.0);
-    cell.jumpCells[k] = texelFetch(jumpMap, texel, 0).x;
   }
   float minCos = 1.0;
   for (int a = 0; a < 4; ++a)
@@ -77,9 +76,10 @@ TexelCell readCell(vec2 uv) {
 
 // Where the jump between the cell's texels lies, from the jump image (gpu_layout.h
 // kSpatialPlaceTrust says how): the share of the pixel on the side of the texel of largest weight
-// (own[k]: texel k is on it), or -1 where the cell does not qualify. texelsDx, texelsDy: the screen
-// axes' steps in texels. Mirrored by cpu_reference.cpp placedShare.
-float placedShare(TexelCell cell, vec2 texelsDx, vec2 texelsDy, out bool own[4]) {
+// (own[k]: texel k is on it), or -1 where the cell does not qualify. scatter: the cell's
+// scatterAfterOneJump. texelsDx, texelsDy: the screen axes' steps in texels. Mirrored by
+// cpu_reference.cpp placedShare.
+float placedShare(TexelCell cell, float scatter, vec2 texelsDx, vec2 texelsDy, out bool own[4]) {
   int r = 0;
   for (int k = 1; k < 4; ++k)
     if (cell.weight[k] > cell.weight[r]) r = k;
@@ -88,13 +88,14 @@ float placedShare(TexelCell cell, vec2 texelsDx, vec2 texelsDy, out bool own[4])
   bool across = false;
   for (int k = 0; k < 4; ++k) {
     own[k] = false;
-    if (cell.exit[k] == vec3(0.0) || !(cell.jumpCells[k] < kSpatialPlaceMaxCells)) return -1.0;
+    float cells = texelFetch(jumpMap, cell.texel[k], 0).x;  // the jump image's distance
+    if (cell.exit[k] == vec3(0.0) || !(cells < kSpatialPlaceMaxCells)) return -1.0;
     own[k] = dot(cell.exit[k], cell.exit[r]) > kSpatialSplitCosine;
     across = across || !own[k];
-    side[k] = own[k] ? cell.jumpCells[k] : -cell.jumpCells[k];
+    side[k] = own[k] ? cells : -cells;
     ownWeight += own[k] ? cell.weight[k] : 0.0;
   }
-  if (!across || scatterAfterOneJump(cell.exit) > kSpatialPlaceMaxScatter) return -1.0;
+  if (!across || scatter > kSpatialPlaceMaxScatter) return -1.0;
   float fx = cell.fraction.x, fy = cell.fraction.y;
   float at = (1.0 - fy) * ((1.0 - fx) * side[0] + fx * side[1]) + fy * ((1.0 - fx) * side[2] + fx * side[3]);
   float alongX = (1.0 - fy) * (side[1] - side[0]) + fy * (side[3] - side[2]);
@@ -194,10 +195,11 @@ vec3 transmittedOverPixel(vec3 exitWorld, float exitBlur, vec3 ddx, vec3 ddy, ve
   if (cell.jump == 0.0) return directionsOverPixel(exitWorld, exitBlur, ddx, ddy, uv, uvDx, uvDy);
   float footprint = directionFootprint(ddx / float(ENVIRONMENT_TAPS), ddy / float(ENVIRONMENT_TAPS));
   // Only here: a cell whose texels agree has no scatter to measure.
-  float blur = kSpatialScatterBlur * max(scatterAfterOneJump(cell.exit) - kSpatialScatterThreshold, 0.0);
+  float scatter = scatterAfterOneJump(cell.exit);
+  float blur = kSpatialScatterBlur * max(scatter - kSpatialScatterThreshold, 0.0);
   vec2 size = vec2(textureSize(distortionMap, 0));
   bool own[4];
-  float share = placedShare(cell, uvDx * size, uvDy * size, own);
+  float share = placedShare(cell, scatter, uvDx * size, uvDy * size, own);
   vec4 colours = cellColours(cell, share < 0.0 ? cell.weight : placedWeights(cell, own, share), widenedFootprint(footprint, blur));
   float t = cell.jump * colours.w;
   if (t == 1.0) return colours.rgb;  // the direction taps would weigh nothing

@@ -151,13 +151,12 @@ void blendCorners(const HemiOctBilinear& b, const EncodingShape& shape, const fl
 // kJumpDistanceSoftness cells across the jump) instead of by w_m^p. Mirrored by
 // decompress_table.comp. out: the decoded channels (the jump distance is not one). eyeJump (when
 // not null): the eye's distance from the cell's jump, the largest view's signed distance (the eye's
-// own side counts it positive), clamped to 0..kJumpDistanceMaxCells; the cap where the field has no
-// jump distance (gpu_layout.h kBindingJumpOut).
+// own side counts it positive), clamped to 0..kJumpDistanceMaxCells; left as the caller set it (the
+// cap, evaluateStored) where the field has no jump distance (gpu_layout.h kBindingJumpOut).
 // rows: M_s for an object-space field (nullptr: plain bilinear), ignored for a sample-frame one.
 void interpolateCorners(const HemiOctBilinear& b, const EncodingShape& shape, const float (*v)[kMaxEncodedChannels],
                         const float* rows, const std::array<float, 3>& w, float* out, float* eyeJump) {
   const uint32_t n = shape.tableSize, channels = shape.decodedChannels();
-  if (eyeJump) *eyeJump = gpu::kJumpDistanceMaxCells;
   blendCorners(b, shape, v, out);
   if (shape.sampleFrameExits) rows = nullptr;
   else if (!rows) return;

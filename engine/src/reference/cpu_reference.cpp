@@ -285,8 +285,8 @@ FieldFragment fieldFragment(const DistortionImage& distortion, const SurfacePoin
 struct TexelCell {
   std::array<glm::vec3, 4> exit{};  // unit, object space; zero where the texel is empty
   std::array<float, 4> weight{};
-  std::array<float, 4> jumpCells{};  // the jump image's distances
-  glm::vec2 fraction{0.0f};          // where the coordinate lies between the texels, along x and y
+  std::array<size_t, 4> texel{};  // texel indices (for the jump image, read only in jump cells)
+  glm::vec2 fraction{0.0f};       // where the coordinate lies between the texels, along x and y
   float jump = 0.0f;
 };
 
@@ -295,10 +295,7 @@ TexelCell readCell(const DistortionImage& distortion, glm::vec2 uv) {
   TexelCell cell;
   cell.weight = corners.weights();
   cell.fraction = {corners.ax, corners.ay};
-  for (int k = 0; k < 4; ++k)
-    cell.jumpCells[k] = distortion.jump.empty()
-                            ? gpu::kJumpDistanceMaxCells
-                            : distortion.jump[size_t(corners.texel[k] - distortion.rgba.data()) / 4];
+  for (size_t k = 0; k < 4; ++k) cell.texel[k] = size_t(corners.texel[k] - distortion.rgba.data()) / 4;
   for (int k = 0; k < 4; ++k) {
     const glm::vec3 d(corners.texel[k][0], corners.texel[k][1], corners.texel[k][2]);
     const float len2 = glm::dot(d, d);
@@ -316,9 +313,10 @@ TexelCell readCell(const DistortionImage& distortion, glm::vec2 uv) {
 
 // Where the jump between the cell's texels lies, from the jump image (gpu_layout.h
 // kSpatialPlaceTrust): the share of the pixel on the side of the texel of largest weight (own[k]:
-// texel k is on it), or -1 where the cell does not qualify. texelsDx, texelsDy: the screen axes'
-// steps in texels (object_field_body.glsl placedShare).
-float placedShare(const TexelCell& cell, glm::vec2 texelsDx, glm::vec2 texelsDy, std::array<bool, 4>& own) {
+// texel k is on it), or -1 where the cell does not qualify. scatter: the cell's scatterAfterOneJump.
+// texelsDx, texelsDy: the screen axes' steps in texels (object_field_body.glsl placedShare).
+float placedShare(const TexelCell& cell, const std::vector<float>& jumpImage, float scatter, glm::vec2 texelsDx,
+                  glm::vec2 texelsDy, std::array<bool, 4>& own) {
   int r = 0;
   for (int k = 1; k < 4; ++k)
     if (cell.weight[k] > cell.weight[size_t(r)]) r = k;
@@ -326,15 +324,14 @@ float placedShare(const TexelCell& cell, glm::vec2 texelsDx, glm::vec2 texelsDy,
   float ownWeight = 0.0f;
   bool across = false;
   for (size_t k = 0; k < 4; ++k) {
-    if (cell.exit[k] == glm::vec3(0.0f) || !(cell.jumpCells[k] < gpu::kSpatialPlaceMaxCells)) return -1.0f;
+    const float cells = jumpImage.empty() ? gpu::kJumpDistanceMaxCells : jumpImage[cell.texel[k]];
+    if (cell.exit[k] == glm::vec3(0.0f) || !(cells < gpu::kSpatialPlaceMaxCells)) return -1.0f;
     own[k] = glm::dot(cell.exit[k], cell.exit[size_t(r)]) > gpu::kSpatialSplitCosine;
     across = across || !own[k];
-    side[k] = own[k] ? cell.jumpCells[k] : -cell.jumpCells[k];
+    side[k] = own[k] ? cells : -cells;
     ownWeight += own[k] ? cell.weight[k] : 0.0f;
   }
-  const std::array<Vec3, 4> exits{fromGlm(cell.exit[0]), fromGlm(cell.exit[1]), fromGlm(cell.exit[2]),
-                                  fromGlm(cell.exit[3])};
-  if (!across || scatterAfterOneJump(exits) > gpu::kSpatialPlaceMaxScatter) return -1.0f;
+  if (!across || scatter > gpu::kSpatialPlaceMaxScatter) return -1.0f;
   const float fx = cell.fraction.x, fy = cell.fraction.y;
   const float at = (1.0f - fy) * ((1.0f - fx) * side[0] + fx * side[1]) + fy * ((1.0f - fx) * side[2] + fx * side[3]);
   const float alongX = (1.0f - fy) * (side[1] - side[0]) + fy * (side[3] - side[2]);
@@ -437,10 +434,12 @@ Vec3 transmittedOverPixel(const DistortionImage& distortion, const LatLongImage&
   const float footprint = directionFootprint(fromGlm(toGlm(d.exitDx) / n), fromGlm(toGlm(d.exitDy) / n));
   const std::array<Vec3, 4> exits{fromGlm(cell.exit[0]), fromGlm(cell.exit[1]), fromGlm(cell.exit[2]),
                                   fromGlm(cell.exit[3])};
-  const float blur = gpu::kSpatialScatterBlur * std::max(scatterAfterOneJump(exits) - gpu::kSpatialScatterThreshold, 0.0f);
+  const float scatter = scatterAfterOneJump(exits);
+  const float blur = gpu::kSpatialScatterBlur * std::max(scatter - gpu::kSpatialScatterThreshold, 0.0f);
   const glm::vec2 size(float(distortion.width), float(distortion.height));
   std::array<bool, 4> own{};
-  const float share = placedShare(cell, glm::vec2(d.uvDx[0], d.uvDx[1]) * size, glm::vec2(d.uvDy[0], d.uvDy[1]) * size, own);
+  const float share = placedShare(cell, distortion.jump, scatter, glm::vec2(d.uvDx[0], d.uvDx[1]) * size,
+                                  glm::vec2(d.uvDy[0], d.uvDy[1]) * size, own);
   const glm::vec4 colours = cellColours(cell, share < 0.0f ? cell.weight : placedWeights(cell, own, share), env,
                                         widenedFootprint(footprint, blur), worldFromObject);
   const float t = cell.jump * colours.w;
