@@ -454,6 +454,19 @@ TEST(PcaRefinement, TheWidestComponentsAreRefinedInPlaceOfTheWeakest) {
   for (float& w : even) w = float(200.0 * rng.next() - 100.0);
   EXPECT_TRUE(chooseRefinedComponents(even, kSamples, kComponents).empty());
   EXPECT_TRUE(chooseRefinedComponents(weights, kSamples, 1).empty());
+  // A trailing component carried by 5 % of the samples (weight +-10 there, 1e-4 elsewhere): its
+  // mean squared weight (5) is far above the widest component's rounding (0.051), but on the
+  // typical samples (kRefinementTypicalShare, below the 95 % that hardly use it) it costs ~1e-9,
+  // so the widest component is refined in its place.
+  constexpr uint32_t kThree = 3;
+  std::vector<float> tail(kSamples * kThree);
+  for (size_t s = 0; s < kSamples; ++s) {
+    tail[s * kThree + 0] = float(200.0 * rng.next() - 100.0);
+    tail[s * kThree + 1] = float(100.0 * rng.next() - 50.0);
+    tail[s * kThree + 2] = s % 20 == 0 ? (s % 40 == 0 ? 10.0f : -10.0f) : float(1e-4 * (rng.next() - 0.5));
+  }
+  static_assert(kRefinementTypicalShare <= 0.95);
+  EXPECT_EQ(chooseRefinedComponents(tail, kSamples, kThree), (std::vector<uint32_t>{0}));
 
   constexpr size_t kFunction = 8;
   std::vector<float> basis(kComponents * kFunction);

@@ -289,20 +289,33 @@ std::vector<float> projectOnBasis(const std::vector<float>& tables, size_t sampl
   return out;
 }
 
+namespace {
+
+// What dropping a component costs: the sum of its squared weights over the kRefinementTypicalShare
+// of samples where they are smallest, over all samples (`squares` is reordered).
+double typicalEnergy(std::vector<double>& squares) {
+  const size_t typical = static_cast<size_t>(double(squares.size()) * kRefinementTypicalShare);
+  std::nth_element(squares.begin(), squares.begin() + typical, squares.end());
+  double sum = 0.0;
+  for (size_t i = 0; i < typical; ++i) sum += squares[i];
+  return sum / double(squares.size());
+}
+
+}  // namespace
+
 std::vector<uint32_t> chooseRefinedComponents(const std::vector<float>& weights, size_t samples, uint32_t components) {
   if (samples == 0 || components < 2 || weights.size() != samples * components) return {};
-  std::vector<double> rounding(components), energy(components);
+  std::vector<double> rounding(components), energy(components), squares(samples);
   for (uint32_t k = 0; k < components; ++k) {
     float lo = weights[k], hi = weights[k];
-    double squares = 0.0;
     for (size_t s = 0; s < samples; ++s) {
       const float w = weights[s * components + k];
       lo = std::min(lo, w), hi = std::max(hi, w);
-      squares += double(w) * double(w);
+      squares[s] = double(w) * double(w);
     }
     const double step = (double(hi) - double(lo)) / 255.0;
     rounding[k] = step * step / 12.0;
-    energy[k] = squares / double(samples);
+    energy[k] = typicalEnergy(squares);
   }
   std::vector<uint32_t> refined;
   std::vector<bool> taken(components, false);
