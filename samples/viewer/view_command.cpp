@@ -30,7 +30,7 @@ std::vector<FlagSpec> viewFlags() {
       {"fov", true, "vertical field of view in degrees (default 40)", K::Real, {0, 180, true, true}},
       {"exposure", true, "linear scale applied before display (default 1)", K::Real, {0, kUnbounded, true}},
       {"absorption", true, "initial absorption scale k in exp(-tau * k) (default 1: the media as defined)", K::Real, {0, kUnbounded}},
-      {"order", true, "initial SH order (default: the baked order)", K::Integer, {0, 32}},
+      {"order", true, "SH fields: initial SH order (default: the baked order)", K::Integer, {0, 32}},
       {"env-taps", true, "initial taps per axis of each filtered environment lookup (default 4; T cycles)",
        K::Integer, {1, kMaxEnvironmentTapsPerAxis}},
       {"msaa", true, "the host's multisample count: 1 (default), 2, 4 or 8; silhouettes covered at N samples",
@@ -75,7 +75,7 @@ Exit takeEnvFlags(int argc, char** argv, std::vector<std::string>& envSpecs, std
 
 int printHelp(const std::vector<FlagSpec>& flags) {
   std::printf("usage: shrefract view FIELD.shrf [FIELD2.shrf] | SCENE [flags]\n"
-              "  FIELD.shrf: a baked refraction field (SH and single-interface modes)\n"
+              "  FIELD.shrf: a baked refraction field, any encoding (field and single-interface modes)\n"
               "  SCENE: builtin:NAME or a .gltf/.glb file (single-interface shading only; --allow-open as in bake)\n"
               "  The window title shows the frame time and the GPU decompression and raster times.\n%s%s",
               usageLines(flags).c_str(), viewer::keyHelp());

@@ -26,7 +26,7 @@ std::optional<Action> actionForCharacter(char c) {
 
 const char* keyHelp() {
   return "mouse: left drag orbits, right or middle drag (or shift + left) pans, wheel zooms\n"
-         "keys:  [ ]  SH order down / up (0 .. the baked order)\n"
+         "keys:  [ ]  SH order down / up (SH fields; 0 .. the baked order)\n"
          "       - +  absorption scale halved / doubled\n"
          "       E    next environment (each --env, then builtin)\n"
          "       M    mode: field <-> single-interface (fields only)\n"
