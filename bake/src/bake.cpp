@@ -19,6 +19,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -675,13 +676,13 @@ Result<double> candidateFrameDegrees(const EncodingShape& shape, const std::vect
 // are worse there); the field's basis is then learned once, in the frame kept. Learning both from
 // every sample took two full fits: the cube's default 64x64 bake took 700 s and 5.17 GiB at peak,
 // now 519 to 561 s and 3.55 GiB (docs/encodings.md, "Choosing the frame on a subset").
-Result<bool> keepSampleFrame(const BakePlan& plan, const EncodingShape& shape, const std::vector<float>& tables) {
+Result<bool> keepSampleFrame(const BakePlan& plan, const EncodingShape& shape, const std::vector<float>& tables,
+                             const FrameChoiceViews& views) {
   const SampleAtlas& atlas = plan.atlas;
   const size_t dim = size_t(shape.tableSize) * shape.tableSize * shape.channels;
   const std::vector<size_t> trainingSamples = frameChoiceTrainingSamples(atlas.samples.size());
   plan.begin("choosing the exit frame: bases of " + std::to_string(shape.components) + " components in each frame from " +
              std::to_string(trainingSamples.size()) + " samples");
-  const FrameChoiceViews views = traceFrameChoiceViews(plan);
   std::vector<float> training = gatherTables(tables, trainingSamples, dim), viewTables = gatherTables(tables, views.samples, dim);
   auto sample = candidateFrameDegrees(shape, training, trainingSamples.size(), viewTables, atlas, views,
                                       plan.settings.threads);
@@ -703,17 +704,63 @@ Result<bool> keepSampleFrame(const BakePlan& plan, const EncodingShape& shape, c
   return keep;
 }
 
+// A cluster's mean stands for its samples when it has a population: the encoding test's cube of
+// 294 samples chose 64 clusters of 4.6 samples each by 0.01 deg on the views (0.843 against 0.856)
+// and then decoded its test directions worse than 256 components, out of the ladder's order.
+constexpr size_t kMinSamplesPerCluster = 16;
+// k-means finds a local optimum, and the torus's images differ by seed (25.42 to 25.81 dB at 4x4
+// over three): the clusterings of this many seeds are measured on the views, the closest kept.
+constexpr uint32_t kClusterRestarts = 4;
+
+// Clusters (table_fit.h): whether the field keeps the mean tables of K clusters of its samples,
+// with one-hot weights, rather than its K components; `learned` is replaced where it does. Chosen
+// by the exit frame's measure (meanClippedDegrees, the same views): the nodes' RMS prefers the
+// components on every scene (torus 15.9 against 18.7 deg), while the images prefer the clusters on
+// glass turned on a lathe (docs/encodings.md, "Clusters").
+Result<bool> keepClusters(const BakePlan& plan, const EncodingShape& shape, const std::vector<float>& tables,
+                          const FrameChoiceViews& views, LearnedBasis& learned) {
+  const size_t n = plan.atlas.samples.size(), dim = size_t(shape.tableSize) * shape.tableSize * shape.channels;
+  if (n < kMinSamplesPerCluster * size_t(shape.components)) return false;
+  plan.begin("clustering " + std::to_string(n) + " samples into " + std::to_string(shape.components) + " tables, " +
+             std::to_string(kClusterRestarts) + " times");
+  const double components = meanClippedDegrees(shape, learned.basis, gatherTables(learned.weights, views.samples,
+                                                                                  shape.components),
+                                               plan.atlas, views);
+  ClusteredBasis best;
+  double clusters = std::numeric_limits<double>::max();
+  for (uint32_t seed = 0; seed < kClusterRestarts; ++seed) {
+    auto clustered = clusterTables(tables, n, dim, learned.weights, shape.components, shape.components, seed,
+                                   plan.settings.threads);
+    if (!clustered) return clustered.error();
+    const double degrees = meanClippedDegrees(shape, clustered.value().basis,
+                                              gatherTables(clustered.value().weights, views.samples, shape.components),
+                                              plan.atlas, views);
+    if (degrees < clusters) clusters = degrees, best = std::move(clustered.value());
+  }
+  const bool keep = clusters < components;
+  if (plan.note)
+    plan.note(std::string("pca basis: chose ") + (keep ? "clusters" : "components") + " (mean angle, clipped at " +
+              std::to_string(int(kFrameChoiceClipDegrees)) + " deg, to " + std::to_string(views.views.directions.size()) +
+              " traced views: " + std::to_string(components) + " deg with " + std::to_string(shape.components) +
+              " components, " + std::to_string(clusters) + " deg with as many clusters, the best of " +
+              std::to_string(kClusterRestarts) + " seeds)");
+  if (keep) learned = LearnedBasis{std::move(best.basis), std::move(best.weights)};
+  return keep;
+}
+
 // Pca: replaces each sample's table by its weights over a basis learned from all of them, in the
 // frame of ExitFrame::Auto's choice (keepSampleFrame) where the tables were traced in the sample's
 // frame. The sample's frame shares functions among samples alike up to a rotation about the up
 // axis; object space among samples that face alike (docs/encodings.md, "Exits in the sample's
 // frame"). Sets shape.sampleFrameExits to the frame kept.
-Result<void> learnBasisInItsFrame(const BakePlan& plan, EncodingShape& shape, std::vector<float>& coeffs,
+Result<bool> learnBasisInItsFrame(const BakePlan& plan, EncodingShape& shape, std::vector<float>& coeffs,
                                   std::vector<float>& basis) {
   const SampleAtlas& atlas = plan.atlas;
   const size_t n = atlas.samples.size();
+  plan.begin("tracing the views the basis is chosen on");
+  const FrameChoiceViews views = traceFrameChoiceViews(plan);
   if (plan.settings.exitFrame == ExitFrame::Auto) {
-    auto keep = keepSampleFrame(plan, shape, coeffs);
+    auto keep = keepSampleFrame(plan, shape, coeffs, views);
     if (!keep) return keep.error();
     if (!keep.value()) {
       std::vector<size_t> all(n);
@@ -726,9 +773,11 @@ Result<void> learnBasisInItsFrame(const BakePlan& plan, EncodingShape& shape, st
              " samples of " + std::to_string(size_t(shape.tableSize) * shape.tableSize * shape.channels) + " values");
   auto learned = learnBasis(shape, coeffs, n, plan.settings.threads);
   if (!learned) return learned.error();
+  auto clusters = keepClusters(plan, shape, coeffs, views, learned.value());
+  if (!clusters) return clusters.error();
   basis = std::move(learned.value().basis);
   coeffs = std::move(learned.value().weights);
-  return {};
+  return clusters.value();
 }
 
 // ---- --max-bytes-per-sample: the encoding with the lowest error within a byte budget ----------
@@ -1268,12 +1317,16 @@ Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
   std::vector<float>& coeffs = g.coeffs;
 
   std::vector<float> basis;
-  if (settings.encoding == Encoding::Pca)
-    if (auto r = learnBasisInItsFrame(plan, shape, coeffs, basis); !r) return r.error();
+  bool clustered = false;  // one-hot weights: nothing for refinement layers to refine
+  if (settings.encoding == Encoding::Pca) {
+    auto learned = learnBasisInItsFrame(plan, shape, coeffs, basis);
+    if (!learned) return learned.error();
+    clustered = learned.value();
+  }
   settings.exitFrame = shape.sampleFrameExits ? ExitFrame::Sample : ExitFrame::Object;  // what the field stores
   smoothSamples(plan, settings, strideOf(shape), coeffs);
   std::vector<uint32_t> refined;
-  if (settings.encoding == Encoding::Pca && settings.quantization == Quantization::U8) {
+  if (settings.encoding == Encoding::Pca && settings.quantization == Quantization::U8 && !clustered) {
     refined = chooseRefinedComponents(coeffs, sampleCount, shape.components);
     makeRefinementLayers(coeffs, sampleCount, shape.components, basis,
                          size_t(shape.tableSize) * shape.tableSize * shape.channels, refined);

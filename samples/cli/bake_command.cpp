@@ -51,7 +51,8 @@ std::vector<FlagSpec> bakeFlags() {
            std::to_string(bake::kDefaultGridPcaTableSize) + " fitted to a grid)",
        K::Integer,
        {2, double(bake::kMaxBakeTableSize)}},
-      {"components", true, "pca: basis functions K = bytes per sample in u8 (default 324)", K::Integer,
+      {"components", true, "pca: basis functions K = bytes per sample in u8 (default 324): K components, or the mean "
+                          "tables of K clusters of the samples where those decode closer (the bake prints which)", K::Integer,
        {1, double(kMaxComponents)}},
       {"direction-sampling", true, "directions traced per sample: nodes (default for pca: the tables' own "
                                    "node directions, exact at every node; also for table) or grid (--directions, "

@@ -205,6 +205,71 @@ TEST(Bake, AutoExitFrameChoosesOnASubsetAndLearnsTheFieldOnce) {
   EXPECT_EQ(dataBytes(automatic.value()), dataBytes(explicitFrame.value()));
 }
 
+// A Pca bake keeps the mean tables of K clusters of its samples, with one-hot weights, where they
+// decode closer than K components to the views it traces for the choice (bake.cpp keepClusters;
+// docs/encodings.md, "Clusters"). Its note gives both figures and the field follows the smaller. A
+// clustered field's every sample weighs one function by 1 and the others by 0, in u8 as stored.
+struct BasisChoice {
+  Field field;
+  double components = 0.0, clusters = 0.0;
+  bool keptClusters = false;
+};
+
+BasisChoice bakeAndChooseBasis(const char* scene, uint32_t components) {
+  BakeSettings s = small();
+  s.encoding = Encoding::Pca;
+  s.order = 0;
+  s.tableSize = 8;
+  s.components = components;
+  s.directionSampling = DirectionSampling::Nodes;
+  s.exitFrame = ExitFrame::Sample;
+  s.sampleBudget = 1500;
+  BakeOptions options;
+  options.settings = s;
+  std::string notes;
+  options.note = [&notes](const std::string& line) { notes += line + "\n"; };
+  auto field = bakeField(makeBuiltinScene(scene, {.tessellation = 1}).value(), options);
+  EXPECT_TRUE(field.ok()) << field.error().message;
+  BasisChoice out{field.ok() ? std::move(field.value()) : Field{}};
+  const size_t at = notes.find("pca basis: chose ");
+  EXPECT_NE(at, std::string::npos) << notes;
+  if (at == std::string::npos) return out;
+  const std::string line = notes.substr(at, notes.find('\n', at) - at);
+  std::printf("%s: %s\n", scene, line.c_str());
+  out.keptClusters = line.find("chose clusters") != std::string::npos;
+  out.components = std::stod(line.substr(line.find("views: ") + 7));
+  out.clusters = std::stod(line.substr(line.find("components, ") + 12));
+  return out;
+}
+
+// Whether every sample of the field has one-hot weights.
+bool oneHot(const Field& f) {
+  for (uint64_t t = 0; t < uint64_t(f.width) * f.height; ++t) {
+    if (f.texelKinds[t] != kTexelSample) continue;
+    uint32_t ones = 0;
+    for (uint32_t k = 0; k < f.components; ++k) {
+      const float w = fieldCoefficient(f, k, t, 0);
+      if (std::abs(w - 1.0f) < 1e-6f) ++ones;
+      else if (std::abs(w) > 1e-6f) return false;
+    }
+    if (ones != 1) return false;
+  }
+  return true;
+}
+
+TEST(Bake, PcaKeepsClustersWhereTheyDecodeCloser) {
+  // The sphere's samples are alike up to a rotation: 24 clusters hold its few distinct functions.
+  const BasisChoice sphere = bakeAndChooseBasis("sphere", 24);
+  EXPECT_TRUE(sphere.keptClusters);
+  EXPECT_LT(sphere.clusters, sphere.components);
+  EXPECT_TRUE(oneHot(sphere.field));
+  // The cube's functions vary along each face: 24 components follow them, 24 clusters do not.
+  const BasisChoice cube = bakeAndChooseBasis("cube", 24);
+  EXPECT_FALSE(cube.keptClusters);
+  EXPECT_LT(cube.components, cube.clusters);
+  EXPECT_FALSE(oneHot(cube.field));
+}
+
 // --max-bytes-per-sample measures its candidates on grid fits (Pca on 16x16 tables) but bakes a
 // chosen Pca field in the requested shape, node tables of the requested size with the jump
 // distance, as the tool's default is baked: a budget of the default's bytes gives the default's

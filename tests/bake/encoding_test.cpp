@@ -434,6 +434,52 @@ void expectOptimalEnergy(uint32_t kN) {
 TEST(PcaBasis, LargeTablesKeepTheOptimalEnergy) { expectOptimalEnergy(19); }
 TEST(PcaBasis, TablesBeyondTheGramMatrixKeepTheOptimalEnergy) { expectOptimalEnergy(53); }
 
+// --- Clusters (table_fit.h) --------------------------------------------------------------------
+
+// 600 samples drawn around 6 centres (8x8 tables of 3 channels; centres uniform in [-0.5, 0.5],
+// about 4 apart, noise 0.05 wide, about 0.2): clusterTables, given 6 clusters and the samples'
+// weights on 16 components, must put each group in a cluster of its own, give every sample one-hot
+// weights and make each function its cluster's mean table, on 1 thread as on 3.
+TEST(Clusters, AlikeSamplesShareTheirGroupsMeanTable) {
+  constexpr uint32_t kN = 8, kChannels = 3, kGroups = 6, kComponents = 16;
+  constexpr size_t kDim = size_t(kN) * kN * kChannels, kSamples = 600;
+  Random rng{5};
+  std::vector<float> centres(kGroups * kDim), tables(kSamples * kDim);
+  for (float& v : centres) v = float(rng.next() - 0.5);
+  std::vector<uint32_t> group(kSamples);
+  for (size_t s = 0; s < kSamples; ++s) {
+    group[s] = uint32_t(rng.next() * kGroups) % kGroups;
+    for (size_t i = 0; i < kDim; ++i)
+      tables[s * kDim + i] = centres[group[s] * kDim + i] + float(0.05 * (rng.next() - 0.5));
+  }
+  std::vector<float> weights;
+  ASSERT_TRUE(fitPcaBasis(tables, kSamples, kN, kChannels, kComponents, weights).ok());
+  auto one = clusterTables(tables, kSamples, kDim, weights, kComponents, kGroups, 0, 1);
+  auto three = clusterTables(tables, kSamples, kDim, weights, kComponents, kGroups, 0, 3);
+  ASSERT_TRUE(one.ok() && three.ok());
+  EXPECT_EQ(one->cluster, three->cluster);
+  EXPECT_EQ(one->basis, three->basis);
+  std::map<uint32_t, uint32_t> clusterOfGroup, groupOfCluster;
+  for (size_t s = 0; s < kSamples; ++s) {
+    const uint32_t k = one->cluster[s];
+    EXPECT_EQ(clusterOfGroup.emplace(group[s], k).first->second, k) << "a group split, sample " << s;
+    EXPECT_EQ(groupOfCluster.emplace(k, group[s]).first->second, group[s]) << "groups merged, sample " << s;
+    for (uint32_t j = 0; j < kGroups; ++j) EXPECT_EQ(one->weights[s * kGroups + j], j == k ? 1.0f : 0.0f);
+  }
+  EXPECT_EQ(clusterOfGroup.size(), size_t(kGroups));
+  double worst = 0.0;
+  for (uint32_t k = 0; k < kGroups; ++k)
+    for (size_t i = 0; i < kDim; ++i) {
+      double sum = 0.0;
+      size_t members = 0;
+      for (size_t s = 0; s < kSamples; ++s)
+        if (one->cluster[s] == k) sum += double(tables[s * kDim + i]), ++members;
+      worst = std::max(worst, std::abs(sum / double(members) - double(one->basis[k * kDim + i])));
+    }
+  EXPECT_LT(worst, 1e-6) << "a function is not its cluster's mean table";
+  EXPECT_FALSE(clusterTables(tables, 5, kDim, weights, kComponents, kGroups).ok()) << "fewer samples than clusters";
+}
+
 // --- u8 refinement layers of Pca (table_fit.h) --------------------------------------------------
 
 TEST(PcaRefinement, TheWidestComponentsAreRefinedInPlaceOfTheWeakest) {

@@ -10,6 +10,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <numbers>
 #include <string>
 
@@ -291,6 +292,65 @@ std::vector<float> projectOnBasis(const std::vector<float>& tables, size_t sampl
 
 namespace {
 
+using RowMatrix = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// k-means++ seeds: the first centre drawn uniformly, each next one with probability proportional to
+// the squared distance to the nearest centre so far.
+RowMatrix seedCentres(const RowMatrix& w, uint32_t clusters, uint64_t seed) {
+  const Eigen::Index n = w.rows();
+  uint64_t state = 0x434c5553ull + seed;
+  auto uniform = [&] { return double(splitmix(state) >> 11) * 0x1.0p-53; };
+  RowMatrix c(Eigen::Index(clusters), w.cols());
+  std::vector<double> nearest(size_t(n), std::numeric_limits<double>::max());
+  c.row(0) = w.row(std::min<Eigen::Index>(n - 1, Eigen::Index(uniform() * double(n))));
+  for (Eigen::Index j = 1; j < c.rows(); ++j) {
+    double total = 0.0;
+    for (Eigen::Index s = 0; s < n; ++s) {
+      nearest[size_t(s)] = std::min(nearest[size_t(s)], double((w.row(s) - c.row(j - 1)).squaredNorm()));
+      total += nearest[size_t(s)];
+    }
+    double r = uniform() * total;
+    Eigen::Index pick = n - 1;
+    for (Eigen::Index s = 0; s < n && pick == n - 1; ++s)
+      if ((r -= nearest[size_t(s)]) <= 0.0) pick = s;
+    c.row(j) = w.row(pick);
+  }
+  return c;
+}
+
+// Each sample's nearest centre; returns how many samples changed cluster. `distance` receives
+// each sample's squared distance to it.
+size_t assignToCentres(const RowMatrix& w, const RowMatrix& c, std::vector<uint32_t>& cluster,
+                       std::vector<double>& distance) {
+  const Eigen::MatrixXf dots = w * c.transpose();
+  const Eigen::VectorXf cn = c.rowwise().squaredNorm();
+  size_t moved = 0;
+  for (Eigen::Index s = 0; s < w.rows(); ++s) {
+    Eigen::Index best = 0;
+    (cn.transpose() - 2.0f * dots.row(s)).minCoeff(&best);
+    distance[size_t(s)] = double((w.row(s) - c.row(best)).squaredNorm());
+    if (cluster[size_t(s)] != uint32_t(best)) ++moved, cluster[size_t(s)] = uint32_t(best);
+  }
+  return moved;
+}
+
+// The centres of the clusters; an empty one takes the sample farthest from its centre.
+void updateCentres(const RowMatrix& w, const std::vector<uint32_t>& cluster, std::vector<double>& distance,
+                   RowMatrix& c) {
+  std::vector<size_t> count(size_t(c.rows()), 0);
+  c.setZero();
+  for (Eigen::Index s = 0; s < w.rows(); ++s) c.row(cluster[size_t(s)]) += w.row(s), ++count[cluster[size_t(s)]];
+  for (Eigen::Index j = 0; j < c.rows(); ++j) {
+    if (count[size_t(j)] > 0) {
+      c.row(j) /= float(count[size_t(j)]);
+      continue;
+    }
+    const auto far = size_t(std::max_element(distance.begin(), distance.end()) - distance.begin());
+    c.row(j) = w.row(Eigen::Index(far));
+    distance[far] = 0.0;
+  }
+}
+
 // What dropping a component costs: the sum of its squared weights over the kRefinementTypicalShare
 // of samples where they are smallest, over all samples (`squares` is reordered).
 double typicalEnergy(std::vector<double>& squares) {
@@ -302,6 +362,39 @@ double typicalEnergy(std::vector<double>& squares) {
 }
 
 }  // namespace
+
+Result<ClusteredBasis> clusterTables(const std::vector<float>& tables, size_t samples, size_t functionSize,
+                                     const std::vector<float>& pcaWeights, uint32_t pcaComponents, uint32_t clusters,
+                                     uint64_t seed, uint32_t threads) {
+  if (samples < clusters || clusters == 0 || tables.size() != samples * functionSize ||
+      pcaWeights.size() != samples * pcaComponents)
+    return makeError(ErrorCode::InvalidArgument, "clusters: fewer samples than clusters or mismatched sizes");
+  const Eigen::Map<const RowMatrix> w(pcaWeights.data(), Eigen::Index(samples), Eigen::Index(pcaComponents));
+  RowMatrix c = seedCentres(w, clusters, seed);
+  ClusteredBasis out;
+  out.cluster.assign(samples, clusters);  // none yet: every sample moves on the first pass
+  std::vector<double> distance(samples);
+  for (uint32_t i = 0; i < kClusterIterations; ++i) {
+    if (assignToCentres(w, c, out.cluster, distance) == 0) break;
+    updateCentres(w, out.cluster, distance, c);
+  }
+  assignToCentres(w, c, out.cluster, distance);  // an empty cluster's new centre may have taken samples
+  // Each function: its cluster's mean table (in the data's units; an empty cluster's stays zero).
+  std::vector<size_t> count(clusters, 0);
+  for (uint32_t k : out.cluster) ++count[k];
+  out.basis.assign(size_t(clusters) * functionSize, 0.0f);
+  parallelFor(clusters, threads, [&](size_t k) {
+    std::vector<double> sum(functionSize, 0.0);
+    for (size_t s = 0; s < samples; ++s)
+      if (out.cluster[s] == k)
+        for (size_t i = 0; i < functionSize; ++i) sum[i] += double(tables[s * functionSize + i]);
+    for (size_t i = 0; i < functionSize && count[k] > 0; ++i)
+      out.basis[k * functionSize + i] = static_cast<float>(sum[i] / double(count[k]));
+  });
+  out.weights.assign(samples * clusters, 0.0f);
+  for (size_t s = 0; s < samples; ++s) out.weights[s * clusters + out.cluster[s]] = 1.0f;
+  return out;
+}
 
 std::vector<uint32_t> chooseRefinedComponents(const std::vector<float>& weights, size_t samples, uint32_t components) {
   if (samples == 0 || components < 2 || weights.size() != samples * components) return {};
