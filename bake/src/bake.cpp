@@ -602,10 +602,10 @@ std::vector<float> gatherTables(const std::vector<float>& tables, const std::vec
   return out;
 }
 
-// Traced views the exit frame and the basis (keepClusters) are chosen on: kFrameChoiceViews cosine-weighted directions at every
-// (n / kFrameChoiceSamples)-th sample (all of a field under 2 kFrameChoiceSamples samples,
-// otherwise between kFrameChoiceSamples and twice as many), traced for the choice alone (so it does
-// not depend on --held-out), with a fixed sequence per sample.
+// Traced views the exit frame and the basis (keepClusters) are chosen on: kFrameChoiceViews
+// cosine-weighted directions at every (n / kFrameChoiceSamples)-th sample (all of a field under 2
+// kFrameChoiceSamples samples, otherwise between kFrameChoiceSamples and twice as many), traced for
+// the choice alone (so it does not depend on --held-out), with a fixed sequence per sample.
 constexpr size_t kFrameChoiceSamples = 2048;
 constexpr uint32_t kFrameChoiceViews = 8;
 struct FrameChoiceViews {
