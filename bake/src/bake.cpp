@@ -717,10 +717,14 @@ constexpr uint32_t kClusterRestarts = 4;
 // by the exit frame's measure (meanClippedDegrees, the same views): the nodes' RMS prefers the
 // components on every scene (torus 15.9 against 18.7 deg), while the images prefer the clusters on
 // glass turned on a lathe (docs/encodings.md, "Clusters").
+bool clustersEligible(size_t samples, const EncodingShape& shape) {
+  return samples >= kMinSamplesPerCluster * size_t(shape.components);
+}
+
 Result<bool> keepClusters(const BakePlan& plan, const EncodingShape& shape, const std::vector<float>& tables,
                           const FrameChoiceViews& views, LearnedBasis& learned) {
   const size_t n = plan.atlas.samples.size(), dim = size_t(shape.tableSize) * shape.tableSize * shape.channels;
-  if (n < kMinSamplesPerCluster * size_t(shape.components)) return false;
+  if (!clustersEligible(n, shape)) return false;
   plan.begin("clustering " + std::to_string(n) + " samples into " + std::to_string(shape.components) + " tables, " +
              std::to_string(kClusterRestarts) + " times");
   const double components = meanClippedDegrees(shape, learned.basis, gatherTables(learned.weights, views.samples,
@@ -757,8 +761,12 @@ Result<bool> learnBasisInItsFrame(const BakePlan& plan, EncodingShape& shape, st
                                   std::vector<float>& basis) {
   const SampleAtlas& atlas = plan.atlas;
   const size_t n = atlas.samples.size();
-  plan.begin("tracing the views the basis is chosen on");
-  const FrameChoiceViews views = traceFrameChoiceViews(plan);
+  // The views serve both choices; a field that makes neither traces none.
+  FrameChoiceViews views;
+  if (plan.settings.exitFrame == ExitFrame::Auto || clustersEligible(n, shape)) {
+    plan.begin("tracing the views the frame and the basis are chosen on");
+    views = traceFrameChoiceViews(plan);
+  }
   if (plan.settings.exitFrame == ExitFrame::Auto) {
     auto keep = keepSampleFrame(plan, shape, coeffs, views);
     if (!keep) return keep.error();

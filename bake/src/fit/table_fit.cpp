@@ -374,11 +374,12 @@ Result<ClusteredBasis> clusterTables(const std::vector<float>& tables, size_t sa
   ClusteredBasis out;
   out.cluster.assign(samples, clusters);  // none yet: every sample moves on the first pass
   std::vector<double> distance(samples);
-  for (uint32_t i = 0; i < kClusterIterations; ++i) {
-    if (assignToCentres(w, c, out.cluster, distance) == 0) break;
-    updateCentres(w, out.cluster, distance, c);
+  bool settled = false;
+  for (uint32_t i = 0; i < kClusterIterations && !settled; ++i) {
+    settled = assignToCentres(w, c, out.cluster, distance) == 0;
+    if (!settled) updateCentres(w, out.cluster, distance, c);
   }
-  assignToCentres(w, c, out.cluster, distance);  // an empty cluster's new centre may have taken samples
+  if (!settled) assignToCentres(w, c, out.cluster, distance);  // the last centres moved: assign to them
   // Each function: its cluster's mean table (in the data's units; an empty cluster's stays zero).
   std::vector<size_t> count(clusters, 0);
   for (uint32_t k : out.cluster) ++count[k];
