@@ -112,7 +112,7 @@ BareResult bareLoop(const bake::Scene& scene, const std::vector<bake::SurfacePoi
   RTCDevice device = rtcNewDevice("ignore_config_files=1");
   RTCScene rtc = buildRtcScene(device, scene);
   std::vector<bake::LocalFrame> frames(samples.size());
-  for (size_t s = 0; s < samples.size(); ++s) frames[s] = bake::frameFromNormal(samples[s].shadingNormal);
+  for (size_t s = 0; s < samples.size(); ++s) frames[s] = bake::frameAt(samples[s]);
   const auto start = std::chrono::steady_clock::now();
   const uint64_t hits = castRays(rtc, samples, frames, grid, rays, threads);
   BareResult out;

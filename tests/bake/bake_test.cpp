@@ -87,6 +87,45 @@ TEST(SampleFrame, TangentFollowsTheLatitudeAroundUp) {
   }
 }
 
+// sample_frame.h frameAt: in the polar cap of a curved surface the tangent is the latitude through
+// the point, so a rotation about +Y carries a cap sample's frame onto the rotated sample's, as it
+// does outside the cap; a flat face across the axis and a point on the axis keep frameFromNormal,
+// and so does every point outside the cap.
+TEST(SampleFrame, CapOfACurvedSurfaceTurnsWithThePoint) {
+  const float c = std::cos(1.0f), s = std::sin(1.0f);
+  auto rotate = [&](glm::vec3 v) { return glm::vec3(c * v.x + s * v.z, v.y, -s * v.x + c * v.z); };
+  auto point = [](glm::vec3 position, glm::vec3 shading, glm::vec3 geometric) {
+    SurfacePoint p;
+    p.position = position;
+    p.shadingNormal = glm::normalize(shading);
+    p.geometricNormal = glm::normalize(geometric);
+    return p;
+  };
+  auto near = [](glm::vec3 a, glm::vec3 b) { return glm::length(a - b) < 1e-5f; };
+  // A torus's top ring: the interpolated normal leans 2 deg off its triangle's, inside the cap.
+  for (const SurfacePoint& p : {point({1.5f, 0.5f, 0.3f}, {0.03f, 1.0f, 0.01f}, {0.0f, 1.0f, 0.0f}),
+                                point({-0.2f, -0.5f, 1.1f}, {0.0f, -1.0f, 0.04f}, {0.02f, -1.0f, 0.0f})}) {
+    SCOPED_TRACE(testing::Message() << "p = " << p.position.x << ", " << p.position.y << ", " << p.position.z);
+    const LocalFrame f = frameAt(p);
+    EXPECT_NEAR(glm::length(f.tangent), 1.0f, 1e-6f);
+    EXPECT_NEAR(glm::dot(f.tangent, p.shadingNormal), 0.0f, 1e-6f);
+    EXPECT_LT(glm::length(glm::cross(f.tangent, f.bitangent) - p.shadingNormal), 1e-6f);
+    // Along up x position, as the latitude outside the cap on a surface of revolution's outer side.
+    EXPECT_GT(glm::dot(f.tangent, glm::normalize(glm::vec3(p.position.z, 0.0f, -p.position.x))), 0.99f);
+    const LocalFrame g = frameAt(point(rotate(p.position), rotate(p.shadingNormal), rotate(p.geometricNormal)));
+    EXPECT_TRUE(near(g.tangent, rotate(f.tangent))) << "the cap's frame does not turn with the point";
+    EXPECT_TRUE(near(g.bitangent, rotate(f.bitangent)));
+  }
+  // A cube's top face (flat), a point on the axis, a wall outside the cap: frameFromNormal.
+  for (const SurfacePoint& p : {point({0.7f, 1.0f, -0.4f}, {0.0f, 1.0f, 0.0f}, {0.0f, 1.0f, 0.0f}),
+                                point({0.0f, 1.0f, 0.0f}, {0.03f, 1.0f, 0.0f}, {0.0f, 1.0f, 0.0f}),
+                                point({1.0f, 0.2f, 0.3f}, {1.0f, 0.3f, 0.2f}, {1.0f, 0.25f, 0.2f})}) {
+    const LocalFrame f = frameAt(p), expected = frameFromNormal(p.shadingNormal);
+    EXPECT_TRUE(near(f.tangent, expected.tangent) && near(f.bitangent, expected.bitangent))
+        << "p = " << p.position.x << ", " << p.position.y << ", " << p.position.z;
+  }
+}
+
 // A sample-frame field decodes (evaluateSample, object space) to the exits the object-space
 // field of the same scene decodes to: the node-sampled f16 table holds the traced exit at every
 // node in either frame, so at node directions the two agree to f16 rounding.
@@ -494,7 +533,7 @@ TEST(BakeTracing, BatchOfDirectionsIsSinglePathsBitForBit) {
     size_t paths = 0, mismatches = 0, longPaths = 0, trapped = 0;
     for (const TraceSettings& settings : {TraceSettings{}, capped, firstRefraction}) {
       for (size_t p = 0; p < points.size(); ++p) {
-        const LocalFrame frame = frameFromNormal(points[p].shadingNormal);
+        const LocalFrame frame = frameAt(points[p]);
         std::vector<glm::vec3> incidents;
         for (const glm::dvec3& w : grid.directions) incidents.push_back(-localToWorld(frame, glm::vec3(w)));
         incidents[p % incidents.size()] = glm::vec3(0.0f);

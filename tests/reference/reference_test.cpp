@@ -732,7 +732,7 @@ TEST(ExactDistortion, SampleTexelsHoldTheExactPathAndGuttersTheirRule) {
     if (f.field.texelKinds[t] != kTexelSample) continue;
     ++samples;
     const SurfacePoint& point = f.atlas.samples[f.atlas.texelSample[t]];
-    const LocalFrame frame = frameFromNormal(point.shadingNormal);
+    const LocalFrame frame = frameAt(point);
     const glm::vec3 w = worldToLocal(frame, eye - point.position);
     if (w.z <= 0.0f) continue;
     const PathResult path = f.s.tracer->traceFromSurface(point, -localToWorld(frame, glm::normalize(w)), ts);

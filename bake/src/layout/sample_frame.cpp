@@ -22,6 +22,22 @@ LocalFrame frameFromNormal(glm::vec3 n) {
   return f;
 }
 
+LocalFrame frameAt(const SurfacePoint& point) {
+  const glm::vec3 n = point.shadingNormal, p = point.position;
+  const bool inCap = n.x * n.x + n.z * n.z <= kPolarCapSin2;
+  const bool flat = std::abs(glm::dot(n, point.geometricNormal)) >= kFlatFaceCosine;
+  // Up x position: horizontal, so never short against n within the cap (|n.y| > 0.99).
+  const glm::vec3 around(p.z, 0.0f, -p.x);
+  const float radius2 = around.x * around.x + around.z * around.z;
+  if (!inCap || flat || !(radius2 > 1e-8f * glm::dot(p, p))) return frameFromNormal(n);
+  const glm::vec3 t = around - n * glm::dot(around, n);
+  LocalFrame f;
+  f.normal = n;
+  f.tangent = t / std::sqrt(glm::dot(t, t));
+  f.bitangent = glm::cross(n, f.tangent);
+  return f;
+}
+
 std::array<float, 12> localFromWorldRows(const glm::vec3& p, const LocalFrame& f) {
   return {f.tangent.x,   f.tangent.y,   f.tangent.z,   -glm::dot(f.tangent, p),
           f.bitangent.x, f.bitangent.y, f.bitangent.z, -glm::dot(f.bitangent, p),
