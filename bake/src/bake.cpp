@@ -707,9 +707,10 @@ Result<bool> keepSampleFrame(const BakePlan& plan, const EncodingShape& shape, c
 // A cluster's mean stands for its samples when it has a population: the encoding test's cube of
 // 294 samples chose 64 clusters of 4.6 samples each by 0.01 deg on the views (0.843 against 0.856)
 // and then decoded its test directions worse than 256 components, out of the ladder's order. From
-// 8 a sample they rendered better or the same (4000-sample bakes, 12.5 to 14 a cluster: torus
-// +0.32 dB, glass of water +0.19, sphere -0.01; the report's glass of water sweep at K = 324, 9.9
-// a cluster: +0.06, which keeps its sweep falling: docs/encodings.md "Clusters").
+// 8 samples a cluster they rendered better or the same (4000-sample bakes, 12.5 to 14 a cluster:
+// torus +0.32 dB, glass of water +0.19, sphere -0.01; the report's glass of water sweep at K = 324,
+// 9.9 a cluster: +0.06, which keeps that sweep rising with the bytes: docs/encodings.md, "The
+// report's Pca sweep with clusters").
 constexpr size_t kMinSamplesPerCluster = 8;
 // k-means finds a local optimum, and the torus's images differ by seed (25.42 to 25.81 dB at 4x4
 // over three): the clusterings of this many seeds are measured on the views, the closest kept.

@@ -15,8 +15,10 @@ namespace shrefract::bake {
 namespace {
 
 constexpr char kMagic[8] = {'S', 'H', 'R', 'F', 'P', 'A', 'R', 'T'};
-// 2: the settings name the direction sampling; 3: the jump distance; 4: the frame of the exits.
-constexpr uint32_t kPartVersion = 4;
+// 2: the settings name the direction sampling; 3: the jump distance; 4: the frame of the exits;
+// 5: the frames of the polar cap of a curved surface (sample_frame.h frameAt): an older part traced
+// those samples in frames its merge would no longer store.
+constexpr uint32_t kPartVersion = 5;
 constexpr size_t kHeaderBytes = 8 + 4 + 8 + 8;  // magic, version, payload size, checksum
 
 uint64_t fnv1a(const uint8_t* data, size_t size) {
