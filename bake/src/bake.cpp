@@ -59,6 +59,9 @@ EncodingShape shapeOf(const BakeSettings& s, uint32_t channels) {
 }
 size_t strideOf(const EncodingShape& shape) { return size_t(shape.layerCount()) * shape.valuesPerLayer(); }
 
+// Values of one node table (Table, Pca): N x N nodes of every encoded channel.
+size_t tableValues(const EncodingShape& shape) { return size_t(shape.tableSize) * shape.tableSize * shape.channels; }
+
 // The rows of M_s, as the field stores a sample's frame.
 std::array<float, 12> sampleRows(const SurfacePoint& p) {
   return localFromWorldRows(p.position, frameAt(p));
@@ -679,7 +682,7 @@ Result<double> candidateFrameDegrees(const EncodingShape& shape, const std::vect
 Result<bool> keepSampleFrame(const BakePlan& plan, const EncodingShape& shape, const std::vector<float>& tables,
                              const FrameChoiceViews& views) {
   const SampleAtlas& atlas = plan.atlas;
-  const size_t dim = size_t(shape.tableSize) * shape.tableSize * shape.channels;
+  const size_t dim = tableValues(shape);
   const std::vector<size_t> trainingSamples = frameChoiceTrainingSamples(atlas.samples.size());
   plan.begin("choosing the exit frame: bases of " + std::to_string(shape.components) + " components in each frame from " +
              std::to_string(trainingSamples.size()) + " samples");
@@ -727,7 +730,7 @@ bool clustersEligible(size_t samples, const EncodingShape& shape) {
 
 Result<bool> keepClusters(const BakePlan& plan, const EncodingShape& shape, const std::vector<float>& tables,
                           const FrameChoiceViews& views, LearnedBasis& learned) {
-  const size_t n = plan.atlas.samples.size(), dim = size_t(shape.tableSize) * shape.tableSize * shape.channels;
+  const size_t n = plan.atlas.samples.size(), dim = tableValues(shape);
   if (!clustersEligible(n, shape)) return false;
   plan.begin("clustering " + std::to_string(n) + " samples into " + std::to_string(shape.components) + " tables, " +
              std::to_string(kClusterRestarts) + " times");
@@ -743,7 +746,10 @@ Result<bool> keepClusters(const BakePlan& plan, const EncodingShape& shape, cons
     const double degrees = meanClippedDegrees(shape, clustered.value().basis,
                                               gatherTables(clustered.value().weights, views.samples, shape.components),
                                               plan.atlas, views);
-    if (degrees < clusters) clusters = degrees, best = std::move(clustered.value());
+    if (degrees < clusters) {
+      clusters = degrees;
+      best = std::move(clustered.value());
+    }
   }
   const bool keep = clusters < components;
   if (plan.note)
@@ -782,7 +788,7 @@ Result<bool> learnBasisInItsFrame(const BakePlan& plan, EncodingShape& shape, st
     }
   }
   plan.begin("learning the pca basis: " + std::to_string(shape.components) + " components from " + std::to_string(n) +
-             " samples of " + std::to_string(size_t(shape.tableSize) * shape.tableSize * shape.channels) + " values");
+             " samples of " + std::to_string(tableValues(shape)) + " values");
   auto learned = learnBasis(shape, coeffs, n, plan.settings.threads);
   if (!learned) return learned.error();
   auto clusters = keepClusters(plan, shape, coeffs, views, learned.value());
@@ -1341,7 +1347,7 @@ Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
   if (settings.encoding == Encoding::Pca && settings.quantization == Quantization::U8 && !clustered) {
     refined = chooseRefinedComponents(coeffs, sampleCount, shape.components);
     makeRefinementLayers(coeffs, sampleCount, shape.components, basis,
-                         size_t(shape.tableSize) * shape.tableSize * shape.channels, refined);
+                         tableValues(shape), refined);
   }
   std::vector<SampleError> errors(sampleCount);
   plan.begin("checking the fit against the traced directions");

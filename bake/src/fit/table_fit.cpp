@@ -329,7 +329,10 @@ size_t assignToCentres(const RowMatrix& w, const RowMatrix& c, std::vector<uint3
     Eigen::Index best = 0;
     (cn.transpose() - 2.0f * dots.row(s)).minCoeff(&best);
     distance[size_t(s)] = double((w.row(s) - c.row(best)).squaredNorm());
-    if (cluster[size_t(s)] != uint32_t(best)) ++moved, cluster[size_t(s)] = uint32_t(best);
+    if (cluster[size_t(s)] != uint32_t(best)) {
+      ++moved;
+      cluster[size_t(s)] = uint32_t(best);
+    }
   }
   return moved;
 }
@@ -339,7 +342,10 @@ void updateCentres(const RowMatrix& w, const std::vector<uint32_t>& cluster, std
                    RowMatrix& c) {
   std::vector<size_t> count(size_t(c.rows()), 0);
   c.setZero();
-  for (Eigen::Index s = 0; s < w.rows(); ++s) c.row(cluster[size_t(s)]) += w.row(s), ++count[cluster[size_t(s)]];
+  for (Eigen::Index s = 0; s < w.rows(); ++s) {
+    c.row(cluster[size_t(s)]) += w.row(s);
+    ++count[cluster[size_t(s)]];
+  }
   for (Eigen::Index j = 0; j < c.rows(); ++j) {
     if (count[size_t(j)] > 0) {
       c.row(j) /= float(count[size_t(j)]);
