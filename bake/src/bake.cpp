@@ -837,7 +837,10 @@ std::vector<BudgetCandidate> budgetCandidates(const BakeSettings& base, uint32_t
 void simulateU8(std::vector<float>& coeffs, size_t samples, size_t stride) {
   for (size_t i = 0; i < stride; ++i) {
     float lo = coeffs[i], hi = coeffs[i];
-    for (size_t s = 0; s < samples; ++s) lo = std::min(lo, coeffs[s * stride + i]), hi = std::max(hi, coeffs[s * stride + i]);
+    for (size_t s = 0; s < samples; ++s) {
+      lo = std::min(lo, coeffs[s * stride + i]);
+      hi = std::max(hi, coeffs[s * stride + i]);
+    }
     const float range = hi - lo;
     if (!(range > 0.0f)) continue;
     for (size_t s = 0; s < samples; ++s) {

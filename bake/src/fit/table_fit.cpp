@@ -410,7 +410,8 @@ std::vector<uint32_t> chooseRefinedComponents(const std::vector<float>& weights,
     float lo = weights[k], hi = weights[k];
     for (size_t s = 0; s < samples; ++s) {
       const float w = weights[s * components + k];
-      lo = std::min(lo, w), hi = std::max(hi, w);
+      lo = std::min(lo, w);
+      hi = std::max(hi, w);
       squares[s] = double(w) * double(w);
     }
     const double step = (double(hi) - double(lo)) / 255.0;
