@@ -1,6 +1,7 @@
 // `shrefract bake SCENE -o FILE.shrf`: the offline bake, with progress and a summary.
 #include <shrefract/bake/bake.h>
 #include <shrefract/bake/fit.h>
+#include <shrefract/bake/layout.h>
 
 #include <array>
 #include <cctype>
@@ -35,7 +36,7 @@ std::vector<FlagSpec> bakeFlags() {
        {double(bake::kMinDirectionRows), double(bake::kMaxDirectionRows)},
        {double(bake::kMinDirectionColumns), double(bake::kMaxDirectionColumns)}},
       {"layout", true, "charts (default: a chart atlas, the measured best at the default budget) or split (every triangle its own patch, continuous across edges)"},
-      {"samples", true, "total surface sample budget (default 20000)", K::Integer, {1, 1e8}},
+      {"samples", true, "total surface sample budget (default 40000)", K::Integer, {1, 1e8}},
       {"density", true, "samples per unit area instead of a budget", K::Real, {0, kUnbounded, true}},
       {"threads", true, "worker threads (default: all cores); never changes the result", K::Integer, {1, 1024}},
       {"max-bounces", true, "cap on interactions inside the object (default 16)", K::Integer,
@@ -264,7 +265,7 @@ Result<void> applyPathFlags(const Args& args, const NumericFlags& n, BakeSetting
 Result<BakeSettings> bakeSettingsFrom(const Args& args, const NumericFlags& n) {
   BakeSettings s;
   s.source = args.positional()[0];
-  s.sampleBudget = 20000;
+  s.sampleBudget = bake::kDefaultSampleBudget;
   if (auto applied = applyNumericFlags(n, s); !applied) return applied.error();
   if (auto applied = applyLayoutFlags(args, s); !applied) return applied.error();
   if (auto applied = applyEncodingFlag(args, n, s); !applied) return applied.error();

@@ -1,6 +1,7 @@
 #include "report/flicker.h"
 
 #include <shrefract/bake/bake.h>
+#include <shrefract/bake/layout.h>
 #include <shrefract/bake/reference_render.h>
 #include <shrefract/object.h>
 
@@ -36,7 +37,7 @@ OrbitProfile orbitFor(ReportSize size) {
     p.frames = 32;
     p.width = 320;
     p.height = 240;
-    p.samples = 20000;
+    p.samples = bake::kDefaultSampleBudget;
   }
   return p;
 }

@@ -559,9 +559,13 @@ TEST(ChartsLayout, FilteringFollowsTheSurfaceAcrossSmoothSeams) {
   for (const char* sceneName : {"sphere", "torus"}) {
     SCOPED_TRACE(sceneName);
     const Scene scene = builtin(sceneName);
-    LayoutOptions copies;
+    // At 20000 samples the worst filtered error is at the seams; at 40000 (the default since
+    // clustered fields) the sphere's lies elsewhere, 0.0379 with either gutter (measured).
+    LayoutOptions extension;
+    extension.sampleBudget = 20000;
+    LayoutOptions copies = extension;
     copies.extendSmoothSeams = false;
-    Result<SampleAtlas> extended = buildChartsLayout(scene, {}), copied = buildChartsLayout(scene, copies);
+    Result<SampleAtlas> extended = buildChartsLayout(scene, extension), copied = buildChartsLayout(scene, copies);
     ASSERT_TRUE(extended.ok() && copied.ok());
     EXPECT_EQ(extended->width, copied->width);
     EXPECT_GT(extended->samples.size(), copied->samples.size()) << "no gutter texel holds its own point";
