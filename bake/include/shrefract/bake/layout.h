@@ -26,7 +26,8 @@ namespace shrefract::bake {
 // Pca fields: a cluster's table is the mean of alike samples, so twice the samples sharpen the
 // spatial term without the loss they brought when 324 shared components had to span them all (the
 // torus +0.47 dB in the report, inside issue 11's 3 dB; docs/encodings.md, "More samples with
-// clusters"). The price: about 2.2x the bake time, 1.9x its peak memory, 1.4x the file.
+// clusters"). Fields that keep components lose a little (cube -0.11, bunny -0.20 dB). The price:
+// about 2.2x the bake time, 1.9x its peak memory, 1.4x the file.
 inline constexpr uint64_t kDefaultSampleBudget = 40000;
 
 // SampleAtlas::texelSample of a texel that holds no sample (empty or split-layout gutter).
