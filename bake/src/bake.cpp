@@ -914,8 +914,7 @@ Result<double> candidateError(const BudgetCandidate& c, const BudgetProbe& p, co
     basis = std::move(pca.value().basis);
     if (c.settings.quantization == Quantization::U8) {  // as finishBake: refined on the training weights
       const std::vector<uint32_t> refined = chooseRefinedComponents(weights, p.train.size(), shape.components);
-      const size_t functionSize = size_t(shape.tableSize) * shape.tableSize * channels;
-      makeRefinementLayers(test, p.test.size(), shape.components, basis, functionSize, refined);
+      makeRefinementLayers(test, p.test.size(), shape.components, basis, tableValues(shape), refined);
       std::vector<float> coarse = test;
       simulateU8(coarse, p.test.size(), strideOf(shape));
       fillRefinementWeights(test, p.test.size(), shape.components, refined,
