@@ -720,18 +720,22 @@ constexpr size_t kMinSamplesPerCluster = 8;
 constexpr uint32_t kClusterRestarts = 4;
 
 // Clusters (table_fit.h): whether the field keeps the mean tables of K clusters of its samples,
-// with one-hot weights, rather than its K components; `learned` is replaced where it does. Chosen
+// each sample storing its cluster's index (EncodingShape::clustered: 2 bytes, one table read per
+// decode), rather than its K components; `learned` is replaced where it does: the cluster means and
+// one float per sample, the index. Chosen
 // by the exit frame's measure (meanClippedDegrees, the same views): the nodes' RMS prefers the
 // components on every scene (torus 15.9 against 18.7 deg), while the images prefer the clusters on
 // glass turned on a lathe (docs/encodings.md, "Clusters").
-bool clustersEligible(size_t samples, const EncodingShape& shape) {
-  return samples >= kMinSamplesPerCluster * size_t(shape.components);
+// Spatial smoothing (--spatial) blends neighbours' weights, which an index cannot hold: those bakes
+// keep the components.
+bool clustersEligible(const BakeSettings& settings, size_t samples, const EncodingShape& shape) {
+  return settings.spatialNeighbours == 0 && samples >= kMinSamplesPerCluster * size_t(shape.components);
 }
 
 Result<bool> keepClusters(const BakePlan& plan, const EncodingShape& shape, const std::vector<float>& tables,
                           const FrameChoiceViews& views, LearnedBasis& learned) {
   const size_t n = plan.atlas.samples.size(), dim = tableValues(shape);
-  if (!clustersEligible(n, shape)) return false;
+  if (!clustersEligible(plan.settings, n, shape)) return false;
   plan.begin("clustering " + std::to_string(n) + " samples into " + std::to_string(shape.components) + " tables, " +
              std::to_string(kClusterRestarts) + " times");
   const double components = meanClippedDegrees(shape, learned.basis, gatherTables(learned.weights, views.samples,
@@ -758,7 +762,7 @@ Result<bool> keepClusters(const BakePlan& plan, const EncodingShape& shape, cons
               " traced views: " + std::to_string(components) + " deg with " + std::to_string(shape.components) +
               " components, " + std::to_string(clusters) + " deg with as many clusters, the best of " +
               std::to_string(kClusterRestarts) + " seeds)");
-  if (keep) learned = LearnedBasis{std::move(best.basis), std::move(best.weights)};
+  if (keep) learned = LearnedBasis{std::move(best.basis), std::vector<float>(best.cluster.begin(), best.cluster.end())};
   return keep;
 }
 
@@ -766,14 +770,15 @@ Result<bool> keepClusters(const BakePlan& plan, const EncodingShape& shape, cons
 // frame of ExitFrame::Auto's choice (keepSampleFrame) where the tables were traced in the sample's
 // frame. The sample's frame shares functions among samples alike up to a rotation about the up
 // axis; object space among samples that face alike (docs/encodings.md, "Exits in the sample's
-// frame"). Sets shape.sampleFrameExits to the frame kept.
+// frame"). Sets shape.sampleFrameExits to the frame kept, and shape.clustered where the basis is
+// the clusters' means (keepClusters: each sample's coefficients are then its index).
 Result<bool> learnBasisInItsFrame(const BakePlan& plan, EncodingShape& shape, std::vector<float>& coeffs,
                                   std::vector<float>& basis) {
   const SampleAtlas& atlas = plan.atlas;
   const size_t n = atlas.samples.size();
   // The views serve both choices; a field that makes neither traces none.
   FrameChoiceViews views;
-  if (plan.settings.exitFrame == ExitFrame::Auto || clustersEligible(n, shape)) {
+  if (plan.settings.exitFrame == ExitFrame::Auto || clustersEligible(plan.settings, n, shape)) {
     plan.begin("tracing the views the frame and the basis are chosen on");
     views = traceFrameChoiceViews(plan);
   }
@@ -793,6 +798,7 @@ Result<bool> learnBasisInItsFrame(const BakePlan& plan, EncodingShape& shape, st
   if (!learned) return learned.error();
   auto clusters = keepClusters(plan, shape, coeffs, views, learned.value());
   if (!clusters) return clusters.error();
+  shape.clustered = clusters.value();
   basis = std::move(learned.value().basis);
   coeffs = std::move(learned.value().weights);
   return clusters.value();
@@ -1306,6 +1312,7 @@ Field fieldLayout(const BakePlan& plan, const BakeSettings& settings, const Enco
   field.throughput = settings.throughput;
   field.jumpDistance = settings.jumpDistance;
   field.sampleFrameExits = shape.sampleFrameExits;
+  field.clustered = shape.clustered;
   field.settings = settings;  // before encoding: its validation reads the direction sampling
   field.basis = basis;
   field.quantization = settings.quantization;
@@ -1337,7 +1344,7 @@ Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
   std::vector<float>& coeffs = g.coeffs;
 
   std::vector<float> basis;
-  bool clustered = false;  // one-hot weights: nothing for refinement layers to refine
+  bool clustered = false;  // one index a sample: nothing for refinement layers to refine
   if (settings.encoding == Encoding::Pca) {
     auto learned = learnBasisInItsFrame(plan, shape, coeffs, basis);
     if (!learned) return learned.error();

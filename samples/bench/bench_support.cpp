@@ -24,6 +24,7 @@ Field syntheticHeader(const SyntheticOptions& o) {
   f.throughput = o.throughput;
   f.jumpDistance = o.jumpDistance;
   f.quantization = o.quantization;
+  f.clustered = o.encoding == Encoding::Pca && o.clustered;
   f.settings.order = f.order;
   f.settings.encoding = f.encoding;
   f.settings.tableSize = f.tableSize;
@@ -80,6 +81,11 @@ std::vector<float> randomCoefficients(const Field& f, const SyntheticOptions& o,
   const uint64_t texels = f.texelCount();
   const uint32_t layers = f.layerCount(), values = f.valuesPerLayer();
   std::vector<float> coefficients(size_t(layers) * texels * values, 0.0f);
+  if (f.clustered) {
+    std::uniform_int_distribution<uint32_t> index(0, f.components - 1);
+    for (uint64_t t = 0; t < samples; ++t) coefficients[t] = float(index(rng));
+    return coefficients;
+  }
   for (uint32_t layer = 0; layer < layers; ++layer)
     for (uint64_t t = 0; t < samples; ++t)
       for (uint32_t v = 0; v < values; ++v) {
@@ -129,6 +135,7 @@ std::string encodingLabel(const Field& f) {
   const std::string n = std::to_string(f.tableSize);
   std::string label = f.encoding == Encoding::Sh      ? "sh L=" + std::to_string(f.order)
                       : f.encoding == Encoding::Table ? "table " + n + "x" + n
+                      : f.clustered ? "pca clustered K=" + std::to_string(f.components) + " N=" + n
                                                       : "pca K=" + std::to_string(f.components) + " N=" + n;
   if (f.shape().jumpAware) label += " nodes";
   if (f.throughput) label += " +throughput";

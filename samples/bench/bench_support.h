@@ -39,6 +39,8 @@ struct SyntheticOptions {
   // Nodes and N >= 12: the last channel is a jump distance (EncodingShape::jumpDistance), as in the
   // tool's default bake.
   bool jumpDistance = false;
+  // Pca: clustered (EncodingShape::clustered): each sample a random index of one of the K tables.
+  bool clustered = false;
 };
 Field syntheticField(const SyntheticOptions& options);
 

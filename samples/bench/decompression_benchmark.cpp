@@ -271,6 +271,7 @@ struct EncodingCase {
   Quantization quantization;
   DirectionSampling sampling = DirectionSampling::Grid;
   bool jumpDistance = false;  // channels count it
+  bool clustered = false;     // Pca: one index per sample (2 bytes), K tables
 };
 // At 324 bytes per sample the bake's budget candidates (bake.cpp budgetCandidates) are, with 4
 // channels: SH order 8, Table 9x9 and Pca K = 324 in u8, SH order 5 and Table 6x6 in f16 (288
@@ -280,8 +281,9 @@ struct EncodingCase {
 // table nodes, whose cells are decoded jump-aware (docs/encodings.md), "+jump distance" with that
 // channel: 5 channels for glass that absorbs (the built-in scenes), 4 for glass that does not (the
 // bunny). The tool's default bake is the N=64 case: 64x64 node tables, a basis 16 times the N=16
-// cases' (324 x 4096 nodes x 5 channels, 26.5 MB of floats).
-constexpr std::array<EncodingCase, 15> kEncodingCases{{
+// cases' (324 x 4096 nodes x 5 channels, 26.5 MB of floats). "clustered" is the same shape stored
+// as the bake stores a clustered field: each sample the index of one of the K tables (2 bytes).
+constexpr std::array<EncodingCase, 16> kEncodingCases{{
     {"sh L=8 (paper)", Encoding::Sh, 8, 0, 0, 4, false, Quantization::U8},
     {"sh L=5", Encoding::Sh, 5, 0, 0, 4, false, Quantization::F16},
     {"table 9x9", Encoding::Table, 0, 9, 0, 4, false, Quantization::U8},
@@ -294,6 +296,8 @@ constexpr std::array<EncodingCase, 15> kEncodingCases{{
      DirectionSampling::Nodes, true},
     {"pca K=324 N=64 nodes +jump distance (default)", Encoding::Pca, 0, 64, 324, 5, false, Quantization::U8,
      DirectionSampling::Nodes, true},
+    {"pca clustered K=324 N=64 nodes +jump distance", Encoding::Pca, 0, 64, 324, 5, false, Quantization::U8,
+     DirectionSampling::Nodes, true, true},
     {"pca K=64 N=16", Encoding::Pca, 0, 16, 64, 4, false, Quantization::U8},
     {"sh L=8 +throughput", Encoding::Sh, 8, 0, 0, 5, true, Quantization::U8},
     {"sh L=7 +throughput", Encoding::Sh, 7, 0, 0, 5, true, Quantization::U8},
@@ -312,7 +316,7 @@ struct FieldBufferBytes {
   uint64_t coefficients = 0, scaleBias = 0, basis = 0;
 };
 FieldBufferBytes fieldBufferBytes(const Field& field, uint64_t samples) {
-  const uint64_t valueBytes = field.quantization == Quantization::U8 ? 1 : 2;
+  const uint64_t valueBytes = field.quantization == Quantization::U8 && !field.clustered ? 1 : 2;
   const uint64_t layers = field.layerCount(), values = field.valuesPerLayer();
   const uint64_t stored = field.encoding == Encoding::Sh ? (samples + 3) / 4 * 4 : samples;
   FieldBufferBytes b;
@@ -353,6 +357,7 @@ SyntheticOptions encodingCaseOptions(const SyntheticOptions& base, const Encodin
   o.quantization = c.quantization;
   o.directionSampling = c.sampling;
   o.jumpDistance = c.jumpDistance;
+  o.clustered = c.clustered;
   return o;
 }
 

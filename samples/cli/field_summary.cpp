@@ -47,7 +47,7 @@ std::string bytesText(uint64_t b) {
 }  // namespace
 
 static size_t refinementLayers(const Field& f) {
-  if (f.encoding != Encoding::Pca) return 0;
+  if (f.encoding != Encoding::Pca || f.clustered) return 0;
   return bake::refinedComponentsOf(f.basis, f.components, size_t(f.tableSize) * f.tableSize * f.channels).size();
 }
 
@@ -56,6 +56,8 @@ static std::string encodingText(const Field& f) {
     case Encoding::Sh: return format("SH order %u (%u functions)", f.order, f.layerCount());
     case Encoding::Table: return format("table %ux%u (hemi-octahedral, bilinear)", f.tableSize, f.tableSize);
     case Encoding::Pca: {
+      if (f.clustered)
+        return format("pca clustered: %u tables of %ux%u, one index per sample", f.components, f.tableSize, f.tableSize);
       const size_t refined = refinementLayers(f);
       const std::string layers = refined ? format(" (%zu of them u8 refinement layers)", refined) : std::string();
       return format("pca %u components%s over %ux%u tables", f.components, layers.c_str(), f.tableSize, f.tableSize);
@@ -115,10 +117,10 @@ std::string fieldSummaryJson(const Field& f, uint64_t fileBytes) {
                 kFieldFormatVersion, f.width, f.height, f.order, f.basisCount());
   out += format("\"channels\": %u, \"quantization\": \"%s\", \"file_bytes\": %" PRIu64 ", ", f.channels,
                 toString(f.quantization), fileBytes);
-  out += format("\"encoding\": \"%s\", \"table_size\": %u, \"components\": %u, \"refinement_layers\": %zu, "
+  out += format("\"encoding\": \"%s\", \"table_size\": %u, \"components\": %u, \"clustered\": %s, \"refinement_layers\": %zu, "
                 "\"throughput\": %s, \"jump_distance\": %s, \"bytes_per_sample\": %u, \"path_rule\": \"%s\", "
                 "\"direction_sampling\": \"%s\", \"exit_frame\": \"%s\", ",
-                toString(f.encoding), f.tableSize, f.components, refinementLayers(f), f.throughput ? "true" : "false",
+                toString(f.encoding), f.tableSize, f.components, f.clustered ? "true" : "false", refinementLayers(f), f.throughput ? "true" : "false",
                 f.jumpDistance ? "true" : "false", f.bytesPerSample(), toString(s.pathRule), toString(s.directionSampling),
                 toString(f.sampleFrameExits ? ExitFrame::Sample : ExitFrame::Object));
   out += format("\"mesh\": {\"vertices\": %zu, \"triangles\": %zu}, \"media\": %s, ", f.mesh.positions.size() / 3,

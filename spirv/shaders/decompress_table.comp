@@ -12,7 +12,7 @@
 //
 // One invocation per sample, reading its values sample-major (gpu_layout.h): a sample reads only
 // 4 nodes of its own table (Table) or its own K weights and 4 nodes of each shared basis function
-// (Pca), so the SH pass's planes, which share one read of a basis function's values between 4
+// (Pca; clustered: its index and 4 nodes of that one function), so the SH pass's planes, which share one read of a basis function's values between 4
 // samples, would gain nothing. The sums run in the CPU decoder's order.
 #extension GL_GOOGLE_include_directive : require
 #include "decompress_common.glsl"
@@ -23,6 +23,7 @@ layout(constant_id = kSpecEncoding) const uint ENCODING = kEncodingTable;  // kE
 layout(constant_id = kSpecTableSize) const uint TABLE_SIZE = 8u;
 layout(constant_id = kSpecComponents) const uint COMPONENTS = 1u;  // Pca: K
 layout(constant_id = kSpecJumpAware) const bool JUMP_AWARE = false;  // the corners blended jump-aware
+layout(constant_id = kSpecClustered) const bool CLUSTERED = false;  // Pca: one function index per sample
 layout(local_size_x = kDecompressLocalSize) in;
 
 const uint NODES = TABLE_SIZE * TABLE_SIZE;
@@ -163,6 +164,10 @@ void main() {
   if (ENCODING == kEncodingTable) {
     for (int j = 0; j < 4; ++j)
       for (int c = 0; c < CHANNELS; ++c) v[j][c] = coefficient(s, b.node[j], uint(c));
+  } else if (CLUSTERED) {  // the sample's one function, whole (field_decode.cpp evaluateStored)
+    uint k = min((fetchWord(s >> 1u) >> (16u * (s & 1u))) & 0xffffu, COMPONENTS - 1u);
+    for (int j = 0; j < 4; ++j)
+      for (int c = 0; c < CHANNELS; ++c) v[j][c] = basis[(k * NODES + b.node[j]) * uint(CHANNELS) + uint(c)];
   } else {  // each corner sums over k in ascending order, as the CPU decoder does
     for (uint k = 0u; k < COMPONENTS; ++k) {
       float a = coefficient(s, k, 0u);

@@ -244,10 +244,10 @@ TEST(Bake, AutoExitFrameChoosesOnASubsetAndLearnsTheFieldOnce) {
   EXPECT_EQ(dataBytes(automatic.value()), dataBytes(explicitFrame.value()));
 }
 
-// A Pca bake keeps the mean tables of K clusters of its samples, with one-hot weights, where they
-// decode closer than K components to the views it traces for the choice (bake.cpp keepClusters;
-// docs/encodings.md, "Clusters"). Its note gives both figures and the field follows the smaller. A
-// clustered field's every sample weighs one function by 1 and the others by 0, in u8 as stored.
+// A Pca bake keeps the mean tables of K clusters of its samples where they decode closer than K
+// components to the views it traces for the choice (bake.cpp keepClusters; docs/encodings.md,
+// "Clusters"). Its note gives both figures and the field follows the smaller. A clustered field
+// stores each sample's cluster index (2 bytes), not K weights.
 struct BasisChoice {
   Field field;
   double components = 0.0, clusters = 0.0;
@@ -281,19 +281,14 @@ BasisChoice bakeAndChooseBasis(const char* scene, uint32_t components) {
   return out;
 }
 
-// Whether every sample of the field has one-hot weights.
-bool oneHot(const Field& f) {
-  for (uint64_t t = 0; t < uint64_t(f.width) * f.height; ++t) {
-    if (f.texelKinds[t] != kTexelSample) continue;
-    uint32_t ones = 0;
-    for (uint32_t k = 0; k < f.components; ++k) {
-      const float w = fieldCoefficient(f, k, t, 0);
-      if (std::abs(w - 1.0f) < 1e-6f) ++ones;
-      else if (std::abs(w) > 1e-6f) return false;
-    }
-    if (ones != 1) return false;
-  }
-  return true;
+// Whether the field stores one function index per sample (EncodingShape::clustered: 2 bytes a
+// sample) and its samples use more than one function.
+bool storesIndices(const Field& f) {
+  if (!f.clustered || f.bytesPerSample() != 2 || !f.coefficientsU8.empty() || !f.coefficientsF16.empty()) return false;
+  std::vector<bool> used(f.components, false);
+  for (uint64_t t = 0; t < uint64_t(f.width) * f.height; ++t)
+    if (f.texelKinds[t] == kTexelSample) used.at(f.clusterIndices.at(t)) = true;
+  return std::count(used.begin(), used.end(), true) > 1;
 }
 
 TEST(Bake, PcaKeepsClustersWhereTheyDecodeCloser) {
@@ -301,12 +296,13 @@ TEST(Bake, PcaKeepsClustersWhereTheyDecodeCloser) {
   const BasisChoice sphere = bakeAndChooseBasis("sphere", 24);
   EXPECT_TRUE(sphere.keptClusters);
   EXPECT_LT(sphere.clusters, sphere.components);
-  EXPECT_TRUE(oneHot(sphere.field));
+  EXPECT_TRUE(storesIndices(sphere.field));
   // The cube's functions vary along each face: 24 components follow them, 24 clusters do not.
   const BasisChoice cube = bakeAndChooseBasis("cube", 24);
   EXPECT_FALSE(cube.keptClusters);
   EXPECT_LT(cube.components, cube.clusters);
-  EXPECT_FALSE(oneHot(cube.field));
+  EXPECT_FALSE(cube.field.clustered);
+  EXPECT_EQ(cube.field.bytesPerSample(), 24u);
 }
 
 // --max-bytes-per-sample measures its candidates on grid fits (Pca on 16x16 tables) but bakes a

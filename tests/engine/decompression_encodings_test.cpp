@@ -54,7 +54,7 @@ std::string describe(const SyntheticFieldOptions& o) {
   if (o.sampleFrameExits) s += " sample frame";
   if (o.encoding == Encoding::Sh) return s + " order " + std::to_string(o.order);
   s += " N " + std::to_string(o.tableSize) + (o.jumpDistance ? " jump distance" : "");
-  return o.encoding == Encoding::Pca ? s + " K " + std::to_string(o.components) : s;
+  return o.encoding == Encoding::Pca ? s + " K " + std::to_string(o.components) + (o.clustered ? " clustered" : "") : s;
 }
 
 // Lengths of the xyz of the sample texels, sorted: with a throughput they spread below 1.
@@ -282,6 +282,47 @@ TEST_F(DecompressionEncodings, StorageCoefficientsMatchCpuReference) {
       o.components = 5;
       o.emptyAndGutters = true;
       o.seed = ++seed;
+      ASSERT_NO_FATAL_FAILURE(check(o, /*forceCoefficientsStorage=*/true));
+    }
+}
+
+// Clustered Pca (EncodingShape::clustered): each sample reads its one 16-bit index, two to a word,
+// and decodes that function whole. Odd and even samples, both quantizations (the index is exact
+// in both), plain and jump-aware corners, both frames, texel and storage reads; the CPU decode
+// must differ from the same basis read as K weights of 1 (the one-hot form it replaces, which
+// here sums every table), so the GPU's agreement covers the index.
+TEST_F(DecompressionEncodings, ClusteredPcaMatchesCpuReference) {
+  uint32_t seed = 700;
+  for (Quantization q : {Quantization::U8, Quantization::F16})
+    for (bool jumpAware : {false, true}) {
+      SyntheticFieldOptions o;
+      o.encoding = Encoding::Pca;
+      o.quantization = q;
+      o.channels = q == Quantization::U8 ? 4 : 5;
+      o.throughput = q == Quantization::F16;
+      o.tableSize = jumpAware ? 16 : 5;
+      o.components = 11;
+      o.emptyAndGutters = true;
+      o.nodeSampled = o.jumps = o.jumpDistance = jumpAware;
+      o.sampleFrameExits = jumpAware;
+      o.clustered = true;
+      o.seed = ++seed;
+      SCOPED_TRACE(describe(o));
+      const Field field = testing::makeSyntheticField(o);
+      ASSERT_TRUE(field.clustered);
+      EXPECT_EQ(field.bytesPerSample(), 2u);
+      std::vector<bool> used(o.components, false);
+      for (uint64_t t = 0; t < field.texelCount(); ++t)
+        if (field.texelKinds[t] == kTexelSample) used[field.clusterIndices[t]] = true;
+      EXPECT_EQ(std::count(used.begin(), used.end(), true), std::ptrdiff_t(o.components)) << "not every index is used";
+      Field summed = field;  // every sample weighs every table by 1
+      summed.clustered = false;
+      summed.clusterIndices.clear();
+      ASSERT_TRUE(encodeCoefficients(summed, std::vector<float>(size_t(o.components) * field.texelCount(), 1.0f)).ok());
+      const reference::Vec3 eye{kEyes[0][0], kEyes[0][1], kEyes[0][2]};
+      EXPECT_GT(testing::countChanged(reference::decompress(field, eye).rgba, reference::decompress(summed, eye).rgba),
+                100u);
+      ASSERT_NO_FATAL_FAILURE(check(o));
       ASSERT_NO_FATAL_FAILURE(check(o, /*forceCoefficientsStorage=*/true));
     }
 }

@@ -49,6 +49,10 @@ struct SyntheticFieldOptions {
   bool jumpDistance = false;
   // Channels 0..2 are read as exits in each sample's frame (EncodingShape::sampleFrameExits).
   bool sampleFrameExits = false;
+  // Pca: clustered (EncodingShape::clustered): function j is the decoded table of the j-th of K
+  // sample texels spread over the atlas, and every sample texel stores the index of the one whose
+  // direction into the sphere is nearest its own.
+  bool clustered = false;
   // > 0: the dominant direction of each texel in every other block of 4 columns moved by a
   // pseudo-random vector of components up to this (per texel, from the seed): there neighbouring
   // texels disagree as a chaotic field's do, and they meet smooth texels along many edges.
@@ -234,6 +238,42 @@ inline std::vector<float> withJumpDistance(const SyntheticFieldOptions& o, Field
   });
 }
 
+// Pca, clustered: replaces f.basis (built with `weights`) by K tables as SyntheticFieldOptions::
+// clustered says, and returns each texel's index (0 where no sample is).
+inline std::vector<float> clusteredCoefficients(const SyntheticFieldOptions& o, Field& f,
+                                                const std::vector<float>& weights,
+                                                const std::vector<float>& directions) {
+  const uint32_t texels = o.width * o.height;
+  const size_t table = size_t(o.tableSize) * o.tableSize * f.channels;
+  std::vector<uint32_t> samples;
+  for (uint32_t t = 0; t < texels; ++t)
+    if (f.texelKinds[t] == kTexelSample) samples.push_back(t);
+  std::vector<uint32_t> representative(o.components);
+  std::vector<float> tables(o.components * table, 0.0f);
+  for (uint32_t j = 0; j < o.components; ++j) {
+    representative[j] = samples[size_t(j) * samples.size() / o.components];
+    for (uint32_t k = 0; k < o.components; ++k)
+      for (size_t i = 0; i < table; ++i)
+        tables[j * table + i] += weights[size_t(k) * texels + representative[j]] * f.basis[k * table + i];
+  }
+  f.basis = std::move(tables);
+  f.clustered = true;
+  std::vector<float> index(texels, 0.0f);
+  for (uint32_t t : samples) {
+    float best = -2.0f;
+    for (uint32_t j = 0; j < o.components; ++j) {
+      const float* a = &directions[size_t(t) * 3];
+      const float* b = &directions[size_t(representative[j]) * 3];
+      const float d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+      if (d > best) {
+        best = d;
+        index[t] = float(j);
+      }
+    }
+  }
+  return index;
+}
+
 inline Field makeSyntheticField(const SyntheticFieldOptions& o) {
   Field f;
   f.width = o.width;
@@ -315,6 +355,7 @@ inline Field makeSyntheticField(const SyntheticFieldOptions& o) {
                                     : o.encoding == Encoding::Table ? syntheticTableCoefficients(o, f, directions)
                                                                     : syntheticPcaCoefficients(o, f, directions);
   if (o.jumpDistance) coefficients = withJumpDistance(o, f, coefficients);
+  if (o.clustered) coefficients = clusteredCoefficients(o, f, coefficients, directions);
   (void)encodeCoefficients(f, coefficients);
 
   // Render mesh: the band as (segments) x (segments / 2) quads, atlas coordinates at the corners.

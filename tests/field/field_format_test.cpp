@@ -288,8 +288,9 @@ TEST_P(FieldFormat, HeaderMatchesTheSpec) {
                             (8 + T + 8 + 48 * T + 8 + 16 * f.gutters.size()) +
                             (GetParam().quantization == Quantization::U8 ? 16 + 8 * B * C + 16 + B * T * C
                                                                          : 16 + 16 + 2 * B * T * C) +
-                            (9 * 4 + 4 + 8 + 4 + 4 + 4) +  // ENCD: nine u32/f32, an empty basis array,
-                                                           // the sampling, the jump distance, the exit frame
+                            (9 * 4 + 4 + 8 + 4 + 4 + 4 + 4 + 8) +  // ENCD: nine u32/f32, an empty basis
+                                                                   // array, the sampling, the jump distance,
+                                                                   // the exit frame, clustered, no indices
                             4;
   EXPECT_EQ(b.size(), expected);
   // Sections in their fixed order, ending exactly at the checksum.
@@ -852,7 +853,7 @@ TEST_F(FieldFiles, ReadOfTruncatedFileNamesIt) {
 // jumpDistance: a 12x12 table (the smallest decoded jump-aware) with the jump distance channel.
 // sampleFrameExits: the exits read in each sample's frame.
 Field makeEncodedField(Encoding encoding, Quantization q, bool throughput, bool jumpDistance = false,
-                       bool sampleFrameExits = false) {
+                       bool sampleFrameExits = false, bool clustered = false) {
   Field f = makeField({4, q});
   f.encoding = f.settings.encoding = encoding;
   f.order = f.settings.order = 0;
@@ -870,8 +871,11 @@ Field makeEncodedField(Encoding encoding, Quantization q, bool throughput, bool 
     f.basis.resize(size_t(f.components) * f.tableSize * f.tableSize * f.channels);
     for (size_t i = 0; i < f.basis.size(); ++i) f.basis[i] = std::sin(0.37f * float(i));
   }
+  f.clustered = clustered;
   std::vector<float> c(size_t(f.layerCount()) * f.texelCount() * f.valuesPerLayer());
-  for (size_t i = 0; i < c.size(); ++i) c[i] = std::cos(0.11f * float(i)) * 0.5f + 0.5f;
+  for (size_t i = 0; i < c.size(); ++i)
+    c[i] = !clustered ? std::cos(0.11f * float(i)) * 0.5f + 0.5f
+                      : f.texelKinds[i] == kTexelSample ? float(i * 7 % f.components) : 0.0f;  // one index a texel
   const Result<void> encoded = encodeCoefficients(f, c);
   EXPECT_TRUE(encoded.ok()) << encoded.error().message;
   return f;
@@ -883,13 +887,14 @@ struct EncodedVariant {
   bool throughput;
   bool jumpDistance = false;
   bool sampleFrameExits = false;
+  bool clustered = false;
 };
 
 class FieldEncodings : public ::testing::TestWithParam<EncodedVariant> {
  protected:
   Field field() const {
     return makeEncodedField(GetParam().encoding, GetParam().quantization, GetParam().throughput,
-                            GetParam().jumpDistance, GetParam().sampleFrameExits);
+                            GetParam().jumpDistance, GetParam().sampleFrameExits, GetParam().clustered);
   }
 };
 
@@ -909,6 +914,8 @@ TEST_P(FieldEncodings, RoundTripIsExact) {
   EXPECT_EQ(g.settings.jumpDistance, f.jumpDistance);
   EXPECT_EQ(g.sampleFrameExits, f.sampleFrameExits);
   EXPECT_EQ(g.settings.exitFrame, f.settings.exitFrame);
+  EXPECT_EQ(g.clustered, f.clustered);
+  EXPECT_EQ(g.clusterIndices, f.clusterIndices);
   EXPECT_EQ(g.decodedChannels(), f.channels - (f.jumpDistance ? 1u : 0u));
   EXPECT_EQ(bits(g.basis), bits(f.basis));
   EXPECT_EQ(g.settings.pathRule, PathRule::FirstRefraction);
@@ -929,8 +936,9 @@ TEST_P(FieldEncodings, EveryTruncationIsRejected) {
 TEST_P(FieldEncodings, BytesPerSampleCountsTheStoredCoefficients) {
   const Field f = field();
   const uint32_t perValue = GetParam().quantization == Quantization::U8 ? 1 : 2;
-  const uint32_t expected =
-      GetParam().encoding == Encoding::Table ? f.tableSize * f.tableSize * f.channels * perValue : 5 * perValue;
+  const uint32_t expected = GetParam().encoding == Encoding::Table ? f.tableSize * f.tableSize * f.channels * perValue
+                            : GetParam().clustered                ? 2  // the index
+                                                                  : 5 * perValue;
   EXPECT_EQ(f.bytesPerSample(), expected);
 }
 
@@ -965,13 +973,52 @@ INSTANTIATE_TEST_SUITE_P(Encodings, FieldEncodings,
                                            EncodedVariant{Encoding::Pca, Quantization::U8, false, true},
                                            EncodedVariant{Encoding::Table, Quantization::F16, true, true},
                                            EncodedVariant{Encoding::Pca, Quantization::U8, false, true, true},
-                                           EncodedVariant{Encoding::Table, Quantization::U8, true, false, true}),
+                                           EncodedVariant{Encoding::Table, Quantization::U8, true, false, true},
+                                           EncodedVariant{Encoding::Pca, Quantization::U8, false, true, true, true},
+                                           EncodedVariant{Encoding::Pca, Quantization::F16, true, false, false, true}),
                          [](const ::testing::TestParamInfo<EncodedVariant>& p) {
                            return std::string(toString(p.param.encoding)) + "_" + toString(p.param.quantization) +
                                   (p.param.throughput ? "_throughput" : "") +
                                   (p.param.jumpDistance ? "_jump_distance" : "") +
-                                  (p.param.sampleFrameExits ? "_sample_frame" : "");
+                                  (p.param.sampleFrameExits ? "_sample_frame" : "") +
+                                  (p.param.clustered ? "_clustered" : "");
                          });
+
+TEST(FieldClustered, BrokenIndicesAreRejected) {
+  const auto emptyTexel = [](const Field& f) {
+    return uint64_t(std::find(f.texelKinds.begin(), f.texelKinds.end(), kTexelEmpty) - f.texelKinds.begin());
+  };
+  const std::vector<std::pair<std::string, std::function<void(Field&)>>> cases = {
+      {"is not below the 5 components", [](Field& f) { f.clusterIndices[0] = 5; }},
+      {"the texel holds no sample", [&](Field& f) { f.clusterIndices[emptyTexel(f)] = 1; }},
+      {"cluster indices has", [](Field& f) { f.clusterIndices.pop_back(); }},
+      {"quantized coefficients", [](Field& f) { f.coefficientsU8.assign(f.texelCount(), 0); }},
+      {"not a pca field", [](Field& f) {
+         f.encoding = f.settings.encoding = Encoding::Table;
+         f.components = f.settings.components = 0;
+         f.basis.clear();
+       }},
+      {"not clustered", [](Field& f) { f.clustered = false; }},  // the indices left behind
+  };
+  for (const auto& [what, breakIt] : cases) {
+    Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false, false, false, true);
+    ASSERT_TRUE(validateField(f).ok()) << validateField(f).error().message;
+    ASSERT_LT(emptyTexel(f), f.texelCount());
+    breakIt(f);
+    const Result<void> r = validateField(f);
+    ASSERT_FALSE(r.ok()) << what;
+    EXPECT_TRUE(contains(r.error().message, what)) << what << ": " << r.error().message;
+  }
+  // Only whole indices below the components encode.
+  for (float bad : {0.5f, 5.0f, -1.0f, std::numeric_limits<float>::quiet_NaN()}) {
+    Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false, false, false, true);
+    std::vector<float> c(f.texelCount(), 0.0f);
+    c[0] = bad;
+    const Result<void> r = encodeCoefficients(f, c);
+    ASSERT_FALSE(r.ok()) << bad;
+    EXPECT_TRUE(contains(r.error().message, "encodeCoefficients: ")) << r.error().message;
+  }
+}
 
 TEST(FieldEncodingValidation, BrokenEncodingsAreRejected) {
   const std::vector<std::pair<std::string, std::function<void(Field&)>>> cases = {
@@ -1037,10 +1084,28 @@ std::vector<uint8_t> withShorterEncoding(const Field& f, uint64_t bytes, uint32_
   return b;
 }
 
+// What version 6 appends to ENCD for a field that is not clustered: the flag and an empty array.
+constexpr uint64_t kClusteredBytes = 4 + 8;
+
+TEST(FieldVersion5, StillReadUnclustered) {
+  // A version 5 file is version 6 without the clustered flag and the indices at the end of ENCD.
+  const Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false, true, true);
+  std::vector<uint8_t> b = withShorterEncoding(f, kClusteredBytes, 5);
+  const Result<Field> r = parse(b, "v5.shrf");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  expectSameField(f, r.value());
+  EXPECT_FALSE(r.value().clustered);
+  EXPECT_TRUE(r.value().sampleFrameExits);
+  // The same bytes labelled version 6 are short by the missing flag and array.
+  putU32(b, 4, 6);
+  resign(b);
+  EXPECT_FALSE(parse(b, "v5.shrf").ok());
+}
+
 TEST(FieldVersion4, StillReadWithObjectSpaceExits) {
   // A version 4 file is version 5 without the exit frame at the end of ENCD.
   const Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false, true, true);
-  std::vector<uint8_t> b = withShorterEncoding(f, 4, 4);
+  std::vector<uint8_t> b = withShorterEncoding(f, 4 + kClusteredBytes, 4);
   const Result<Field> r = parse(b, "v4.shrf");
   ASSERT_TRUE(r.ok()) << r.error().message;
   expectSameField(f, r.value());
@@ -1056,7 +1121,7 @@ TEST(FieldVersion4, StillReadWithObjectSpaceExits) {
 TEST(FieldVersion3, StillReadWithoutJumpDistance) {
   // A version 3 file is version 5 without the jump distance and exit frame at the end of ENCD.
   const Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false);
-  std::vector<uint8_t> b = withShorterEncoding(f, 8, 3);
+  std::vector<uint8_t> b = withShorterEncoding(f, 8 + kClusteredBytes, 3);
   const Result<Field> r = parse(b, "v3.shrf");
   ASSERT_TRUE(r.ok()) << r.error().message;
   expectSameField(f, r.value());
@@ -1100,7 +1165,7 @@ TEST(FieldVersion2, StillReadWithGridSampling) {
   // A version 2 file is version 3 without the direction sampling at the end of ENCD (and version 5
   // without the jump distance and exit frame after it).
   const Field f = makeEncodedField(Encoding::Table, Quantization::U8, false);
-  std::vector<uint8_t> b = withShorterEncoding(f, 12, 2);
+  std::vector<uint8_t> b = withShorterEncoding(f, 12 + kClusteredBytes, 2);
   const Result<Field> r = parse(b, "v2.shrf");
   ASSERT_TRUE(r.ok()) << r.error().message;
   EXPECT_EQ(r.value().settings.directionSampling, DirectionSampling::Grid);

@@ -141,6 +141,11 @@ int main(int argc, char** argv) {
     o.meshSegments = 2;
     const std::vector<uint8_t> bytes = shrefract::serializeField(shrefract::testing::makeSyntheticField(o));
     ok = write(fieldDir + "/field" + std::to_string(n++) + ".bin", std::string(bytes.begin(), bytes.end())) && ok;
+    if (encoding != shrefract::Encoding::Pca) continue;
+    // Version 6: the same Pca field clustered, one index a sample.
+    o.clustered = true;
+    const std::vector<uint8_t> clustered = shrefract::serializeField(shrefract::testing::makeSyntheticField(o));
+    ok = write(fieldDir + "/field" + std::to_string(n++) + ".bin", std::string(clustered.begin(), clustered.end())) && ok;
   }
   size_t binSize = 0;
   std::string bin;

@@ -10,7 +10,8 @@
 //  - Sh: real SH coefficients of order L (see shrefract/sh.h), the paper's scheme;
 //  - Table: the values at the N x N nodes of a hemi-octahedral grid, bilinear between nodes;
 //  - Pca: K weights per sample of a basis learned from the whole field (each basis function a
-//    hemi-octahedral table of all channels, stored once per field).
+//    hemi-octahedral table of all channels, stored once per field); or, clustered, the index of
+//    one of K tables (the mean table of the sample's cluster): 2 bytes per sample.
 // All three are linear: value_c(s, w) = sum_j a_j(s) * B_j,c(w) over the field's layers j, with
 // B_j the SH function, the bilinear hat of node j, or the learned basis function j.
 //
@@ -31,8 +32,9 @@
 namespace shrefract {
 
 // 1: SH only, no throughput; 2: adds ENCD; 3: adds the direction sampling; 4: adds the jump
-// distance channel; 5: adds exits stored in the sample's frame (1 to 4 still read).
-inline constexpr uint32_t kFieldFormatVersion = 5;
+// distance channel; 5: adds exits stored in the sample's frame; 6: adds clustered Pca fields, one
+// function index per sample (1 to 5 still read).
+inline constexpr uint32_t kFieldFormatVersion = 6;
 
 // Largest magnitude of a decoded coefficient (validateField, encodeCoefficients). With at most
 // 1089 basis functions (order 32) the sum of |Y_i| is at most 1089 / sqrt(4 pi) = 307, so every
@@ -225,11 +227,16 @@ struct EncodingShape {
   // rotates its sum to object space by the frame's rows, and the straight-through exit that the
   // jump-aware blend compares with is simply -w.
   bool sampleFrameExits = false;
+  // Pca only: each sample's one coefficient is the index of the basis function it decodes to,
+  // whole (its cluster's mean table; docs/encodings.md "Clusters"), in place of K weights.
+  bool clustered = false;
   uint32_t decodedChannels() const { return channels - (jumpDistance ? 1u : 0u); }
-  // Layers (coefficients per sample and stored value): Sh (L+1)^2, Table N^2, Pca K.
+  // Layers (coefficients per sample and stored value): Sh (L+1)^2, Table N^2, Pca K (clustered: 1).
   uint32_t layerCount() const {
-    return encoding == Encoding::Sh ? (order + 1) * (order + 1)
-                                    : encoding == Encoding::Table ? tableSize * tableSize : components;
+    return encoding == Encoding::Sh      ? (order + 1) * (order + 1)
+           : encoding == Encoding::Table ? tableSize * tableSize
+           : clustered                   ? 1u
+                                         : components;
   }
   uint32_t valuesPerLayer() const { return encoding == Encoding::Pca ? 1u : channels; }
 };
@@ -248,6 +255,10 @@ struct Field {
   bool throughput = false;
   bool jumpDistance = false;
   bool sampleFrameExits = false;  // EncodingShape::sampleFrameExits
+  // EncodingShape::clustered: the coefficients are `clusterIndices`, exact, whatever the
+  // quantization (which then names how the bake was asked to quantize, and nothing is stored in
+  // coefficientsU8 / F16, scale or bias).
+  bool clustered = false;
   Quantization quantization = Quantization::U8;
 
   // Coefficients a_j(s), layer-major: index ((layer * height + y) * width + x) * values + v, with
@@ -257,6 +268,9 @@ struct Field {
   std::vector<uint16_t> coefficientsF16;  // binary16 bit patterns
   std::vector<float> scale;               // layerCount * values (U8 only)
   std::vector<float> bias;                // layerCount * values (U8 only)
+  // Clustered Pca: per texel, the index (< components) of the basis function it decodes to; 0 for
+  // texels that hold no sample. Empty for every other field.
+  std::vector<uint16_t> clusterIndices;
   // Pca: the basis, components * tableSize^2 * channels floats: function k at node n, channel c at
   // (k * tableSize^2 + n) * channels + c. Empty for the other encodings.
   std::vector<float> basis;
@@ -273,7 +287,7 @@ struct Field {
   EncodingShape shape() const {
     return {encoding, order, tableSize, components, channels,
             encoding != Encoding::Sh && settings.directionSampling == DirectionSampling::Nodes, jumpDistance,
-            sampleFrameExits};
+            sampleFrameExits, clustered};
   }
   uint32_t decodedChannels() const { return shape().decodedChannels(); }
   uint32_t layerCount() const { return shape().layerCount(); }
@@ -283,7 +297,9 @@ struct Field {
   uint32_t throughputChannel() const { return decodedChannels() - 1; }  // meaningful when throughput is set
   uint64_t texelCount() const { return uint64_t(width) * height; }
   // Encoded bytes per sample: the coefficients only (frames, mesh, tables and basis not counted).
+  // A clustered field's index is 2 bytes.
   uint32_t bytesPerSample() const {
+    if (clustered) return 2u;
     return layerCount() * valuesPerLayer() * (quantization == Quantization::U8 ? 1u : 2u);
   }
 };
@@ -326,14 +342,17 @@ void dequantizeSample(const Field& field, uint64_t texel, std::vector<float>& ou
 void evaluateSample(const Field& field, uint64_t texel, const std::array<float, 3>& localDirection, float* out,
                     uint32_t order = UINT32_MAX, float* eyeJump = nullptr);
 
-// Dequantized coefficient a_layer(texel), value v < valuesPerLayer(). Preconditions:
+// Dequantized coefficient a_layer(texel), value v < valuesPerLayer() (clustered: the index, as a
+// float). Preconditions:
 // validateField(field) succeeded, indices in range.
 float fieldCoefficient(const Field& field, uint32_t layer, uint64_t texel, uint32_t value);
 
 // Encodes float coefficients (same indexing as the quantized arrays) into field.coefficientsU8 +
 // scale/bias or field.coefficientsF16, per field.quantization. A channel of zero range gets
-// scale 0 and decodes exactly to its bias. Errors (InvalidArgument): sizes that disagree, a value
-// that is not finite or beyond kMaxCoefficientMagnitude (F16: beyond the binary16 range).
+// scale 0 and decodes exactly to its bias. A clustered field stores each texel's value in
+// clusterIndices instead: it must be a whole number below `components`. Errors (InvalidArgument):
+// sizes that disagree, a value that is not finite or beyond kMaxCoefficientMagnitude (F16: beyond
+// the binary16 range; clustered: not an index).
 Result<void> encodeCoefficients(Field& field, const std::vector<float>& coefficients);
 
 // The same encoding, the coefficients read per texel instead of from one texel-ordered array:

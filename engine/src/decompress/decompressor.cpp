@@ -39,6 +39,7 @@ struct DecompressVariant {
   bool jumpAware = false;     // Table, Pca
   bool jumpDistance = false;  // Table, Pca: the last channel is the jump distance
   bool sampleFrameExits = false;  // the exits are in the sample's frame
+  bool clustered = false;         // Pca: one function index per sample
   auto operator<=>(const DecompressVariant&) const = default;
 };
 
@@ -71,7 +72,7 @@ struct DecompressorImpl {
   Result<VkPipeline> variant(const FieldResources& f) {
     return variant(DecompressVariant{f.encoding, f.order, f.tableSize, f.components, f.channels, f.throughput,
                                      f.quantization, f.scaleBiasStorage, f.coefficientsStorage, f.jumpAware,
-                                     f.jumpDistance, f.sampleFrameExits});
+                                     f.jumpDistance, f.sampleFrameExits, f.clustered});
   }
 
   Result<VkPipeline> createPipeline(VkShaderModule module, const VkSpecializationInfo* specialization) {
@@ -154,8 +155,8 @@ Result<VkPipeline> DecompressorImpl::variant(const DecompressVariant& v) {
   // specialization constant is 32 bits wide.)
   auto flag = [](bool b) { return b ? uint32_t(VK_TRUE) : uint32_t(VK_FALSE); };
   // { SH_ORDER, CHANNELS, QUANTIZATION, SCALE_BIAS_STORAGE, COEFFICIENTS_STORAGE, THROUGHPUT,
-  //   ENCODING, TABLE_SIZE, COMPONENTS, JUMP_AWARE, JUMP_DISTANCE, SAMPLE_FRAME_EXITS }
-  const std::array<uint32_t, 12> values{v.order,
+  //   ENCODING, TABLE_SIZE, COMPONENTS, JUMP_AWARE, JUMP_DISTANCE, SAMPLE_FRAME_EXITS, CLUSTERED }
+  const std::array<uint32_t, 13> values{v.order,
                                        v.channels,
                                        static_cast<uint32_t>(v.quantization),
                                        flag(v.scaleBiasStorage),
@@ -166,13 +167,14 @@ Result<VkPipeline> DecompressorImpl::variant(const DecompressVariant& v) {
                                        v.components,
                                        flag(v.jumpAware),
                                        flag(v.jumpDistance),
-                                       flag(v.sampleFrameExits)};
-  const std::array<uint32_t, 12> ids{gpu::kSpecShOrder,          gpu::kSpecChannels,    gpu::kSpecQuantization,
+                                       flag(v.sampleFrameExits),
+                                       flag(v.clustered)};
+  const std::array<uint32_t, 13> ids{gpu::kSpecShOrder,          gpu::kSpecChannels,    gpu::kSpecQuantization,
                                     gpu::kSpecScaleBiasStorage, gpu::kSpecCoefficientsStorage,
                                     gpu::kSpecThroughput,       gpu::kSpecEncoding,    gpu::kSpecTableSize,
                                     gpu::kSpecComponents,       gpu::kSpecJumpAware,   gpu::kSpecJumpDistance,
-                                    gpu::kSpecSampleFrameExits};
-  std::array<VkSpecializationMapEntry, 12> entries{};
+                                    gpu::kSpecSampleFrameExits, gpu::kSpecClustered};
+  std::array<VkSpecializationMapEntry, 13> entries{};
   for (uint32_t i = 0; i < entries.size(); ++i) entries[i] = {ids[i], i * uint32_t(sizeof(uint32_t)), sizeof(uint32_t)};
   const VkSpecializationInfo specialization{static_cast<uint32_t>(entries.size()), entries.data(), sizeof(values),
                                             values.data()};

@@ -230,6 +230,11 @@ void evaluateStored(const EncodingShape& shape, const float* a, const float* bas
   if (shape.encoding == Encoding::Table) {
     for (int j = 0; j < 4; ++j)
       for (uint32_t c = 0; c < channels; ++c) corners[j][c] = a[size_t(b.node[j]) * channels + c];
+  } else if (shape.clustered) {  // Pca, clustered: the sample's one function, whole
+    const size_t nodes = size_t(n) * n;
+    const size_t k = a[0] > 0.0f ? std::min(size_t(a[0]), size_t(shape.components) - 1) : 0;  // NaN: 0
+    for (int j = 0; j < 4; ++j)
+      for (uint32_t c = 0; c < channels; ++c) corners[j][c] = basis[(k * nodes + b.node[j]) * channels + c];
   } else {  // Pca: the weights times the basis functions at the cell's four nodes
     const size_t nodes = size_t(n) * n;
     for (int j = 0; j < 4; ++j)

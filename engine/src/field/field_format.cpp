@@ -462,7 +462,7 @@ void readMesh(SectionReader& r, FieldMesh& mesh) {
 // ENCD (version 2): how the coefficients are to be decoded, and the bake's choices that go with it;
 // version 3 appends the direction sampling (Grid before it), version 4 the jump distance flag (none
 // before it; the settings record what the field has), version 5 the frame of the exits (object
-// space before it).
+// space before it), version 6 whether a Pca field is clustered and its samples' indices.
 void readEncoding(SectionReader& r, Field& field, uint32_t version) {
   field.encoding = static_cast<Encoding>(r.u32("encoding"));
   field.tableSize = r.u32("encoding.tableSize");
@@ -482,6 +482,9 @@ void readEncoding(SectionReader& r, Field& field, uint32_t version) {
   s.jumpDistance = field.jumpDistance;
   field.sampleFrameExits = version >= 5 && r.u32("encoding.sampleFrameExits") != 0;
   s.exitFrame = field.sampleFrameExits ? ExitFrame::Sample : ExitFrame::Object;
+  if (version < 6) return;
+  field.clustered = r.u32("encoding.clustered") != 0;
+  r.arrayU16(field.clusterIndices, "cluster indices");
 }
 
 void writeEncoding(ByteWriter& w, const Field& field) {
@@ -500,6 +503,8 @@ void writeEncoding(ByteWriter& w, const Field& field) {
   w.u32(static_cast<uint32_t>(s.directionSampling));
   w.u32(field.jumpDistance ? 1u : 0u);
   w.u32(field.sampleFrameExits ? 1u : 0u);
+  w.u32(field.clustered ? 1u : 0u);
+  w.arrayU16(field.clusterIndices);
 }
 
 void writeAtlas(ByteWriter& w, const Field& field) {
@@ -559,10 +564,12 @@ Result<void> validateEncoding(const Field& field) {
       if (field.encoding == Encoding::Pca && (field.components < 1 || field.components > kMaxComponents))
         return invalid("components " + std::to_string(field.components) + " is outside 1.." +
                        std::to_string(kMaxComponents));
+      if (field.clustered && field.encoding != Encoding::Pca) return invalid("a clustered field is not a pca field");
       break;
     default:
       return invalid("encoding " + std::to_string(static_cast<uint32_t>(field.encoding)) + " is not sh (0), table (1) or pca (2)");
   }
+  if (field.clustered && field.encoding == Encoding::Sh) return invalid("a clustered field is not a pca field");
   const size_t basisValues =
       field.encoding == Encoding::Pca ? size_t(field.components) * field.tableSize * field.tableSize * field.channels : 0;
   if (field.basis.size() != basisValues)
@@ -728,7 +735,29 @@ Result<void> validateAtlas(const Field& field) {
   return {};
 }
 
+// A clustered field: one index per texel, below the components, 0 where no sample is; nothing in
+// the quantized arrays.
+Result<void> validateClusterIndices(const Field& field) {
+  if (!field.coefficientsU8.empty() || !field.coefficientsF16.empty() || !field.scale.empty() || !field.bias.empty())
+    return invalid("a clustered field has quantized coefficients or scale/bias (expected none)");
+  if (field.clusterIndices.size() != field.texelCount())
+    return invalid("cluster indices has " + std::to_string(field.clusterIndices.size()) + " entries, expected " +
+                   std::to_string(field.texelCount()) + " (texels)");
+  for (uint64_t t = 0; t < field.texelCount(); ++t) {
+    const uint16_t k = field.clusterIndices[t];
+    if (k >= field.components || (k != 0 && field.texelKinds[t] != kTexelSample))
+      return invalid("cluster index " + std::to_string(k) + " of " + texelName(field, t) +
+                     (k >= field.components ? " is not below the " + std::to_string(field.components) + " components"
+                                            : " is not 0, and the texel holds no sample"));
+  }
+  return {};
+}
+
 Result<void> validateCoefficients(const Field& field) {
+  if (field.clustered) return validateClusterIndices(field);
+  if (!field.clusterIndices.empty())
+    return invalid("cluster indices has " + std::to_string(field.clusterIndices.size()) +
+                   " entries but the field is not clustered");
   const uint64_t texels = field.texelCount();
   const uint32_t values = field.valuesPerLayer();
   const uint64_t tables = uint64_t(field.layerCount()) * values;
@@ -786,6 +815,7 @@ std::string errnoMessage(int error) { return std::generic_category().message(err
 // -------------------------------------------------------------------------------------------------
 
 float fieldCoefficient(const Field& field, uint32_t layer, uint64_t texel, uint32_t value) {
+  if (field.clustered) return static_cast<float>(field.clusterIndices[texel]);
   const uint32_t values = field.valuesPerLayer();
   const size_t index = static_cast<size_t>((uint64_t(layer) * field.texelCount() + texel) * values + value);
   if (field.quantization == Quantization::F16) return halfToFloat(field.coefficientsF16[index]);
@@ -920,6 +950,25 @@ Result<void> encodeU8(Field& field, const CoefficientSource& src) {
   return {};
 }
 
+// A clustered field: each texel's one value is its function's index, stored exactly.
+Result<void> encodeIndices(Field& field, const CoefficientSource& src) {
+  std::vector<uint16_t> out(src.texels);
+  for (uint64_t t = 0; t < src.texels; ++t) {
+    const float v = src.value(0, t, 0);
+    if (!(v >= 0.0f && v < float(field.components) && v == std::floor(v)))
+      return makeError(ErrorCode::InvalidArgument, "encodeCoefficients: texel " + std::to_string(t) + "'s value " +
+                                                       formatFloat(v) + " is not a function index below " +
+                                                       std::to_string(field.components));
+    out[t] = static_cast<uint16_t>(v);
+  }
+  field.clusterIndices = std::move(out);
+  field.coefficientsU8.clear();
+  field.coefficientsF16.clear();
+  field.scale.clear();
+  field.bias.clear();
+  return {};
+}
+
 }  // namespace
 
 Result<void> encodeCoefficients(Field& field, const std::function<const float*(uint64_t texel)>& texelValues,
@@ -937,6 +986,8 @@ Result<void> encodeCoefficients(Field& field, const std::function<const float*(u
   src.rows.resize(src.texels);
   for (uint64_t t = 0; t < src.texels; ++t) src.rows[t] = texelValues(t);
   if (auto r = checkCoefficients(field, src); !r) return r;
+  if (field.clustered) return encodeIndices(field, src);
+  field.clusterIndices.clear();
   if (field.quantization == Quantization::F16) {
     encodeF16(field, src);
     return {};

@@ -80,7 +80,7 @@ void packCoefficients(const Field& field, const std::vector<T>& in, const std::v
 // gets zeros (its shaders never read the table).
 std::vector<float> scaleBiasTable(const Field& field) {
   const uint32_t layers = field.layerCount(), values = field.valuesPerLayer();
-  const bool u8 = field.quantization == Quantization::U8;
+  const bool u8 = field.quantization == Quantization::U8 && !field.clustered;  // an index needs no scale
   if (field.encoding != Encoding::Sh) {
     std::vector<float> table(size_t(layers) * values * 2, 0.0f);
     for (size_t i = 0; u8 && i < size_t(layers) * values; ++i) {
@@ -108,7 +108,10 @@ std::string describeEncoding(const Field& field) {
   switch (field.encoding) {
     case Encoding::Sh: return "sh field of order " + std::to_string(field.order);
     case Encoding::Table: return "table field of " + nodes;
-    default: return "pca field of " + std::to_string(field.components) + " components of " + nodes;
+    default:
+      return (field.clustered ? "clustered pca field of " + std::to_string(field.components) + " tables of "
+                              : "pca field of " + std::to_string(field.components) + " components of ") +
+             nodes;
   }
 }
 
@@ -122,7 +125,8 @@ struct FieldBufferSizes {
 // The sizes of the buffers whose size depends on the field, checked against the device's limits.
 Result<FieldBufferSizes> fieldBufferSizes(const Field& field, uint64_t samples, const VkPhysicalDeviceLimits& limits) {
   const uint64_t perSample = uint64_t(field.layerCount()) * field.valuesPerLayer();
-  const uint64_t valueBytes = field.quantization == Quantization::U8 ? 1 : 2;
+  // A clustered field's one value is a 16-bit index (gpu_layout.h kSpecClustered).
+  const uint64_t valueBytes = field.quantization == Quantization::U8 && !field.clustered ? 1 : 2;
   const uint64_t stored = field.encoding == Encoding::Sh ? paddedSampleCount(samples) : samples;
   auto tooBig = [&](const std::string& what, uint64_t bytes, uint64_t limit, const char* limitName) {
     return makeError(ErrorCode::Unsupported, describeEncoding(field) + " with " + std::to_string(samples) +
@@ -366,6 +370,7 @@ void describeField(const Field& field, uint32_t sampleCount, const FieldBufferSi
   f.jumpAware = field.shape().jumpAware;
   f.jumpDistance = field.jumpDistance;
   f.sampleFrameExits = field.sampleFrameExits;
+  f.clustered = field.clustered;
   f.channels = field.channels;
   f.throughput = field.throughput;
   f.quantization = field.quantization;
@@ -455,7 +460,9 @@ Result<void> recordFieldUploads(ContextImpl& c, VkCommandBuffer cmd, const Field
   BufferAllocation st = staging.value();
   c.retire([&c, st]() mutable { c.destroyBuffer(st); });
   std::memset(st.mapped, 0, sizes.coefficients);
-  if (field.quantization == Quantization::U8)
+  if (field.clustered)
+    packCoefficients(field, field.clusterIndices, sampleTexels, st.mapped);
+  else if (field.quantization == Quantization::U8)
     packCoefficients(field, field.coefficientsU8, sampleTexels, st.mapped);
   else
     packCoefficients(field, field.coefficientsF16, sampleTexels, st.mapped);

@@ -31,6 +31,7 @@ struct FieldResources {
   bool jumpAware = false;            // Table, Pca: EncodingShape::jumpAware
   bool jumpDistance = false;         // Table, Pca: EncodingShape::jumpDistance (the last channel)
   bool sampleFrameExits = false;     // EncodingShape::sampleFrameExits
+  bool clustered = false;            // Pca: EncodingShape::clustered (one index per sample)
   uint32_t channels = 4;
   bool throughput = false;           // the last channel is the throughput (raster: tint.a)
   Quantization quantization = Quantization::U8;

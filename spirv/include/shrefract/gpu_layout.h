@@ -135,6 +135,10 @@ SHR_CONST(kSpecSampleFrameExits, 12u)
 // object_field_body.glsl: the fragment's coverage of a smooth silhouette goes out as its alpha,
 // blended over what is drawn (RendererCreateInfo::silhouetteCoverage, at one sample per pixel).
 SHR_CONST(kSpecSilhouetteCoverage, 13u)
+// decompress_table.comp: a clustered Pca field (EncodingShape::clustered): each sample's
+// coefficients are one 16-bit function index, two to a 32-bit word, sample s in the low half of
+// word s / 2 when s is even; the sample decodes that function of the basis, whole.
+SHR_CONST(kSpecClustered, 14u)
 // Largest scale/bias table read as a uniform buffer: the maxUniformBufferRange every device offers,
 // so that the choice (and the code path) is the same on every device.
 SHR_CONST(kMaxUniformScaleBiasBytes, 16384u)
