@@ -351,6 +351,8 @@ Result<void> checkEncoding(const BakeSettings& s) {
     return bad("--table-size must be 2.." + std::to_string(kMaxBakeTableSize) + ", got " + std::to_string(s.tableSize));
   if (s.encoding == Encoding::Pca && (s.components < 1 || s.components > kMaxComponents))
     return bad("--components must be 1.." + std::to_string(kMaxComponents) + ", got " + std::to_string(s.components));
+  if (s.clusters > kMaxClusters)
+    return bad("--clusters must be 1.." + std::to_string(kMaxClusters) + ", got " + std::to_string(s.clusters));
   return {};
 }
 
@@ -726,30 +728,36 @@ constexpr uint32_t kClusterRestarts = 4;
 // by the exit frame's measure (meanClippedDegrees, the same views): the nodes' RMS prefers the
 // components on every scene (torus 15.9 against 18.7 deg), while the images prefer the clusters on
 // glass turned on a lathe (docs/encodings.md, "Clusters").
+// The clusters a Pca bake tries (BakeSettings::clusters; as many as the components by default).
+uint32_t clusterCount(const BakeSettings& settings, const EncodingShape& shape) {
+  return settings.clusters ? settings.clusters : shape.components;
+}
+
 // Spatial smoothing (--spatial) blends neighbours' weights, which an index cannot hold: those bakes
 // keep the components.
 bool clustersEligible(const BakeSettings& settings, size_t samples, const EncodingShape& shape) {
-  return settings.spatialNeighbours == 0 && samples >= kMinSamplesPerCluster * size_t(shape.components);
+  return settings.spatialNeighbours == 0 && samples >= kMinSamplesPerCluster * size_t(clusterCount(settings, shape));
 }
 
 Result<bool> keepClusters(const BakePlan& plan, const EncodingShape& shape, const std::vector<float>& tables,
                           const FrameChoiceViews& views, LearnedBasis& learned) {
   const size_t n = plan.atlas.samples.size(), dim = tableValues(shape);
   if (!clustersEligible(plan.settings, n, shape)) return false;
-  plan.begin("clustering " + std::to_string(n) + " samples into " + std::to_string(shape.components) + " tables, " +
-             std::to_string(kClusterRestarts) + " times");
+  EncodingShape clusteredShape = shape;
+  clusteredShape.components = clusterCount(plan.settings, shape);
+  plan.begin("clustering " + std::to_string(n) + " samples into " + std::to_string(clusteredShape.components) +
+             " tables, " + std::to_string(kClusterRestarts) + " times");
   const double components = meanClippedDegrees(shape, learned.basis, gatherTables(learned.weights, views.samples,
                                                                                   shape.components),
                                                plan.atlas, views);
   ClusteredBasis best;
   double clusters = std::numeric_limits<double>::max();
   for (uint32_t seed = 0; seed < kClusterRestarts; ++seed) {
-    auto clustered = clusterTables(tables, n, dim, learned.weights, shape.components, shape.components, seed,
+    auto clustered = clusterTables(tables, n, dim, learned.weights, shape.components, clusteredShape.components, seed,
                                    plan.settings.threads);
     if (!clustered) return clustered.error();
-    const double degrees = meanClippedDegrees(shape, clustered.value().basis,
-                                              gatherTables(clustered.value().weights, views.samples, shape.components),
-                                              plan.atlas, views);
+    const std::vector<float> weights = gatherTables(clustered.value().weights, views.samples, clusteredShape.components);
+    const double degrees = meanClippedDegrees(clusteredShape, clustered.value().basis, weights, plan.atlas, views);
     if (degrees < clusters) {
       clusters = degrees;
       best = std::move(clustered.value());
@@ -760,8 +768,10 @@ Result<bool> keepClusters(const BakePlan& plan, const EncodingShape& shape, cons
     plan.note(std::string("pca basis: chose ") + (keep ? "clusters" : "components") + " (mean angle, clipped at " +
               std::to_string(int(kFrameChoiceClipDegrees)) + " deg, to " + std::to_string(views.views.directions.size()) +
               " traced views: " + std::to_string(components) + " deg with " + std::to_string(shape.components) +
-              " components, " + std::to_string(clusters) + " deg with as many clusters, the best of " +
-              std::to_string(kClusterRestarts) + " seeds)");
+              " components, " + std::to_string(clusters) + " deg with " +
+              (clusteredShape.components == shape.components ? std::string("as many")
+                                                             : std::to_string(clusteredShape.components)) +
+              " clusters, the best of " + std::to_string(kClusterRestarts) + " seeds)");
   if (keep) learned = LearnedBasis{std::move(best.basis), std::vector<float>(best.cluster.begin(), best.cluster.end())};
   return keep;
 }
@@ -799,6 +809,7 @@ Result<bool> learnBasisInItsFrame(const BakePlan& plan, EncodingShape& shape, st
   auto clusters = keepClusters(plan, shape, coeffs, views, learned.value());
   if (!clusters) return clusters.error();
   shape.clustered = clusters.value();
+  if (shape.clustered) shape.components = clusterCount(plan.settings, shape);
   basis = std::move(learned.value().basis);
   coeffs = std::move(learned.value().weights);
   return clusters.value();
@@ -1057,7 +1068,7 @@ Result<BakePlan> planBake(const Scene& scene, const BakeOptions& options, bool c
   if (auto ok = validateScene(scene); !ok) return ok.error();
   if (settings.regularization == 0.0f) settings.regularization = static_cast<float>(kDefaultRegularization);
   if (settings.encoding != Encoding::Sh) settings.order = 0;
-  if (settings.encoding != Encoding::Pca) settings.components = 0;
+  if (settings.encoding != Encoding::Pca) settings.components = settings.clusters = 0;
   if (settings.encoding == Encoding::Sh) settings.tableSize = 0;
   if (settings.threads == 0) settings.threads = std::max(1u, std::thread::hardware_concurrency());
 
@@ -1349,6 +1360,7 @@ Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
     auto learned = learnBasisInItsFrame(plan, shape, coeffs, basis);
     if (!learned) return learned.error();
     clustered = learned.value();
+    settings.components = shape.components;  // what the field stores: the clusters, where it keeps them
   }
   settings.exitFrame = shape.sampleFrameExits ? ExitFrame::Sample : ExitFrame::Object;  // what the field stores
   smoothSamples(plan, settings, strideOf(shape), coeffs);

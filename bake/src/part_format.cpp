@@ -17,8 +17,8 @@ namespace {
 constexpr char kMagic[8] = {'S', 'H', 'R', 'F', 'P', 'A', 'R', 'T'};
 // 2: the settings name the direction sampling; 3: the jump distance; 4: the frame of the exits;
 // 5: the frames of the polar cap of a curved surface (sample_frame.h frameAt): an older part traced
-// those samples in frames its merge would no longer store.
-constexpr uint32_t kPartVersion = 5;
+// those samples in frames its merge would no longer store; 6: the clusters a Pca bake tries.
+constexpr uint32_t kPartVersion = 6;
 constexpr size_t kHeaderBytes = 8 + 4 + 8 + 8;  // magic, version, payload size, checksum
 
 uint64_t fnv1a(const uint8_t* data, size_t size) {
@@ -104,6 +104,7 @@ void visitSettings(S& s, V& v) {
   v.enumeration("encoding", s.encoding, 2);
   v.u32("table size", s.tableSize);
   v.u32("components", s.components);
+  v.u32("clusters", s.clusters);
   v.enumeration("path rule", s.pathRule, 1);
   v.boolean("throughput", s.throughput);
   v.enumeration("direction sampling", s.directionSampling, 1);

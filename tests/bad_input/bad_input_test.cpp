@@ -419,6 +419,9 @@ std::vector<Case> cases() {
                "out.shrf"});
   c.push_back({"pca components out of range", with({"--encoding", "pca", "--components", "0"}), none, {"--components"},
                "out.shrf"});
+  c.push_back({"clusters out of range", with({"--clusters", "5000"}), none, {"--clusters"}, "out.shrf"});
+  c.push_back({"clusters with another encoding", with({"--encoding", "sh", "--clusters", "64"}), none,
+               {"--clusters", "--encoding pca"}, "out.shrf"});
   c.push_back({"byte budget out of range", with({"--max-bytes-per-sample", "0"}), none, {"--max-bytes-per-sample"},
                "out.shrf"});
   c.push_back({"byte budget and error target together", with({"--max-bytes-per-sample", "324", "--max-error", "2"}), none,

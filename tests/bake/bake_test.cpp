@@ -254,12 +254,14 @@ struct BasisChoice {
   bool keptClusters = false;
 };
 
-BasisChoice bakeAndChooseBasis(const char* scene, uint32_t components) {
+// expectChoice false: the bake is to make no choice (too few samples for the clusters).
+BasisChoice bakeAndChooseBasis(const char* scene, uint32_t components, uint32_t clusters = 0, bool expectChoice = true) {
   BakeSettings s = small();
   s.encoding = Encoding::Pca;
   s.order = 0;
   s.tableSize = 8;
   s.components = components;
+  s.clusters = clusters;
   s.directionSampling = DirectionSampling::Nodes;
   s.exitFrame = ExitFrame::Sample;
   s.sampleBudget = 1500;
@@ -271,13 +273,14 @@ BasisChoice bakeAndChooseBasis(const char* scene, uint32_t components) {
   EXPECT_TRUE(field.ok()) << field.error().message;
   BasisChoice out{field.ok() ? std::move(field.value()) : Field{}};
   const size_t at = notes.find("pca basis: chose ");
-  EXPECT_NE(at, std::string::npos) << notes;
+  EXPECT_EQ(at != std::string::npos, expectChoice) << notes;
   if (at == std::string::npos) return out;
   const std::string line = notes.substr(at, notes.find('\n', at) - at);
   std::printf("%s: %s\n", scene, line.c_str());
   out.keptClusters = line.find("chose clusters") != std::string::npos;
   out.components = std::stod(line.substr(line.find("views: ") + 7));
   out.clusters = std::stod(line.substr(line.find("components, ") + 12));
+  EXPECT_EQ(out.keptClusters, out.field.clustered);
   return out;
 }
 
@@ -303,6 +306,27 @@ TEST(Bake, PcaKeepsClustersWhereTheyDecodeCloser) {
   EXPECT_LT(cube.components, cube.clusters);
   EXPECT_FALSE(cube.field.clustered);
   EXPECT_EQ(cube.field.bytesPerSample(), 24u);
+}
+
+// BakeSettings::clusters: the clusters tried need not be as many as the components. A clustered
+// field then holds that many tables (its components and settings say so) and 2 bytes a sample,
+// whatever the count. (More clusters are not always closer: on this 1500-sample sphere of 8x8
+// tables 96 read 1.512 deg on the views against 24's 1.483.)
+TEST(Bake, PcaTriesTheClustersAskedFor) {
+  const BasisChoice few = bakeAndChooseBasis("sphere", 24), more = bakeAndChooseBasis("sphere", 24, 96);
+  ASSERT_TRUE(more.keptClusters);
+  EXPECT_EQ(more.field.components, 96u);
+  EXPECT_EQ(more.field.settings.components, 96u);
+  EXPECT_EQ(more.field.settings.clusters, 96u);
+  EXPECT_TRUE(storesIndices(more.field));
+  EXPECT_EQ(more.field.basis.size(), size_t(96) * 8 * 8 * more.field.channels);
+  EXPECT_EQ(more.components, few.components);  // the same 24 components are measured against them
+  EXPECT_NE(more.clusters, few.clusters);
+  // 1500 samples hold at most 187 clusters of 8 (bake.cpp kMinSamplesPerCluster): beyond, the
+  // components stay without a try.
+  const BasisChoice tooMany = bakeAndChooseBasis("sphere", 24, 200, false);
+  EXPECT_FALSE(tooMany.field.clustered);
+  EXPECT_EQ(tooMany.field.components, 24u);
 }
 
 // --max-bytes-per-sample measures its candidates on grid fits (Pca on 16x16 tables) but bakes a

@@ -288,9 +288,10 @@ TEST_P(FieldFormat, HeaderMatchesTheSpec) {
                             (8 + T + 8 + 48 * T + 8 + 16 * f.gutters.size()) +
                             (GetParam().quantization == Quantization::U8 ? 16 + 8 * B * C + 16 + B * T * C
                                                                          : 16 + 16 + 2 * B * T * C) +
-                            (9 * 4 + 4 + 8 + 4 + 4 + 4 + 4 + 8) +  // ENCD: nine u32/f32, an empty basis
-                                                                   // array, the sampling, the jump distance,
-                                                                   // the exit frame, clustered, no indices
+                            (9 * 4 + 4 + 8 + 4 + 4 + 4 + 4 + 8 + 4) +  // ENCD: nine u32/f32, an empty basis
+                                                                       // array, the sampling, the jump distance,
+                                                                       // the exit frame, clustered, no indices,
+                                                                       // the clusters asked for
                             4;
   EXPECT_EQ(b.size(), expected);
   // Sections in their fixed order, ending exactly at the checksum.
@@ -872,6 +873,7 @@ Field makeEncodedField(Encoding encoding, Quantization q, bool throughput, bool 
     for (size_t i = 0; i < f.basis.size(); ++i) f.basis[i] = std::sin(0.37f * float(i));
   }
   f.clustered = clustered;
+  f.settings.clusters = encoding == Encoding::Pca ? 7 : 0;
   std::vector<float> c(size_t(f.layerCount()) * f.texelCount() * f.valuesPerLayer());
   for (size_t i = 0; i < c.size(); ++i)
     c[i] = !clustered ? std::cos(0.11f * float(i)) * 0.5f + 0.5f
@@ -916,6 +918,7 @@ TEST_P(FieldEncodings, RoundTripIsExact) {
   EXPECT_EQ(g.settings.exitFrame, f.settings.exitFrame);
   EXPECT_EQ(g.clustered, f.clustered);
   EXPECT_EQ(g.clusterIndices, f.clusterIndices);
+  EXPECT_EQ(g.settings.clusters, f.settings.clusters);
   EXPECT_EQ(g.decodedChannels(), f.channels - (f.jumpDistance ? 1u : 0u));
   EXPECT_EQ(bits(g.basis), bits(f.basis));
   EXPECT_EQ(g.settings.pathRule, PathRule::FirstRefraction);
@@ -999,6 +1002,11 @@ TEST(FieldClustered, BrokenIndicesAreRejected) {
          f.basis.clear();
        }},
       {"not clustered", [](Field& f) { f.clustered = false; }},  // the indices left behind
+      {"settings.clusters", [](Field& f) { f.settings.clusters = kMaxClusters + 1; }},
+      {"(clustered)", [](Field& f) {  // more tables than an index may name
+         f.components = f.settings.components = kMaxClusters + 1;
+         f.basis.resize(size_t(f.components) * f.tableSize * f.tableSize * f.channels);
+       }},
   };
   for (const auto& [what, breakIt] : cases) {
     Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false, false, false, true);
@@ -1084,8 +1092,9 @@ std::vector<uint8_t> withShorterEncoding(const Field& f, uint64_t bytes, uint32_
   return b;
 }
 
-// What version 6 appends to ENCD for a field that is not clustered: the flag and an empty array.
-constexpr uint64_t kClusteredBytes = 4 + 8;
+// What version 6 appends to ENCD for a field that is not clustered: the flag, an empty array and
+// the clusters asked for.
+constexpr uint64_t kClusteredBytes = 4 + 8 + 4;
 
 TEST(FieldVersion5, StillReadUnclustered) {
   // A version 5 file is version 6 without the clustered flag and the indices at the end of ENCD.
@@ -1095,6 +1104,7 @@ TEST(FieldVersion5, StillReadUnclustered) {
   ASSERT_TRUE(r.ok()) << r.error().message;
   expectSameField(f, r.value());
   EXPECT_FALSE(r.value().clustered);
+  EXPECT_EQ(r.value().settings.clusters, 0u);
   EXPECT_TRUE(r.value().sampleFrameExits);
   // The same bytes labelled version 6 are short by the missing flag and array.
   putU32(b, 4, 6);

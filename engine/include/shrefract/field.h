@@ -94,6 +94,10 @@ const char* toString(ExitFrame frame);
 // largest number of Pca components.
 inline constexpr uint32_t kMaxTableSize = 64;
 inline constexpr uint32_t kMaxComponents = 1024;
+// Largest number of tables of a clustered Pca field (EncodingShape::clustered): its index is 16
+// bits and it sums nothing, but every table is stored (4096 tables of 64x64 nodes and 5 channels
+// are 335 MB of floats).
+inline constexpr uint32_t kMaxClusters = 4096;
 
 // The hemi-octahedral grid of the Table and Pca encodings. A local direction w (z >= 0) maps to
 //   p = (x, y) / (|x| + |y| + z),  (u, v) = ((p.x + p.y + 1) / 2, (p.x - p.y + 1) / 2) in [0,1]^2,
@@ -139,6 +143,9 @@ struct BakeSettings {
   Encoding encoding = Encoding::Sh;
   uint32_t tableSize = 0;            // Table / Pca: nodes per side N of the hemi-octahedral grid
   uint32_t components = 0;           // Pca: basis functions K
+  // Pca: the clusters of the samples the bake tries against the K components (0: K). A clustered
+  // field stores their mean tables (components is then this count) and each sample's index.
+  uint32_t clusters = 0;
   PathRule pathRule = PathRule::HighestEnergy;
   bool throughput = false;           // the path's Fresnel throughput is stored as a channel
   DirectionSampling directionSampling = DirectionSampling::Grid;

@@ -462,7 +462,8 @@ void readMesh(SectionReader& r, FieldMesh& mesh) {
 // ENCD (version 2): how the coefficients are to be decoded, and the bake's choices that go with it;
 // version 3 appends the direction sampling (Grid before it), version 4 the jump distance flag (none
 // before it; the settings record what the field has), version 5 the frame of the exits (object
-// space before it), version 6 whether a Pca field is clustered and its samples' indices.
+// space before it), version 6 whether a Pca field is clustered, its samples' indices and the
+// clusters the bake was asked for.
 void readEncoding(SectionReader& r, Field& field, uint32_t version) {
   field.encoding = static_cast<Encoding>(r.u32("encoding"));
   field.tableSize = r.u32("encoding.tableSize");
@@ -485,6 +486,7 @@ void readEncoding(SectionReader& r, Field& field, uint32_t version) {
   if (version < 6) return;
   field.clustered = r.u32("encoding.clustered") != 0;
   r.arrayU16(field.clusterIndices, "cluster indices");
+  s.clusters = r.u32("settings.clusters");
 }
 
 void writeEncoding(ByteWriter& w, const Field& field) {
@@ -505,6 +507,7 @@ void writeEncoding(ByteWriter& w, const Field& field) {
   w.u32(field.sampleFrameExits ? 1u : 0u);
   w.u32(field.clustered ? 1u : 0u);
   w.arrayU16(field.clusterIndices);
+  w.u32(s.clusters);
 }
 
 void writeAtlas(ByteWriter& w, const Field& field) {
@@ -561,9 +564,11 @@ Result<void> validateEncoding(const Field& field) {
       if (field.tableSize < 2 || field.tableSize > kMaxTableSize)
         return invalid("table size " + n + " is outside 2.." + std::to_string(kMaxTableSize));
       if (field.encoding == Encoding::Table && field.components != 0) return invalid("a table field has components");
-      if (field.encoding == Encoding::Pca && (field.components < 1 || field.components > kMaxComponents))
+      if (field.encoding == Encoding::Pca &&
+          (field.components < 1 || field.components > (field.clustered ? kMaxClusters : kMaxComponents)))
         return invalid("components " + std::to_string(field.components) + " is outside 1.." +
-                       std::to_string(kMaxComponents));
+                       std::to_string(field.clustered ? kMaxClusters : kMaxComponents) +
+                       (field.clustered ? " (clustered)" : ""));
       if (field.clustered && field.encoding != Encoding::Pca) return invalid("a clustered field is not a pca field");
       break;
     default:
@@ -601,6 +606,8 @@ Result<void> validateSettings(const Field& field) {
                    " is not a direction sampling");
   if (s.directionSampling == DirectionSampling::Nodes && s.encoding == Encoding::Sh)
     return invalid("settings.directionSampling is nodes, which needs a table or pca encoding");
+  if (s.clusters > kMaxClusters)
+    return invalid("settings.clusters " + std::to_string(s.clusters) + " is over " + std::to_string(kMaxClusters));
   if (!std::isfinite(s.maxBytesPerSample) || s.maxBytesPerSample < 0.0f)
     return invalid("settings.maxBytesPerSample " + formatFloat(s.maxBytesPerSample) + " is not finite and >= 0");
   if (s.directionsTheta < 1 || s.directionsPhi < 1)
