@@ -1,7 +1,9 @@
 # `shrefract render` end to end (ctest runs this with -P): bake a tiny field of builtin:sphere,
 # render it in Field mode with timings (lat-long and cube-map environments), render the built-in
-# scene itself, and check that bad input fails with the documented exit codes.
-# Inputs: SHREFRACT (the tool), WORK_DIR. Prints "SKIPPED: no Vulkan device" (ctest's
+# scene itself, and check that bad input fails with the documented exit codes. A tiny clustered Pca
+# field (one index a sample, field format 6) is baked, described, rendered and, where
+# DECOMPRESSION_BENCHMARK names the benchmark, timed by it (the path that reads a field file).
+# Inputs: SHREFRACT (the tool), WORK_DIR, DECOMPRESSION_BENCHMARK (optional). Prints "SKIPPED: no Vulkan device" (ctest's
 # SKIP_REGULAR_EXPRESSION) when no device exists.
 file(REMOVE_RECURSE ${WORK_DIR})
 file(MAKE_DIRECTORY ${WORK_DIR})
@@ -65,5 +67,28 @@ if(at EQUAL -1)
 endif()
 if(EXISTS ${WORK_DIR}/x.png)
   message(FATAL_ERROR "a failed render left an image behind")
+endif()
+
+# A clustered Pca field: the sphere's 16 clusters decode its views closer than 16 components.
+run(0 bake builtin:sphere -o clustered.shrf --encoding pca --table-size 12 --components 16 --samples 1000
+    --tessellation 2 --threads 2 --held-out 0)
+run(0 info clustered.shrf --json)
+foreach(key "\"clustered\": true" "\"bytes_per_sample\": 2" "\"components\": 16")
+  string(FIND "${OUT}" "${key}" at)
+  if(at EQUAL -1)
+    message(FATAL_ERROR "info --json of the clustered field lacks ${key}: ${OUT}")
+  endif()
+endforeach()
+run(0 render clustered.shrf -o clustered.png --size 96x72 --spp 4)
+if(NOT EXISTS ${WORK_DIR}/clustered.png)
+  message(FATAL_ERROR "shrefract render did not write clustered.png")
+endif()
+if(DECOMPRESSION_BENCHMARK)
+  execute_process(COMMAND ${DECOMPRESSION_BENCHMARK} clustered.shrf --reps 2 --validation WORKING_DIRECTORY ${WORK_DIR}
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  string(FIND "${out}" "pca clustered K=16" at)
+  if(NOT rc EQUAL 0 OR at EQUAL -1)
+    message(FATAL_ERROR "shrefract_decompression_benchmark clustered.shrf: exit ${rc}\nstdout: ${out}\nstderr: ${err}")
+  endif()
 endif()
 message("render command: all checks passed")
