@@ -430,6 +430,9 @@ Result<void> measureQuantization(SceneContext& c, const Variant& v, FidelityRow 
   }
   const Field& field = isU8 ? u8.value() : f16;
   row.bytesPerSample = field.bytesPerSample();
+  // A clustered field stores 2 bytes a sample and its K tables once (docs/encodings.md, "One index
+  // per sample"): its row says so beside the K it was baked with.
+  if (field.clustered) row.parameters += fmt(" clustered (%u tables)", field.components);
   row.samples = f16.statistics.uniqueSamples;
   auto object = offscreen::uploadField(c.session, field);
   if (!object) {
