@@ -721,13 +721,6 @@ constexpr size_t kMinSamplesPerCluster = 8;
 // over three): the clusterings of this many seeds are measured on the views, the closest kept.
 constexpr uint32_t kClusterRestarts = 4;
 
-// Clusters (table_fit.h): whether the field keeps the mean tables of K clusters of its samples,
-// each sample storing its cluster's index (EncodingShape::clustered: 2 bytes, one table read per
-// decode), rather than its K components; `learned` is replaced where it does: the cluster means and
-// one float per sample, the index. Chosen
-// by the exit frame's measure (meanClippedDegrees, the same views): the nodes' RMS prefers the
-// components on every scene (torus 15.9 against 18.7 deg), while the images prefer the clusters on
-// glass turned on a lathe (docs/encodings.md, "Clusters").
 // The clusters a Pca bake tries (BakeSettings::clusters; as many as the components by default).
 uint32_t clusterCount(const BakeSettings& settings, const EncodingShape& shape) {
   return settings.clusters ? settings.clusters : shape.components;
@@ -739,6 +732,13 @@ bool clustersEligible(const BakeSettings& settings, size_t samples, const Encodi
   return settings.spatialNeighbours == 0 && samples >= kMinSamplesPerCluster * size_t(clusterCount(settings, shape));
 }
 
+// Clusters (table_fit.h): whether the field keeps the mean tables of clusterCount clusters of its
+// samples, each sample storing its cluster's index (EncodingShape::clustered: 2 bytes, one table
+// read per decode), rather than its K components; `learned` is replaced where it does: the cluster
+// means and one float per sample, the index. Chosen by the exit frame's measure
+// (meanClippedDegrees, the same views): the nodes' RMS prefers the components on every scene (torus
+// 15.9 against 18.7 deg), while the images prefer the clusters on glass turned on a lathe
+// (docs/encodings.md, "Clusters").
 Result<bool> keepClusters(const BakePlan& plan, const EncodingShape& shape, const std::vector<float>& tables,
                           const FrameChoiceViews& views, LearnedBasis& learned) {
   const size_t n = plan.atlas.samples.size(), dim = tableValues(shape);

@@ -12,8 +12,9 @@
 //
 // One invocation per sample, reading its values sample-major (gpu_layout.h): a sample reads only
 // 4 nodes of its own table (Table) or its own K weights and 4 nodes of each shared basis function
-// (Pca; clustered: its index and 4 nodes of that one function), so the SH pass's planes, which share one read of a basis function's values between 4
-// samples, would gain nothing. The sums run in the CPU decoder's order.
+// (Pca; clustered: its index and 4 nodes of that one function), so the SH pass's planes, which
+// share one read of a basis function's values between 4 samples, would gain nothing. The sums run
+// in the CPU decoder's order.
 #extension GL_GOOGLE_include_directive : require
 #include "decompress_common.glsl"
 #include "shrefract/hemi_oct.glsl"

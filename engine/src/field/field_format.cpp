@@ -569,12 +569,11 @@ Result<void> validateEncoding(const Field& field) {
         return invalid("components " + std::to_string(field.components) + " is outside 1.." +
                        std::to_string(field.clustered ? kMaxClusters : kMaxComponents) +
                        (field.clustered ? " (clustered)" : ""));
-      if (field.clustered && field.encoding != Encoding::Pca) return invalid("a clustered field is not a pca field");
       break;
     default:
       return invalid("encoding " + std::to_string(static_cast<uint32_t>(field.encoding)) + " is not sh (0), table (1) or pca (2)");
   }
-  if (field.clustered && field.encoding == Encoding::Sh) return invalid("a clustered field is not a pca field");
+  if (field.clustered && field.encoding != Encoding::Pca) return invalid("a clustered field is not a pca field");
   const size_t basisValues =
       field.encoding == Encoding::Pca ? size_t(field.components) * field.tableSize * field.tableSize * field.channels : 0;
   if (field.basis.size() != basisValues)
