@@ -73,7 +73,7 @@ std::string fieldSummaryText(const Field& f, uint64_t fileBytes) {
   out += format("field: %ux%u texels, %s, %u channels%s%s%s, %s, layout %s, %u bytes per sample\n", f.width,
                 f.height, encodingText(f).c_str(), f.channels, f.hasOpticalDepth() ? "" : " (no absorption)",
                 f.throughput ? " (with throughput)" : "", f.jumpDistance ? " (with jump distance)" : "",
-                toString(f.quantization), toString(s.layout),
+                f.clustered ? "16-bit indices" : toString(f.quantization), toString(s.layout),
                 f.bytesPerSample());
   out += format("path rule: %s; exits stored in %s\n", toString(s.pathRule),
                 f.sampleFrameExits ? "each sample's frame" : "object space");
