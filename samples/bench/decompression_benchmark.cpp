@@ -328,7 +328,7 @@ FieldBufferBytes fieldBufferBytes(const Field& field, uint64_t samples) {
   b.coefficients = std::max<uint64_t>((stored * layers * values * valueBytes(field) + 3) / 4 * 4, 4);
   b.scaleBias = field.encoding == Encoding::Sh ? layers * (field.channels > 4 ? 3 : 2) * 16
                                                : std::max<uint64_t>(layers * values * 8, 16);
-  b.basis = std::max<uint64_t>(field.basis.size() * sizeof(float), 16);
+  b.basis = std::max<uint64_t>((field.basis.size() * (field.clustered ? 2 : 4) + 3) / 4 * 4, 16);  // clustered: binary16
   return b;
 }
 

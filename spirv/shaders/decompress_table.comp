@@ -37,6 +37,10 @@ layout(std430, set = 0, binding = kBindingBasis) readonly buffer Basis { float b
 // The same buffer read a whole node at a time where a node holds 4 channels (the tool's default
 // field): one 16-byte load in place of four 4-byte ones, the sums unchanged.
 layout(std430, set = 0, binding = kBindingBasis) readonly buffer Basis4 { vec4 basis4[]; };
+// A clustered field's tables: binary16, two to a word (gpu_layout.h kSpecClustered).
+layout(std430, set = 0, binding = kBindingBasis) readonly buffer BasisHalves { uint basisHalves[]; };
+
+float tableValue(uint i) { return unpackHalf2x16(basisHalves[i >> 1u] >> (16u * (i & 1u))).x; }
 
 // The dequantized value v of layer `layer` of sample s (U8: bias + (scale / 255) * q).
 float coefficient(uint s, uint layer, uint v) {
@@ -168,7 +172,7 @@ void main() {
   } else if (CLUSTERED) {  // the sample's one function, whole (field_decode.cpp evaluateStored)
     uint k = min((fetchWord(s >> 1u) >> (16u * (s & 1u))) & 0xffffu, COMPONENTS - 1u);
     for (int j = 0; j < 4; ++j)
-      for (int c = 0; c < CHANNELS; ++c) v[j][c] = basis[(k * NODES + b.node[j]) * uint(CHANNELS) + uint(c)];
+      for (int c = 0; c < CHANNELS; ++c) v[j][c] = tableValue((k * NODES + b.node[j]) * uint(CHANNELS) + uint(c));
   } else {  // each corner sums over k in ascending order, as the CPU decoder does
     for (uint k = 0u; k < COMPONENTS; ++k) {
       float a = coefficient(s, k, 0u);

@@ -310,6 +310,7 @@ TEST_F(DecompressionEncodings, ClusteredPcaMatchesCpuReference) {
       SCOPED_TRACE(describe(o));
       const Field field = testing::makeSyntheticField(o);
       ASSERT_TRUE(field.clustered);
+      ASSERT_TRUE(validateField(field).ok()) << validateField(field).error().message;
       EXPECT_EQ(field.bytesPerSample(), 2u);
       std::vector<bool> used(o.components, false);
       for (uint64_t t = 0; t < field.texelCount(); ++t)

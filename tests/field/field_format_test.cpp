@@ -288,10 +288,11 @@ TEST_P(FieldFormat, HeaderMatchesTheSpec) {
                             (8 + T + 8 + 48 * T + 8 + 16 * f.gutters.size()) +
                             (GetParam().quantization == Quantization::U8 ? 16 + 8 * B * C + 16 + B * T * C
                                                                          : 16 + 16 + 2 * B * T * C) +
-                            (9 * 4 + 4 + 8 + 4 + 4 + 4 + 4 + 8 + 4) +  // ENCD: nine u32/f32, an empty basis
-                                                                       // array, the sampling, the jump distance,
-                                                                       // the exit frame, clustered, no indices,
-                                                                       // the clusters asked for
+                            (9 * 4 + 4 + 8 + 4 + 4 + 4 + 4 + 8 + 4 + 8) +  // ENCD: nine u32/f32, an empty
+                                                                           // basis array, the sampling, the jump
+                                                                           // distance, the exit frame, clustered,
+                                                                           // no indices, the clusters asked for,
+                                                                           // no binary16 tables
                             4;
   EXPECT_EQ(b.size(), expected);
   // Sections in their fixed order, ending exactly at the checksum.
@@ -1003,6 +1004,7 @@ TEST(FieldClustered, BrokenIndicesAreRejected) {
        }},
       {"not clustered", [](Field& f) { f.clustered = false; }},  // the indices left behind
       {"settings.clusters", [](Field& f) { f.settings.clusters = kMaxClusters + 1; }},
+      {"not a binary16 value", [](Field& f) { f.basis[3] = 0.1f; }},  // the tables are stored as binary16
       {"(clustered)", [](Field& f) {  // more tables than an index may name
          f.components = f.settings.components = kMaxClusters + 1;
          f.basis.resize(size_t(f.components) * f.tableSize * f.tableSize * f.channels);
@@ -1092,9 +1094,30 @@ std::vector<uint8_t> withShorterEncoding(const Field& f, uint64_t bytes, uint32_
   return b;
 }
 
-// What version 6 appends to ENCD for a field that is not clustered: the flag, an empty array and
-// the clusters asked for.
-constexpr uint64_t kClusteredBytes = 4 + 8 + 4;
+// What version 6 appends to ENCD for a field that is not clustered: the flag, an empty array of
+// indices, the clusters asked for and an empty array of binary16 tables.
+constexpr uint64_t kClusteredBytes = 4 + 8 + 4 + 8;
+
+// A clustered field's tables are binary16 at the end of ENCD and its f32 basis is empty; a file
+// that says clustered beside an f32 basis is refused, and so is a non-clustered one's flag set.
+TEST(FieldClustered, TablesAreBinary16AtTheEndOfTheEncoding) {
+  const Field clustered = makeEncodedField(Encoding::Pca, Quantization::U8, false, false, false, true);
+  const Field weights = makeEncodedField(Encoding::Pca, Quantization::U8, false);
+  const std::vector<uint8_t> a = serializeField(clustered), b = serializeField(weights);
+  // The same basis size: 4 bytes a value as weights' f32, 2 as binary16.
+  ASSERT_EQ(clustered.basis.size(), weights.basis.size());
+  const size_t encdA = sectionPayload(a, "ENCD"), encdB = sectionPayload(b, "ENCD");
+  EXPECT_EQ(getU64(a, encdA - 8) + 2 * clustered.basis.size(),
+            getU64(b, encdB - 8) + 2 * clustered.texelCount());  // a's indices, b's wider basis
+  std::vector<uint8_t> flagged = b;
+  const size_t flag = encdB + getU64(b, encdB - 8) - kClusteredBytes;  // version 6's first value
+  ASSERT_EQ(getU32(flagged, flag), 0u);
+  putU32(flagged, flag, 1);
+  resign(flagged);
+  const Result<Field> r = parse(flagged, "flagged.shrf");
+  ASSERT_FALSE(r.ok());
+  EXPECT_TRUE(contains(r.error().message, "has an f32 basis")) << r.error().message;
+}
 
 TEST(FieldVersion5, StillReadUnclustered) {
   // A version 5 file is version 6 without the clustered flag and the indices at the end of ENCD.

@@ -487,6 +487,14 @@ void readEncoding(SectionReader& r, Field& field, uint32_t version) {
   field.clustered = r.u32("encoding.clustered") != 0;
   r.arrayU16(field.clusterIndices, "cluster indices");
   s.clusters = r.u32("settings.clusters");
+  // A clustered field's tables, binary16 (validateEncoding: the f32 basis above is then empty).
+  std::vector<uint16_t> tables;
+  r.arrayU16(tables, "cluster tables");
+  if (field.clustered && !field.basis.empty()) return r.fail("a clustered field has an f32 basis (its tables are binary16)");
+  if (!field.clustered && !tables.empty()) return r.fail("cluster tables are stored, but the field is not clustered");
+  if (!field.clustered) return;
+  field.basis.resize(tables.size());
+  for (size_t i = 0; i < tables.size(); ++i) field.basis[i] = halfToFloat(tables[i]);
 }
 
 void writeEncoding(ByteWriter& w, const Field& field) {
@@ -501,13 +509,17 @@ void writeEncoding(ByteWriter& w, const Field& field) {
   w.u32(s.throughput ? 1u : 0u);
   w.u32(static_cast<uint32_t>(s.pathRule));
   w.f32(s.maxBytesPerSample);
-  w.arrayF32(field.basis);
+  w.arrayF32(field.clustered ? std::vector<float>{} : field.basis);  // clustered: binary16, at the end
   w.u32(static_cast<uint32_t>(s.directionSampling));
   w.u32(field.jumpDistance ? 1u : 0u);
   w.u32(field.sampleFrameExits ? 1u : 0u);
   w.u32(field.clustered ? 1u : 0u);
   w.arrayU16(field.clusterIndices);
   w.u32(s.clusters);
+  std::vector<uint16_t> tables;
+  if (field.clustered)
+    for (float v : field.basis) tables.push_back(floatToHalf(v));
+  w.arrayU16(tables);
 }
 
 void writeAtlas(ByteWriter& w, const Field& field) {
@@ -579,6 +591,10 @@ Result<void> validateEncoding(const Field& field) {
   if (field.basis.size() != basisValues)
     return invalid("basis has " + std::to_string(field.basis.size()) + " values, expected " + std::to_string(basisValues));
   for (size_t i = 0; i < field.basis.size(); ++i) {
+    // A clustered field stores its tables as binary16 (docs/field-format.md, ENCD version 6).
+    if (field.clustered && !(halfToFloat(floatToHalf(field.basis[i])) == field.basis[i]))
+      return invalid("basis[" + std::to_string(i) + "] = " + formatFloat(field.basis[i]) +
+                     " of a clustered field is not a binary16 value");
     const float bound = i % field.channels < 3 ? kMaxBasisDirectionMagnitude : kMaxBasisMagnitude;
     if (!(std::fabs(field.basis[i]) <= bound))
       return invalid("basis[" + std::to_string(i) + "] = " + formatFloat(field.basis[i]) + " is not finite or beyond +-" +
@@ -831,8 +847,11 @@ float fieldCoefficient(const Field& field, uint32_t layer, uint64_t texel, uint3
 
 namespace {
 
-// What encodeCoefficients needs of the field before it reads a coefficient.
-Result<void> checkEncodable(const Field& field) {
+// What encodeCoefficients needs of the field before it reads a coefficient. A clustered field's
+// tables are stored as binary16: they are rounded first, so that the checks read what is stored.
+Result<void> checkEncodable(Field& field) {
+  if (field.clustered)
+    for (float& v : field.basis) v = halfToFloat(floatToHalf(v));
   if (auto r = validateEncoding(field); !r)
     return makeError(ErrorCode::InvalidArgument, "encodeCoefficients: " + r.error().message);
   if (field.width > kMaxAtlasSize || field.height > kMaxAtlasSize)

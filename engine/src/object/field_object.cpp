@@ -12,6 +12,7 @@
 
 #include "core/barriers.h"
 #include "core/context_impl.h"
+#include "core/half.h"
 #include "decompress/field_layouts.h"
 #include "object/object_impl.h"
 #include "shrefract/gpu_layout.h"
@@ -119,7 +120,7 @@ struct FieldBufferSizes {
   VkDeviceSize coefficients = 0;     // at least one word
   bool coefficientsStorage = false;  // beyond the device's texel buffer limit: a storage buffer
   VkDeviceSize frames = 0;
-  VkDeviceSize basis = 0;            // Pca: the basis; otherwise one placeholder vec4
+  VkDeviceSize basis = 0;            // Pca: the basis (clustered: binary16); otherwise one placeholder vec4
 };
 
 // The sizes of the buffers whose size depends on the field, checked against the device's limits.
@@ -141,7 +142,8 @@ Result<FieldBufferSizes> fieldBufferSizes(const Field& field, uint64_t samples, 
   sizes.coefficients = std::max<VkDeviceSize>((stored * perSample * valueBytes + 3) / 4 * 4, 4);
   sizes.coefficientsStorage = sizes.coefficients / sizeof(uint32_t) > limits.maxTexelBufferElements;
   sizes.frames = std::max<VkDeviceSize>(VkDeviceSize(samples) * 12 * sizeof(float), 16);
-  sizes.basis = std::max<VkDeviceSize>(VkDeviceSize(field.basis.size()) * sizeof(float), 16);
+  const VkDeviceSize basisValueBytes = field.clustered ? sizeof(uint16_t) : sizeof(float);
+  sizes.basis = std::max<VkDeviceSize>((VkDeviceSize(field.basis.size()) * basisValueBytes + 3) / 4 * 4, 16);
   if (sizes.coefficientsStorage && sizes.coefficients > limits.maxStorageBufferRange)
     return tooBig("coefficients", sizes.coefficients,
                   std::max<VkDeviceSize>(VkDeviceSize(limits.maxTexelBufferElements) * sizeof(uint32_t),
@@ -518,12 +520,18 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
 
   const HostTables host = hostTables(field, sampleTexels, sizes);
   const float placeholder[4] = {0.0f, 0.0f, 0.0f, 0.0f};  // the basis binding of a field without one
+  // A clustered field's tables as the shader reads them: binary16, two to a word (gpu_layout.h).
+  std::vector<uint16_t> halfTables(field.clustered ? size_t(sizes.basis / sizeof(uint16_t)) : 0, 0);
+  for (size_t i = 0; field.clustered && i < field.basis.size(); ++i) halfTables[i] = floatToHalf(field.basis[i]);
+  const void* basis = field.basis.empty() ? static_cast<const void*>(placeholder)
+                      : field.clustered   ? static_cast<const void*>(halfTables.data())
+                                          : static_cast<const void*>(field.basis.data());
   const std::array<Upload, 5> uploads{{
       {&f.scaleBias, host.scaleBias.data(), host.scaleBias.size() * sizeof(float)},
       {&f.frames, host.frames.data(), host.frames.size() * sizeof(float)},
       {&f.sampleTexels, host.sampleTexels.data(), host.sampleTexels.size() * sizeof(uint32_t)},
       {&f.gutters, host.gutters.data(), host.gutters.size() * sizeof(uint32_t)},
-      {&f.basis, field.basis.empty() ? placeholder : field.basis.data(), sizes.basis},
+      {&f.basis, basis, sizes.basis},
   }};
   if (auto r = createFieldBuffers(c, uploads, sizes, *impl); !r) return r.error();
   if (auto r = recordFieldUploads(c, cmd, field, sampleTexels, sizes, uploads, f); !r) return r.error();

@@ -137,7 +137,8 @@ SHR_CONST(kSpecSampleFrameExits, 12u)
 SHR_CONST(kSpecSilhouetteCoverage, 13u)
 // decompress_table.comp: a clustered Pca field (EncodingShape::clustered): each sample's
 // coefficients are one 16-bit function index, two to a 32-bit word, sample s in the low half of
-// word s / 2 when s is even; the sample decodes that function of the basis, whole.
+// word s / 2 when s is even; the sample decodes that function of the basis, whole. The basis
+// (kBindingBasis) then holds binary16 values, two to a word in the same order.
 SHR_CONST(kSpecClustered, 14u)
 // Largest scale/bias table read as a uniform buffer: the maxUniformBufferRange every device offers,
 // so that the choice (and the code path) is the same on every device.
