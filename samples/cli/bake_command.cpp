@@ -58,7 +58,7 @@ std::vector<FlagSpec> bakeFlags() {
        {1, double(kMaxComponents)}},
       {"clusters", true, "pca: the number of clusters tried against the K components (default K); where they "
                         "decode closer each sample stores its cluster's index (2 bytes) and the field their mean "
-                        "tables, each 80 KiB at 64x64 with 5 channels (1024: +0.32 dB on the torus at 40000 samples, "
+                        "tables, each 40 KiB at 64x64 with 5 channels (1024: +0.32 dB on the torus at 40000 samples, "
                         "docs/encodings.md \"More clusters\")", K::Integer,
        {1, double(kMaxClusters)}},
       {"direction-sampling", true, "directions traced per sample: nodes (default for pca: the tables' own "

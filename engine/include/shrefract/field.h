@@ -96,7 +96,7 @@ inline constexpr uint32_t kMaxTableSize = 64;
 inline constexpr uint32_t kMaxComponents = 1024;
 // Largest number of tables of a clustered Pca field (EncodingShape::clustered): its index is 16
 // bits and it sums nothing, but every table is stored (4096 tables of 64x64 nodes and 5 channels
-// are 335 MB of floats).
+// are 168 MB of binary16).
 inline constexpr uint32_t kMaxClusters = 4096;
 
 // The hemi-octahedral grid of the Table and Pca encodings. A local direction w (z >= 0) maps to
