@@ -279,7 +279,8 @@ struct Field {
   // texels that hold no sample. Empty for every other field.
   std::vector<uint16_t> clusterIndices;
   // Pca: the basis, components * tableSize^2 * channels floats: function k at node n, channel c at
-  // (k * tableSize^2 + n) * channels + c. Empty for the other encodings.
+  // (k * tableSize^2 + n) * channels + c (clustered: each a binary16 value, as stored). Empty for
+  // the other encodings.
   std::vector<float> basis;
 
   std::vector<float> frames;        // width * height * 12: rows of M_s (zero for empty texels)
@@ -357,7 +358,8 @@ float fieldCoefficient(const Field& field, uint32_t layer, uint64_t texel, uint3
 // Encodes float coefficients (same indexing as the quantized arrays) into field.coefficientsU8 +
 // scale/bias or field.coefficientsF16, per field.quantization. A channel of zero range gets
 // scale 0 and decodes exactly to its bias. A clustered field stores each texel's value in
-// clusterIndices instead: it must be a whole number below `components`. Errors (InvalidArgument):
+// clusterIndices instead: it must be a whole number below `components`; its basis (the tables) is
+// first rounded to binary16, as the file stores it. Errors (InvalidArgument):
 // sizes that disagree, a value that is not finite or beyond kMaxCoefficientMagnitude (F16: beyond
 // the binary16 range; clustered: not an index).
 Result<void> encodeCoefficients(Field& field, const std::vector<float>& coefficients);
