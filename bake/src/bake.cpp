@@ -782,7 +782,7 @@ Result<bool> keepClusters(const BakePlan& plan, const EncodingShape& shape, cons
 // axis; object space among samples that face alike (docs/encodings.md, "Exits in the sample's
 // frame"). Sets shape.sampleFrameExits to the frame kept, and shape.clustered where the basis is
 // the clusters' means (keepClusters: each sample's coefficients are then its index).
-Result<bool> learnBasisInItsFrame(const BakePlan& plan, EncodingShape& shape, std::vector<float>& coeffs,
+Result<void> learnBasisInItsFrame(const BakePlan& plan, EncodingShape& shape, std::vector<float>& coeffs,
                                   std::vector<float>& basis) {
   const SampleAtlas& atlas = plan.atlas;
   const size_t n = atlas.samples.size();
@@ -812,7 +812,7 @@ Result<bool> learnBasisInItsFrame(const BakePlan& plan, EncodingShape& shape, st
   if (shape.clustered) shape.components = clusterCount(plan.settings, shape);
   basis = std::move(learned.value().basis);
   coeffs = std::move(learned.value().weights);
-  return clusters.value();
+  return {};
 }
 
 // ---- --max-bytes-per-sample: the encoding with the lowest error within a byte budget ----------
@@ -1355,17 +1355,15 @@ Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
   std::vector<float>& coeffs = g.coeffs;
 
   std::vector<float> basis;
-  bool clustered = false;  // one index a sample: nothing for refinement layers to refine
   if (settings.encoding == Encoding::Pca) {
-    auto learned = learnBasisInItsFrame(plan, shape, coeffs, basis);
-    if (!learned) return learned.error();
-    clustered = learned.value();
+    if (auto learned = learnBasisInItsFrame(plan, shape, coeffs, basis); !learned) return learned.error();
     settings.components = shape.components;  // what the field stores: the clusters, where it keeps them
   }
   settings.exitFrame = shape.sampleFrameExits ? ExitFrame::Sample : ExitFrame::Object;  // what the field stores
   smoothSamples(plan, settings, strideOf(shape), coeffs);
   std::vector<uint32_t> refined;
-  if (settings.encoding == Encoding::Pca && settings.quantization == Quantization::U8 && !clustered) {
+  // A clustered field stores one index a sample: nothing for refinement layers to refine.
+  if (settings.encoding == Encoding::Pca && settings.quantization == Quantization::U8 && !shape.clustered) {
     refined = chooseRefinedComponents(coeffs, sampleCount, shape.components);
     makeRefinementLayers(coeffs, sampleCount, shape.components, basis,
                          tableValues(shape), refined);

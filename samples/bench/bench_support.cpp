@@ -135,7 +135,7 @@ std::string encodingLabel(const Field& f) {
   const std::string n = std::to_string(f.tableSize);
   std::string label = f.encoding == Encoding::Sh      ? "sh L=" + std::to_string(f.order)
                       : f.encoding == Encoding::Table ? "table " + n + "x" + n
-                      : f.clustered ? "pca clustered K=" + std::to_string(f.components) + " N=" + n
+                      : f.clustered                   ? "pca clustered K=" + std::to_string(f.components) + " N=" + n
                                                       : "pca K=" + std::to_string(f.components) + " N=" + n;
   if (f.shape().jumpAware) label += " nodes";
   if (f.throughput) label += " +throughput";

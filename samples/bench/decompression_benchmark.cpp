@@ -215,14 +215,9 @@ void writeDescriptor(VkDevice d, VkDescriptorSet set, uint32_t binding, VkDescri
 
 // The coefficients as the engine used to upload them: RGBA per texel and layer, layer-major,
 // alpha 0 when the field has 3 channels (the source of the previous-layout copy).
-// Bytes of one stored coefficient value: u8, or a binary16 or a clustered field's 16-bit index.
-uint32_t valueBytes(const Field& field) {
-  return field.quantization == Quantization::U8 && !field.clustered ? 1u : 2u;
-}
-
 std::vector<uint8_t> rgbaCoefficients(const Field& field) {
   const size_t n = size_t(field.texelCount()) * field.layerCount();
-  const size_t componentBytes = valueBytes(field);
+  const size_t componentBytes = field.coefficientValueBytes();
   const uint32_t values = field.valuesPerLayer();
   const std::vector<uint16_t>& wide = field.clustered ? field.clusterIndices : field.coefficientsF16;
   std::vector<uint8_t> out(n * 4 * componentBytes, 0);
@@ -325,10 +320,10 @@ FieldBufferBytes fieldBufferBytes(const Field& field, uint64_t samples) {
   const uint64_t layers = field.layerCount(), values = field.valuesPerLayer();
   const uint64_t stored = field.encoding == Encoding::Sh ? (samples + 3) / 4 * 4 : samples;
   FieldBufferBytes b;
-  b.coefficients = std::max<uint64_t>((stored * layers * values * valueBytes(field) + 3) / 4 * 4, 4);
+  b.coefficients = std::max<uint64_t>((stored * layers * values * field.coefficientValueBytes() + 3) / 4 * 4, 4);
   b.scaleBias = field.encoding == Encoding::Sh ? layers * (field.channels > 4 ? 3 : 2) * 16
                                                : std::max<uint64_t>(layers * values * 8, 16);
-  b.basis = std::max<uint64_t>((field.basis.size() * (field.clustered ? 2 : 4) + 3) / 4 * 4, 16);  // clustered: binary16
+  b.basis = std::max<uint64_t>((field.basis.size() * field.basisValueBytes() + 3) / 4 * 4, 16);
   return b;
 }
 
@@ -670,7 +665,7 @@ void printCopyComparison(harness::Harness& h, const Options& options, const Fiel
     bestCpuRate = std::max(bestCpuRate, rate(c.bytes, c.cpuMs));
   }
   const double ratio = bestRate > 0.0 ? decompressRate / bestRate : 0.0;
-  const uint32_t componentBytes = valueBytes(field);
+  const uint32_t componentBytes = field.coefficientValueBytes();
   std::printf("device: %s\n", h.deviceName().c_str());
   // encodingLabel: a Table or Pca field has no SH order ("order 0" said nothing of its 324 layers).
   std::printf("field: %s, %ux%u atlas, %llu samples, %s (%u layers), %u channels, %s\n",

@@ -304,12 +304,12 @@ struct Field {
   bool hasOpticalDepth() const { return decodedChannels() == (throughput ? 5u : 4u); }
   uint32_t throughputChannel() const { return decodedChannels() - 1; }  // meaningful when throughput is set
   uint64_t texelCount() const { return uint64_t(width) * height; }
+  // Bytes of one stored coefficient value: u8, binary16, or a clustered field's 16-bit index.
+  uint32_t coefficientValueBytes() const { return quantization == Quantization::U8 && !clustered ? 1u : 2u; }
+  // Bytes of one stored basis value: float, or a clustered field's binary16 table value.
+  uint32_t basisValueBytes() const { return clustered ? 2u : 4u; }
   // Encoded bytes per sample: the coefficients only (frames, mesh, tables and basis not counted).
-  // A clustered field's index is 2 bytes.
-  uint32_t bytesPerSample() const {
-    if (clustered) return 2u;
-    return layerCount() * valuesPerLayer() * (quantization == Quantization::U8 ? 1u : 2u);
-  }
+  uint32_t bytesPerSample() const { return layerCount() * valuesPerLayer() * coefficientValueBytes(); }
 };
 
 // The colour of the medium behind the field's front surfaces (the render mesh's): of the media

@@ -126,8 +126,7 @@ struct FieldBufferSizes {
 // The sizes of the buffers whose size depends on the field, checked against the device's limits.
 Result<FieldBufferSizes> fieldBufferSizes(const Field& field, uint64_t samples, const VkPhysicalDeviceLimits& limits) {
   const uint64_t perSample = uint64_t(field.layerCount()) * field.valuesPerLayer();
-  // A clustered field's one value is a 16-bit index (gpu_layout.h kSpecClustered).
-  const uint64_t valueBytes = field.quantization == Quantization::U8 && !field.clustered ? 1 : 2;
+  const uint64_t valueBytes = field.coefficientValueBytes();
   const uint64_t stored = field.encoding == Encoding::Sh ? paddedSampleCount(samples) : samples;
   auto tooBig = [&](const std::string& what, uint64_t bytes, uint64_t limit, const char* limitName) {
     return makeError(ErrorCode::Unsupported, describeEncoding(field) + " with " + std::to_string(samples) +
@@ -142,8 +141,7 @@ Result<FieldBufferSizes> fieldBufferSizes(const Field& field, uint64_t samples, 
   sizes.coefficients = std::max<VkDeviceSize>((stored * perSample * valueBytes + 3) / 4 * 4, 4);
   sizes.coefficientsStorage = sizes.coefficients / sizeof(uint32_t) > limits.maxTexelBufferElements;
   sizes.frames = std::max<VkDeviceSize>(VkDeviceSize(samples) * 12 * sizeof(float), 16);
-  const VkDeviceSize basisValueBytes = field.clustered ? sizeof(uint16_t) : sizeof(float);
-  sizes.basis = std::max<VkDeviceSize>((VkDeviceSize(field.basis.size()) * basisValueBytes + 3) / 4 * 4, 16);
+  sizes.basis = std::max<VkDeviceSize>((VkDeviceSize(field.basis.size()) * field.basisValueBytes() + 3) / 4 * 4, 16);
   if (sizes.coefficientsStorage && sizes.coefficients > limits.maxStorageBufferRange)
     return tooBig("coefficients", sizes.coefficients,
                   std::max<VkDeviceSize>(VkDeviceSize(limits.maxTexelBufferElements) * sizeof(uint32_t),
