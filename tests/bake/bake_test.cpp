@@ -41,6 +41,18 @@ BakeSettings small() {
   return s;
 }
 
+// Tables of N x N traced at their nodes, exits in each sample's frame, on a chart atlas.
+BakeSettings tracedAtTheNodes(Encoding encoding, uint32_t n, uint64_t sampleBudget) {
+  BakeSettings s = small();
+  s.encoding = encoding;
+  s.tableSize = n;
+  s.directionSampling = DirectionSampling::Nodes;
+  s.exitFrame = ExitFrame::Sample;
+  s.layout = SampleLayout::Charts;
+  s.sampleBudget = sampleBudget;
+  return s;
+}
+
 // Timing statistics and the thread count are the only fields allowed to differ between runs.
 std::vector<uint8_t> dataBytes(Field f) {
   f.statistics.bakeSeconds = f.statistics.traceSeconds = f.statistics.fitSeconds = f.statistics.raysPerSecond = 0;
@@ -432,20 +444,34 @@ TEST(Bake, FitErrorFallsAsTheOrderRises) {
 // jump between the border row and the next, so a check off the nodes cannot pass. A Pca field
 // with all its components is the same table, up to the decomposition's rounding.
 TEST(Bake, NodeTablesFitTheirOwnNodesExactly) {
-  BakeSettings s = small();
-  s.encoding = Encoding::Table;
-  s.tableSize = 16;
-  s.directionSampling = DirectionSampling::Nodes;
-  s.exitFrame = ExitFrame::Sample;
-  s.layout = SampleLayout::Charts;
-  s.sampleBudget = 500;
-  const Field table = bake("torus", s);
+  const Field table = bake("torus", tracedAtTheNodes(Encoding::Table, 16, 500));
   ASSERT_GT(table.statistics.samples, 0u);
   std::printf("torus table 16x16 at its nodes: fit RMS %.4f deg, max %.4f deg\n",
               static_cast<double>(table.statistics.fitRmsDegrees), static_cast<double>(table.statistics.fitMaxDegrees));
   EXPECT_LT(table.statistics.fitRmsDegrees, 0.02f);
   EXPECT_LT(table.statistics.fitMaxDegrees, 0.2f);
   EXPECT_GT(table.statistics.heldOutRmsDegrees, 1.0f) << "the held-out check must still see the interpolation";
+}
+
+// The same for a Pca field with as many components as the table has values: its weights span
+// every sample's table, so its fit at the nodes is exact but for the decomposition's rounding. The
+// check decodes each checked sample's weights summed into its table (bake.cpp,
+// ManyDirectionDecoder); a sum that dropped or misplaced a component would read degrees here.
+TEST(Bake, FullRankPcaFitsItsOwnNodesExactly) {
+  BakeSettings s = tracedAtTheNodes(Encoding::Pca, 12, 800);
+  s.components = 12 * 12 * 5;  // x, y, z, the glass's optical depth and the jump distance
+  s.quantization = Quantization::F16;
+  const Field pca = bake("torus", s);
+  ASSERT_EQ(pca.channels, 5u);
+  ASSERT_GT(pca.statistics.samples, 0u);
+  ASSERT_FALSE(pca.clustered);
+  std::printf("torus pca K=%u 12x12 at its nodes: fit RMS %.4f deg, max %.4f deg; quantization RMS %.4f deg\n",
+              pca.components, static_cast<double>(pca.statistics.fitRmsDegrees),
+              static_cast<double>(pca.statistics.fitMaxDegrees), static_cast<double>(pca.statistics.quantizationRmsDegrees));
+  EXPECT_LT(pca.statistics.fitRmsDegrees, 0.02f);
+  EXPECT_LT(pca.statistics.fitMaxDegrees, 0.2f);
+  EXPECT_GT(pca.statistics.quantizationRmsDegrees, 0.0f) << "f16 weights round: the check must see it";
+  EXPECT_LT(pca.statistics.quantizationRmsDegrees, 0.05f);
 }
 
 TEST(Bake, QuantizationAndLayoutsAndSmoothing) {
