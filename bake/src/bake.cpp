@@ -77,8 +77,9 @@ void decodeFloat(const EncodingShape& shape, const std::vector<float>& basis, co
 }
 
 // A sample's coefficients as something cheap to decode at many directions. A Pca sample's weights
-// are summed once into its table (Table's layout), which decodes as the weights do, bit for bit:
-// the same products added in the same order as evaluateStored's corners. Decoding the weights
+// are summed once into its table (Table's layout), which decodes as the weights do: the same
+// products added in the same order as evaluateStored's corners (the cube's statistics came out
+// bit-identical, docs/performance.md). Decoding the weights
 // reads K scattered basis values per corner and direction instead, and that was most of a
 // components field's bake after learning (the cube's quantization check at 40000 samples: 95 s of
 // 378). Other shapes decode their coefficients as they are.
@@ -88,7 +89,8 @@ struct ManyDirectionDecoder {
   const float* coeffs = nullptr;
   const float* basis = nullptr;
 
-  ManyDirectionDecoder(const EncodingShape& s, const float* basisValues, const float* c) : shape(s), coeffs(c), basis(basisValues) {
+  ManyDirectionDecoder(const EncodingShape& s, const float* basisValues, const float* c)
+      : shape(s), coeffs(c), basis(basisValues) {
     if (s.encoding != Encoding::Pca || s.clustered) return;
     const size_t values = tableValues(s);
     table.assign(values, 0.0f);
@@ -101,6 +103,8 @@ struct ManyDirectionDecoder {
     coeffs = table.data();
     basis = nullptr;
   }
+  ManyDirectionDecoder(const ManyDirectionDecoder&) = delete;  // coeffs may point into table
+  ManyDirectionDecoder& operator=(const ManyDirectionDecoder&) = delete;
   void decode(glm::vec3 w, const float* rows, float* out) const {
     evaluateCoefficients(shape, coeffs, basis, {w.x, w.y, w.z}, out, rows);
   }
@@ -588,7 +592,8 @@ void measureFit(const EncodingShape& shape, const std::vector<float>& basis, con
       const std::array<float, 12> rows = sampleRows(atlas.samples[s]);
       for (uint32_t d = 0; d < nd; ++d) {
         decoder.decode(fitCheckDirection(shape, grid, d), rows.data(), out.data());
-        const double a = angleDegrees(glm::vec3(out[0], out[1], out[2]), checks.gridExits[s / kGridCheckStride * nd + d]);
+        const glm::vec3 traced = checks.gridExits[s / kGridCheckStride * nd + d];
+        const double a = angleDegrees(glm::vec3(out[0], out[1], out[2]), traced);
         err.gridSquares += a * a;
         err.gridMax = std::max(err.gridMax, a);
         ++err.gridCount;
