@@ -1470,8 +1470,10 @@ Result<Field> mergeParts(const Scene& scene, std::vector<BakePart> parts,
   if (plan->sceneHash != first.sceneHash || plan->atlas.samples.size() != first.sampleCount ||
       plan->channels != first.channels || plan->grid.directions.size() != first.directions ||
       encoder->stride() != first.stride)
-    return makeError(ErrorCode::InvalidArgument, first.name + ": baked from another scene than " +
-                                                     first.settings.source + " is now (its layout or media differ)");
+    return makeError(ErrorCode::InvalidArgument,
+                     first.name + ": baked from another scene than " + first.settings.source +
+                         " is now (its layout or media differ: the scene changed, or the part came from a build "
+                         "whose floating point differs, e.g. other compiler flags; trace and merge with one build)");
   return finishBake(plan.value(), std::move(parts));
 }
 
