@@ -318,23 +318,39 @@ RowMatrix seedCentres(const RowMatrix& w, uint32_t clusters, uint64_t seed) {
   return c;
 }
 
+// Rows of the samples-by-centres products assignToCentres computes at a time, on the bake's
+// threads; fixed, so that the thread count never changes a clustering. A multiple of the row
+// panel of Eigen's float kernel (8 rows in the default x86-64 build), so that a sample's dot
+// products should be the same sums in a chunk as in the whole matrix: Eigen blocks the depth by
+// the depth alone, and a row's kernel depends on its place in its panel. Measured: the same
+// fields as with one product (docs/performance.md, "Clustering on the bake's threads").
+constexpr Eigen::Index kAssignChunkRows = 2048;
+
 // Each sample's nearest centre; returns how many samples changed cluster. `distance` receives
 // each sample's squared distance to it.
 size_t assignToCentres(const RowMatrix& w, const RowMatrix& c, std::vector<uint32_t>& cluster,
-                       std::vector<double>& distance) {
-  const Eigen::MatrixXf dots = w * c.transpose();
+                       std::vector<double>& distance, uint32_t threads) {
   const Eigen::VectorXf cn = c.rowwise().squaredNorm();
-  size_t moved = 0;
-  for (Eigen::Index s = 0; s < w.rows(); ++s) {
-    Eigen::Index best = 0;
-    (cn.transpose() - 2.0f * dots.row(s)).minCoeff(&best);
-    distance[size_t(s)] = double((w.row(s) - c.row(best)).squaredNorm());
-    if (cluster[size_t(s)] != uint32_t(best)) {
-      ++moved;
-      cluster[size_t(s)] = uint32_t(best);
+  const size_t chunks = size_t((w.rows() + kAssignChunkRows - 1) / kAssignChunkRows);
+  std::vector<size_t> moved(chunks, 0);
+  parallelFor(chunks, threads, [&](size_t chunk) {
+    const Eigen::Index first = Eigen::Index(chunk) * kAssignChunkRows;
+    const Eigen::Index rows = std::min(kAssignChunkRows, w.rows() - first);
+    const Eigen::MatrixXf dots = w.middleRows(first, rows) * c.transpose();
+    for (Eigen::Index r = 0; r < rows; ++r) {
+      const size_t s = size_t(first + r);
+      Eigen::Index best = 0;
+      (cn.transpose() - 2.0f * dots.row(r)).minCoeff(&best);
+      distance[s] = double((w.row(Eigen::Index(s)) - c.row(best)).squaredNorm());
+      if (cluster[s] != uint32_t(best)) {
+        ++moved[chunk];
+        cluster[s] = uint32_t(best);
+      }
     }
-  }
-  return moved;
+  });
+  size_t total = 0;
+  for (size_t m : moved) total += m;
+  return total;
 }
 
 // The centres of the clusters; an empty one takes the sample farthest from its centre.
@@ -382,10 +398,10 @@ Result<ClusteredBasis> clusterTables(const std::vector<float>& tables, size_t sa
   std::vector<double> distance(samples);
   bool settled = false;
   for (uint32_t i = 0; i < kClusterIterations && !settled; ++i) {
-    settled = assignToCentres(w, c, out.cluster, distance) == 0;
+    settled = assignToCentres(w, c, out.cluster, distance, threads) == 0;
     if (!settled) updateCentres(w, out.cluster, distance, c);
   }
-  if (!settled) assignToCentres(w, c, out.cluster, distance);  // the last centres moved: assign to them
+  if (!settled) assignToCentres(w, c, out.cluster, distance, threads);  // the last centres moved: assign to them
   // Each function: its cluster's mean table (in the data's units; an empty cluster's stays zero).
   std::vector<size_t> count(clusters, 0);
   for (uint32_t k : out.cluster) ++count[k];
