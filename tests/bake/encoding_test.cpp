@@ -436,13 +436,14 @@ TEST(PcaBasis, TablesBeyondTheGramMatrixKeepTheOptimalEnergy) { expectOptimalEne
 
 // --- Clusters (table_fit.h) --------------------------------------------------------------------
 
-// 600 samples drawn around 6 centres (8x8 tables of 3 channels; centres uniform in [-0.5, 0.5],
+// 5000 samples drawn around 6 centres (8x8 tables of 3 channels; centres uniform in [-0.5, 0.5],
 // about 4 apart, noise 0.05 wide, about 0.2): clusterTables, given 6 clusters and the samples'
 // weights on 16 components, must put each group in a cluster of its own, give every sample one-hot
-// weights and make each function its cluster's mean table, on 1 thread as on 3.
+// weights and make each function its cluster's mean table, on 1 thread as on 3. 5000 samples are
+// two of the assignment's chunks of 2048 and part of a third.
 TEST(Clusters, AlikeSamplesShareTheirGroupsMeanTable) {
   constexpr uint32_t kN = 8, kChannels = 3, kGroups = 6, kComponents = 16;
-  constexpr size_t kDim = size_t(kN) * kN * kChannels, kSamples = 600;
+  constexpr size_t kDim = size_t(kN) * kN * kChannels, kSamples = 5000;
   Random rng{5};
   std::vector<float> centres(kGroups * kDim), tables(kSamples * kDim);
   for (float& v : centres) v = float(rng.next() - 0.5);
