@@ -81,8 +81,8 @@ void decodeFloat(const EncodingShape& shape, const std::vector<float>& basis, co
 // products added in the same order as evaluateStored's corners (the cube's statistics came out
 // bit-identical, docs/performance.md). Decoding the weights
 // reads K scattered basis values per corner and direction instead, and that was most of a
-// components field's bake after learning (the cube's quantization check at 40000 samples: 95 s of
-// 378). Other shapes decode their coefficients as they are.
+// components field's bake after learning (the cube's two checks at 40000 samples: 50 s of 378).
+// Other shapes decode their coefficients as they are.
 struct ManyDirectionDecoder {
   EncodingShape shape;
   std::vector<float> table;
