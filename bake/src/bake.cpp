@@ -85,9 +85,9 @@ void decodeFloat(const EncodingShape& shape, const std::vector<float>& basis, co
 // Other shapes decode their coefficients as they are.
 struct ManyDirectionDecoder {
   EncodingShape shape;
-  std::vector<float> table;
   const float* coeffs = nullptr;
   const float* basis = nullptr;
+  std::vector<float> table;  // the summed table, where there is one: it stands for coeffs and basis
 
   ManyDirectionDecoder(const EncodingShape& s, const float* basisValues, const float* c)
       : shape(s), coeffs(c), basis(basisValues) {
@@ -100,13 +100,10 @@ struct ManyDirectionDecoder {
     }
     shape.encoding = Encoding::Table;
     shape.components = 0;
-    coeffs = table.data();
-    basis = nullptr;
   }
-  ManyDirectionDecoder(const ManyDirectionDecoder&) = delete;  // coeffs may point into table
-  ManyDirectionDecoder& operator=(const ManyDirectionDecoder&) = delete;
   void decode(glm::vec3 w, const float* rows, float* out) const {
-    evaluateCoefficients(shape, coeffs, basis, {w.x, w.y, w.z}, out, rows);
+    const bool summed = !table.empty();
+    evaluateCoefficients(shape, summed ? table.data() : coeffs, summed ? nullptr : basis, {w.x, w.y, w.z}, out, rows);
   }
 };
 

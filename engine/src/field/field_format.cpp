@@ -509,7 +509,8 @@ void writeEncoding(ByteWriter& w, const Field& field) {
   w.u32(s.throughput ? 1u : 0u);
   w.u32(static_cast<uint32_t>(s.pathRule));
   w.f32(s.maxBytesPerSample);
-  w.arrayF32(field.clustered ? std::vector<float>{} : field.basis);  // clustered: binary16, at the end
+  static const std::vector<float> kNoBasis;  // a clustered field's tables are binary16, at the end
+  w.arrayF32(field.clustered ? kNoBasis : field.basis);  // both lvalues: the basis is not copied
   w.u32(static_cast<uint32_t>(s.directionSampling));
   w.u32(field.jumpDistance ? 1u : 0u);
   w.u32(field.sampleFrameExits ? 1u : 0u);
