@@ -62,52 +62,60 @@ float shStepFactor(int l, int m) {
   return sqrt(float(2 * l + 1) / float((2 * l - 1) * (l - m) * (l + m)));
 }
 
-// Streaming evaluator. With p = Pbar_{l-1}^m, d = D_{l-1}, one step in l is
+// The recurrence, on values of type T (float, or vec4 for four directions at once) and a prepared
+// direction DIR (ShDirection or ShDirection4): the one implementation both evaluators expand. With
+// p = Pbar_{l-1}^m, d = D_{l-1}, one step in l is
 //   d = a v p + s c d;  p = s t p + d
 // and Y_l^{+m} = p C_m, Y_l^{-m} = p S_m with C_m + i S_m = (x + i y)^m.
-#define SH_FOR_EACH_BASIS(dir, order, VISIT)                                   \
-  {                                                                            \
-    ShDirection sh_d_ = shPrepareDirection(dir);                               \
-    int sh_order_ = (order);                                                   \
-    float sh_pmm_ = 0.282094791773878143; /* Pbar_0^0 = 1/sqrt(4 pi) */        \
-    float sh_cm_ = 1.0;                                                        \
-    float sh_sm_ = 0.0;                                                        \
-    for (int sh_m_ = 0; sh_m_ <= sh_order_; ++sh_m_) {                         \
-      if (sh_m_ > 0) {                                                         \
-        float sh_cn_ = sh_d_.x * sh_cm_ - sh_d_.y * sh_sm_;                    \
-        sh_sm_ = sh_d_.x * sh_sm_ + sh_d_.y * sh_cm_;                          \
-        sh_cm_ = sh_cn_;                                                       \
-        sh_pmm_ *= shDiagonalFactor(sh_m_);                                    \
-      }                                                                        \
-      {                                                                        \
-        int sh_i_ = sh_m_ * sh_m_ + 2 * sh_m_;                                 \
-        float sh_y_ = sh_pmm_ * sh_cm_;                                        \
-        VISIT(sh_i_, sh_y_);                                                   \
-      }                                                                        \
-      if (sh_m_ > 0) {                                                         \
-        int sh_i_ = sh_m_ * sh_m_;                                             \
-        float sh_y_ = sh_pmm_ * sh_sm_;                                        \
-        VISIT(sh_i_, sh_y_);                                                   \
-      }                                                                        \
-      float sh_p_ = sh_pmm_;                                                   \
-      float sh_dl_ = 0.0;                                                      \
-      for (int sh_l_ = sh_m_ + 1; sh_l_ <= sh_order_; ++sh_l_) {               \
-        float sh_g_ = shStepFactor(sh_l_, sh_m_);                              \
-        sh_dl_ = float(2 * sh_l_ - 1) * sh_g_ * sh_d_.v * sh_p_ +              \
-                 sh_d_.s * float(sh_l_ - 1 - sh_m_) * sh_g_ * sh_dl_;          \
-        sh_p_ = sh_d_.s * float(sh_l_ + sh_m_) * sh_g_ * sh_p_ + sh_dl_;       \
-        {                                                                      \
-          int sh_i_ = sh_l_ * sh_l_ + sh_l_ + sh_m_;                           \
-          float sh_y_ = sh_p_ * sh_cm_;                                        \
-          VISIT(sh_i_, sh_y_);                                                 \
-        }                                                                      \
-        if (sh_m_ > 0) {                                                       \
-          int sh_i_ = sh_l_ * sh_l_ + sh_l_ - sh_m_;                           \
-          float sh_y_ = sh_p_ * sh_sm_;                                        \
-          VISIT(sh_i_, sh_y_);                                                 \
-        }                                                                      \
-      }                                                                        \
-    }                                                                          \
+#define SH_RECURRENCE_(T, DIR, order, VISIT)                                  \
+  {                                                                           \
+    int sh_order_ = (order);                                                  \
+    T sh_pmm_ = T(0.282094791773878143); /* Pbar_0^0 = 1/sqrt(4 pi) */        \
+    T sh_cm_ = T(1.0);                                                        \
+    T sh_sm_ = T(0.0);                                                        \
+    for (int sh_m_ = 0; sh_m_ <= sh_order_; ++sh_m_) {                        \
+      if (sh_m_ > 0) {                                                        \
+        T sh_cn_ = DIR.x * sh_cm_ - DIR.y * sh_sm_;                           \
+        sh_sm_ = DIR.x * sh_sm_ + DIR.y * sh_cm_;                             \
+        sh_cm_ = sh_cn_;                                                      \
+        sh_pmm_ *= shDiagonalFactor(sh_m_);                                   \
+      }                                                                       \
+      {                                                                       \
+        int sh_i_ = sh_m_ * sh_m_ + 2 * sh_m_;                                \
+        T sh_y_ = sh_pmm_ * sh_cm_;                                           \
+        VISIT(sh_i_, sh_y_);                                                  \
+      }                                                                       \
+      if (sh_m_ > 0) {                                                        \
+        int sh_i_ = sh_m_ * sh_m_;                                            \
+        T sh_y_ = sh_pmm_ * sh_sm_;                                           \
+        VISIT(sh_i_, sh_y_);                                                  \
+      }                                                                       \
+      T sh_p_ = sh_pmm_;                                                      \
+      T sh_dl_ = T(0.0);                                                      \
+      for (int sh_l_ = sh_m_ + 1; sh_l_ <= sh_order_; ++sh_l_) {              \
+        float sh_g_ = shStepFactor(sh_l_, sh_m_);                             \
+        sh_dl_ = float(2 * sh_l_ - 1) * sh_g_ * DIR.v * sh_p_ +               \
+                 DIR.s * float(sh_l_ - 1 - sh_m_) * sh_g_ * sh_dl_;           \
+        sh_p_ = DIR.s * float(sh_l_ + sh_m_) * sh_g_ * sh_p_ + sh_dl_;        \
+        {                                                                     \
+          int sh_i_ = sh_l_ * sh_l_ + sh_l_ + sh_m_;                          \
+          T sh_y_ = sh_p_ * sh_cm_;                                           \
+          VISIT(sh_i_, sh_y_);                                                \
+        }                                                                     \
+        if (sh_m_ > 0) {                                                      \
+          int sh_i_ = sh_l_ * sh_l_ + sh_l_ - sh_m_;                          \
+          T sh_y_ = sh_p_ * sh_sm_;                                           \
+          VISIT(sh_i_, sh_y_);                                                \
+        }                                                                     \
+      }                                                                       \
+    }                                                                         \
+  }
+
+// Streaming evaluator (see the top of this file).
+#define SH_FOR_EACH_BASIS(dir, order, VISIT)                                  \
+  {                                                                           \
+    ShDirection sh_d_ = shPrepareDirection(dir);                              \
+    SH_RECURRENCE_(float, sh_d_, order, VISIT)                                \
   }
 
 // Four directions at once, as the components of vec4s (SoA: direction j is (x[j], y[j], z[j])):
@@ -136,49 +144,10 @@ ShDirection4 shPrepareDirection4(vec4 x, vec4 y, vec4 z) {
   return r;
 }
 
-#define SH_FOR_EACH_BASIS_X4(dirX, dirY, dirZ, order, VISIT)                   \
-  {                                                                            \
-    ShDirection4 sh_d_ = shPrepareDirection4(dirX, dirY, dirZ);                \
-    int sh_order_ = (order);                                                   \
-    vec4 sh_pmm_ = vec4(0.282094791773878143); /* Pbar_0^0 = 1/sqrt(4 pi) */   \
-    vec4 sh_cm_ = vec4(1.0);                                                   \
-    vec4 sh_sm_ = vec4(0.0);                                                   \
-    for (int sh_m_ = 0; sh_m_ <= sh_order_; ++sh_m_) {                         \
-      if (sh_m_ > 0) {                                                         \
-        vec4 sh_cn_ = sh_d_.x * sh_cm_ - sh_d_.y * sh_sm_;                     \
-        sh_sm_ = sh_d_.x * sh_sm_ + sh_d_.y * sh_cm_;                          \
-        sh_cm_ = sh_cn_;                                                       \
-        sh_pmm_ *= shDiagonalFactor(sh_m_);                                    \
-      }                                                                        \
-      {                                                                        \
-        int sh_i_ = sh_m_ * sh_m_ + 2 * sh_m_;                                 \
-        vec4 sh_y_ = sh_pmm_ * sh_cm_;                                         \
-        VISIT(sh_i_, sh_y_);                                                   \
-      }                                                                        \
-      if (sh_m_ > 0) {                                                         \
-        int sh_i_ = sh_m_ * sh_m_;                                             \
-        vec4 sh_y_ = sh_pmm_ * sh_sm_;                                         \
-        VISIT(sh_i_, sh_y_);                                                   \
-      }                                                                        \
-      vec4 sh_p_ = sh_pmm_;                                                    \
-      vec4 sh_dl_ = vec4(0.0);                                                 \
-      for (int sh_l_ = sh_m_ + 1; sh_l_ <= sh_order_; ++sh_l_) {               \
-        float sh_g_ = shStepFactor(sh_l_, sh_m_);                              \
-        sh_dl_ = float(2 * sh_l_ - 1) * sh_g_ * sh_d_.v * sh_p_ +              \
-                 sh_d_.s * float(sh_l_ - 1 - sh_m_) * sh_g_ * sh_dl_;          \
-        sh_p_ = sh_d_.s * float(sh_l_ + sh_m_) * sh_g_ * sh_p_ + sh_dl_;       \
-        {                                                                      \
-          int sh_i_ = sh_l_ * sh_l_ + sh_l_ + sh_m_;                           \
-          vec4 sh_y_ = sh_p_ * sh_cm_;                                         \
-          VISIT(sh_i_, sh_y_);                                                 \
-        }                                                                      \
-        if (sh_m_ > 0) {                                                       \
-          int sh_i_ = sh_l_ * sh_l_ + sh_l_ - sh_m_;                           \
-          vec4 sh_y_ = sh_p_ * sh_sm_;                                         \
-          VISIT(sh_i_, sh_y_);                                                 \
-        }                                                                      \
-      }                                                                        \
-    }                                                                          \
+#define SH_FOR_EACH_BASIS_X4(dirX, dirY, dirZ, order, VISIT)                  \
+  {                                                                           \
+    ShDirection4 sh_d_ = shPrepareDirection4(dirX, dirY, dirZ);               \
+    SH_RECURRENCE_(vec4, sh_d_, order, VISIT)                                 \
   }
 
 #ifdef SH_GLSL_MAX_BASIS
