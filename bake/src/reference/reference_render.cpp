@@ -29,16 +29,6 @@ constexpr uint32_t kMaxSupersampledSide = 65536;
 
 glm::vec3 toVec(const std::array<float, 3>& a) { return {a[0], a[1], a[2]}; }
 
-float fresnelDielectric(float cosI, float eta) {
-  cosI = std::clamp(cosI, 0.0f, 1.0f);
-  const float sin2T = eta * eta * std::max(0.0f, 1.0f - cosI * cosI);
-  if (sin2T >= 1.0f) return 1.0f;
-  const float cosT = std::sqrt(1.0f - sin2T);
-  const float rs = (eta * cosI - cosT) / (eta * cosI + cosT);
-  const float rp = (cosI - eta * cosT) / (cosI + eta * cosT);
-  return 0.5f * (rs * rs + rp * rp);
-}
-
 uint32_t threadCount(uint32_t requested) {
   return requested ? requested : std::max(1u, std::thread::hardware_concurrency());
 }
@@ -431,7 +421,7 @@ Sample SubSampler::shade(const Probe& p, const std::vector<Derivatives>& derivat
   float f = hit.frontFresnel;
   if (o_.mode == ReferenceMode::SingleInterface) {
     const float eta = scene_.media[surface.outerMedium].ior / scene_.media[surface.innerMedium].ior;
-    f = fresnelDielectric(std::clamp(-glm::dot(p.d, hit.shadingNormal), 0.0f, 1.0f), eta);
+    f = reference::fresnelDielectric(std::clamp(-glm::dot(p.d, hit.shadingNormal), 0.0f, 1.0f), eta);
   }
   // One colour model in every mode (docs/scenes.md): the colour of the medium behind the front
   // surface tints all the light transmitted through it.

@@ -108,6 +108,10 @@ float environmentLevel(float footprint, float texelAngle, float maxLevel, float 
 float latLongTexelAngle(float width);
 float cubeTexelAngle(float faceSize);
 
+// The exact unpolarized dielectric Fresnel reflectance of environment.glsl, same float
+// operations: cosI clamped to [0, 1], eta = n_from / n_to; 1 under total internal reflection.
+float fresnelDielectric(float cosI, float eta);
+
 // Lookup in `direction` (any non-zero length) for a footprint of `footprint` radians across the
 // pixel: bilinear in the two levels around environmentLevel(...) (repeat in u, clamp in v) and
 // linear between them, as the engine's sampler does with its explicit level; level 0 alone when

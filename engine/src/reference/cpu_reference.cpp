@@ -23,7 +23,12 @@ namespace {
 glm::vec3 toGlm(const Vec3& v) { return {v[0], v[1], v[2]}; }
 Vec3 fromGlm(const glm::vec3& v) { return {v.x, v.y, v.z}; }
 
-// The exact unpolarized dielectric Fresnel reflectance of environment.glsl.
+const float* texelAt(const DistortionImage& image, uint32_t x, uint32_t y) {
+  return &image.rgba[(size_t(y) * image.width + x) * 4];
+}
+
+}  // namespace
+
 float fresnelDielectric(float cosI, float eta) {
   cosI = std::clamp(cosI, 0.0f, 1.0f);
   const float sin2T = eta * eta * std::max(0.0f, 1.0f - cosI * cosI);
@@ -33,12 +38,6 @@ float fresnelDielectric(float cosI, float eta) {
   const float rp = (cosI - eta * cosT) / (cosI + eta * cosT);
   return 0.5f * (rs * rs + rp * rp);
 }
-
-const float* texelAt(const DistortionImage& image, uint32_t x, uint32_t y) {
-  return &image.rgba[(size_t(y) * image.width + x) * 4];
-}
-
-}  // namespace
 
 float roundToBinary16(float value) { return halfToFloat(floatToHalf(value)); }
 
