@@ -202,8 +202,8 @@ TEST(Bake, DeterministicAcrossThreadCounts) {
   EXPECT_EQ(dataBytes(bake("torus", one, 2)), dataBytes(bake("torus", two, 2)));
 }
 
-// The Pca fit splits its products into column blocks run on the bake's threads (table_fit.cpp
-// productByColumns, gramOf): at the default 32x32 tables (5120 values with the jump distance) the
+// The Pca fit splits its products into fixed blocks run on the bake's threads (table_fit.cpp
+// productInBlocks, gramOf): at the default 32x32 tables (5120 values with the jump distance) the
 // basis takes the subspace iteration, and the field must not depend on the thread count either.
 TEST(Bake, PcaFitIsDeterministicAcrossThreadCounts) {
   BakeSettings s = small();

@@ -383,7 +383,9 @@ void orthonormalizeColumns(std::vector<double>& a, size_t rows, size_t cols) {
 // reports) they are C diag(a) U^T with C and U orthonormal, so the best K functions leave exactly
 // the sum of a_j^2 beyond K. 19x19 tables of 3 channels are 1083 values, above the size where the
 // exact solver is used; 53x53 tables are 8427, above the size where the Gram matrix is formed
-// (table_fit.cpp kGramMaxDim: the iteration runs on the tables themselves). The spectrum decays
+// (table_fit.cpp kGramMaxDim: the iteration runs on the tables themselves, and its products with
+// the transposed tables split their 8427 rows into blocks of 2048, the last one partial: a block
+// left out fails both sizes). The spectrum decays
 // slowly (a_j = 0.95^j), so the block must converge.
 void expectOptimalEnergy(uint32_t kN) {
   constexpr uint32_t kChannels = 3, kComponents = 40;

@@ -41,24 +41,31 @@ Result<Eigen::MatrixXd> exactLeadingEigenvectors(const Eigen::MatrixXd& m, Eigen
   return Eigen::MatrixXd(eigen.eigenvectors().rightCols(std::min(k, m.rows())).rowwise().reverse());
 }
 
-// The fit's large products run in fixed blocks of columns, one block per task: a block's product
-// is the same whatever the threads, so the basis does not depend on them. 32x32 tables with five
-// channels make the Gram matrix 5120 x 5120; on one thread its product and the subspace iteration
-// took most of a 20000-sample bake.
+// The fit's large products run in fixed blocks, one block per task: a block's product is the same
+// whatever the threads, so the basis does not depend on them. 32x32 tables with five channels make
+// the Gram matrix 5120 x 5120; on one thread its product and the subspace iteration took most of a
+// 20000-sample bake.
 constexpr Eigen::Index kProductColumns = 128;
+// Products by a thin block (the subspace iteration's k + 64 = 388 columns) also split their rows:
+// columns alone gave 4 blocks, 128 + 128 + 128 + 4, and two threads one 256 columns and the other
+// 132. Rows in fixed chunks of a multiple of Eigen's row panel leave every output's sum as it was
+// (the depth is not split), so the fields do not change.
+constexpr Eigen::Index kProductRows = 2048;
 
 template <class Matrix>
 Eigen::Index columnBlocks(const Matrix& m) {
   return (m.cols() + kProductColumns - 1) / kProductColumns;
 }
 
-// lhs * rhs, rhs's column blocks in parallel.
+// lhs * rhs in blocks of kProductRows rows by kProductColumns columns, in parallel.
 template <class Lhs, class Rhs>
-Rhs productByColumns(const Lhs& lhs, const Rhs& rhs, uint32_t threads) {
+Rhs productInBlocks(const Lhs& lhs, const Rhs& rhs, uint32_t threads) {
   Rhs out(lhs.rows(), rhs.cols());
-  parallelFor(size_t(columnBlocks(rhs)), threads, [&](size_t b) {
-    const Eigen::Index j = Eigen::Index(b) * kProductColumns, w = std::min(kProductColumns, rhs.cols() - j);
-    out.middleCols(j, w).noalias() = lhs * rhs.middleCols(j, w);
+  const Eigen::Index rowBlocks = (lhs.rows() + kProductRows - 1) / kProductRows;
+  parallelFor(size_t(rowBlocks * columnBlocks(rhs)), threads, [&](size_t task) {
+    const Eigen::Index i = Eigen::Index(task) % rowBlocks * kProductRows, h = std::min(kProductRows, lhs.rows() - i);
+    const Eigen::Index j = Eigen::Index(task) / rowBlocks * kProductColumns, w = std::min(kProductColumns, rhs.cols() - j);
+    out.block(i, j, h, w).noalias() = lhs.middleRows(i, h) * rhs.middleCols(j, w);
   });
   return out;
 }
@@ -104,7 +111,7 @@ Result<Eigen::MatrixXd> subspaceIteration(Eigen::Index n, Eigen::Index k, const 
 Result<Eigen::MatrixXd> leadingEigenvectors(const Eigen::MatrixXd& gram, Eigen::Index k, uint32_t threads) {
   const Eigen::Index n = gram.rows();
   if (n <= kExactEigenDim || 2 * std::min(n, k + kEigenOversampling) >= n) return exactLeadingEigenvectors(gram, k);
-  return subspaceIteration(n, k, [&](const Eigen::MatrixXd& q) { return productByColumns(gram, q, threads); });
+  return subspaceIteration(n, k, [&](const Eigen::MatrixXd& q) { return productInBlocks(gram, q, threads); });
 }
 
 // Tables of more than this many values skip the Gram matrix: at 64x64 with 5 channels it holds
@@ -115,11 +122,11 @@ Result<Eigen::MatrixXd> leadingEigenvectors(const Eigen::MatrixXd& gram, Eigen::
 constexpr Eigen::Index kGramMaxDim = 8192;
 
 // The k leading eigenvectors of x^T x (the right singular vectors of x) without forming it; each
-// product x^T (x q) in fixed column blocks (deterministic).
+// product x^T (x q) in fixed blocks (deterministic).
 Result<Eigen::MatrixXd> leadingRightSingularVectors(const Eigen::MatrixXf& x, Eigen::Index k, uint32_t threads) {
   return subspaceIteration(x.cols(), k, [&](const Eigen::MatrixXd& q) {
-    const Eigen::MatrixXf y = productByColumns(x, Eigen::MatrixXf(q.cast<float>()), threads);
-    return Eigen::MatrixXd(productByColumns(x.transpose(), y, threads).cast<double>());
+    const Eigen::MatrixXf y = productInBlocks(x, Eigen::MatrixXf(q.cast<float>()), threads);
+    return Eigen::MatrixXd(productInBlocks(x.transpose(), y, threads).cast<double>());
   });
 }
 
@@ -254,7 +261,7 @@ Result<PcaBasis> fitPcaBasis(const std::vector<float>& tables, size_t samples, u
   if (!leading) return leading.error();
   Eigen::MatrixXf basis = Eigen::MatrixXf::Zero(Eigen::Index(dim), Eigen::Index(components));
   for (uint32_t j = 0; j < k; ++j) basis.col(Eigen::Index(j)) = leading.value().col(Eigen::Index(j)).cast<float>();
-  const Eigen::MatrixXf w = productByColumns(x, basis, threads);  // samples x components
+  const Eigen::MatrixXf w = productInBlocks(x, basis, threads);  // samples x components
   weights.resize(samples * components);
   for (size_t s = 0; s < samples; ++s)
     for (uint32_t j = 0; j < components; ++j) weights[s * components + j] = w(Eigen::Index(s), Eigen::Index(j));
