@@ -1453,11 +1453,13 @@ Result<BakePart> bakePart(const Scene& scene, const BakeOptions& options, Shard 
 }
 
 Result<Field> mergeParts(const Scene& scene, std::vector<BakePart> parts,
-                         const std::function<void(const std::string&)>& stage) {
+                         const std::function<void(const std::string&)>& stage,
+                         const std::function<void(const std::string&)>& note) {
   if (auto ok = checkParts(parts); !ok) return ok.error();
   BakeOptions options;
   options.settings = parts.front().settings;
   options.stage = stage;
+  options.note = note;
   options.heldOutDirections = parts.front().heldOutDirections;
   auto plan = planBake(scene, options, false);
   if (!plan) return plan.error();

@@ -160,7 +160,7 @@ int distributedBake(const bake::Scene& scene, bake::BakeOptions options, const s
     if (!received) abortJob(rank, ranks, received.error().message);
     parts.push_back(std::move(received.value()));
   }
-  auto field = bake::mergeParts(scene, std::move(parts), options.stage);
+  auto field = bake::mergeParts(scene, std::move(parts), options.stage, options.note);
   if (!field) abortJob(rank, ranks, field.error().message);  // names the rank at fault
   // The field is written to a temporary file and renamed: an abort leaves no partial output.
   if (const int code = writeFieldAndSummary(field.value(), output, json); code != 0) {

@@ -97,7 +97,9 @@ int mergeCommand(int argc, char** argv) {
   if (!scene) return fail(scene.error().message);
   for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   Progress progress("merge", stderr);
-  auto field = bake::mergeParts(scene.value(), std::move(parts), [&](const std::string& what) { progress.stage(what); });
+  auto field = bake::mergeParts(
+      scene.value(), std::move(parts), [&](const std::string& what) { progress.stage(what); },
+      [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); });
   if (!field) return fail(source + ": " + field.error().message);
   return writeFieldAndSummary(field.value(), *output, args.has("json"));
 }

@@ -142,6 +142,16 @@ std::vector<std::string> bakeParts(const fs::path& dir, const std::vector<std::s
   return names;
 }
 
+// The lines of a bake's stderr that say a choice made after the tracing (bake.cpp keepSampleFrame
+// and keepClusters).
+std::vector<std::string> choiceLines(const std::string& err) {
+  std::vector<std::string> out;
+  std::istringstream in(err);
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind("exit frame: ", 0) == 0 || line.rfind("pca basis: ", 0) == 0) out.push_back(line);
+  return out;
+}
+
 TEST(Shard, MergedPartsAreTheSingleProcessBake) {
   ASSERT_FALSE(env("SHREFRACT_TOOL").empty());
   for (size_t b = 0; b < kBakes.size(); ++b) {
@@ -161,6 +171,14 @@ TEST(Shard, MergedPartsAreTheSingleProcessBake) {
       EXPECT_NE(m.err.find("merge: learning the pca basis: 24 components"), std::string::npos) << m.err;
     }
     EXPECT_NE(m.err.find("merge: quantizing"), std::string::npos) << m.err;
+    // ... and it says the choices it makes after the tracing, word for word as the bake said them.
+    const std::vector<std::string> choices = choiceLines(one.err);
+    if (b == 0) {
+      EXPECT_FALSE(choices.empty()) << one.err;
+    }
+    for (const std::string& line : choices) {
+      EXPECT_NE(m.err.find(line), std::string::npos) << line << "\n" << m.err;
+    }
   }
 }
 

@@ -77,9 +77,11 @@ Result<void> checkParts(const std::vector<BakePart>& parts);
 
 // Joins the parts of one bake into its field (checkParts first). `scene` must be the one they were
 // baked from (loaded from parts[0].settings.source): its layout is rebuilt and checked against
-// the parts' sceneHash. `stage` as BakeOptions::stage.
+// the parts' sceneHash. `stage` and `note` as BakeOptions's: the merge makes the choices that follow
+// the tracing (the exit frame, components or clusters), and says them as the bake does.
 Result<Field> mergeParts(const Scene& scene, std::vector<BakePart> parts,
-                         const std::function<void(const std::string&)>& stage = {});
+                         const std::function<void(const std::string&)>& stage = {},
+                         const std::function<void(const std::string&)>& note = {});
 
 // The part file (.shrfpart): magic, version, payload size, FNV-1a checksum, payload (little
 // endian). parsePart checks all of it, sizes against the header's counts and that every float is
