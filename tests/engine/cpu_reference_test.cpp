@@ -262,6 +262,26 @@ TEST(CpuReference, BilinearSamplingAtCentresBetweenThemAndBeyondTheEdge) {
   EXPECT_NEAR(at(1.0f, 0.5f)[0], 6.0f, 1e-5f);  // right edge: between (1,0) and (1,1)
 }
 
+// Closed forms of the unpolarized dielectric reflectance: ((n1 - n2) / (n1 + n2))^2 at normal
+// incidence (eta = n1 / n2 either way), 1 at grazing incidence and beyond the critical angle
+// (sin theta > 1 / eta leaving glass), the average of the s and p terms in between, and cosI
+// clamped to [0, 1].
+TEST(CpuReference, FresnelMatchesItsClosedForms) {
+  EXPECT_NEAR(reference::fresnelDielectric(1.0f, 1.0f / 1.5f), 0.04f, 1e-6f);
+  EXPECT_NEAR(reference::fresnelDielectric(1.0f, 1.5f), 0.04f, 1e-6f);
+  EXPECT_NEAR(reference::fresnelDielectric(1.0f, 1.0f), 0.0f, 1e-7f);
+  EXPECT_FLOAT_EQ(reference::fresnelDielectric(0.0f, 1.0f / 1.5f), 1.0f);
+  const double critical = std::asin(1.0 / 1.5);  // glass to air
+  EXPECT_FLOAT_EQ(reference::fresnelDielectric(float(std::cos(critical + 0.01)), 1.5f), 1.0f);
+  EXPECT_LT(reference::fresnelDielectric(float(std::cos(critical - 0.01)), 1.5f), 1.0f);
+  // 45 degrees from air into n = 1.5, from the s and p amplitudes in double.
+  const double ci = std::sqrt(0.5), eta = 1.0 / 1.5, ct = std::sqrt(1.0 - eta * eta * 0.5);
+  const double rs = (eta * ci - ct) / (eta * ci + ct), rp = (ci - eta * ct) / (ci + eta * ct);
+  EXPECT_NEAR(reference::fresnelDielectric(float(ci), float(eta)), 0.5 * (rs * rs + rp * rp), 1e-6);
+  EXPECT_FLOAT_EQ(reference::fresnelDielectric(-0.5f, 1.0f / 1.5f), 1.0f);  // clamped to grazing
+  EXPECT_FLOAT_EQ(reference::fresnelDielectric(2.0f, 1.0f / 1.5f), reference::fresnelDielectric(1.0f, 1.0f / 1.5f));
+}
+
 TEST(CpuReference, ShadeFieldOnAConstantEnvironment) {
   // Constant environment E: colour = (1 - F) T tint E + F E at normal incidence, F = 0.04 (1.5).
   std::vector<float> envPixels(8 * 4 * 4);
