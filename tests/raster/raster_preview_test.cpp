@@ -1,6 +1,8 @@
 // The raster pass on lavapipe against a CPU evaluation of the same shading: the background is the
 // environment seen through the camera, and the sphere's single-interface shading (Fresnel
 // reflection + one Snell bend) matches the analytic sphere where the tessellation is smooth.
+#include <shrefract/cpu_reference.h>
+
 #include <glm/glm.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 
@@ -29,15 +31,6 @@ glm::vec3 rayThroughPixel(const Camera& cam, uint32_t w, uint32_t h, uint32_t x,
   view[3] = glm::vec4(0, 0, 0, 1);
   const glm::vec2 ndc((float(x) + 0.5f) / float(w) * 2.0f - 1.0f, (float(y) + 0.5f) / float(h) * 2.0f - 1.0f);
   return glm::normalize(glm::vec3(glm::inverse(proj * view) * glm::vec4(ndc, 1.0f, 1.0f)));
-}
-
-float fresnel(float cosI, float eta) {
-  const float sin2T = eta * eta * std::max(0.0f, 1.0f - cosI * cosI);
-  if (sin2T >= 1.0f) return 1.0f;
-  const float cosT = std::sqrt(1.0f - sin2T);
-  const float rs = (eta * cosI - cosT) / (eta * cosI + cosT);
-  const float rp = (cosI - eta * cosT) / (cosI + eta * cosT);
-  return 0.5f * (rs * rs + rp * rp);
 }
 
 class RasterPreview : public ::testing::Test {
@@ -133,7 +126,7 @@ TEST_F(RasterPreview, SphereSingleInterfaceMatchesAnalyticSphere) {
       const float eta = 1.0f / 1.5f;
       const glm::vec3 refl = glm::reflect(d, n);
       const glm::vec3 refr = glm::refract(d, n, eta);
-      const float f = fresnel(cosI, eta);
+      const float f = reference::fresnelDielectric(cosI, eta);
       const glm::vec3 expected = (1.0f - f) * bake::sampleLatLong(env, refr) * scene.value().media[1].color +
                                  f * bake::sampleLatLong(env, refl);
       // Tolerance: facet normals of a level-5 icosphere differ from the analytic normal by < 0.5

@@ -21,15 +21,6 @@
 namespace shrefract::bake {
 namespace {
 
-float fresnel(float cosI, float eta) {
-  const float sin2T = eta * eta * std::max(0.0f, 1.0f - cosI * cosI);
-  if (sin2T >= 1.0f) return 1.0f;
-  const float cosT = std::sqrt(1.0f - sin2T);
-  const float rs = (eta * cosI - cosT) / (eta * cosI + cosT);
-  const float rp = (cosI - eta * cosT) / (cosI + eta * cosT);
-  return 0.5f * (rs * rs + rp * rp);
-}
-
 // Closed form on the analytic unit sphere: refract in, then at every interface the branch of
 // higher energy; chords are p + t * (-2 p.t). Returns false if the eye ray misses.
 bool analyticExit(glm::dvec3 eye, glm::dvec3 d, double ior, glm::dvec3& exitDir) {
@@ -41,7 +32,7 @@ bool analyticExit(glm::dvec3 eye, glm::dvec3 d, double ior, glm::dvec3& exitDir)
     p = p + t * (-2.0 * glm::dot(p, t));
     const glm::dvec3 n = -p;  // inward normal faces the ray inside
     const float cosI = static_cast<float>(-glm::dot(t, n));
-    const float r = fresnel(cosI, static_cast<float>(ior));
+    const float r = reference::fresnelDielectric(cosI, static_cast<float>(ior));
     if (r >= 0.5f) {
       t = glm::reflect(t, n);
     } else {
