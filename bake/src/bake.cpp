@@ -682,8 +682,9 @@ std::vector<size_t> frameChoiceTrainingSamples(size_t n) {
 // error saturates where the angle does not: the bunny's mean angles (34.07 deg in the sample's
 // frame, 34.17 in object space, over views 3 % of which decode within 1 deg) rank the frames against
 // its images (14.78 against 15.01 dB at the angular step); clipped at 5 deg (4.42, 4.35) they rank
-// them as the images do, and so on the sphere, torus and glass of water. Not on the cube, whose
-// images prefer object space by 0.42 dB (no statistic of these views measured says so: docs/encodings.md).
+// them as the images do, and so on the sphere, torus and glass of water (16x16 tables). The cube's
+// images then preferred object space by 0.42 dB, which no statistic of these views said; at 64x64
+// they prefer the sample's frame by 2.46 dB, as the views do (docs/encodings.md).
 constexpr double kFrameChoiceClipDegrees = 5.0;
 double meanClippedDegrees(const EncodingShape& shape, const std::vector<float>& basis,
                           const std::vector<float>& weights, const SampleAtlas& atlas, const FrameChoiceViews& v) {
