@@ -699,16 +699,24 @@ double meanClippedDegrees(const EncodingShape& shape, const std::vector<float>& 
   return v.views.directions.empty() ? 0.0 : sum / double(v.views.directions.size());
 }
 
-// One candidate frame's clipped mean angle: a basis learned from the training tables, the views'
-// tables projected on it.
-Result<double> candidateFrameDegrees(const EncodingShape& shape, const std::vector<float>& training, size_t trainingCount,
-                                     const std::vector<float>& viewTables, const SampleAtlas& atlas,
-                                     const FrameChoiceViews& views, uint32_t threads) {
-  std::vector<float> unused;
-  auto pca = fitPcaBasis(training, trainingCount, shape.tableSize, shape.channels, shape.components, unused, threads);
+// One candidate frame: a basis learned from the training tables (with the training tables' weights)
+// and the clipped mean angle of the views' tables projected on it.
+struct FrameCandidate {
+  double degrees = 0.0;
+  LearnedBasis learned;
+};
+
+Result<FrameCandidate> candidateFrame(const EncodingShape& shape, const std::vector<float>& training, size_t trainingCount,
+                                      const std::vector<float>& viewTables, const SampleAtlas& atlas,
+                                      const FrameChoiceViews& views, uint32_t threads) {
+  FrameCandidate c;
+  auto pca = fitPcaBasis(training, trainingCount, shape.tableSize, shape.channels, shape.components, c.learned.weights,
+                         threads);
   if (!pca) return pca.error();
   const std::vector<float> weights = projectOnBasis(viewTables, views.samples.size(), pca.value(), threads);
-  return meanClippedDegrees(shape, pca.value().basis, weights, atlas, views);
+  c.degrees = meanClippedDegrees(shape, pca.value().basis, weights, atlas, views);
+  c.learned.basis = std::move(pca.value().basis);
+  return c;
 }
 
 // ExitFrame::Auto: whether the tables (traced in the sample's frame) keep it rather than object
@@ -717,31 +725,33 @@ Result<double> candidateFrameDegrees(const EncodingShape& shape, const std::vect
 // the rank-K residual, tried as the criterion, chose the sample's frame on the bunny, whose images
 // are worse there); the field's basis is then learned once, in the frame kept. Learning both from
 // every sample took two full fits: the cube's default 64x64 bake took 700 s and 5.17 GiB at peak,
-// now 519 to 561 s and 3.55 GiB (docs/encodings.md, "Choosing the frame on a subset").
+// now 519 to 561 s and 3.55 GiB (docs/encodings.md, "Choosing the frame on a subset"). A field
+// under 2 kFrameChoiceSamples samples learns both candidates from every sample, in order: then the
+// kept frame's basis and weights are the field's, returned in `kept`, and not learned again.
 Result<bool> keepSampleFrame(const BakePlan& plan, const EncodingShape& shape, const std::vector<float>& tables,
-                             const FrameChoiceViews& views) {
+                             const FrameChoiceViews& views, std::optional<LearnedBasis>& kept) {
   const SampleAtlas& atlas = plan.atlas;
   const size_t dim = tableValues(shape);
   const std::vector<size_t> trainingSamples = frameChoiceTrainingSamples(atlas.samples.size());
   plan.begin("choosing the exit frame: bases of " + std::to_string(shape.components) + " components in each frame from " +
              std::to_string(trainingSamples.size()) + " samples");
   std::vector<float> training = gatherTables(tables, trainingSamples, dim), viewTables = gatherTables(tables, views.samples, dim);
-  auto sample = candidateFrameDegrees(shape, training, trainingSamples.size(), viewTables, atlas, views,
-                                      plan.settings.threads);
+  auto sample = candidateFrame(shape, training, trainingSamples.size(), viewTables, atlas, views, plan.settings.threads);
   if (!sample) return sample.error();
   EncodingShape objectShape = shape;
   objectShape.sampleFrameExits = false;
   rotateExitsToObjectSpace(training, trainingSamples, atlas, shape);
   rotateExitsToObjectSpace(viewTables, views.samples, atlas, shape);
-  auto object = candidateFrameDegrees(objectShape, training, trainingSamples.size(), viewTables, atlas, views,
-                                      plan.settings.threads);
+  auto object = candidateFrame(objectShape, training, trainingSamples.size(), viewTables, atlas, views,
+                               plan.settings.threads);
   if (!object) return object.error();
-  const bool keep = !(object.value() < sample.value());
+  const bool keep = !(object->degrees < sample->degrees);
+  if (trainingSamples.size() == atlas.samples.size()) kept = std::move(keep ? sample->learned : object->learned);
   if (plan.note)
     plan.note(std::string("exit frame: chose ") + (keep ? "the sample's frame" : "object space") + " (mean angle, clipped at " +
               std::to_string(int(kFrameChoiceClipDegrees)) + " deg, to " + std::to_string(views.views.directions.size()) +
               " traced views, bases learned from " + std::to_string(trainingSamples.size()) + " samples: " +
-              std::to_string(sample.value()) + " deg in the sample's frame, " + std::to_string(object.value()) +
+              std::to_string(sample->degrees) + " deg in the sample's frame, " + std::to_string(object->degrees) +
               " deg in object space)");
   return keep;
 }
@@ -829,8 +839,9 @@ Result<void> learnBasisInItsFrame(const BakePlan& plan, EncodingShape& shape, st
     plan.begin("tracing the views the frame and the basis are chosen on");
     views = traceFrameChoiceViews(plan);
   }
+  std::optional<LearnedBasis> learnedInTheChoice;
   if (plan.settings.exitFrame == ExitFrame::Auto) {
-    auto keep = keepSampleFrame(plan, shape, coeffs, views);
+    auto keep = keepSampleFrame(plan, shape, coeffs, views, learnedInTheChoice);
     if (!keep) return keep.error();
     if (!keep.value()) {
       std::vector<size_t> all(n);
@@ -840,8 +851,10 @@ Result<void> learnBasisInItsFrame(const BakePlan& plan, EncodingShape& shape, st
     }
   }
   plan.begin("learning the pca basis: " + std::to_string(shape.components) + " components from " + std::to_string(n) +
-             " samples of " + std::to_string(tableValues(shape)) + " values");
-  auto learned = learnBasis(shape, coeffs, n, plan.settings.threads);
+             " samples of " + std::to_string(tableValues(shape)) + " values" +
+             (learnedInTheChoice ? ": the exit frame's choice learned it" : ""));
+  auto learned = learnedInTheChoice ? Result<LearnedBasis>(std::move(*learnedInTheChoice))
+                                    : learnBasis(shape, coeffs, n, plan.settings.threads);
   if (!learned) return learned.error();
   auto clusters = keepClusters(plan, shape, coeffs, views, learned.value());
   if (!clusters) return clusters.error();

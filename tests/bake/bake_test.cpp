@@ -256,6 +256,35 @@ TEST(Bake, AutoExitFrameChoosesOnASubsetAndLearnsTheFieldOnce) {
   EXPECT_EQ(dataBytes(automatic.value()), dataBytes(explicitFrame.value()));
 }
 
+// Under 2 x 2048 samples the choice learns both candidate bases from every sample, so the kept one
+// is the field's basis: the bake keeps it rather than learning it again (bake.cpp keepSampleFrame),
+// and the field is still the one an explicit --exit-frame of that frame bakes, byte for byte.
+TEST(Bake, SmallAutoExitFrameKeepsTheChoicesBasis) {
+  BakeSettings s = small();
+  s.encoding = Encoding::Pca;
+  s.order = 0;
+  s.tableSize = 12;
+  s.components = 16;
+  s.directionSampling = DirectionSampling::Nodes;
+  s.sampleBudget = 1500;
+  auto scene = makeBuiltinScene("torus", {.tessellation = 1});
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  BakeOptions options;
+  options.settings = s;
+  options.heldOutDirections = 0;
+  std::string stages;
+  options.stage = [&stages](const std::string& what) { stages += what + "\n"; };
+  auto automatic = bakeField(*scene, options);
+  ASSERT_TRUE(automatic.ok()) << automatic.error().message;
+  ASSERT_LT(automatic->statistics.samples, 4096u);
+  EXPECT_NE(stages.find("the exit frame's choice learned it"), std::string::npos) << stages;
+  options.settings.exitFrame = automatic->sampleFrameExits ? ExitFrame::Sample : ExitFrame::Object;
+  options.stage = nullptr;
+  auto explicitFrame = bakeField(*scene, options);
+  ASSERT_TRUE(explicitFrame.ok()) << explicitFrame.error().message;
+  EXPECT_EQ(dataBytes(automatic.value()), dataBytes(explicitFrame.value()));
+}
+
 // A Pca bake keeps the mean tables of K clusters of its samples where they decode closer than K
 // components to the views it traces for the choice (bake.cpp keepClusters; docs/encodings.md,
 // "Clusters"). Its note gives both figures and the field follows the smaller. A clustered field
