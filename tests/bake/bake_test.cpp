@@ -222,23 +222,29 @@ TEST(Bake, PcaFitIsDeterministicAcrossThreadCounts) {
   EXPECT_EQ(dataBytes(a), dataBytes(b));
 }
 
+// A Pca bake of the coarse torus traced at its table nodes, the exit frame left to the bake, no
+// held-out directions (the frame tests below).
+BakeOptions autoFramePcaOptions(uint32_t tableSize, uint32_t components, uint64_t sampleBudget) {
+  BakeOptions options;
+  options.settings = small();
+  options.settings.encoding = Encoding::Pca;
+  options.settings.order = 0;
+  options.settings.tableSize = tableSize;
+  options.settings.components = components;
+  options.settings.directionSampling = DirectionSampling::Nodes;
+  options.settings.sampleBudget = sampleBudget;
+  options.heldOutDirections = 0;
+  return options;
+}
+
 // ExitFrame::Auto (the default) compares the two frames on bases learned from a subset of the
 // samples, not from all of them (bake.cpp keepSampleFrame: two full fits made the 64x64 default
 // bake twice as slow), and then learns the field's basis once, in the frame kept: the field is the
 // one an explicit --exit-frame of that frame bakes, byte for byte.
 TEST(Bake, AutoExitFrameChoosesOnASubsetAndLearnsTheFieldOnce) {
-  BakeSettings s = small();
-  s.encoding = Encoding::Pca;
-  s.order = 0;
-  s.tableSize = 8;
-  s.components = 8;
-  s.directionSampling = DirectionSampling::Nodes;
-  s.sampleBudget = 6000;  // over 2 x 2048 samples: the choice learns from a subset
   auto scene = makeBuiltinScene("torus", {.tessellation = 1});
   ASSERT_TRUE(scene.ok()) << scene.error().message;
-  BakeOptions options;
-  options.settings = s;
-  options.heldOutDirections = 0;
+  BakeOptions options = autoFramePcaOptions(8, 8, 6000);  // over 2 x 2048 samples: the choice learns from a subset
   std::string notes;
   options.note = [&notes](const std::string& line) { notes += line + "\n"; };
   auto automatic = bakeField(*scene, options);
@@ -260,18 +266,9 @@ TEST(Bake, AutoExitFrameChoosesOnASubsetAndLearnsTheFieldOnce) {
 // is the field's basis: the bake keeps it rather than learning it again (bake.cpp keepSampleFrame),
 // and the field is still the one an explicit --exit-frame of that frame bakes, byte for byte.
 TEST(Bake, SmallAutoExitFrameKeepsTheChoicesBasis) {
-  BakeSettings s = small();
-  s.encoding = Encoding::Pca;
-  s.order = 0;
-  s.tableSize = 12;
-  s.components = 16;
-  s.directionSampling = DirectionSampling::Nodes;
-  s.sampleBudget = 1500;
   auto scene = makeBuiltinScene("torus", {.tessellation = 1});
   ASSERT_TRUE(scene.ok()) << scene.error().message;
-  BakeOptions options;
-  options.settings = s;
-  options.heldOutDirections = 0;
+  BakeOptions options = autoFramePcaOptions(12, 16, 1500);
   std::string stages;
   options.stage = [&stages](const std::string& what) { stages += what + "\n"; };
   auto automatic = bakeField(*scene, options);
