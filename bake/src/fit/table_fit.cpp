@@ -46,10 +46,12 @@ Result<Eigen::MatrixXd> exactLeadingEigenvectors(const Eigen::MatrixXd& m, Eigen
 // the Gram matrix 5120 x 5120; on one thread its product and the subspace iteration took most of a
 // 20000-sample bake.
 constexpr Eigen::Index kProductColumns = 128;
-// Products by a thin block (the subspace iteration's k + 64 = 388 columns) also split their rows:
-// columns alone gave 4 blocks, 128 + 128 + 128 + 4, and two threads one 256 columns and the other
-// 132. Splitting the rows does not split the depth of any output's sum: the cube's, torus's and a
-// 32x32 sphere's fields came out byte-identical but for their timings (docs/performance.md).
+// Products also split their rows, in fixed blocks of this many: the subspace iteration's thin
+// block (k + 64 = 388 columns) alone gave 4 column blocks, 128 + 128 + 128 + 4, and two threads
+// one 256 columns and the other 132; k-means (assignToCentres) takes its samples this many at a
+// time. Splitting the rows does not split the depth of any output's sum: the cube's, torus's and a
+// 32x32 sphere's fields, and the clusters, came out byte-identical but for their timings
+// (docs/performance.md).
 constexpr Eigen::Index kProductRows = 2048;
 
 template <class Matrix>
@@ -57,14 +59,19 @@ Eigen::Index columnBlocks(const Matrix& m) {
   return (m.cols() + kProductColumns - 1) / kProductColumns;
 }
 
+template <class Matrix>
+Eigen::Index rowBlocks(const Matrix& m) {
+  return (m.rows() + kProductRows - 1) / kProductRows;
+}
+
 // lhs * rhs in blocks of kProductRows rows by kProductColumns columns, in parallel.
 template <class Lhs, class Rhs>
 Rhs productInBlocks(const Lhs& lhs, const Rhs& rhs, uint32_t threads) {
   Rhs out(lhs.rows(), rhs.cols());
-  const Eigen::Index rowBlocks = (lhs.rows() + kProductRows - 1) / kProductRows;
-  parallelFor(size_t(rowBlocks * columnBlocks(rhs)), threads, [&](size_t task) {
-    const Eigen::Index i = Eigen::Index(task) % rowBlocks * kProductRows, h = std::min(kProductRows, lhs.rows() - i);
-    const Eigen::Index j = Eigen::Index(task) / rowBlocks * kProductColumns, w = std::min(kProductColumns, rhs.cols() - j);
+  const Eigen::Index rows = rowBlocks(lhs);
+  parallelFor(size_t(rows * columnBlocks(rhs)), threads, [&](size_t task) {
+    const Eigen::Index i = Eigen::Index(task) % rows * kProductRows, h = std::min(kProductRows, lhs.rows() - i);
+    const Eigen::Index j = Eigen::Index(task) / rows * kProductColumns, w = std::min(kProductColumns, rhs.cols() - j);
     out.block(i, j, h, w).noalias() = lhs.middleRows(i, h) * rhs.middleCols(j, w);
   });
   return out;
@@ -325,24 +332,18 @@ RowMatrix seedCentres(const RowMatrix& w, uint32_t clusters, uint64_t seed) {
   return c;
 }
 
-// Rows of the samples-by-centres products assignToCentres computes at a time, on the bake's
-// threads; fixed, so that the thread count never changes a clustering. A multiple of the row
-// panel of Eigen's float kernel (8 rows in the default x86-64 build), so that a sample's dot
-// products should be the same sums in a chunk as in the whole matrix: Eigen blocks the depth by
-// the depth alone, and a row's kernel depends on its place in its panel. Measured: the same
-// fields as with one product (docs/performance.md, "Clustering on the bake's threads").
-constexpr Eigen::Index kAssignChunkRows = 2048;
-
 // Each sample's nearest centre; returns how many samples changed cluster. `distance` receives
-// each sample's squared distance to it.
+// each sample's squared distance to it. The samples-by-centres products run kProductRows samples
+// at a time on the bake's threads, never the whole matrix (44240 x 4096 floats for the bunny with
+// --clusters 4096).
 size_t assignToCentres(const RowMatrix& w, const RowMatrix& c, std::vector<uint32_t>& cluster,
                        std::vector<double>& distance, uint32_t threads) {
   const Eigen::VectorXf cn = c.rowwise().squaredNorm();
-  const size_t chunks = size_t((w.rows() + kAssignChunkRows - 1) / kAssignChunkRows);
+  const size_t chunks = size_t(rowBlocks(w));
   std::vector<size_t> moved(chunks, 0);
   parallelFor(chunks, threads, [&](size_t chunk) {
-    const Eigen::Index first = Eigen::Index(chunk) * kAssignChunkRows;
-    const Eigen::Index rows = std::min(kAssignChunkRows, w.rows() - first);
+    const Eigen::Index first = Eigen::Index(chunk) * kProductRows;
+    const Eigen::Index rows = std::min(kProductRows, w.rows() - first);
     const Eigen::MatrixXf dots = w.middleRows(first, rows) * c.transpose();
     for (Eigen::Index r = 0; r < rows; ++r) {
       const size_t s = size_t(first + r);
