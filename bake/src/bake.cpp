@@ -168,6 +168,7 @@ Result<void> checkSettings(const BakeSettings& s) {
   if (s.maxBounces < 1 || s.maxBounces > kMaxBakeBounces)
     return bad("--max-bounces must be 1.." + std::to_string(kMaxBakeBounces));
   if (!(s.regularization >= 0.0f) || !std::isfinite(s.regularization)) return bad("regularization must be >= 0");
+  if (s.shFit != ShFit::LeastSquares && s.shFit != ShFit::Robust) return bad("unknown SH fit");
   if (!(s.maxErrorDegrees >= 0.0f) || !std::isfinite(s.maxErrorDegrees) || s.maxErrorDegrees > 180.0f)
     return bad("--max-error must be in (0, 180] degrees");
   if (!(s.samplesPerUnitArea >= 0.0f) || !std::isfinite(s.samplesPerUnitArea))
@@ -250,6 +251,14 @@ std::vector<float> traceGridExits(const SampleAtlas& atlas, const Tracer& tracer
   return values;
 }
 
+// The SH fit the settings ask for, of `order`: one rule for the --max-error choice, the budget's
+// candidates and the field.
+Result<HemisphereFit> shFitOf(const DirectionGrid& grid, uint32_t order, const BakeSettings& s) {
+  const FitMethod method =
+      s.shFit == ShFit::Robust ? FitMethod::RobustLeastSquares : FitMethod::RegularizedLeastSquares;
+  return HemisphereFit::create(grid, static_cast<int>(order), static_cast<double>(s.regularization), method);
+}
+
 // The cosine-weighted mean angle (degrees) between the fit of order `order` of each subset
 // sample's grid values and its held-out exits; the sums run in sample order whatever the threads.
 double heldOutMeanDegrees(const HemisphereFit& fit, uint32_t order, const std::vector<float>& values, uint32_t nd,
@@ -295,7 +304,7 @@ Result<Selection> selectOrderAndDirections(const SampleAtlas& atlas, const Trace
     const uint32_t nd = static_cast<uint32_t>(grid.directions.size());
     const std::vector<float> values = traceGridExits(atlas, tracer, ts, subset, grid, sampleFrame, threads);
     for (uint32_t order = 0; order <= s.order; ++order) {
-      auto fit = HemisphereFit::create(grid, static_cast<int>(order), static_cast<double>(s.regularization));
+      auto fit = shFitOf(grid, order, s);
       if (!fit) continue;  // too few directions for this order
       const double mean = heldOutMeanDegrees(fit.value(), order, values, nd, held, kHeldOut, subset.size(), threads);
       if (note)
@@ -336,7 +345,7 @@ class SampleEncoder {
     SampleEncoder e;
     e.channels_ = channels;
     if (s.encoding == Encoding::Sh) {
-      auto fit = HemisphereFit::create(grid, static_cast<int>(s.order), static_cast<double>(s.regularization));
+      auto fit = shFitOf(grid, s.order, s);
       if (!fit) return fit.error();
       e.sh_.emplace(std::move(fit.value()));
       e.stride_ = size_t(e.sh_->basisCount()) * channels;
@@ -1120,6 +1129,7 @@ Result<BakePlan> planBake(const Scene& scene, const BakeOptions& options, bool c
   if (settings.encoding != Encoding::Sh) settings.order = 0;
   if (settings.encoding != Encoding::Pca) settings.components = settings.clusters = 0;
   if (settings.encoding == Encoding::Sh) settings.tableSize = 0;
+  if (settings.encoding != Encoding::Sh) settings.shFit = ShFit::LeastSquares;  // tables fit by least squares
   if (settings.threads == 0) settings.threads = std::max(1u, std::thread::hardware_concurrency());
 
   LayoutOptions layoutOptions;

@@ -43,6 +43,8 @@ std::vector<FlagSpec> bakeFlags() {
       {"max-bounces", true, "cap on interactions inside the object (default 16)", K::Integer,
        {1, double(bake::kMaxBakeBounces)}},
       {"window", true, "frequency smoothing: none (default), hann, lanczos"},
+      {"sh-fit", true, "how SH is fitted: robust (default: directions missed by far count less) or least-squares "
+                       "(docs/fitting.md)"},
       {"spatial", true, "spatial smoothing with 0 (default), 3 or 5 neighbours"},
       {"quant", true, "coefficient storage: u8 (default) or f16"},
       {"encoding", true, "hemisphere encoding: pca (default: learned basis, the measured best at 324 bytes per "
@@ -190,7 +192,7 @@ Result<void> applyNumericFlags(const NumericFlags& n, BakeSettings& s) {
   return {};
 }
 
-// --layout, --window and --quant.
+// --layout, --window, --sh-fit and --quant.
 Result<void> applyLayoutFlags(const Args& args, BakeSettings& s) {
   // Charts by default: at the default budget the split layout's per-triangle lattices are coarse
   // (n = 1 to 7 on the built-in scenes and the bunny) and flicker more (docs/sample-layouts.md).
@@ -203,6 +205,10 @@ Result<void> applyLayoutFlags(const Args& args, BakeSettings& s) {
   else if (window == "hann") s.window = SmoothingWindow::Hann;
   else if (window == "lanczos") s.window = SmoothingWindow::Lanczos;
   else return usageError("shrefract bake: --window must be none, hann or lanczos, got '" + window + "'");
+  const std::string fit = args.get("sh-fit").value_or("robust");
+  if (fit == "robust") s.shFit = ShFit::Robust;
+  else if (fit == "least-squares") s.shFit = ShFit::LeastSquares;
+  else return usageError("shrefract bake: --sh-fit must be robust or least-squares, got '" + fit + "'");
   const std::string quant = args.get("quant").value_or("u8");
   if (quant == "u8") s.quantization = Quantization::U8;
   else if (quant == "f16") s.quantization = Quantization::F16;
@@ -228,6 +234,9 @@ Result<void> applyEncodingFlag(const Args& args, const NumericFlags& n, BakeSett
   s.clusters = n.clusters ? static_cast<uint32_t>(*n.clusters) : 0u;
   if ((n.order || n.maxError) && s.encoding != Encoding::Sh)
     return usageError("shrefract bake: --order and --max-error apply to --encoding sh only");
+  // With a byte budget the chosen encoding may be SH, so its fit may be asked for.
+  if (args.get("sh-fit") && s.encoding != Encoding::Sh && !n.maxBytes)
+    return usageError("shrefract bake: --sh-fit applies to --encoding sh only");
   return {};
 }
 

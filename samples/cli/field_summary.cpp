@@ -82,9 +82,10 @@ std::string fieldSummaryText(const Field& f, uint64_t fileBytes) {
   const std::string directions = s.directionSampling == DirectionSampling::Nodes
                                      ? format("the %ux%u table nodes", f.tableSize, f.tableSize)
                                      : format("%ux%u grid", s.directionsTheta, s.directionsPhi);
-  out += format("settings: directions %s, max bounces %u, window %s, spatial %u, regularization %g, threads %u\n",
+  const std::string fit = f.encoding == Encoding::Sh ? format(", %s fit", toString(s.shFit)) : "";
+  out += format("settings: directions %s, max bounces %u, window %s, spatial %u, regularization %g%s, threads %u\n",
                 directions.c_str(), s.maxBounces, toString(s.window), s.spatialNeighbours,
-                static_cast<double>(s.regularization), s.threads);
+                static_cast<double>(s.regularization), fit.c_str(), s.threads);
   out += format("samples: %" PRIu64 " texels, %" PRIu64 " unique points, %" PRIu64 " directions\n", st.samples,
                 st.uniqueSamples, st.directions);
   out += format("traced: %" PRIu64 " paths, %" PRIu64 " rays (%" PRIu64 " trapped at the cap), %.2f s, %.3g rays/s\n",
@@ -130,7 +131,8 @@ std::string fieldSummaryJson(const Field& f, uint64_t fileBytes) {
                 jsonEscape(s.source).c_str(), toString(s.layout), s.directionsTheta, s.directionsPhi, s.sampleBudget);
   out += format("\"samples_per_unit_area\": %.9g, \"max_bounces\": %u, \"window\": \"%s\", \"spatial\": %u, ",
                 static_cast<double>(s.samplesPerUnitArea), s.maxBounces, toString(s.window), s.spatialNeighbours);
-  out += format("\"regularization\": %.9g, \"threads\": %u}, ", static_cast<double>(s.regularization), s.threads);
+  out += format("\"regularization\": %.9g, \"sh_fit\": \"%s\", \"threads\": %u}, ",
+                static_cast<double>(s.regularization), toString(s.shFit), s.threads);
   out += "\"statistics\": {";
   out += format("\"samples\": %" PRIu64 ", \"unique_samples\": %" PRIu64 ", \"directions\": %" PRIu64 ", ", st.samples,
                 st.uniqueSamples, st.directions);

@@ -435,6 +435,10 @@ std::vector<Case> cases() {
   c.push_back({"SH order with another encoding", with({"--encoding", "pca", "--order", "4"}), none, {"--order"},
                "out.shrf"});
   c.push_back({"unknown path rule", with({"--path-rule", "widest"}), none, {"--path-rule", "widest"}, "out.shrf"});
+  c.push_back({"unknown SH fit", with({"--order", "4", "--sh-fit", "huber"}), none, {"--sh-fit", "huber"},
+               "out.shrf"});
+  c.push_back({"SH fit with another encoding", with({"--encoding", "pca", "--sh-fit", "robust"}), none,
+               {"--sh-fit", "--encoding sh"}, "out.shrf"});
 
   // Scenes given to render, cameras (issue 14).
   const std::vector<std::string> sphere{"render", "builtin:sphere", "--tessellation", "1", "--size", "16x12",

@@ -145,6 +145,12 @@ BakeSettings settingsFor(Encoding encoding, uint32_t parameter, Quantization q =
   return s;
 }
 
+// The same SH setting fitted by least squares instead of the robust fit (the default).
+BakeSettings leastSquares(BakeSettings s) {
+  s.shFit = ShFit::LeastSquares;
+  return s;
+}
+
 // The same table or Pca setting traced at the table's nodes (DirectionSampling::Nodes).
 BakeSettings atNodes(BakeSettings s) {
   s.directionSampling = DirectionSampling::Nodes;
@@ -156,7 +162,8 @@ std::string label(const BakeSettings& s) {
   const std::string q = std::string(s.quantization == Quantization::U8 ? " u8" : " f16") + (nodes ? " nodes" : "") +
                         (nodes && !s.jumpDistance ? " no jump distance" : "") +
                         (s.exitFrame == ExitFrame::Auto ? "" : std::string(" ") + toString(s.exitFrame) + " exits");
-  if (s.encoding == Encoding::Sh) return "sh " + std::to_string(s.order) + q;
+  if (s.encoding == Encoding::Sh)
+    return "sh " + std::to_string(s.order) + q + (s.shFit == ShFit::Robust ? "" : " least squares");
   if (s.encoding == Encoding::Table) return "table " + std::to_string(s.tableSize) + q;
   return "pca " + std::to_string(s.components) + (s.tableSize == 16 ? "" : " n" + std::to_string(s.tableSize)) + q;
 }
@@ -242,7 +249,8 @@ TEST(EncodingSphere, DecodedExitsMatchTheIdealSphereAndTheTracedPath) {
 
   // Measured (mean / p95 of the angle in degrees, 296 texels x 24 directions with w.z >= 0.3):
   //   encoding      vs ideal sphere    vs traced path
-  //   sh 8 u8       1.303 / 3.103      1.300 / 3.113
+  //   sh 8 u8       0.120 / 0.479      0.067 / 0.173   (the robust fit, the default)
+  //   sh 8 u8 lsq   1.303 / 3.103      1.300 / 3.113   (least squares)
   //   table 9 u8    1.095 / 4.147      1.074 / 3.980
   //   table 9 f16   1.080 / 4.134      1.058 / 3.976
   //   pca 128 u8    0.494 / 1.922      0.488 / 1.973   (16 x 16 basis tables, cosine-weighted nodes)
@@ -251,14 +259,17 @@ TEST(EncodingSphere, DecodedExitsMatchTheIdealSphereAndTheTracedPath) {
   // (pca 128 u8 before the cosine weighting of the nodes: 0.557 / 1.948, 0.552 / 2.000.)
   // The error is largest at w.z < 0.45 (incidence 63 to 72.5 degrees; mean 2.3 to 2.4 for sh and
   // table, 1.6 for pca), next to the jump of the highest-energy rule at about 82 degrees that no
-  // smooth basis fits; at w.z > 0.9 SH 8 still errs by 1.24 on average (its fit rings from that
-  // jump), table by 0.25 to 0.28, pca by 0.22. Bounds: 1.25 x measured.
+  // smooth basis fits; at w.z > 0.9 SH 8 fitted by least squares still errs by 1.24 on average
+  // (its fit rings from that jump), table by 0.25 to 0.28, pca by 0.22. The robust SH fit gives up
+  // on the trapped paths beyond the jump instead and fits the rest to a tenth of a degree.
+  // Bounds: 1.25 x measured.
   struct Case {
     BakeSettings settings;
     double meanIdeal, p95Ideal, meanTraced, p95Traced;
   };
   const std::vector<Case> cases = {
-      {settingsFor(Encoding::Sh, 8), 1.63, 3.9, 1.63, 3.9},
+      {settingsFor(Encoding::Sh, 8), 0.15, 0.60, 0.084, 0.22},
+      {leastSquares(settingsFor(Encoding::Sh, 8)), 1.63, 3.9, 1.63, 3.9},
       {settingsFor(Encoding::Table, 9), 1.37, 5.2, 1.34, 5.0},
       {settingsFor(Encoding::Table, 9, Quantization::F16), 1.35, 5.2, 1.32, 5.0},
       {settingsFor(Encoding::Pca, 128), 0.70, 2.45, 0.69, 2.5},
@@ -844,7 +855,8 @@ class BudgetScene {
 };
 
 // Measured (mean angle against the exact path, degrees; all u8, 16 x 32 directions; exits in the
-// sample's frame unless said; grid-fitted Pca in object space, see below):
+// sample's frame unless said; grid-fitted Pca in object space, see below; SH fitted by least
+// squares, the robust fit's ladder is in EncodingShFit below):
 //   sphere  sh 2, 4, 8: 5.350, 4.551, 4.224   table 4, 6, 9: 6.509, 4.970, 4.057
 //           pca 16, 64, 256 (object exits): 4.592, 4.121, 3.884
 //           nodes: table 4, 6, 9: 23.43, 9.048, 4.284   pca 16, 64, 256: 3.167, 2.897, 2.762 (decoded
@@ -879,7 +891,8 @@ uint32_t budgetBytes(const Field& f) {
 void expectErrorFallsWithBytes(const std::string& name) {
   BudgetScene& scene = BudgetScene::get(name);
   const std::vector<std::vector<BakeSettings>> ladders = {
-      {settingsFor(Encoding::Sh, 2), settingsFor(Encoding::Sh, 4), settingsFor(Encoding::Sh, 8)},
+      {leastSquares(settingsFor(Encoding::Sh, 2)), leastSquares(settingsFor(Encoding::Sh, 4)),
+       leastSquares(settingsFor(Encoding::Sh, 8))},
       {settingsFor(Encoding::Table, 4), settingsFor(Encoding::Table, 6), settingsFor(Encoding::Table, 9)},
       {withObjectExits(settingsFor(Encoding::Pca, 16)), withObjectExits(settingsFor(Encoding::Pca, 64)),
        withObjectExits(settingsFor(Encoding::Pca, 256))},
@@ -906,6 +919,26 @@ void expectErrorFallsWithBytes(const std::string& name) {
 }
 
 TEST(EncodingBudget, SphereErrorFallsAsTheBytesRise) { expectErrorFallsWithBytes("sphere"); }
+
+// The robust SH fit (BakeSettings::shFit, the default) against least squares, by the same mean
+// angle. Measured, u8, orders 2, 4, 8: sphere robust 3.331, 2.909, 2.933 against 5.350, 4.551,
+// 4.224; cube 19.18, 13.14, 9.853 against 20.76, 12.84, 9.051. On the sphere the robust fit gives
+// up on the trapped paths near the rim, which least squares smears over the hemisphere, and its
+// order 2 is closer than least squares' order 8; from order 4 on it stays at that floor, so this
+// ladder does not fall (docs/fitting.md, "Robust fit"). On the cube the mean angle does not rank
+// the two fits as their images do (the images gain 1 to 3 dB), so the cube is not asserted here.
+// Bound: at each order 25 % under least squares on the sphere.
+TEST(EncodingShFit, RobustFitIsCloserOnTheSphere) {
+  BudgetScene& scene = BudgetScene::get("sphere");
+  for (const uint32_t order : {2u, 4u, 8u}) {
+    const BakeSettings robust = settingsFor(Encoding::Sh, order);
+    ASSERT_EQ(robust.shFit, ShFit::Robust);
+    ASSERT_EQ(scene.field(robust).settings.shFit, ShFit::Robust);
+    const double a = scene.error(leastSquares(robust)), b = scene.error(robust);
+    std::printf("sphere sh %u u8: mean error %.4f deg least squares, %.4f robust\n", order, a, b);
+    EXPECT_LT(b, 0.75 * a) << order;
+  }
+}
 
 // The jump distance channel (bake/jump_distance.h) places each jump of the exit direction inside
 // its cell instead of midway between the nodes on either side, at the same bytes per sample.

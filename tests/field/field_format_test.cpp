@@ -215,6 +215,7 @@ void expectSameField(const Field& a, const Field& b) {
   EXPECT_EQ(s.spatialNeighbours, u.spatialNeighbours);
   EXPECT_EQ(s.quantization, u.quantization);
   EXPECT_EQ(bits(s.regularization), bits(u.regularization));
+  EXPECT_EQ(s.shFit, u.shFit);
   EXPECT_EQ(s.threads, u.threads);
   const BakeStatistics &t = a.statistics, &v = b.statistics;
   EXPECT_EQ(t.samples, v.samples);
@@ -288,11 +289,12 @@ TEST_P(FieldFormat, HeaderMatchesTheSpec) {
                             (8 + T + 8 + 48 * T + 8 + 16 * f.gutters.size()) +
                             (GetParam().quantization == Quantization::U8 ? 16 + 8 * B * C + 16 + B * T * C
                                                                          : 16 + 16 + 2 * B * T * C) +
-                            (9 * 4 + 4 + 8 + 4 + 4 + 4 + 4 + 8 + 4 + 8) +  // ENCD: nine u32/f32, an empty
-                                                                           // basis array, the sampling, the jump
-                                                                           // distance, the exit frame, clustered,
-                                                                           // no indices, the clusters asked for,
-                                                                           // no binary16 tables
+                            (9 * 4 + 4 + 8 + 4 + 4 + 4 + 4 + 8 + 4 + 8 + 4) +  // ENCD: nine u32/f32, an
+                                                                               // empty basis array, the sampling,
+                                                                               // the jump distance, the exit frame,
+                                                                               // clustered, no indices, the
+                                                                               // clusters asked for, no binary16
+                                                                               // tables, the SH fit
                             4;
   EXPECT_EQ(b.size(), expected);
   // Sections in their fixed order, ending exactly at the checksum.
@@ -1060,8 +1062,9 @@ TEST(FieldEncodingValidation, BrokenEncodingsAreRejected) {
 }
 
 TEST(FieldVersion1, StillReadAsAnShFieldWithoutThroughput) {
-  // A version 1 file is version 2 without the ENCD section.
-  const Field f = makeField({4, Quantization::U8});
+  // A version 1 file is version 2 without the ENCD section, fitted by least squares.
+  Field f = makeField({4, Quantization::U8});
+  f.settings.shFit = ShFit::LeastSquares;
   std::vector<uint8_t> b = serializeField(f);
   const size_t encd = sectionPayload(b, "ENCD") - 12;
   b.erase(b.begin() + static_cast<std::ptrdiff_t>(encd), b.end() - 4);
@@ -1097,6 +1100,8 @@ std::vector<uint8_t> withShorterEncoding(const Field& f, uint64_t bytes, uint32_
 // What version 6 appends to ENCD for a field that is not clustered: the flag, an empty array of
 // indices, the clusters asked for and an empty array of binary16 tables.
 constexpr uint64_t kClusteredBytes = 4 + 8 + 4 + 8;
+// What version 7 appends after them: how an SH field was fitted.
+constexpr uint64_t kShFitBytes = 4;
 
 // A clustered field's tables are binary16 at the end of ENCD and its f32 basis is empty; a file
 // that says clustered beside an f32 basis is refused, and so is a non-clustered one's flag set.
@@ -1110,7 +1115,7 @@ TEST(FieldClustered, TablesAreBinary16AtTheEndOfTheEncoding) {
   EXPECT_EQ(getU64(a, encdA - 8) + 2 * clustered.basis.size(),
             getU64(b, encdB - 8) + 2 * clustered.texelCount());  // a's indices, b's wider basis
   std::vector<uint8_t> flagged = b;
-  const size_t flag = encdB + getU64(b, encdB - 8) - kClusteredBytes;  // version 6's first value
+  const size_t flag = encdB + getU64(b, encdB - 8) - kClusteredBytes - kShFitBytes;  // version 6's first value
   ASSERT_EQ(getU32(flagged, flag), 0u);
   putU32(flagged, flag, 1);
   resign(flagged);
@@ -1119,10 +1124,38 @@ TEST(FieldClustered, TablesAreBinary16AtTheEndOfTheEncoding) {
   EXPECT_TRUE(contains(r.error().message, "has an f32 basis")) << r.error().message;
 }
 
+// A version 6 file is version 7 without the SH fit at the end of ENCD; it reads as least squares,
+// the only fit before version 7.
+TEST(FieldVersion6, StillReadAsLeastSquares) {
+  Field f = makeField({4, Quantization::U8});
+  ASSERT_EQ(f.encoding, Encoding::Sh);
+  f.settings.shFit = ShFit::Robust;
+  std::vector<uint8_t> b = withShorterEncoding(f, kShFitBytes, 6);
+  const Result<Field> r = parse(b, "v6.shrf");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r.value().settings.shFit, ShFit::LeastSquares);
+  f.settings.shFit = ShFit::LeastSquares;
+  expectSameField(f, r.value());
+  // The same bytes labelled version 7 are short by the missing value.
+  putU32(b, 4, 7);
+  resign(b);
+  EXPECT_FALSE(parse(b, "v6.shrf").ok());
+  // And version 7 keeps the fit, but only a known one.
+  f.settings.shFit = ShFit::Robust;
+  const Result<Field> robust = parse(serializeField(f), "v7.shrf");
+  ASSERT_TRUE(robust.ok()) << robust.error().message;
+  EXPECT_EQ(robust.value().settings.shFit, ShFit::Robust);
+  f.settings.shFit = static_cast<ShFit>(2);
+  const Result<void> unknown = validateField(f);
+  ASSERT_FALSE(unknown.ok());
+  EXPECT_TRUE(contains(unknown.error().message, "settings.shFit 2")) << unknown.error().message;
+}
+
 TEST(FieldVersion5, StillReadUnclustered) {
   // A version 5 file is version 6 without the clustered flag and the indices at the end of ENCD.
-  const Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false, true, true);
-  std::vector<uint8_t> b = withShorterEncoding(f, kClusteredBytes, 5);
+  Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false, true, true);
+  f.settings.shFit = ShFit::LeastSquares;  // what a file before version 7 reads as
+  std::vector<uint8_t> b = withShorterEncoding(f, kClusteredBytes + kShFitBytes, 5);
   const Result<Field> r = parse(b, "v5.shrf");
   ASSERT_TRUE(r.ok()) << r.error().message;
   expectSameField(f, r.value());
@@ -1137,8 +1170,9 @@ TEST(FieldVersion5, StillReadUnclustered) {
 
 TEST(FieldVersion4, StillReadWithObjectSpaceExits) {
   // A version 4 file is version 5 without the exit frame at the end of ENCD.
-  const Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false, true, true);
-  std::vector<uint8_t> b = withShorterEncoding(f, 4 + kClusteredBytes, 4);
+  Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false, true, true);
+  f.settings.shFit = ShFit::LeastSquares;  // what a file before version 7 reads as
+  std::vector<uint8_t> b = withShorterEncoding(f, 4 + kClusteredBytes + kShFitBytes, 4);
   const Result<Field> r = parse(b, "v4.shrf");
   ASSERT_TRUE(r.ok()) << r.error().message;
   expectSameField(f, r.value());
@@ -1153,8 +1187,9 @@ TEST(FieldVersion4, StillReadWithObjectSpaceExits) {
 
 TEST(FieldVersion3, StillReadWithoutJumpDistance) {
   // A version 3 file is version 5 without the jump distance and exit frame at the end of ENCD.
-  const Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false);
-  std::vector<uint8_t> b = withShorterEncoding(f, 8 + kClusteredBytes, 3);
+  Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false);
+  f.settings.shFit = ShFit::LeastSquares;  // what a file before version 7 reads as
+  std::vector<uint8_t> b = withShorterEncoding(f, 8 + kClusteredBytes + kShFitBytes, 3);
   const Result<Field> r = parse(b, "v3.shrf");
   ASSERT_TRUE(r.ok()) << r.error().message;
   expectSameField(f, r.value());
@@ -1198,7 +1233,7 @@ TEST(FieldVersion2, StillReadWithGridSampling) {
   // A version 2 file is version 3 without the direction sampling at the end of ENCD (and version 5
   // without the jump distance and exit frame after it).
   const Field f = makeEncodedField(Encoding::Table, Quantization::U8, false);
-  std::vector<uint8_t> b = withShorterEncoding(f, 12 + kClusteredBytes, 2);
+  std::vector<uint8_t> b = withShorterEncoding(f, 12 + kClusteredBytes + kShFitBytes, 2);
   const Result<Field> r = parse(b, "v2.shrf");
   ASSERT_TRUE(r.ok()) << r.error().message;
   EXPECT_EQ(r.value().settings.directionSampling, DirectionSampling::Grid);

@@ -123,12 +123,16 @@ class ViewerTest : public ::testing::Test {
     paths().work = work ? fs::path(work) : fs::temp_directory_path() / "shrefract_viewer_test";
     fs::remove_all(paths().work);
     fs::create_directories(paths().work);
-    // Tiny fields of the same sphere in both layouts (seconds to bake).
+    // Tiny fields of the same sphere in both layouts (seconds to bake). Fitted by least squares:
+    // its ringing is what makes one environment tap and four draw visibly apart at this size (the
+    // robust fit's exits are smooth enough that 0.45 % of the pixels differ, under the taps test's
+    // 1 %).
     for (const char* layout : {"split", "charts"}) {
       const std::string out = at(std::string(layout) == "split" ? "tiny.shrf" : "tiny_charts.shrf");
-      const CommandResult bake =
-          runCommand(tool() + " bake builtin:sphere -o " + shellQuote(out) + " --layout " + layout +
-                     " --order 2 --directions 8x16 --samples 300 --tessellation 1 --threads 2 --held-out 0");
+      const CommandResult bake = runCommand(tool() + " bake builtin:sphere -o " + shellQuote(out) + " --layout " +
+                                            layout +
+                                            " --order 2 --sh-fit least-squares --directions 8x16 --samples 300"
+                                            " --tessellation 1 --threads 2 --held-out 0");
       ASSERT_EQ(bake.exitCode, 0) << bake.output;
     }
   }

@@ -55,17 +55,24 @@ RowMajor weightedBasis(const DirectionGrid& grid, const std::vector<double>& y, 
   return (basis.array().colwise() * weights.array()).matrix();
 }
 
-// Normal equations (Y^T W Y + lambda R) c = Y^T W f, with R = diag((l (l+1))^2), solved by Eigen's
-// Cholesky (LLT) for every direction's column of Y^T W: the projection, basis x directions.
-// Nothing where the system is not positive definite.
+// The penalty lambda R, R = diag((l (l+1))^2): its diagonal, one value per basis function.
+Eigen::VectorXd penaltyDiagonal(int order, double lambda) {
+  Eigen::VectorXd p(sh::basisCount(order));
+  for (int l = 0; l <= order; ++l) {
+    const double r = double(l) * (l + 1);
+    for (int m = -l; m <= l; ++m) p(sh::index(l, m)) = lambda * r * r;
+  }
+  return p;
+}
+
+// Normal equations (Y^T W Y + lambda R) c = Y^T W f solved by Eigen's Cholesky (LLT) for every
+// direction's column of Y^T W: the projection, basis x directions. Nothing where the system is
+// not positive definite.
 std::optional<RowMajor> regularizedProjection(const std::vector<double>& y, const RowMajor& weighted, int order,
                                               double lambda) {
   const Eigen::Map<const RowMajor> basis(y.data(), weighted.rows(), weighted.cols());
   Eigen::MatrixXd a = basis.transpose() * weighted;
-  for (int l = 0; l <= order; ++l) {
-    const double r = double(l) * (l + 1);
-    for (int m = -l; m <= l; ++m) a(sh::index(l, m), sh::index(l, m)) += lambda * r * r;
-  }
+  a.diagonal() += penaltyDiagonal(order, lambda);
   const Eigen::LLT<Eigen::MatrixXd> llt(a);
   if (llt.info() != Eigen::Success) return std::nullopt;
   return RowMajor(llt.solve(weighted.transpose()));
@@ -78,7 +85,7 @@ Result<void> checkFitInput(const DirectionGrid& grid, int order, double lambda, 
   const int nb = sh::basisCount(order);
   const size_t nd = grid.directions.size();
   if (nd == 0) return makeError(ErrorCode::InvalidArgument, "empty direction grid");
-  if (method == FitMethod::RegularizedLeastSquares && nd < size_t(nb) && lambda <= 0.0)
+  if (method != FitMethod::PlainProjection && nd < size_t(nb) && lambda <= 0.0)
     return makeError(ErrorCode::InvalidArgument, "direction grid has fewer directions (" + std::to_string(nd) +
                                                      ") than basis functions (" + std::to_string(nb) + ")");
   if (!(lambda >= 0.0) || !std::isfinite(lambda))
@@ -96,6 +103,12 @@ Result<HemisphereFit> HemisphereFit::create(const DirectionGrid& grid, int order
   fit.order_ = order;
   fit.basis_ = nb;
   fit.directions_ = static_cast<uint32_t>(nd);
+  if (method == FitMethod::RobustLeastSquares) {
+    fit.robust_ = true;
+    fit.gridWeights_ = grid.weights;
+    const Eigen::VectorXd p = penaltyDiagonal(order, lambda);
+    fit.penalty_.assign(p.data(), p.data() + p.size());
+  }
   const std::vector<double> y = basisAtDirections(grid, order, nb);
   fit.basisAtGrid_.assign(y.size(), 0.0f);
   std::transform(y.begin(), y.end(), fit.basisAtGrid_.begin(), [](double v) { return static_cast<float>(v); });
@@ -132,6 +145,47 @@ void HemisphereFit::fit(const float* values, uint32_t channels, float* coeffs) c
   }
   for (int i = 0; i < basis_; ++i)
     for (uint32_t c = 0; c < channels; ++c) coeffs[size_t(i) * channels + c] = acc[size_t(c) * basis_ + size_t(i)];
+  if (robust_ && channels >= 3) reweight(values, channels, coeffs);
+}
+
+namespace {
+
+// The angle between the expansion's exit and the traced one; a zero expansion is as far as can be.
+double exitAngle(const Eigen::Vector3d& fitted, const Eigen::Vector3d& traced) {
+  if (!(fitted.squaredNorm() > 0.0)) return std::numbers::pi;
+  return std::atan2(fitted.cross(traced).norm(), fitted.dot(traced));
+}
+
+}  // namespace
+
+// FitMethod::RobustLeastSquares, from the least-squares fit in `coeffs`: iteratively reweighted
+// least squares, in double, each pass solving (Y^T U Y + lambda R) c = Y^T U f with U the solid
+// angles scaled by Cauchy's weight of the previous pass's angles.
+void HemisphereFit::reweight(const float* values, uint32_t channels, float* coeffs) const {
+  using FloatRows = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const Eigen::Index nd = directions_, nb = basis_, nc = channels;
+  thread_local Eigen::MatrixXd y, f, c, rootWeighted, normal;  // each worker keeps its allocations
+  y = Eigen::Map<const FloatRows>(basisAtGrid_.data(), nd, nb).cast<double>();
+  f = Eigen::Map<const FloatRows>(values, nd, nc).cast<double>();
+  c = Eigen::Map<const FloatRows>(coeffs, nb, nc).cast<double>();
+  const double scale = kRobustScaleDegrees * std::numbers::pi / 180.0;
+  const Eigen::Map<const Eigen::VectorXd> penalty(penalty_.data(), nb);
+  Eigen::VectorXd u(nd);
+  for (int pass = 0; pass < kRobustIterations; ++pass) {
+    const Eigen::MatrixXd g = y * c;
+    for (Eigen::Index d = 0; d < nd; ++d) {
+      const double a = exitAngle(g.row(d).head<3>().transpose(), f.row(d).head<3>().transpose()) / scale;
+      u(d) = gridWeights_[size_t(d)] / (1.0 + a * a);
+    }
+    rootWeighted = y.array().colwise() * u.array().sqrt();
+    normal.setZero(nb, nb);
+    normal.selfadjointView<Eigen::Lower>().rankUpdate(rootWeighted.transpose());
+    normal.diagonal() += penalty;
+    const Eigen::LLT<Eigen::MatrixXd, Eigen::Lower> llt(normal);
+    if (llt.info() != Eigen::Success) break;  // keeps the last pass's fit
+    c = llt.solve(y.transpose() * (u.asDiagonal() * f));
+  }
+  Eigen::Map<FloatRows>(coeffs, nb, nc) = c.cast<float>();
 }
 
 void HemisphereFit::reconstructAtGrid(const float* coeffs, uint32_t channels, uint32_t d, float* out) const {

@@ -33,8 +33,8 @@ namespace shrefract {
 
 // 1: SH only, no throughput; 2: adds ENCD; 3: adds the direction sampling; 4: adds the jump
 // distance channel; 5: adds exits stored in the sample's frame; 6: adds clustered Pca fields, one
-// function index per sample (1 to 5 still read).
-inline constexpr uint32_t kFieldFormatVersion = 6;
+// function index per sample; 7: adds how an SH field was fitted (1 to 6 still read).
+inline constexpr uint32_t kFieldFormatVersion = 7;
 
 // Largest magnitude of a decoded coefficient (validateField, encodeCoefficients). With at most
 // 1089 basis functions (order 32) the sum of |Y_i| is at most 1089 / sqrt(4 pi) = 307, so every
@@ -76,6 +76,16 @@ enum class DirectionSampling : uint32_t {
 // and, for Pca, keep whichever frame leaves the smaller rank-K residual of the tables.
 enum class ExitFrame : uint32_t { Object = 0, Sample = 1, Auto = 2 };
 
+// How an SH bake fits each sample's expansion to its traced directions (docs/fitting.md, "Robust
+// fit"). Fields of format version 6 and earlier were fitted by least squares.
+enum class ShFit : uint32_t {
+  LeastSquares = 0,  // regularized least squares over the grid directions
+  // The same, iteratively reweighted: a direction the expansion misses by far counts less, so that
+  // a jump of the exit (another face, a trapped path) no longer rings over the directions it shares
+  // the hemisphere with.
+  Robust = 1,
+};
+
 // Which branch a single traced path follows at every interface (docs/tracing.md).
 enum class PathRule : uint32_t {
   HighestEnergy = 0,    // the paper: the branch with the larger Fresnel factor
@@ -89,6 +99,7 @@ const char* toString(Encoding encoding);
 const char* toString(PathRule rule);
 const char* toString(DirectionSampling sampling);
 const char* toString(ExitFrame frame);
+const char* toString(ShFit fit);
 
 // Largest table size N (nodes per side) of the Table encoding and of Pca basis functions, and the
 // largest number of Pca components.
@@ -168,6 +179,7 @@ struct BakeSettings {
   uint32_t spatialNeighbours = 0;    // 0, 3 or 5
   Quantization quantization = Quantization::U8;
   float regularization = 0.0f;       // lambda of the hemisphere fit (docs/fitting.md)
+  ShFit shFit = ShFit::Robust;       // SH: how the expansion is fitted; other encodings store LeastSquares
   float maxErrorDegrees = 0.0f;      // > 0: order and directions were chosen to meet this error
   uint32_t threads = 0;              // informational: does not change the data
 };

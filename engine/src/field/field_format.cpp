@@ -82,6 +82,14 @@ const char* toString(ExitFrame frame) {
   return "unknown";
 }
 
+const char* toString(ShFit fit) {
+  switch (fit) {
+    case ShFit::LeastSquares: return "least-squares";
+    case ShFit::Robust: return "robust";
+  }
+  return "unknown";
+}
+
 const char* toString(PathRule rule) {
   switch (rule) {
     case PathRule::HighestEnergy: return "highest-energy";
@@ -463,7 +471,7 @@ void readMesh(SectionReader& r, FieldMesh& mesh) {
 // version 3 appends the direction sampling (Grid before it), version 4 the jump distance flag (none
 // before it; the settings record what the field has), version 5 the frame of the exits (object
 // space before it), version 6 whether a Pca field is clustered, its samples' indices and the
-// clusters the bake was asked for.
+// clusters the bake was asked for, version 7 how an SH field was fitted (least squares before it).
 void readEncoding(SectionReader& r, Field& field, uint32_t version) {
   field.encoding = static_cast<Encoding>(r.u32("encoding"));
   field.tableSize = r.u32("encoding.tableSize");
@@ -490,6 +498,7 @@ void readEncoding(SectionReader& r, Field& field, uint32_t version) {
   // A clustered field's tables, binary16 (validateEncoding: the f32 basis above is then empty).
   std::vector<uint16_t> tables;
   r.arrayU16(tables, "cluster tables");
+  if (version >= 7) s.shFit = static_cast<ShFit>(r.u32("settings.shFit"));
   if (field.clustered && !field.basis.empty()) return r.fail("a clustered field has an f32 basis (its tables are binary16)");
   if (!field.clustered && !tables.empty()) return r.fail("cluster tables are stored, but the field is not clustered");
   if (!field.clustered) return;
@@ -521,6 +530,7 @@ void writeEncoding(ByteWriter& w, const Field& field) {
   if (field.clustered)
     for (float v : field.basis) tables.push_back(floatToHalf(v));
   w.arrayU16(tables);
+  w.u32(static_cast<uint32_t>(s.shFit));
 }
 
 void writeAtlas(ByteWriter& w, const Field& field) {
@@ -633,6 +643,8 @@ Result<void> validateSettings(const Field& field) {
     return invalid("settings.layout " + std::to_string(static_cast<uint32_t>(s.layout)) + " is not a sample layout");
   if (s.window != SmoothingWindow::None && s.window != SmoothingWindow::Hann && s.window != SmoothingWindow::Lanczos)
     return invalid("settings.window " + std::to_string(static_cast<uint32_t>(s.window)) + " is not a smoothing window");
+  if (s.shFit != ShFit::LeastSquares && s.shFit != ShFit::Robust)
+    return invalid("settings.shFit " + std::to_string(static_cast<uint32_t>(s.shFit)) + " is not an SH fit");
   if (s.spatialNeighbours != 0 && s.spatialNeighbours != 3 && s.spatialNeighbours != 5)
     return invalid("settings.spatialNeighbours is " + std::to_string(s.spatialNeighbours) + ", not 0, 3 or 5");
   if (s.quantization != field.quantization)
@@ -1199,6 +1211,7 @@ Result<Field> parseField(const uint8_t* data, size_t size, const std::string& na
   auto version = checkFrame(data, size, name);
   if (!version) return version.error();
   Field field;
+  field.settings.shFit = ShFit::LeastSquares;  // the only fit before version 7, which records it
   if (auto r = readHeader(data, version.value(), name, field); !r) return r.error();
   if (auto r = readSections(data, size - kChecksumBytes, version.value(), name, field); !r) return r.error();
   if (auto r = validateField(field); !r) return makeError(ErrorCode::CorruptData, name + ": " + r.error().message);
