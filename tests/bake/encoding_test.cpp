@@ -1034,13 +1034,14 @@ std::vector<BakeSettings> fixedEncodingsAt(uint32_t budget, uint32_t channels) {
   return out;
 }
 
-// Measured (mean angle against the exact path, degrees):
-//   sphere, 100 B: chose sh 4 u8 (4.678); fixed: sh 4 u8 4.678, table 5 u8 5.795, pca 100 u8 5.028,
-//                  sh 2 f16 5.396, table 3 f16 8.371, pca 50 f16 5.601
-//   cube, 243 B:   chose pca 243 u8 (5.757); fixed: sh 6 u8 11.20, table 7 u8 10.91, pca 243 u8 5.757,
-//                  sh 4 f16 12.88, table 5 f16 13.59, pca 121 f16 5.801
-// The choice was the best of the six both times; the runner-up is 0.8 % (cube) and 7.5 % (sphere)
-// behind. The selection measures on its own subset of samples and directions, so a near tie may go
+// Measured (mean angle against the exact path, degrees; SH fitted robustly, the default):
+//   sphere, 100 B: chose sh 4 u8 (2.909); fixed: sh 4 u8 2.909, table 5 u8 5.698, pca 100 u8 3.837,
+//                  sh 2 f16 3.331, table 3 f16 8.190, pca 50 f16 3.526
+//   cube, 243 B:   chose pca 121 f16 (5.8305); fixed: sh 6 u8 12.87, table 7 u8 10.95, pca 243 u8
+//                  5.8304, sh 4 f16 13.13, table 5 f16 13.52, pca 121 f16 5.8305
+// (Least-squares SH before: sphere sh 4 u8 4.678, sh 2 f16 5.396; cube sh 6 u8 11.20, sh 4 f16
+// 12.88.) The choice is the best of the six on the sphere and a tie to 1e-4 on the cube; the
+// sphere's runner-up is 14 % behind. The selection measures on its own subset of samples and directions, so a near tie may go
 // either way: the bound allows the choice to be 5 % worse than any fixed encoding.
 constexpr double kBudgetMargin = 0.05;
 
