@@ -163,20 +163,32 @@ void addDefaultVariants(Profile& p, const BakeSettings& base, ReportSize size) {
   }
 }
 
-// The encoding sweeps: SH (plain, windowed, under the other path rule and with throughput), Table, Pca.
+// The encoding sweeps: SH (robust, windowed, least squares, under the other path rule and with throughput),
+// Table, Pca.
 void addSweepVariants(Profile& p, const SweepSettings& w, ReportSize size) {
   const BakeSettings& base = w.base;
   const BakeSettings& sweep = w.sweep;
   for (uint32_t order : w.orders)
     p.variants.push_back({"sh", fmt("L%u", order), withEncoding(sweep, Encoding::Sh, order, 0, 0)});
-  // SH with the Lanczos window (`bake --window lanczos`): it damps the ringing that the jumps
-  // spread over the hemisphere, which made unwindowed SH lose on the cube as the order rose.
-  if (size != ReportSize::Smoke)
+  // SH fitted by least squares (`bake --sh-fit least-squares`, the fit before the robust
+  // default), plain and with the Lanczos window (`--window lanczos`), which damps the ringing that
+  // least squares spreads from the jumps over the hemisphere: what the robust fit gains, and where
+  // it loses (docs/fitting.md, "Robust fit"). The window is least squares' remedy: after the
+  // robust fit it lost on the cube (u8, orders 2 to 12: 11.50, 11.50, 15.45, 16.87 dB against
+  // 14.47, 15.59, 16.90, 18.12 unwindowed).
+  if (size != ReportSize::Smoke) {
     for (uint32_t order : w.orders) {
       BakeSettings s = withEncoding(sweep, Encoding::Sh, order, 0, 0);
+      s.shFit = ShFit::LeastSquares;
       s.window = SmoothingWindow::Lanczos;
-      p.variants.push_back({"sh lanczos", fmt("L%u", order), s});
+      p.variants.push_back({"sh least-squares lanczos", fmt("L%u", order), s});
     }
+    for (uint32_t order : w.orders) {
+      BakeSettings s = withEncoding(sweep, Encoding::Sh, order, 0, 0);
+      s.shFit = ShFit::LeastSquares;
+      p.variants.push_back({"sh least-squares", fmt("L%u", order), s});
+    }
+  }
   {
     // The path rule and throughput fields are SH at the paper's order (or the smoke bake's): the
     // default Pca bake has no order, and these rows were SH order 0 when it became the default.
@@ -717,11 +729,15 @@ Result<void> writeCompare(SceneContext& c, const DefaultField& def, const std::o
 }
 
 // Paired hues (f16 darker, u8 lighter, in the order the rows come), then greys.
-constexpr std::array<std::array<float, 3>, 16> kSeriesColors = {{
+// (22: one for each of the 20 field series of a fidelity report; the exact and single-interface
+// rows after them may repeat a colour.)
+constexpr std::array<std::array<float, 3>, 22> kSeriesColors = {{
     {0.00f, 0.00f, 0.00f}, {0.45f, 0.45f, 0.45f}, {0.60f, 0.35f, 0.10f}, {0.05f, 0.25f, 0.75f},
     {0.35f, 0.60f, 1.00f}, {0.05f, 0.50f, 0.15f}, {0.40f, 0.80f, 0.35f}, {0.75f, 0.05f, 0.10f},
     {1.00f, 0.45f, 0.45f}, {0.45f, 0.10f, 0.60f}, {0.75f, 0.50f, 0.90f}, {0.85f, 0.45f, 0.00f},
-    {1.00f, 0.75f, 0.20f}, {0.00f, 0.50f, 0.50f}, {0.30f, 0.80f, 0.80f}, {0.70f, 0.00f, 0.50f}}};
+    {1.00f, 0.75f, 0.20f}, {0.00f, 0.50f, 0.50f}, {0.30f, 0.80f, 0.80f}, {0.70f, 0.00f, 0.50f},
+    {1.00f, 0.40f, 0.80f}, {0.40f, 0.30f, 0.00f}, {0.75f, 0.65f, 0.30f}, {0.10f, 0.10f, 0.35f},
+    {0.50f, 0.50f, 0.85f}, {0.25f, 0.25f, 0.25f}}};
 
 // Colours are fixed per series across both plots (`series`: every series, in the order the rows
 // come); each plot lists only the series it shows.
