@@ -1129,7 +1129,6 @@ Result<BakePlan> planBake(const Scene& scene, const BakeOptions& options, bool c
   if (settings.encoding != Encoding::Sh) settings.order = 0;
   if (settings.encoding != Encoding::Pca) settings.components = settings.clusters = 0;
   if (settings.encoding == Encoding::Sh) settings.tableSize = 0;
-  if (settings.encoding != Encoding::Sh) settings.shFit = ShFit::LeastSquares;  // tables fit by least squares
   if (settings.threads == 0) settings.threads = std::max(1u, std::thread::hardware_concurrency());
 
   LayoutOptions layoutOptions;
@@ -1167,6 +1166,8 @@ Result<BakePlan> planBake(const Scene& scene, const BakeOptions& options, bool c
     settings = chosen.value();
     bakeChoiceAtItsShape(settings, options.settings, options.note);
   }
+  // After the budget's choice, whose SH candidates fit as asked: tables are fitted by least squares.
+  if (settings.encoding != Encoding::Sh) settings.shFit = ShFit::LeastSquares;
   settings.jumpDistance = storesJumpDistance(settings);  // the field records whether it was stored
   if (settings.jumpDistance) plan.channels += 1;
   plan.grid = settings.directionSampling == DirectionSampling::Nodes

@@ -1045,9 +1045,13 @@ std::vector<BakeSettings> fixedEncodingsAt(uint32_t budget, uint32_t channels) {
 // either way: the bound allows the choice to be 5 % worse than any fixed encoding.
 constexpr double kBudgetMargin = 0.05;
 
-void expectBudgetChoiceIsNearTheBest(const std::string& name, uint32_t budget) {
+// `requested`: the encoding the budget replaces. The tool asks for Pca (its default); the budget's
+// SH candidates must still be fitted as an SH bake would be (robustly), not as the Pca request's
+// settings record tables (least squares): with them the sphere chose pca 50 f16 (3.526 deg), 21 %
+// worse than the robust sh 4 u8 it now chooses (2.909), and this test failed.
+void expectBudgetChoiceIsNearTheBest(const std::string& name, uint32_t budget, Encoding requested) {
   BudgetScene& scene = BudgetScene::get(name);
-  BakeSettings s = settingsFor(Encoding::Sh, 8);
+  BakeSettings s = settingsFor(requested, requested == Encoding::Sh ? 8 : 64);
   s.maxBytesPerSample = float(budget);
   const Field& chosen = scene.field(s);
   const double chosenError = scene.error(s);
@@ -1065,8 +1069,12 @@ void expectBudgetChoiceIsNearTheBest(const std::string& name, uint32_t budget) {
   }
 }
 
-TEST(EncodingMaxBytes, SphereChoiceIsNoWorseThanTheFixedEncodings) { expectBudgetChoiceIsNearTheBest("sphere", 100); }
-TEST(EncodingMaxBytes, CubeChoiceIsNoWorseThanTheFixedEncodings) { expectBudgetChoiceIsNearTheBest("cube", 243); }
+TEST(EncodingMaxBytes, SphereChoiceIsNoWorseThanTheFixedEncodings) {
+  expectBudgetChoiceIsNearTheBest("sphere", 100, Encoding::Pca);
+}
+TEST(EncodingMaxBytes, CubeChoiceIsNoWorseThanTheFixedEncodings) {
+  expectBudgetChoiceIsNearTheBest("cube", 243, Encoding::Sh);
+}
 
 }  // namespace
 }  // namespace shrefract::bake
