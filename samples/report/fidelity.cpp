@@ -177,17 +177,16 @@ void addSweepVariants(Profile& p, const SweepSettings& w, ReportSize size) {
   // robust fit it lost on the cube (u8, orders 2 to 12: 11.50, 11.50, 15.45, 16.87 dB against
   // 14.47, 15.59, 16.90, 18.12 unwindowed).
   if (size != ReportSize::Smoke) {
-    for (uint32_t order : w.orders) {
+    const auto leastSquares = [&](uint32_t order, SmoothingWindow window) {
       BakeSettings s = withEncoding(sweep, Encoding::Sh, order, 0, 0);
       s.shFit = ShFit::LeastSquares;
-      s.window = SmoothingWindow::Lanczos;
-      p.variants.push_back({"sh least-squares lanczos", fmt("L%u", order), s});
-    }
-    for (uint32_t order : w.orders) {
-      BakeSettings s = withEncoding(sweep, Encoding::Sh, order, 0, 0);
-      s.shFit = ShFit::LeastSquares;
-      p.variants.push_back({"sh least-squares", fmt("L%u", order), s});
-    }
+      s.window = window;
+      return s;
+    };
+    for (uint32_t order : w.orders)
+      p.variants.push_back({"sh least-squares lanczos", fmt("L%u", order), leastSquares(order, SmoothingWindow::Lanczos)});
+    for (uint32_t order : w.orders)
+      p.variants.push_back({"sh least-squares", fmt("L%u", order), leastSquares(order, SmoothingWindow::None)});
   }
   {
     // The path rule and throughput fields are SH at the paper's order (or the smoke bake's): the

@@ -103,15 +103,20 @@ Result<HemisphereFit> HemisphereFit::create(const DirectionGrid& grid, int order
   fit.order_ = order;
   fit.basis_ = nb;
   fit.directions_ = static_cast<uint32_t>(nd);
+  const std::vector<double> y = basisAtDirections(grid, order, nb);
+  fit.basisAtGrid_.assign(y.size(), 0.0f);
+  std::transform(y.begin(), y.end(), fit.basisAtGrid_.begin(), [](double v) { return static_cast<float>(v); });
   if (method == FitMethod::RobustLeastSquares) {
-    fit.robust_ = true;
+    // The float basis, as the reweighting has always read it.
+    fit.robustBasis_.resize(y.size());
+    Eigen::Map<Eigen::MatrixXd>(fit.robustBasis_.data(), Eigen::Index(nd), nb) =
+        Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+            fit.basisAtGrid_.data(), Eigen::Index(nd), nb)
+            .cast<double>();
     fit.gridWeights_ = grid.weights;
     const Eigen::VectorXd p = penaltyDiagonal(order, lambda);
     fit.penalty_.assign(p.data(), p.data() + p.size());
   }
-  const std::vector<double> y = basisAtDirections(grid, order, nb);
-  fit.basisAtGrid_.assign(y.size(), 0.0f);
-  std::transform(y.begin(), y.end(), fit.basisAtGrid_.begin(), [](double v) { return static_cast<float>(v); });
   const RowMajor weighted = weightedBasis(grid, y, nb);
   std::optional<RowMajor> projection = method == FitMethod::PlainProjection
                                            ? RowMajor(weighted.transpose())
@@ -145,7 +150,7 @@ void HemisphereFit::fit(const float* values, uint32_t channels, float* coeffs) c
   }
   for (int i = 0; i < basis_; ++i)
     for (uint32_t c = 0; c < channels; ++c) coeffs[size_t(i) * channels + c] = acc[size_t(c) * basis_ + size_t(i)];
-  if (robust_ && channels >= 3) reweight(values, channels, coeffs);
+  if (!robustBasis_.empty() && channels >= 3) reweight(values, channels, coeffs);
 }
 
 namespace {
@@ -164,8 +169,8 @@ double exitAngle(const Eigen::Vector3d& fitted, const Eigen::Vector3d& traced) {
 void HemisphereFit::reweight(const float* values, uint32_t channels, float* coeffs) const {
   using FloatRows = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   const Eigen::Index nd = directions_, nb = basis_, nc = channels;
-  thread_local Eigen::MatrixXd y, f, c, rootWeighted, normal;  // each worker keeps its allocations
-  y = Eigen::Map<const FloatRows>(basisAtGrid_.data(), nd, nb).cast<double>();
+  const Eigen::Map<const Eigen::MatrixXd> y(robustBasis_.data(), nd, nb);
+  thread_local Eigen::MatrixXd f, c, rootWeighted, normal;  // each worker keeps its allocations
   f = Eigen::Map<const FloatRows>(values, nd, nc).cast<double>();
   c = Eigen::Map<const FloatRows>(coeffs, nb, nc).cast<double>();
   const double scale = kRobustScaleDegrees * std::numbers::pi / 180.0;

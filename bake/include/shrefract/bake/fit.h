@@ -75,9 +75,9 @@ class HemisphereFit {
   uint32_t directions_ = 0;
   std::vector<float> projectionT_;  // directions_ x basis_, row-major (P transposed)
   std::vector<float> basisAtGrid_; // directions_ x basis_, row-major
-  // RobustLeastSquares only: the grid's solid angles and the penalty's diagonal, lambda (l (l+1))^2.
-  bool robust_ = false;
-  std::vector<double> gridWeights_, penalty_;
+  // RobustLeastSquares only (empty otherwise): basisAtGrid_ in double, column-major, converted once
+  // rather than per sample; the grid's solid angles; the penalty's diagonal, lambda (l (l+1))^2.
+  std::vector<double> robustBasis_, gridWeights_, penalty_;
 
   void reweight(const float* values, uint32_t channels, float* coeffs) const;
 };
