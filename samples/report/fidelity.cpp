@@ -116,18 +116,19 @@ SweepSettings sizeSettings(ReportSize size, Profile& p) {
       w.components = {4};
       break;
     case ReportSize::Default:
-      // The sweep traces 16x32 directions at up to 5000 samples, a sixteenth of the default bake's
-      // paths, to keep the report within minutes on 2 cores; the default field itself is the
-      // default bake (its spatial sampling costs it little: see the decomposition).
+      // The sweep traces 16x32 directions (SH rows: 32x64, below) at up to 5000 samples, a
+      // sixteenth of the default bake's paths, to keep the report within minutes on 2 cores; the
+      // default field itself is the default bake (its spatial sampling costs it little: see the
+      // decomposition).
       p.scenes = {"builtin:sphere", "builtin:cube", "builtin:torus", "builtin:glass-of-water", kBunny};
       w.base = defaultFieldSettings();
       w.sweep.directionsTheta = 16;
       w.sweep.directionsPhi = 32;
       w.sweep.sampleBudget = 5000;
       // SH keeps the default bake's 32x64 directions: 16x32 left order 12 (169 functions, fitted
-      // robustly, which discounts the directions across a jump) under-determined. Its error rose
-      // from order 8 to 12 there (the sphere's f16, default view: 29.07 -> 28.95 dB) and falls on
-      // 32x64 (29.01 -> 29.07); docs/fitting.md, "Robust fit".
+      // robustly, which discounts the directions across a jump) under-determined. Its PSNR fell
+      // from order 8 to 12 there (the sphere's f16, default view: 29.07 -> 28.95 dB) and rises on
+      // 32x64 (29.01 -> 29.07); docs/fitting.md, "The direction grid the fit needs".
       w.shSweep = w.sweep;
       w.shSweep.directionsTheta = BakeSettings{}.directionsTheta;
       w.shSweep.directionsPhi = BakeSettings{}.directionsPhi;
