@@ -85,9 +85,8 @@ namespace {
 struct SweepSettings {
   BakeSettings base;  // the library default: order 8, 32x64 directions, split layout, default budget
   BakeSettings sweep = base;
-  // The SH rows' settings: the sweep's, on the library's default direction grid where the sweep
-  // thins it (below).
-  BakeSettings shSweep = sweep;
+  // The SH rows' direction grid where it differs from the sweep's (0: the sweep's).
+  uint32_t shDirectionsTheta = 0, shDirectionsPhi = 0;
   std::vector<uint32_t> orders, tables, components;
   uint32_t pcaTable = 16;  // the Pca sweep's tables: 16x16 keeps the sweep within minutes (the default field is 64x64)
 };
@@ -109,7 +108,6 @@ SweepSettings sizeSettings(ReportSize size, Profile& p) {
       w.base.directionsPhi = 16;
       w.base.sampleBudget = 300;
       w.sweep = w.base;
-      w.shSweep = w.sweep;
       w.orders = {2};
       w.tables = {4};
       w.pcaTable = 4;
@@ -129,9 +127,8 @@ SweepSettings sizeSettings(ReportSize size, Profile& p) {
       // robustly, which discounts the directions across a jump) under-determined. Its PSNR fell
       // from order 8 to 12 there (the sphere's f16, default view: 29.07 -> 28.95 dB) and rises on
       // 32x64 (29.01 -> 29.07); docs/fitting.md, "The direction grid the fit needs".
-      w.shSweep = w.sweep;
-      w.shSweep.directionsTheta = BakeSettings{}.directionsTheta;
-      w.shSweep.directionsPhi = BakeSettings{}.directionsPhi;
+      w.shDirectionsTheta = BakeSettings{}.directionsTheta;
+      w.shDirectionsPhi = BakeSettings{}.directionsPhi;
       w.orders = {2, 4, 8, 12};
       w.tables = {4, 6, 9, 16};               // N9 in u8: the paper's 324 bytes per sample
       w.components = {8, 32, 81, 324};        // K324 in u8: 324 bytes per sample
@@ -142,7 +139,6 @@ SweepSettings sizeSettings(ReportSize size, Profile& p) {
       p.frames = 10;
       p.scenes = {"builtin:sphere", "builtin:cube", "builtin:torus", "builtin:glass-of-water", kBunny};
       w.base = defaultFieldSettings();
-      w.shSweep = w.sweep;
       w.orders = {2, 4, 8, 12, 16};
       w.tables = {8, 16, 32};
       w.components = {8, 32, 64};
@@ -176,12 +172,16 @@ void addDefaultVariants(Profile& p, const BakeSettings& base, ReportSize size) {
   }
 }
 
-// The encoding sweeps: SH (robust, windowed, least squares, under the other path rule and with throughput),
-// Table, Pca.
+// The encoding sweeps: SH (robust, windowed, least squares, under the other path rule and with
+// throughput), Table, Pca.
 void addSweepVariants(Profile& p, const SweepSettings& w, ReportSize size) {
   const BakeSettings& base = w.base;
   const BakeSettings& sweep = w.sweep;
-  const BakeSettings& shSweep = w.shSweep;
+  BakeSettings shSweep = sweep;
+  if (w.shDirectionsTheta != 0) {
+    shSweep.directionsTheta = w.shDirectionsTheta;
+    shSweep.directionsPhi = w.shDirectionsPhi;
+  }
   for (uint32_t order : w.orders)
     p.variants.push_back({"sh", fmt("L%u", order), withEncoding(shSweep, Encoding::Sh, order, 0, 0)});
   // SH fitted by least squares (`bake --sh-fit least-squares`, the fit before the robust
@@ -223,8 +223,8 @@ Profile profileFor(ReportSize size, uint64_t samples) {
   Profile p;
   SweepSettings w = sizeSettings(size, p);
   w.base.quantization = Quantization::F16;
-  w.sweep.quantization = w.shSweep.quantization = Quantization::F16;
-  if (samples != 0) w.base.sampleBudget = w.sweep.sampleBudget = w.shSweep.sampleBudget = samples;  // report --samples
+  w.sweep.quantization = Quantization::F16;
+  if (samples != 0) w.base.sampleBudget = w.sweep.sampleBudget = samples;  // report --samples
   addDefaultVariants(p, w.base, size);
   addSweepVariants(p, w, size);
   return p;
