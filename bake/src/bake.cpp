@@ -1,4 +1,5 @@
 #include <shrefract/bake/bake.h>
+#include <shrefract/bake/distance_volume.h>
 #include <shrefract/bake/fit.h>
 #include <shrefract/bake/jump_distance.h>
 #include <shrefract/bake/layout.h>
@@ -335,6 +336,7 @@ std::string candidateLabel(const BakeSettings& s) {
     case Encoding::Sh: return "sh order " + std::to_string(s.order) + " " + q;
     case Encoding::Table: return "table " + std::to_string(s.tableSize) + "x" + std::to_string(s.tableSize) + " " + q;
     case Encoding::Pca: return "pca " + std::to_string(s.components) + " components " + q;
+    case Encoding::Volume: return "volume " + std::to_string(s.volumeSize) + "^3";
   }
   return "unknown";
 }
@@ -386,6 +388,11 @@ Result<void> checkEncoding(const BakeSettings& s) {
     return s.directionSampling == DirectionSampling::Grid
                ? Result<void>{}
                : bad("direction sampling 'nodes' needs --encoding table or pca (SH is fitted to a grid)");
+  if (s.encoding == Encoding::Volume)
+    return s.volumeSize >= kMinVolumeSize && s.volumeSize <= kMaxVolumeSize
+               ? Result<void>{}
+               : bad("--volume-size must be " + std::to_string(kMinVolumeSize) + ".." + std::to_string(kMaxVolumeSize) +
+                     ", got " + std::to_string(s.volumeSize));
   if (s.encoding != Encoding::Table && s.encoding != Encoding::Pca) return bad("unknown encoding");
   if (s.tableSize < 2 || s.tableSize > kMaxBakeTableSize)
     return bad("--table-size must be 2.." + std::to_string(kMaxBakeTableSize) + ", got " + std::to_string(s.tableSize));
@@ -1125,10 +1132,16 @@ Result<BakePlan> planBake(const Scene& scene, const BakeOptions& options, bool c
   if (auto ok = checkSettings(settings); !ok) return ok.error();
   if (auto ok = checkEncoding(settings); !ok) return ok.error();
   if (auto ok = validateScene(scene); !ok) return ok.error();
+  if (settings.encoding == Encoding::Volume)
+    if (const std::string problem = volumeSceneProblem(scene); !problem.empty())
+      return makeError(ErrorCode::InvalidArgument, problem);
   if (settings.regularization == 0.0f) settings.regularization = static_cast<float>(kDefaultRegularization);
   if (settings.encoding != Encoding::Sh) settings.order = 0;
   if (settings.encoding != Encoding::Pca) settings.components = settings.clusters = 0;
-  if (settings.encoding == Encoding::Sh) settings.tableSize = 0;
+  if (settings.encoding == Encoding::Sh || settings.encoding == Encoding::Volume) settings.tableSize = 0;
+  // The volume is tried by a Pca bake only; a Volume bake has its size.
+  if (settings.encoding != Encoding::Pca) settings.tryVolume = false;
+  if (settings.encoding != Encoding::Volume && !settings.tryVolume) settings.volumeSize = 0;
   if (settings.threads == 0) settings.threads = std::max(1u, std::thread::hardware_concurrency());
 
   LayoutOptions layoutOptions;
@@ -1450,17 +1463,124 @@ Result<Field> finishBake(const BakePlan& plan, std::vector<BakePart> parts) {
   return field;
 }
 
+// A finished field's decode (evaluateSample at each view sample's first texel, object space)
+// against the traced views: the mean angle with each clipped at kFrameChoiceClipDegrees (the
+// measure the Pca bake chooses its frame and basis by, here on the field as stored), and the RMS
+// and largest angle unclipped.
+struct ViewsError {
+  double clippedMean = 0.0, rms = 0.0, max = 0.0;
+};
+ViewsError fieldViewsError(const Field& field, const SampleAtlas& atlas, const FrameChoiceViews& v, uint32_t threads) {
+  const std::vector<uint64_t> texelOf = firstTexels(atlas);
+  std::vector<double> clipped(v.samples.size()), squares(v.samples.size()), worst(v.samples.size());
+  parallelFor(v.samples.size(), threads, [&](size_t k) {
+    for (uint32_t h = 0; h < kFrameChoiceViews; ++h) {
+      const glm::vec3 w = v.views.directions[k * kFrameChoiceViews + h];
+      float out[kMaxFieldChannels] = {};
+      evaluateSample(field, texelOf[v.samples[k]], {w.x, w.y, w.z}, out);
+      const double a = angleDegrees({out[0], out[1], out[2]}, v.views.exits[k * kFrameChoiceViews + h]);
+      clipped[k] += std::min(a, kFrameChoiceClipDegrees);
+      squares[k] += a * a;
+      worst[k] = std::max(worst[k], a);
+    }
+  });
+  ViewsError e;
+  for (size_t k = 0; k < v.samples.size(); ++k) {  // in sample order: deterministic sums
+    e.clippedMean += clipped[k];
+    e.rms += squares[k];
+    e.max = std::max(e.max, worst[k]);
+  }
+  const double count = double(v.views.directions.size());
+  if (count > 0) {
+    e.clippedMean /= count;
+    e.rms = std::sqrt(e.rms / count);
+  }
+  return e;
+}
+
+// The Volume encoding traces no paths per sample: the layout's frames, the grid, and its check on
+// the traced views (printed as a note, in the measure the Pca bake chooses by).
+Result<Field> bakeVolumeField(const Scene& scene, const BakePlan& plan, BakeSettings settings, uint32_t channels,
+                              Clock::time_point start) {
+  settings.encoding = Encoding::Volume;
+  settings.order = settings.tableSize = settings.components = settings.clusters = 0;
+  settings.shFit = ShFit::LeastSquares;
+  settings.exitFrame = ExitFrame::Object;  // the decode's exits are in object space
+  settings.directionSampling = DirectionSampling::Grid;
+  settings.jumpDistance = false;
+  const uint32_t n = settings.volumeSize;
+  plan.begin("building the " + std::to_string(n) + "x" + std::to_string(n) + "x" + std::to_string(n) +
+             " distance volume");
+  auto volume = buildDistanceVolume(scene, *plan.tracer, n, settings.threads);
+  if (!volume) return volume.error();
+  Field field = fieldLayout(plan, settings, shapeOf(settings, channels), {});
+  field.channels = channels;
+  field.volume = std::move(volume.value());
+  field.media = plan.media;
+  field.settings = settings;
+  plan.begin("checking the volume's paths against traced ones");
+  const FrameChoiceViews views = traceFrameChoiceViews(plan);
+  const ViewsError e = fieldViewsError(field, plan.atlas, views, settings.threads);
+  if (plan.note)
+    plan.note("volume " + std::to_string(n) + "^3: mean angle, clipped at " + std::to_string(int(kFrameChoiceClipDegrees)) +
+              " deg, to " + std::to_string(views.views.directions.size()) + " traced views: " +
+              std::to_string(e.clippedMean) + " deg");
+  BakeStatistics& st = field.statistics;
+  // The encoding has no grid it is fitted to: the fit figures are those of the views.
+  st.heldOutRmsDegrees = st.fitRmsDegrees = static_cast<float>(e.rms);
+  st.heldOutMaxDegrees = st.fitMaxDegrees = static_cast<float>(e.max);
+  st.paths = views.views.directions.size();
+  st.uniqueSamples = plan.atlas.samples.size();
+  for (uint8_t kind : plan.atlas.texelKinds) st.samples += kind == kTexelSample ? 1u : 0u;
+  st.bakeSeconds = st.fitSeconds = secondsSince(start);
+  st.peakMemoryBytes = peakResidentBytes();
+  if (auto valid = validateField(field); !valid)
+    return makeError(ErrorCode::CorruptData, "bake produced an invalid field: " + valid.error().message);
+  return field;
+}
+
+// BakeSettings::tryVolume: the scene's Volume field beside the baked one; the one whose decode is
+// closer to the traced views (fieldViewsError's clipped mean) is kept, and the note says which.
+// The measure ranks the scenes as their images do (docs/encodings.md, "Volume").
+Result<Field> keepVolumeWhereCloser(const Scene& scene, const BakePlan& plan, Field baked, Clock::time_point start) {
+  const uint32_t channels = baked.decodedChannels();  // without a jump distance channel
+  BakeSettings settings = plan.settings;
+  settings.volumeSize = settings.volumeSize ? settings.volumeSize : kDefaultVolumeSize;
+  auto volume = bakeVolumeField(scene, plan, settings, channels, start);
+  if (!volume) return volume.error();
+  const ViewsError a = fieldViewsError(baked, plan.atlas, traceFrameChoiceViews(plan), plan.settings.threads);
+  const ViewsError b = fieldViewsError(volume.value(), plan.atlas, traceFrameChoiceViews(plan), plan.settings.threads);
+  const bool keep = b.clippedMean < a.clippedMean;
+  if (plan.note)
+    plan.note(std::string("encoding: chose ") + (keep ? "volume" : toString(baked.encoding)) +
+              " (mean angle, clipped at " + std::to_string(int(kFrameChoiceClipDegrees)) + " deg, to the traced views: " +
+              std::to_string(a.clippedMean) + " deg with " + toString(baked.encoding) + ", " +
+              std::to_string(b.clippedMean) + " deg with volume " + std::to_string(settings.volumeSize) + "^3)");
+  if (!keep) return baked;
+  return volume;
+}
+
+// finishBake, then the volume tried where the settings ask for it and the scene allows it.
+Result<Field> finishWithVolumeChoice(const Scene& scene, const BakePlan& plan, std::vector<BakePart> parts,
+                                     Clock::time_point start) {
+  auto field = finishBake(plan, std::move(parts));
+  if (!field || !plan.settings.tryVolume || !volumeSceneProblem(scene).empty()) return field;
+  return keepVolumeWhereCloser(scene, plan, std::move(field.value()), start);
+}
+
 }  // namespace
 
 Result<Field> bakeField(const Scene& scene, const BakeOptions& options) {
   const auto start = Clock::now();
   auto plan = planBake(scene, options, true);
   if (!plan) return plan.error();
+  if (plan->settings.encoding == Encoding::Volume)
+    return bakeVolumeField(scene, plan.value(), plan->settings, plan->channels, start);
   auto part = tracePart(plan.value(), options, Shard{}, start);
   if (!part) return part.error();
   std::vector<BakePart> parts;
   parts.push_back(std::move(part.value()));
-  return finishBake(plan.value(), std::move(parts));
+  return finishWithVolumeChoice(scene, plan.value(), std::move(parts), start);
 }
 
 uint64_t shardSampleCount(uint64_t sampleCount, Shard shard) {
@@ -1472,6 +1592,9 @@ Result<BakePart> bakePart(const Scene& scene, const BakeOptions& options, Shard 
   if (shard.count < 1 || shard.count > kMaxShards || shard.index >= shard.count)
     return makeError(ErrorCode::InvalidArgument, "shard " + std::to_string(shard.index) + "/" +
                                                      std::to_string(shard.count) + " is out of range");
+  if (options.settings.encoding == Encoding::Volume)
+    return makeError(ErrorCode::InvalidArgument,
+                     "the volume encoding traces no paths per sample, so it has no shards: bake it in one process");
   auto plan = planBake(scene, options, true);
   if (!plan) return plan.error();
   return tracePart(plan.value(), options, shard, start);
@@ -1498,7 +1621,7 @@ Result<Field> mergeParts(const Scene& scene, std::vector<BakePart> parts,
                      first.name + ": baked from another scene than " + first.settings.source +
                          " is now (its layout or media differ: the scene changed, or the part came from a build "
                          "whose floating point differs, e.g. other compiler flags; trace and merge with one build)");
-  return finishBake(plan.value(), std::move(parts));
+  return finishWithVolumeChoice(scene, plan.value(), std::move(parts), Clock::now());
 }
 
 }  // namespace shrefract::bake

@@ -18,8 +18,8 @@ constexpr char kMagic[8] = {'S', 'H', 'R', 'F', 'P', 'A', 'R', 'T'};
 // 2: the settings name the direction sampling; 3: the jump distance; 4: the frame of the exits;
 // 5: the frames of the polar cap of a curved surface (sample_frame.h frameAt): an older part traced
 // those samples in frames its merge would no longer store; 6: the clusters a Pca bake tries; 7: how
-// an SH bake fits.
-constexpr uint32_t kPartVersion = 7;
+// an SH bake fits; 8: the volume size and whether the merge tries the volume.
+constexpr uint32_t kPartVersion = 8;
 constexpr size_t kHeaderBytes = 8 + 4 + 8 + 8;  // magic, version, payload size, checksum
 
 uint64_t fnv1a(const uint8_t* data, size_t size) {
@@ -120,6 +120,8 @@ void visitSettings(S& s, V& v) {
   v.enumeration("quantization", s.quantization, 1);
   v.f32("regularization", s.regularization);
   v.enumeration("sh fit", s.shFit, 1);
+  v.u32("volume size", s.volumeSize);
+  v.boolean("try volume", s.tryVolume);
   v.f32("max error", s.maxErrorDegrees);
   v.u32("threads", s.threads);
 }

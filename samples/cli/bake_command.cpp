@@ -48,7 +48,12 @@ std::vector<FlagSpec> bakeFlags() {
       {"spatial", true, "spatial smoothing with 0 (default), 3 or 5 neighbours"},
       {"quant", true, "coefficient storage: u8 (default) or f16"},
       {"encoding", true, "hemisphere encoding: pca (default: learned basis, the measured best at 324 bytes per "
-                         "sample), table (hemi-octahedral map) or sh (the paper's; implied by --order and --max-error)"},
+                         "sample), table (hemi-octahedral map), sh (the paper's; implied by --order and --max-error) "
+                         "or volume (no bytes per sample: the object's distance grid, through which the decode traces "
+                         "each sample's path; one medium in air only; docs/encodings.md \"Volume\")"},
+      {"volume-size", true, "volume: voxels per side of the grid (default " + std::to_string(kDefaultVolumeSize) +
+                                "; 4 bytes a voxel)", K::Integer,
+       {double(kMinVolumeSize), double(kMaxVolumeSize)}},
       {"table-size", true,
        "table: nodes per side N (default 9); pca: N of the basis tables (default " +
            std::to_string(bake::kDefaultPcaTableSize) + " traced at the nodes, " +
@@ -117,7 +122,8 @@ Result<std::optional<bake::Shard>> shardFlag(const Args& args, const std::string
 
 // The flags with numeric values, each absent or within its declared range.
 struct NumericFlags {
-  std::optional<int64_t> order, samples, threads, bounces, spatial, heldOut, tableSize, components, clusters;
+  std::optional<int64_t> order, samples, threads, bounces, spatial, heldOut, tableSize, components, clusters,
+      volumeSize;
   std::optional<double> density, reg, maxError, maxBytes;
   std::optional<std::array<uint32_t, 2>> dirs;
 };
@@ -137,6 +143,7 @@ Result<NumericFlags> readNumericFlags(const Args& args) {
   auto components = args.integer("components");
   auto clusters = args.integer("clusters");
   auto maxBytes = args.number("max-bytes-per-sample");
+  auto volumeSize = args.integer("volume-size");
   for (const Error* e :
        {order.ok() ? nullptr : &order.error(), samples.ok() ? nullptr : &samples.error(),
         density.ok() ? nullptr : &density.error(), threads.ok() ? nullptr : &threads.error(),
@@ -144,7 +151,8 @@ Result<NumericFlags> readNumericFlags(const Args& args) {
         reg.ok() ? nullptr : &reg.error(), heldOut.ok() ? nullptr : &heldOut.error(),
         dirs.ok() ? nullptr : &dirs.error(), maxError.ok() ? nullptr : &maxError.error(),
         tableSize.ok() ? nullptr : &tableSize.error(), components.ok() ? nullptr : &components.error(),
-        clusters.ok() ? nullptr : &clusters.error(), maxBytes.ok() ? nullptr : &maxBytes.error()})
+        clusters.ok() ? nullptr : &clusters.error(), maxBytes.ok() ? nullptr : &maxBytes.error(),
+        volumeSize.ok() ? nullptr : &volumeSize.error()})
     if (e) return *e;
   NumericFlags n;
   n.order = order.value();
@@ -161,6 +169,7 @@ Result<NumericFlags> readNumericFlags(const Args& args) {
   n.components = components.value();
   n.clusters = clusters.value();
   n.maxBytes = maxBytes.value();
+  n.volumeSize = volumeSize.value();
   return n;
 }
 
@@ -225,7 +234,17 @@ Result<void> applyEncodingFlag(const Args& args, const NumericFlags& n, BakeSett
   if (encoding == "sh") s.encoding = Encoding::Sh;
   else if (encoding == "table") s.encoding = Encoding::Table;
   else if (encoding == "pca") s.encoding = Encoding::Pca;
-  else return usageError("shrefract bake: --encoding must be sh, table or pca, got '" + encoding + "'");
+  else if (encoding == "volume") s.encoding = Encoding::Volume;
+  else return usageError("shrefract bake: --encoding must be sh, table, pca or volume, got '" + encoding + "'");
+  // The default (no --encoding, no byte budget): Pca, and the volume tried beside it where the scene
+  // allows (BakeSettings::tryVolume).
+  s.tryVolume = !args.get("encoding") && !shImplied && !n.maxBytes;
+  if (n.volumeSize && s.encoding != Encoding::Volume && !s.tryVolume)
+    return usageError("shrefract bake: --volume-size needs --encoding volume (or no --encoding)");
+  s.volumeSize = n.volumeSize ? static_cast<uint32_t>(*n.volumeSize) : kDefaultVolumeSize;
+  if (s.encoding == Encoding::Volume && (n.tableSize || n.components || n.maxBytes))
+    return usageError("shrefract bake: --table-size, --components and --max-bytes-per-sample do not apply to "
+                      "--encoding volume (it stores no bytes per sample)");
   if ((n.tableSize || n.components) && s.encoding == Encoding::Sh && !n.maxBytes)
     return usageError("shrefract bake: --table-size and --components need --encoding table or pca");
   if (n.clusters && s.encoding != Encoding::Pca)
@@ -246,7 +265,7 @@ Result<void> applySamplingFlags(const Args& args, const NumericFlags& n, BakeSet
   // tables of `table` (docs/encodings.md, "Sampling"); asking for a grid size asks for the grid.
   // With --max-bytes-per-sample it is what a chosen Pca field is baked with (SH and Table fields
   // are grid fits whatever this says).
-  const bool tabulated = s.encoding != Encoding::Sh;
+  const bool tabulated = s.encoding == Encoding::Table || s.encoding == Encoding::Pca;
   const bool nodesByDefault = s.encoding == Encoding::Pca && !n.dirs;
   const std::string sampling = args.get("direction-sampling").value_or(nodesByDefault ? "nodes" : "grid");
   if (sampling == "nodes") s.directionSampling = DirectionSampling::Nodes;

@@ -62,6 +62,11 @@ static std::string encodingText(const Field& f) {
       const std::string layers = refined ? format(" (%zu of them u8 refinement layers)", refined) : std::string();
       return format("pca %u components%s over %ux%u tables", f.components, layers.c_str(), f.tableSize, f.tableSize);
     }
+    case Encoding::Volume: {
+      const uint32_t n = f.volume.size;
+      return format("volume %ux%ux%u voxels (spacing %.4g, %s), paths traced through it per eye", n, n, n,
+                    static_cast<double>(f.volume.spacing), bytesText(uint64_t(f.volume.voxels.size()) * 4).c_str());
+    }
   }
   return "unknown encoding";
 }
@@ -79,7 +84,8 @@ std::string fieldSummaryText(const Field& f, uint64_t fileBytes) {
                 f.sampleFrameExits ? "each sample's frame" : "object space");
   out += format("source: %s; %zu media; mesh %zu vertices, %zu triangles\n", s.source.c_str(), f.media.size(),
                 f.mesh.positions.size() / 3, f.mesh.indices.size() / 3);
-  const std::string directions = s.directionSampling == DirectionSampling::Nodes
+  const std::string directions = f.encoding == Encoding::Volume ? std::string("none (traced per eye)")
+                                 : s.directionSampling == DirectionSampling::Nodes
                                      ? format("the %ux%u table nodes", f.tableSize, f.tableSize)
                                      : format("%ux%u grid", s.directionsTheta, s.directionsPhi);
   const std::string fit = f.encoding == Encoding::Sh ? format(", %s fit", toString(s.shFit)) : "";
@@ -94,7 +100,8 @@ std::string fieldSummaryText(const Field& f, uint64_t fileBytes) {
                 bytesText(fileBytes).c_str());
   // At the traced directions: the grid's, or the nodes' (where only the Pca truncation errs).
   out += format("fit error (exit direction): %s RMS %.3f deg, max %.2f deg; held-out RMS %.3f deg, max %.2f deg\n",
-                s.directionSampling == DirectionSampling::Nodes ? "nodes" : "grid", static_cast<double>(st.fitRmsDegrees), static_cast<double>(st.fitMaxDegrees),
+                f.encoding == Encoding::Volume ? "cosine-weighted views"
+                : s.directionSampling == DirectionSampling::Nodes ? "nodes" : "grid", static_cast<double>(st.fitRmsDegrees), static_cast<double>(st.fitMaxDegrees),
                 static_cast<double>(st.heldOutRmsDegrees), static_cast<double>(st.heldOutMaxDegrees));
   out += format("quantization error: RMS %.4f deg, max %.3f deg\n", static_cast<double>(st.quantizationRmsDegrees),
                 static_cast<double>(st.quantizationMaxDegrees));
@@ -120,10 +127,10 @@ std::string fieldSummaryJson(const Field& f, uint64_t fileBytes) {
                 toString(f.quantization), fileBytes);
   out += format("\"encoding\": \"%s\", \"table_size\": %u, \"components\": %u, \"clustered\": %s, \"refinement_layers\": %zu, "
                 "\"throughput\": %s, \"jump_distance\": %s, \"bytes_per_sample\": %u, \"path_rule\": \"%s\", "
-                "\"direction_sampling\": \"%s\", \"exit_frame\": \"%s\", ",
+                "\"direction_sampling\": \"%s\", \"exit_frame\": \"%s\", \"volume_size\": %u, ",
                 toString(f.encoding), f.tableSize, f.components, f.clustered ? "true" : "false", refinementLayers(f), f.throughput ? "true" : "false",
                 f.jumpDistance ? "true" : "false", f.bytesPerSample(), toString(s.pathRule), toString(s.directionSampling),
-                toString(f.sampleFrameExits ? ExitFrame::Sample : ExitFrame::Object));
+                toString(f.sampleFrameExits ? ExitFrame::Sample : ExitFrame::Object), f.volume.size);
   out += format("\"mesh\": {\"vertices\": %zu, \"triangles\": %zu}, \"media\": %s, ", f.mesh.positions.size() / 3,
                 f.mesh.indices.size() / 3, media.c_str());
   out += "\"settings\": {";

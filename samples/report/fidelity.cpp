@@ -76,6 +76,9 @@ BakeSettings defaultFieldSettings() {
   // The tool's default: its fields measure closer to the physical reference than the paper's rule's
   // (docs/encodings.md, "Path rule and throughput, chosen by measurement").
   s.pathRule = PathRule::FirstRefraction;
+  // And, as the tool, the volume tried beside the Pca where the scene is one medium in air.
+  s.tryVolume = true;
+  s.volumeSize = kDefaultVolumeSize;
   return s;
 }
 
@@ -87,7 +90,7 @@ struct SweepSettings {
   BakeSettings sweep = base;
   // The SH rows' direction grid where it differs from the sweep's (0: the sweep's).
   uint32_t shDirectionsTheta = 0, shDirectionsPhi = 0;
-  std::vector<uint32_t> orders, tables, components;
+  std::vector<uint32_t> orders, tables, components, volumes;
   uint32_t pcaTable = 16;  // the Pca sweep's tables: 16x16 keeps the sweep within minutes (the default field is 64x64)
 };
 
@@ -112,6 +115,7 @@ SweepSettings sizeSettings(ReportSize size, Profile& p) {
       w.tables = {4};
       w.pcaTable = 4;
       w.components = {4};
+      w.volumes = {16};
       break;
     case ReportSize::Default:
       // The sweep traces 16x32 directions (SH rows: 32x64, below) at up to 5000 samples, a
@@ -132,6 +136,7 @@ SweepSettings sizeSettings(ReportSize size, Profile& p) {
       w.orders = {2, 4, 8, 12};
       w.tables = {4, 6, 9, 16};               // N9 in u8: the paper's 324 bytes per sample
       w.components = {8, 32, 81, 324};        // K324 in u8: 324 bytes per sample
+      w.volumes = {64, 128, 256};             // 1, 8 and 64 MiB
       break;
     case ReportSize::Full:
       p.width = 640;
@@ -142,6 +147,7 @@ SweepSettings sizeSettings(ReportSize size, Profile& p) {
       w.orders = {2, 4, 8, 12, 16};
       w.tables = {8, 16, 32};
       w.components = {8, 32, 64};
+      w.volumes = {64, 128, 256};
       break;
   }
   return w;
@@ -159,6 +165,7 @@ void addDefaultVariants(Profile& p, const BakeSettings& base, ReportSize size) {
     // The sampling decision, measured: the default field fitted to the 32x64 grid instead.
     // Its tables are those the tool fits to a grid (32x64 directions hold fewer values than 64x64 nodes).
     BakeSettings grid = base;
+    grid.tryVolume = false;  // the Pca's sampling, measured
     grid.directionSampling = DirectionSampling::Grid;
     grid.tableSize = bake::kDefaultGridPcaTableSize;
     p.variants.push_back({"default, grid sampling", fmt("pca K%u N%u %ux%u grid", grid.components, grid.tableSize,
@@ -217,6 +224,14 @@ void addSweepVariants(Profile& p, const SweepSettings& w, ReportSize size) {
     p.variants.push_back({"table", fmt("N%u", n), withEncoding(sweep, Encoding::Table, 0, n, 0)});
   for (uint32_t k : w.components)
     p.variants.push_back({"pca", fmt("K%u", k), withEncoding(sweep, Encoding::Pca, 0, w.pcaTable, k)});
+  // The volume: no bytes per sample, its memory the grid's (4 N^3 bytes), on the default bake's
+  // samples (it traces nothing per sample, so the sweep's budget would only coarsen its atlas).
+  for (uint32_t n : w.volumes) {
+    BakeSettings s = withEncoding(base, Encoding::Volume, 0, 0, 0);
+    s.tryVolume = false;
+    s.volumeSize = n;
+    p.variants.push_back({"volume", fmt("V%u", n), s});
+  }
 }
 
 Profile profileFor(ReportSize size, uint64_t samples) {
@@ -241,6 +256,7 @@ std::string parametersOf(const BakeSettings& s) {
     case Encoding::Sh: return fmt(s.window == SmoothingWindow::None ? "L%u" : "L%u %s", s.order, toString(s.window));
     case Encoding::Table: return fmt("N%u", s.tableSize);
     case Encoding::Pca: return fmt("K%u N%u", s.components, s.tableSize);
+    case Encoding::Volume: return fmt("V%u", s.volumeSize);
   }
   return "?";
 }
@@ -252,6 +268,15 @@ struct BakedPair {
   Result<Field> u8;
 };
 Result<BakedPair> bakePair(const bake::Scene& scene, const bake::BakeOptions& options) {
+  // A Volume field stores nothing per sample to quantize and has no parts: one bake is both.
+  if (options.settings.encoding == Encoding::Volume) {
+    auto field = bake::bakeField(scene, options);
+    if (!field) return field.error();
+    Result<Field> u8 = field.value();
+    u8.value().quantization = u8.value().settings.quantization = Quantization::U8;
+    field.value().quantization = field.value().settings.quantization = Quantization::F16;
+    return BakedPair{std::move(field.value()), std::move(u8)};
+  }
   auto part = bake::bakePart(scene, options, bake::Shard{});
   if (!part) return part.error();
   bake::BakePart u8Part = part.value();

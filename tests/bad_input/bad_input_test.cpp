@@ -439,6 +439,17 @@ std::vector<Case> cases() {
                "out.shrf"});
   c.push_back({"SH fit with another encoding", with({"--encoding", "pca", "--sh-fit", "robust"}), none,
                {"--sh-fit", "--encoding sh"}, "out.shrf"});
+  c.push_back({"volume size out of range", with({"--encoding", "volume", "--volume-size", "4"}), none,
+               {"--volume-size"}, "out.shrf", false, 2});
+  c.push_back({"volume size with another encoding", with({"--encoding", "pca", "--volume-size", "64"}), none,
+               {"--volume-size", "--encoding volume"}, "out.shrf", false, 2});
+  c.push_back({"volume with a component count", with({"--encoding", "volume", "--components", "8"}), none,
+               {"--components", "--encoding volume"}, "out.shrf", false, 2});
+  c.push_back({"volume of nested media", {"bake", "builtin:glass-of-water", "-o", "out.shrf", "--encoding", "volume"},
+               none, {"builtin:glass-of-water", "volume encoding", "3 media"}, "out.shrf", false, 1});
+  c.push_back({"volume in shards",
+               {"bake", "builtin:sphere", "-o", "out.shrfpart", "--encoding", "volume", "--shard", "0/2"}, none,
+               {"volume encoding", "one process"}, "out.shrfpart", false, 1});
 
   // Scenes given to render, cameras (issue 14).
   const std::vector<std::string> sphere{"render", "builtin:sphere", "--tessellation", "1", "--size", "16x12",

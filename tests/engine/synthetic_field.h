@@ -57,6 +57,10 @@ struct SyntheticFieldOptions {
   // pseudo-random vector of components up to this (per texel, from the seed): there neighbouring
   // texels disagree as a chaotic field's do, and they meet smooth texels along many edges.
   float texelScatter = 0.0f;
+  // Volume: voxels per side of the grid, the sphere of `radius` at `center` (syntheticSphereVolume),
+  // and the rule its trace follows.
+  uint32_t volumeSize = 32;
+  PathRule pathRule = PathRule::HighestEnergy;
   uint32_t seed = 1;
   float radius = 1.0f;
   std::array<float, 3> center{0.0f, 0.0f, 0.0f};
@@ -274,13 +278,36 @@ inline std::vector<float> clusteredCoefficients(const SyntheticFieldOptions& o, 
   return index;
 }
 
+// A Volume field's grid for the sphere the band lies on: exact distances (in voxels, clamped to the
+// band) and outward normals at the voxel centres, the sphere's box plus 2 voxels on every side.
+inline FieldVolume syntheticSphereVolume(const SyntheticFieldOptions& o) {
+  FieldVolume v;
+  v.size = o.volumeSize;
+  v.spacing = 2.0f * o.radius / float(o.volumeSize - 5);
+  for (int k = 0; k < 3; ++k) v.origin[size_t(k)] = o.center[size_t(k)] - 0.5f * float(o.volumeSize - 1) * v.spacing;
+  const uint32_t n = o.volumeSize;
+  v.voxels.resize(size_t(n) * n * n);
+  for (uint32_t z = 0; z < n; ++z)
+    for (uint32_t y = 0; y < n; ++y)
+      for (uint32_t x = 0; x < n; ++x) {
+        const float p[3] = {v.origin[0] + v.spacing * float(x) - o.center[0],
+                            v.origin[1] + v.spacing * float(y) - o.center[1],
+                            v.origin[2] + v.spacing * float(z) - o.center[2]};
+        const float r = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+        const std::array<float, 3> normal = r > 0.0f ? std::array<float, 3>{p[0] / r, p[1] / r, p[2] / r}
+                                                     : std::array<float, 3>{0.0f, 0.0f, 1.0f};
+        v.voxels[(size_t(z) * n + y) * n + x] = packVolumeVoxel((r - o.radius) / v.spacing, normal);
+      }
+  return v;
+}
+
 inline Field makeSyntheticField(const SyntheticFieldOptions& o) {
   Field f;
   f.width = o.width;
   f.height = o.height;
   f.encoding = o.encoding;
   f.order = o.encoding == Encoding::Sh ? o.order : 0;
-  f.tableSize = o.encoding == Encoding::Sh ? 0 : o.tableSize;
+  f.tableSize = o.encoding == Encoding::Sh || o.encoding == Encoding::Volume ? 0 : o.tableSize;
   f.components = o.encoding == Encoding::Pca ? o.components : 0;
   f.channels = o.channels;
   f.throughput = o.throughput;
@@ -292,6 +319,7 @@ inline Field makeSyntheticField(const SyntheticFieldOptions& o) {
   f.settings.throughput = f.throughput;
   f.settings.quantization = o.quantization;
   f.settings.source = "synthetic";
+  f.settings.pathRule = o.pathRule;
   f.sampleFrameExits = o.sampleFrameExits;
   f.settings.exitFrame = o.sampleFrameExits ? ExitFrame::Sample : ExitFrame::Object;
   if (o.nodeSampled) f.settings.directionSampling = DirectionSampling::Nodes;
@@ -351,12 +379,17 @@ inline Field makeSyntheticField(const SyntheticFieldOptions& o) {
                                     (y - 2) * o.width + x - 1});
   }
 
-  std::vector<float> coefficients = o.encoding == Encoding::Sh      ? syntheticShCoefficients(o, f, directions)
-                                    : o.encoding == Encoding::Table ? syntheticTableCoefficients(o, f, directions)
-                                                                    : syntheticPcaCoefficients(o, f, directions);
-  if (o.jumpDistance) coefficients = withJumpDistance(o, f, coefficients);
-  if (o.clustered) coefficients = clusteredCoefficients(o, f, coefficients, directions);
-  (void)encodeCoefficients(f, coefficients);
+  if (o.encoding == Encoding::Volume) {
+    f.volume = syntheticSphereVolume(o);
+    f.settings.volumeSize = o.volumeSize;
+  } else {
+    std::vector<float> coefficients = o.encoding == Encoding::Sh      ? syntheticShCoefficients(o, f, directions)
+                                      : o.encoding == Encoding::Table ? syntheticTableCoefficients(o, f, directions)
+                                                                      : syntheticPcaCoefficients(o, f, directions);
+    if (o.jumpDistance) coefficients = withJumpDistance(o, f, coefficients);
+    if (o.clustered) coefficients = clusteredCoefficients(o, f, coefficients, directions);
+    (void)encodeCoefficients(f, coefficients);
+  }
 
   // Render mesh: the band as (segments) x (segments / 2) quads, atlas coordinates at the corners.
   const uint32_t nu = o.meshSegments, nv = std::max(1u, o.meshSegments / 2);

@@ -295,6 +295,9 @@ TEST_P(FieldFormat, HeaderMatchesTheSpec) {
                                                                                // clustered, no indices, the
                                                                                // clusters asked for, no binary16
                                                                                // tables, the SH fit
+                            (4 + 12 + 4 + 8 + 4 + 4) +  // no volume: size 0, origin, spacing, no voxels,
+                                                        // the size asked, not tried
+
                             4;
   EXPECT_EQ(b.size(), expected);
   // Sections in their fixed order, ending exactly at the checksum.
@@ -990,6 +993,95 @@ INSTANTIATE_TEST_SUITE_P(Encodings, FieldEncodings,
                                   (p.param.clustered ? "_clustered" : "");
                          });
 
+// ---------------------------------------------------------------------------------------------
+// Version 8: the Volume encoding (a grid at the end of ENCD, no coefficients).
+
+// makeField's atlas as a Volume field over an 8^3 grid of varied distance levels and normals.
+Field makeVolumeField(Quantization q, bool throughput) {
+  Field f = makeField({4, q});
+  f.encoding = f.settings.encoding = Encoding::Volume;
+  f.order = f.settings.order = 0;
+  f.throughput = f.settings.throughput = throughput;
+  f.channels = throughput ? 5 : 4;
+  f.coefficientsU8.clear();
+  f.coefficientsF16.clear();
+  f.scale.clear();
+  f.bias.clear();
+  f.settings.pathRule = PathRule::FirstRefraction;
+  f.settings.tryVolume = q == Quantization::F16;  // chosen by a default bake, or asked for
+  FieldVolume& v = f.volume;
+  v.size = f.settings.volumeSize = 8;
+  v.origin = {-1.25f, -0.5f, 0.75f};
+  v.spacing = 0.375f;
+  for (uint32_t i = 0; i < 8 * 8 * 8; ++i)
+    v.voxels.push_back(packVolumeVoxel(4.0f * std::sin(0.7f * float(i)),
+                                       {std::cos(0.3f * float(i)), std::sin(0.3f * float(i)), 0.5f}));
+  return f;
+}
+
+TEST(FieldVolume, RoundTripIsExactAndEveryTruncationIsRejected) {
+  for (Quantization q : {Quantization::U8, Quantization::F16})
+    for (bool throughput : {false, true}) {
+      const Field f = makeVolumeField(q, throughput);
+      ASSERT_TRUE(validateField(f).ok()) << validateField(f).error().message;
+      EXPECT_EQ(f.bytesPerSample(), 0u);
+      const std::vector<uint8_t> bytes = serializeField(f);
+      const Result<Field> parsed = parse(bytes, "volume.shrf");
+      ASSERT_TRUE(parsed.ok()) << parsed.error().message;
+      const Field& g = parsed.value();
+      expectSameField(f, g);
+      EXPECT_EQ(g.encoding, Encoding::Volume);
+      EXPECT_EQ(g.volume.size, 8u);
+      EXPECT_EQ(g.settings.volumeSize, 8u);
+      EXPECT_EQ(g.settings.tryVolume, f.settings.tryVolume);
+      EXPECT_EQ(bits(std::vector<float>(g.volume.origin.begin(), g.volume.origin.end())),
+                bits(std::vector<float>(f.volume.origin.begin(), f.volume.origin.end())));
+      EXPECT_EQ(bits(std::vector<float>{g.volume.spacing}), bits(std::vector<float>{f.volume.spacing}));
+      EXPECT_EQ(g.volume.voxels, f.volume.voxels);
+      EXPECT_EQ(serializeField(g), bytes);
+      for (size_t size = 0; size < bytes.size(); ++size) {
+        const std::vector<uint8_t> cut(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(size));
+        ASSERT_FALSE(parse(cut, "cut.shrf").ok()) << "a volume file cut to " << size << " of " << bytes.size()
+                                                  << " bytes was accepted";
+      }
+    }
+}
+
+// What the trace reads is bounded: a grid of the right size, within the band, finite and
+// not degenerate, two media, a bounded bounce cap; and only a Volume field has a grid.
+TEST(FieldVolume, BrokenVolumesAreRejected) {
+  const std::vector<std::pair<std::string, std::function<void(Field&)>>> cases = {
+      {"volume size 4", [](Field& f) { f.volume.size = f.settings.volumeSize = 4; }},
+      {"volume has 511 voxels", [](Field& f) { f.volume.voxels.pop_back(); }},
+      {"distance level 4095", [](Field& f) { f.volume.voxels[7] |= 0xfffu; }},
+      {"volume spacing", [](Field& f) { f.volume.spacing = 0.0f; }},
+      {"volume spacing", [](Field& f) { f.volume.spacing = std::numeric_limits<float>::quiet_NaN(); }},
+      {"volume spacing", [](Field& f) { f.volume.spacing = 1e-30f; }},
+      {"volume origin", [](Field& f) { f.volume.origin[1] = std::numeric_limits<float>::infinity(); }},
+      {"3 media", [](Field& f) { f.media.push_back(f.media[1]); }},
+      {"maxBounces 2000", [](Field& f) { f.settings.maxBounces = 2000; }},
+      {"settings.volumeSize 16", [](Field& f) { f.settings.volumeSize = 16; }},
+      {"a volume field has", [](Field& f) { f.tableSize = f.settings.tableSize = 3; }},
+  };
+  // Only a Pca bake tries the volume: an SH field that says it did is refused.
+  Field tried = makeField({4, Quantization::U8});
+  tried.settings.tryVolume = true;
+  ASSERT_FALSE(validateField(tried).ok());
+  EXPECT_TRUE(contains(validateField(tried).error().message, "tryVolume")) << validateField(tried).error().message;
+  for (const auto& [what, breakIt] : cases) {
+    Field f = makeVolumeField(Quantization::U8, false);
+    breakIt(f);
+    const Result<void> r = validateField(f);
+    ASSERT_FALSE(r.ok()) << what;
+    EXPECT_TRUE(contains(r.error().message, what)) << what << ": " << r.error().message;
+  }
+  Field sh = makeField({4, Quantization::U8});
+  sh.volume = makeVolumeField(Quantization::U8, false).volume;
+  const Result<void> r = validateField(sh);
+  ASSERT_FALSE(r.ok());
+  EXPECT_TRUE(contains(r.error().message, "has a volume grid")) << r.error().message;
+}
+
 TEST(FieldClustered, BrokenIndicesAreRejected) {
   const auto emptyTexel = [](const Field& f) {
     return uint64_t(std::find(f.texelKinds.begin(), f.texelKinds.end(), kTexelEmpty) - f.texelKinds.begin());
@@ -1102,6 +1194,9 @@ std::vector<uint8_t> withShorterEncoding(const Field& f, uint64_t bytes, uint32_
 constexpr uint64_t kClusteredBytes = 4 + 8 + 4 + 8;
 // What version 7 appends after them: how an SH field was fitted.
 constexpr uint64_t kShFitBytes = 4;
+// What version 8 appends after it for a field that is not a Volume field: the grid's size, origin
+// and spacing, an empty array of voxels, the size asked for and whether the volume was tried.
+constexpr uint64_t kVolumeBytes = 4 + 12 + 4 + 8 + 4 + 4;
 
 // A clustered field's tables are binary16 at the end of ENCD and its f32 basis is empty; a file
 // that says clustered beside an f32 basis is refused, and so is a non-clustered one's flag set.
@@ -1115,7 +1210,7 @@ TEST(FieldClustered, TablesAreBinary16AtTheEndOfTheEncoding) {
   EXPECT_EQ(getU64(a, encdA - 8) + 2 * clustered.basis.size(),
             getU64(b, encdB - 8) + 2 * clustered.texelCount());  // a's indices, b's wider basis
   std::vector<uint8_t> flagged = b;
-  const size_t flag = encdB + getU64(b, encdB - 8) - kClusteredBytes - kShFitBytes;  // version 6's first value
+  const size_t flag = encdB + getU64(b, encdB - 8) - kClusteredBytes - kShFitBytes - kVolumeBytes;  // version 6's first value
   ASSERT_EQ(getU32(flagged, flag), 0u);
   putU32(flagged, flag, 1);
   resign(flagged);
@@ -1130,7 +1225,7 @@ TEST(FieldVersion6, StillReadAsLeastSquares) {
   Field f = makeField({4, Quantization::U8});
   ASSERT_EQ(f.encoding, Encoding::Sh);
   f.settings.shFit = ShFit::Robust;
-  std::vector<uint8_t> b = withShorterEncoding(f, kShFitBytes, 6);
+  std::vector<uint8_t> b = withShorterEncoding(f, kShFitBytes + kVolumeBytes, 6);
   const Result<Field> r = parse(b, "v6.shrf");
   ASSERT_TRUE(r.ok()) << r.error().message;
   EXPECT_EQ(r.value().settings.shFit, ShFit::LeastSquares);
@@ -1151,11 +1246,25 @@ TEST(FieldVersion6, StillReadAsLeastSquares) {
   EXPECT_TRUE(contains(unknown.error().message, "settings.shFit 2")) << unknown.error().message;
 }
 
+// A version 7 file is version 8 without the volume at the end of ENCD; it reads as a field without
+// one, and the same bytes labelled version 8 are short by it.
+TEST(FieldVersion7, StillReadWithoutAVolume) {
+  const Field f = makeField({4, Quantization::U8});
+  std::vector<uint8_t> b = withShorterEncoding(f, kVolumeBytes, 7);
+  const Result<Field> r = parse(b, "v7.shrf");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  expectSameField(f, r.value());
+  EXPECT_EQ(r.value().volume.size, 0u);
+  putU32(b, 4, 8);
+  resign(b);
+  EXPECT_FALSE(parse(b, "v7.shrf").ok());
+}
+
 TEST(FieldVersion5, StillReadUnclustered) {
   // A version 5 file is version 6 without the clustered flag and the indices at the end of ENCD.
   Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false, true, true);
   f.settings.shFit = ShFit::LeastSquares;  // what a file before version 7 reads as
-  std::vector<uint8_t> b = withShorterEncoding(f, kClusteredBytes + kShFitBytes, 5);
+  std::vector<uint8_t> b = withShorterEncoding(f, kClusteredBytes + kShFitBytes + kVolumeBytes, 5);
   const Result<Field> r = parse(b, "v5.shrf");
   ASSERT_TRUE(r.ok()) << r.error().message;
   expectSameField(f, r.value());
@@ -1172,7 +1281,7 @@ TEST(FieldVersion4, StillReadWithObjectSpaceExits) {
   // A version 4 file is version 5 without the exit frame at the end of ENCD.
   Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false, true, true);
   f.settings.shFit = ShFit::LeastSquares;  // what a file before version 7 reads as
-  std::vector<uint8_t> b = withShorterEncoding(f, 4 + kClusteredBytes + kShFitBytes, 4);
+  std::vector<uint8_t> b = withShorterEncoding(f, 4 + kClusteredBytes + kShFitBytes + kVolumeBytes, 4);
   const Result<Field> r = parse(b, "v4.shrf");
   ASSERT_TRUE(r.ok()) << r.error().message;
   expectSameField(f, r.value());
@@ -1189,7 +1298,7 @@ TEST(FieldVersion3, StillReadWithoutJumpDistance) {
   // A version 3 file is version 5 without the jump distance and exit frame at the end of ENCD.
   Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false);
   f.settings.shFit = ShFit::LeastSquares;  // what a file before version 7 reads as
-  std::vector<uint8_t> b = withShorterEncoding(f, 8 + kClusteredBytes + kShFitBytes, 3);
+  std::vector<uint8_t> b = withShorterEncoding(f, 8 + kClusteredBytes + kShFitBytes + kVolumeBytes, 3);
   const Result<Field> r = parse(b, "v3.shrf");
   ASSERT_TRUE(r.ok()) << r.error().message;
   expectSameField(f, r.value());
@@ -1233,7 +1342,7 @@ TEST(FieldVersion2, StillReadWithGridSampling) {
   // A version 2 file is version 3 without the direction sampling at the end of ENCD (and version 5
   // without the jump distance and exit frame after it).
   const Field f = makeEncodedField(Encoding::Table, Quantization::U8, false);
-  std::vector<uint8_t> b = withShorterEncoding(f, 12 + kClusteredBytes + kShFitBytes, 2);
+  std::vector<uint8_t> b = withShorterEncoding(f, 12 + kClusteredBytes + kShFitBytes + kVolumeBytes, 2);
   const Result<Field> r = parse(b, "v2.shrf");
   ASSERT_TRUE(r.ok()) << r.error().message;
   EXPECT_EQ(r.value().settings.directionSampling, DirectionSampling::Grid);

@@ -44,8 +44,11 @@ void checkParsed(const uint8_t* data, size_t size) {
   if (!reparsed) finding("a parsed field does not parse after serializeField");
   if (shrefract::serializeField(reparsed.value()) != again) finding("serialize -> parse -> serialize differs");
 
-  // Decode every texel (bounded: the work is texels x basis functions) from a few eyes.
-  const uint64_t work = field.texelCount() * field.basisCount();
+  // Decode every texel (bounded: the work is texels x basis functions, or for a Volume field its
+  // trace's interfaces, each marched in at most kVolumeMaxSteps steps) from a few eyes.
+  const uint64_t work = field.encoding == shrefract::Encoding::Volume
+                            ? field.texelCount() * (uint64_t(field.settings.maxBounces) + 1) * 256
+                            : field.texelCount() * field.basisCount();
   if (work > (uint64_t(1) << 20)) return;
   std::vector<shrefract::reference::Vec3> eyes = {{0.0f, 0.0f, 5.0f}, {0.0f, 0.0f, -5.0f}, {3e4f, -2e4f, 1e4f}};
   for (uint64_t t = 0; t < field.texelCount(); ++t) {

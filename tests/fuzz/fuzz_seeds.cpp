@@ -147,6 +147,20 @@ int main(int argc, char** argv) {
     const std::vector<uint8_t> clustered = shrefract::serializeField(shrefract::testing::makeSyntheticField(o));
     ok = write(fieldDir + "/field" + std::to_string(n++) + ".bin", std::string(clustered.begin(), clustered.end())) && ok;
   }
+  // Version 8: a Volume field (a grid of the band's sphere, no coefficients).
+  {
+    shrefract::testing::SyntheticFieldOptions o;
+    o.width = 4;
+    o.height = 3;
+    o.encoding = shrefract::Encoding::Volume;
+    o.volumeSize = 8;
+    o.emptyAndGutters = true;
+    o.meshSegments = 2;
+    shrefract::Field volume = shrefract::testing::makeSyntheticField(o);
+    volume.settings.maxBounces = 4;
+    const std::vector<uint8_t> bytes = shrefract::serializeField(volume);
+    ok = write(fieldDir + "/field" + std::to_string(n++) + ".bin", std::string(bytes.begin(), bytes.end())) && ok;
+  }
   size_t binSize = 0;
   std::string bin;
   ok = write(gltfDir + "/nested.gltf", gltfJson(true, &binSize, &bin)) && ok;

@@ -34,7 +34,7 @@ namespace shrefract {
 // 1: SH only, no throughput; 2: adds ENCD; 3: adds the direction sampling; 4: adds the jump
 // distance channel; 5: adds exits stored in the sample's frame; 6: adds clustered Pca fields, one
 // function index per sample; 7: adds how an SH field was fitted (1 to 6 still read).
-inline constexpr uint32_t kFieldFormatVersion = 7;
+inline constexpr uint32_t kFieldFormatVersion = 8;
 
 // Largest magnitude of a decoded coefficient (validateField, encodeCoefficients). With at most
 // 1089 basis functions (order 32) the sum of |Y_i| is at most 1089 / sqrt(4 pi) = 307, so every
@@ -59,7 +59,10 @@ enum class Quantization : uint32_t {
 enum class SmoothingWindow : uint32_t { None = 0, Hann = 1, Lanczos = 2 };
 
 // How the hemisphere functions of a sample are stored (see the top of this file).
-enum class Encoding : uint32_t { Sh = 0, Table = 1, Pca = 2 };
+// Sh, Table and Pca store each sample's exits as a function of the view direction. Volume stores
+// none: the object's signed distance and normals on a voxel grid, shared by every sample, through
+// which the decompression traces each sample's path for the eye (docs/encodings.md, "Volume").
+enum class Encoding : uint32_t { Sh = 0, Table = 1, Pca = 2, Volume = 3 };
 
 // Which view directions the bake traces for each sample (docs/encodings.md, "Sampling").
 enum class DirectionSampling : uint32_t {
@@ -137,6 +140,32 @@ struct JumpCosines {
 };
 JumpCosines jumpCosines(uint32_t n);
 
+// Voxels per side of a Volume field's grid: 8 to 256 (256^3 words are 64 MiB, half of lavapipe's
+// maxStorageBufferRange), and the default of the tool (the bunny's exits at 128^3 render within
+// 0.8 dB of exact paths at its sample texels, docs/encodings.md "Volume").
+inline constexpr uint32_t kMinVolumeSize = 8;
+inline constexpr uint32_t kMaxVolumeSize = 256;
+inline constexpr uint32_t kDefaultVolumeSize = 128;
+
+// A Volume field's grid: N^3 voxels, voxel (i, j, k) centred at origin + (i, j, k) * spacing
+// (object space), index (k * N + j) * N + i. Each voxel is one 32-bit word (packVolumeVoxel): bits
+// 0..11 the signed distance from its centre to the object's surface in voxels (negative inside the
+// medium; 4095 levels over +-kVolumeBandVoxels, 0 exact; beyond the band the band's end with its
+// sign), bits 12..21 and 22..31 the unit normal of the nearest surface point, octahedral (1023
+// levels over [-1, 1] a coordinate, 0 and +-1 exact; gpu_layout.h kVolumeDistanceZero and
+// kVolumeNormalZero). Decoded by trilinear interpolation of the 8 voxels around a point (the
+// distance; the normals of the corners that face the nearest one's way, then normalized).
+// Mirrored by decompress_volume.comp.
+inline constexpr float kVolumeBandVoxels = 4.0f;  // gpu_layout.h kVolumeBandVoxels
+// The bounce cap (BakeSettings::maxBounces) a Volume field may ask its decode to trace.
+inline constexpr uint32_t kMaxVolumeBounces = 1024;
+struct FieldVolume {
+  uint32_t size = 0;  // N; 0 for the other encodings
+  std::array<float, 3> origin{0.0f, 0.0f, 0.0f};
+  float spacing = 0.0f;
+  std::vector<uint32_t> voxels;  // N^3 words
+};
+
 struct FieldMedium {
   std::string name;
   float ior = 1.0f;
@@ -182,6 +211,11 @@ struct BakeSettings {
   ShFit shFit = ShFit::Robust;       // SH: how the expansion is fitted; other encodings store LeastSquares
   float maxErrorDegrees = 0.0f;      // > 0: order and directions were chosen to meet this error
   uint32_t threads = 0;              // informational: does not change the data
+  uint32_t volumeSize = 0;           // Volume: voxels per side N; 0 otherwise
+  // Pca (the tool's default encoding): where the scene is one medium in air, the bake also builds
+  // the Volume encoding (volumeSize, or kDefaultVolumeSize when 0) and keeps whichever field decodes
+  // closer to traced views; a field so chosen records it (a Pca or Volume field).
+  bool tryVolume = false;
 };
 
 // Timing fields (seconds, rays per second, memory) vary from run to run; everything else is
@@ -250,9 +284,11 @@ struct EncodingShape {
   // whole (its cluster's mean table; docs/encodings.md "Clusters"), in place of K weights.
   bool clustered = false;
   uint32_t decodedChannels() const { return channels - (jumpDistance ? 1u : 0u); }
-  // Layers (coefficients per sample and stored value): Sh (L+1)^2, Table N^2, Pca K (clustered: 1).
+  // Layers (coefficients per sample and stored value): Sh (L+1)^2, Table N^2, Pca K (clustered: 1),
+  // Volume none.
   uint32_t layerCount() const {
-    return encoding == Encoding::Sh      ? (order + 1) * (order + 1)
+    return encoding == Encoding::Volume  ? 0u
+           : encoding == Encoding::Sh    ? (order + 1) * (order + 1)
            : encoding == Encoding::Table ? tableSize * tableSize
            : clustered                   ? 1u
                                          : components;
@@ -294,6 +330,8 @@ struct Field {
   // (k * tableSize^2 + n) * channels + c (clustered: each a binary16 value, as stored). Empty for
   // the other encodings.
   std::vector<float> basis;
+  // Volume: the grid every sample's path is traced through (empty for the other encodings).
+  FieldVolume volume;
 
   std::vector<float> frames;        // width * height * 12: rows of M_s (zero for empty texels)
   std::vector<uint8_t> texelKinds;  // width * height: kTexelEmpty, kTexelSample, kTexelGutter
@@ -349,6 +387,26 @@ inline constexpr uint32_t kMaxEncodedChannels = kMaxFieldChannels + 1;
 void evaluateCoefficients(const EncodingShape& shape, const float* coefficients, const float* basis,
                           const std::array<float, 3>& localDirection, float* out, const float* frameRows = nullptr,
                           float* eyeJump = nullptr);
+
+// A Volume field's voxel word (FieldVolume) from a signed distance in voxels (clamped to
+// +-kVolumeBandVoxels, rounded to its level) and a unit normal (octahedral, 10 bits a coordinate),
+// and the unit normal back from a word.
+uint32_t packVolumeVoxel(float distanceVoxels, const std::array<float, 3>& normal);
+std::array<float, 3> unpackVolumeNormal(uint32_t word);
+// The grid's signed distance at an object-space point, in object units (trilinear, clamped to the grid).
+float volumeDistance(const FieldVolume& volume, const std::array<float, 3>& objectPoint);
+
+// A Volume field's path for one sample (the decode of the Volume encoding): the view direction w in
+// the sample's frame (as evaluateSample takes it; z clamped to >= 0) arrives at the sample's point
+// and normal (from its frame's rows `frameRows`), refracts into media[1] and is traced through the
+// grid under the field's path rule and bounce cap: marched along the trilinear distance until it
+// turns positive, the crossing bisected, the interface's normal the trilinear normal there
+// (docs/encodings.md, "Volume"). out[0..2]: the exit direction in object space (unit; a path still
+// inside after maxBounces interfaces, or that leaves the grid without a crossing, leaves along its
+// direction of travel), then the optical depth (path length inside times media[1]'s absorption)
+// where the field has one, then the throughput (the Fresnel factors after the entry) where it has
+// one. Mirrored by decompress_volume.comp. Preconditions: validateField(field), a Volume field.
+void traceVolumeSample(const Field& field, const float* frameRows, const std::array<float, 3>& w, float* out);
 
 // One sample's dequantized coefficients (texel of kind kTexelSample), as evaluateCoefficients reads
 // them: out[layer * valuesPerLayer() + value], layerCount() * valuesPerLayer() floats. A caller that

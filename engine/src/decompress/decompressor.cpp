@@ -49,6 +49,7 @@ struct DecompressorImpl {
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkShaderModule shModule = VK_NULL_HANDLE;     // decompress.comp
   VkShaderModule tableModule = VK_NULL_HANDLE;  // decompress_table.comp (Table and Pca)
+  VkShaderModule volumeModule = VK_NULL_HANDLE;  // decompress_volume.comp
   VkPipeline gutter = VK_NULL_HANDLE;
   std::map<DecompressVariant, VkPipeline> byVariant;
   bool skipUnchanged = true;
@@ -60,7 +61,7 @@ struct DecompressorImpl {
     for (auto& [key, p] : byVariant) c.vk.vkDestroyPipeline(c.device(), p, c.alloc());
     byVariant.clear();
     if (gutter) c.vk.vkDestroyPipeline(c.device(), gutter, c.alloc());
-    for (VkShaderModule m : {shModule, tableModule})
+    for (VkShaderModule m : {shModule, tableModule, volumeModule})
       if (m) c.vk.vkDestroyShaderModule(c.device(), m, c.alloc());
     if (layout) c.vk.vkDestroyPipelineLayout(c.device(), layout, c.alloc());
     if (setLayout) c.vk.vkDestroyDescriptorSetLayout(c.device(), setLayout, c.alloc());
@@ -136,6 +137,9 @@ Result<std::unique_ptr<Decompressor>> Decompressor::create(Context& context) {
   auto tableModule = c.createShaderModule(kSpirv_decompress_table_comp, sizeof(kSpirv_decompress_table_comp));
   if (!tableModule) return tableModule.error();
   impl->tableModule = tableModule.value();
+  auto volumeModule = c.createShaderModule(kSpirv_decompress_volume_comp, sizeof(kSpirv_decompress_volume_comp));
+  if (!volumeModule) return volumeModule.error();
+  impl->volumeModule = volumeModule.value();
   auto gutterModule = c.createShaderModule(kSpirv_gutter_comp, sizeof(kSpirv_gutter_comp));
   if (!gutterModule) return gutterModule.error();
   auto gutter = impl->createPipeline(gutterModule.value(), nullptr);
@@ -178,7 +182,10 @@ Result<VkPipeline> DecompressorImpl::variant(const DecompressVariant& v) {
   for (uint32_t i = 0; i < entries.size(); ++i) entries[i] = {ids[i], i * uint32_t(sizeof(uint32_t)), sizeof(uint32_t)};
   const VkSpecializationInfo specialization{static_cast<uint32_t>(entries.size()), entries.data(), sizeof(values),
                                             values.data()};
-  auto pipeline = createPipeline(v.encoding == Encoding::Sh ? shModule : tableModule, &specialization);
+  const VkShaderModule module = v.encoding == Encoding::Sh       ? shModule
+                                : v.encoding == Encoding::Volume ? volumeModule
+                                                                 : tableModule;
+  auto pipeline = createPipeline(module, &specialization);
   if (!pipeline) return pipeline.error();
   byVariant[v] = pipeline.value();
   return pipeline.value();
@@ -284,7 +291,7 @@ void recordDecodeDispatches(DecompressorImpl& d, VkCommandBuffer cmd, const Fiel
     c.vk.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, d.layout, 0, 1, &f->decompressSet, 0, nullptr);
     push.size = {f->width, f->height, f->gutterCount, f->sampleCount};
     c.vk.vkCmdPushConstants(cmd, d.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-    // Sh: one invocation per 4 samples; Table, Pca: one per sample (gpu_layout.h).
+    // Sh: one invocation per 4 samples; Table, Pca, Volume: one per sample (gpu_layout.h).
     const uint32_t perInvocation = f->encoding == Encoding::Sh ? gpu::kDecompressSamplesPerInvocation : 1;
     const uint32_t invocations = (f->sampleCount + perInvocation - 1) / perInvocation;
     dispatchGrid(c, cmd, (invocations + gpu::kDecompressLocalSize - 1) / gpu::kDecompressLocalSize);

@@ -214,6 +214,8 @@ void evaluateStored(const EncodingShape& shape, const float* a, const float* bas
   const uint32_t channels = shape.channels;  // encoded; Sh and Table fields without a jump distance decode all
   std::fill(out, out + shape.decodedChannels(), 0.0f);
   if (eyeJump) *eyeJump = gpu::kJumpDistanceMaxCells;
+  // A Volume field has no coefficients to sum: evaluateSample traces it (traceVolumeSample).
+  if (shape.encoding == Encoding::Volume) return;
   const float z = std::max(w[2], 0.0f);
   if (shape.encoding == Encoding::Sh) {
     const int order = static_cast<int>(shape.order);
@@ -273,6 +275,10 @@ void dequantizeSample(const Field& field, uint64_t texel, std::vector<float>& ou
 
 void evaluateSample(const Field& field, uint64_t texel, const std::array<float, 3>& w, float* out, uint32_t order,
                     float* eyeJump) {
+  if (field.encoding == Encoding::Volume) {
+    if (eyeJump) *eyeJump = gpu::kJumpDistanceMaxCells;  // exact paths: no table jump to place
+    return traceVolumeSample(field, &field.frames[texel * 12], w, out);
+  }
   EncodingShape shape = field.shape();
   // A lower SH order reads only the first (order + 1)^2 layers, which lead the array: only those
   // are dequantized (this runs per texel in the CPU reference's decompression).

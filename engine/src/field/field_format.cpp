@@ -61,6 +61,7 @@ const char* toString(Encoding encoding) {
     case Encoding::Sh: return "sh";
     case Encoding::Table: return "table";
     case Encoding::Pca: return "pca";
+    case Encoding::Volume: return "volume";
   }
   return "unknown";
 }
@@ -472,6 +473,27 @@ void readMesh(SectionReader& r, FieldMesh& mesh) {
 // before it; the settings record what the field has), version 5 the frame of the exits (object
 // space before it), version 6 whether a Pca field is clustered, its samples' indices and the
 // clusters the bake was asked for, version 7 how an SH field was fitted (least squares before it).
+// ENCD version 8: a Volume field's grid (FieldVolume; size 0 and no voxels for the other encodings).
+void readVolume(SectionReader& r, Field& field) {
+  FieldVolume& v = field.volume;
+  v.size = r.u32("volume.size");
+  for (int k = 0; k < 3; ++k) v.origin[k] = r.f32("volume.origin");
+  v.spacing = r.f32("volume.spacing");
+  r.arrayU32(v.voxels, "volume voxels");
+  field.settings.volumeSize = r.u32("settings.volumeSize");
+  field.settings.tryVolume = r.u32("settings.tryVolume") != 0;
+}
+
+void writeVolume(ByteWriter& w, const Field& field) {
+  const FieldVolume& v = field.volume;
+  w.u32(v.size);
+  for (float o : v.origin) w.f32(o);
+  w.f32(v.spacing);
+  w.arrayU32(v.voxels);
+  w.u32(field.settings.volumeSize);
+  w.u32(field.settings.tryVolume ? 1u : 0u);
+}
+
 void readEncoding(SectionReader& r, Field& field, uint32_t version) {
   field.encoding = static_cast<Encoding>(r.u32("encoding"));
   field.tableSize = r.u32("encoding.tableSize");
@@ -499,6 +521,7 @@ void readEncoding(SectionReader& r, Field& field, uint32_t version) {
   std::vector<uint16_t> tables;
   r.arrayU16(tables, "cluster tables");
   if (version >= 7) s.shFit = static_cast<ShFit>(r.u32("settings.shFit"));
+  if (version >= 8) readVolume(r, field);
   if (field.clustered && !field.basis.empty()) return r.fail("a clustered field has an f32 basis (its tables are binary16)");
   if (!field.clustered && !tables.empty()) return r.fail("cluster tables are stored, but the field is not clustered");
   if (!field.clustered) return;
@@ -531,6 +554,7 @@ void writeEncoding(ByteWriter& w, const Field& field) {
     for (float v : field.basis) tables.push_back(floatToHalf(v));
   w.arrayU16(tables);
   w.u32(static_cast<uint32_t>(s.shFit));
+  writeVolume(w, field);
 }
 
 void writeAtlas(ByteWriter& w, const Field& field) {
@@ -564,6 +588,42 @@ bool allFinite(const float* v, size_t n) {
 
 Error invalid(const std::string& message) { return makeError(ErrorCode::CorruptData, message); }
 
+// A Volume field's grid and what its trace reads: the decode marches it (decompress_volume.comp),
+// so every distance must lie within the band, the spacing keep the grid's coordinates finite, and
+// the bounce cap be bounded.
+Result<void> validateVolume(const Field& field) {
+  const FieldVolume& v = field.volume;
+  if (field.order != 0 || field.tableSize != 0 || field.components != 0 || field.jumpDistance || field.clustered)
+    return invalid("a volume field has an SH order, a table size, components, a jump distance or clusters");
+  if (v.size < kMinVolumeSize || v.size > kMaxVolumeSize)
+    return invalid("volume size " + std::to_string(v.size) + " is outside " + std::to_string(kMinVolumeSize) + ".." +
+                   std::to_string(kMaxVolumeSize));
+  if (v.voxels.size() != uint64_t(v.size) * v.size * v.size)
+    return invalid("volume has " + std::to_string(v.voxels.size()) + " voxels, expected " + std::to_string(v.size) +
+                   "^3");
+  // Within 1e-15..1e15: points within kMaxFrameMagnitude of the origin stay finite in voxels.
+  if (!(std::isfinite(v.spacing) && v.spacing >= 1e-15f && v.spacing <= kMaxFrameMagnitude))
+    return invalid("volume spacing " + formatFloat(v.spacing) + " is not within 1e-15..1e15");
+  for (float o : v.origin)
+    if (!(std::fabs(o) <= kMaxFrameMagnitude))
+      return invalid("volume origin " + formatFloat(o) + " is not finite or beyond +-" + formatFloat(kMaxFrameMagnitude));
+  // A distance level beyond the band's end (4094) would read beyond it.
+  for (size_t i = 0; i < v.voxels.size(); ++i)
+    if ((v.voxels[i] & 0xfffu) > 2 * gpu::kVolumeDistanceZero)
+      return invalid("volume voxel " + std::to_string(i) + " has distance level " + std::to_string(v.voxels[i] & 0xfffu) +
+                     ", beyond the band's " + std::to_string(2 * gpu::kVolumeDistanceZero));
+  if (field.media.size() != 2)
+    return invalid("a volume field has " + std::to_string(field.media.size()) +
+                   " media, expected 2 (the surrounding one and the object's)");
+  if (field.settings.maxBounces > kMaxVolumeBounces)
+    return invalid("settings.maxBounces " + std::to_string(field.settings.maxBounces) + " of a volume field is over " +
+                   std::to_string(kMaxVolumeBounces));
+  if (field.settings.volumeSize != v.size)
+    return invalid("settings.volumeSize " + std::to_string(field.settings.volumeSize) + " differs from the grid's " +
+                   std::to_string(v.size));
+  return {};
+}
+
 // The encoding's parameters, channels and (Pca) basis: what every decoder relies on.
 Result<void> validateEncoding(const Field& field) {
   const std::string n = std::to_string(field.tableSize);
@@ -593,9 +653,18 @@ Result<void> validateEncoding(const Field& field) {
                        std::to_string(field.clustered ? kMaxClusters : kMaxComponents) +
                        (field.clustered ? " (clustered)" : ""));
       break;
+    case Encoding::Volume:
+      if (auto r = validateVolume(field); !r) return r;
+      break;
     default:
-      return invalid("encoding " + std::to_string(static_cast<uint32_t>(field.encoding)) + " is not sh (0), table (1) or pca (2)");
+      return invalid("encoding " + std::to_string(static_cast<uint32_t>(field.encoding)) +
+                     " is not sh (0), table (1), pca (2) or volume (3)");
   }
+  if (field.encoding != Encoding::Volume && (field.volume.size != 0 || !field.volume.voxels.empty()))
+    return invalid(std::string("a ") + toString(field.encoding) + " field has a volume grid");
+  if (field.settings.tryVolume && field.encoding != Encoding::Pca && field.encoding != Encoding::Volume)
+    return invalid(std::string("settings.tryVolume is set on a ") + toString(field.encoding) +
+                   " field (only the pca bake tries the volume)");
   if (field.clustered && field.encoding != Encoding::Pca) return invalid("a clustered field is not a pca field");
   const size_t basisValues =
       field.encoding == Encoding::Pca ? size_t(field.components) * field.tableSize * field.tableSize * field.channels : 0;

@@ -23,7 +23,9 @@ static_assert(gpu::kGpuTexelEmpty == kTexelEmpty && gpu::kGpuTexelSample == kTex
               gpu::kGpuTexelGutter == kTexelGutter, "gpu_layout.h and field.h must agree on texel kinds");
 
 static_assert(gpu::kEncodingSh == uint32_t(Encoding::Sh) && gpu::kEncodingTable == uint32_t(Encoding::Table) &&
-              gpu::kEncodingPca == uint32_t(Encoding::Pca), "gpu_layout.h and field.h must agree on encodings");
+              gpu::kEncodingPca == uint32_t(Encoding::Pca) && gpu::kEncodingVolume == uint32_t(Encoding::Volume),
+              "gpu_layout.h and field.h must agree on encodings");
+static_assert(sizeof(gpu::VolumeHeader) == 48, "decompress_volume.comp reads the header as 3 vec4s");
 
 namespace {
 
@@ -109,6 +111,10 @@ std::string describeEncoding(const Field& field) {
   switch (field.encoding) {
     case Encoding::Sh: return "sh field of order " + std::to_string(field.order);
     case Encoding::Table: return "table field of " + nodes;
+    case Encoding::Volume: {
+      const std::string n = std::to_string(field.volume.size);
+      return "volume field of " + n + "x" + n + "x" + n + " voxels";
+    }
     default:
       return (field.clustered ? "clustered pca field of " + std::to_string(field.components) + " tables of "
                               : "pca field of " + std::to_string(field.components) + " components of ") +
@@ -142,6 +148,8 @@ Result<FieldBufferSizes> fieldBufferSizes(const Field& field, uint64_t samples, 
   sizes.coefficientsStorage = sizes.coefficients / sizeof(uint32_t) > limits.maxTexelBufferElements;
   sizes.frames = std::max<VkDeviceSize>(VkDeviceSize(samples) * 12 * sizeof(float), 16);
   sizes.basis = std::max<VkDeviceSize>((VkDeviceSize(field.basis.size()) * field.basisValueBytes() + 3) / 4 * 4, 16);
+  if (field.encoding == Encoding::Volume)
+    sizes.basis = sizeof(gpu::VolumeHeader) + VkDeviceSize(field.volume.voxels.size()) * sizeof(uint32_t);
   if (sizes.coefficientsStorage && sizes.coefficients > limits.maxStorageBufferRange)
     return tooBig("coefficients", sizes.coefficients,
                   std::max<VkDeviceSize>(VkDeviceSize(limits.maxTexelBufferElements) * sizeof(uint32_t),
@@ -150,7 +158,8 @@ Result<FieldBufferSizes> fieldBufferSizes(const Field& field, uint64_t samples, 
   if (sizes.frames > limits.maxStorageBufferRange)
     return tooBig("sample frames", sizes.frames, limits.maxStorageBufferRange, "maxStorageBufferRange");
   if (sizes.basis > limits.maxStorageBufferRange)
-    return tooBig("a basis", sizes.basis, limits.maxStorageBufferRange, "maxStorageBufferRange");
+    return tooBig(field.encoding == Encoding::Volume ? "a grid" : "a basis", sizes.basis, limits.maxStorageBufferRange,
+                  "maxStorageBufferRange");
   return sizes;
 }
 
@@ -383,6 +392,22 @@ void describeField(const Field& field, uint32_t sampleCount, const FieldBufferSi
 }
 
 // The small buffers' contents on the host, kept until their uploads are recorded.
+// A Volume field's basis binding (gpu_layout.h VolumeHeader, then the voxel words); empty for the
+// other encodings.
+std::vector<uint32_t> volumeWords(const Field& field) {
+  if (field.encoding != Encoding::Volume) return {};
+  gpu::VolumeHeader head{};
+  const FieldVolume& v = field.volume;
+  head.grid = {v.size, field.settings.maxBounces, field.settings.pathRule == PathRule::HighestEnergy ? 1u : 0u, 0u};
+  head.origin = {v.origin[0], v.origin[1], v.origin[2], v.spacing};
+  const float outside = field.media[0].ior, inside = field.media[1].ior;
+  head.media = {outside / inside, inside / outside, field.media[1].absorption, 0.0f};
+  std::vector<uint32_t> words(sizeof(head) / sizeof(uint32_t) + v.voxels.size());
+  std::memcpy(words.data(), &head, sizeof(head));
+  std::copy(v.voxels.begin(), v.voxels.end(), words.begin() + sizeof(head) / sizeof(uint32_t));
+  return words;
+}
+
 struct HostTables {
   std::vector<float> scaleBias;
   std::vector<float> frames;
@@ -521,7 +546,9 @@ Result<std::unique_ptr<Object>> Object::createFromField(Context& context, const 
   // A clustered field's tables as the shader reads them: binary16, two to a word (gpu_layout.h).
   std::vector<uint16_t> halfTables(field.clustered ? size_t(sizes.basis / sizeof(uint16_t)) : 0, 0);
   for (size_t i = 0; field.clustered && i < field.basis.size(); ++i) halfTables[i] = floatToHalf(field.basis[i]);
-  const void* basis = field.basis.empty() ? static_cast<const void*>(placeholder)
+  const std::vector<uint32_t> volume = volumeWords(field);
+  const void* basis = !volume.empty()       ? static_cast<const void*>(volume.data())
+                      : field.basis.empty() ? static_cast<const void*>(placeholder)
                       : field.clustered   ? static_cast<const void*>(halfTables.data())
                                           : static_cast<const void*>(field.basis.data());
   const std::array<Upload, 5> uploads{{

@@ -148,6 +148,26 @@ SHR_CONST(kQuantizationF16, 1u)  // field.h Quantization::F16
 SHR_CONST(kEncodingSh, 0u)       // field.h Encoding::Sh
 SHR_CONST(kEncodingTable, 1u)    // field.h Encoding::Table
 SHR_CONST(kEncodingPca, 2u)      // field.h Encoding::Pca
+SHR_CONST(kEncodingVolume, 3u)   // field.h Encoding::Volume
+// decompress_volume.comp (and field.h traceVolumeSample): the basis binding (kBindingBasis) holds
+// VolumeHeader, then the grid's N^3 voxel words (field.h FieldVolume). A path marches from its
+// start by kVolumeStartStep voxels, then by kVolumeStepScale times the grid's distance there, at
+// least kVolumeMinStep voxels, at most kVolumeMaxSteps steps a segment, and bisects the step that
+// turns the distance positive kVolumeBisections times (docs/encodings.md, "Volume").
+SHR_CONSTF(kVolumeStartStep, 0.05f)
+SHR_CONSTF(kVolumeMinStep, 0.1f)
+SHR_CONSTF(kVolumeStepScale, 0.9f)
+SHR_CONST(kVolumeMaxSteps, 4096u)
+SHR_CONST(kVolumeBisections, 16u)
+// The normal at a crossing blends the 8 voxels' normals that lie within acos(kVolumeNormalBlendCos)
+// (45 deg) of the nearest voxel's, so that an edge of the surface stays sharp.
+SHR_CONSTF(kVolumeNormalBlendCos, 0.70710678f)
+// A voxel word (field.h FieldVolume): the distance's level (bits 0..11) is kVolumeDistanceZero at 0
+// and 0 or 2 kVolumeDistanceZero at -+kVolumeBandVoxels; a normal coordinate's (10 bits) is
+// kVolumeNormalZero at 0 and 0 or 2 kVolumeNormalZero at -+1.
+SHR_CONST(kVolumeDistanceZero, 2047u)
+SHR_CONST(kVolumeNormalZero, 511u)
+SHR_CONSTF(kVolumeBandVoxels, 4.0f)
 // Workgroup sizes: the Sh decompression runs one invocation per 4 samples, the Table and Pca
 // decompression one per sample, 64 to a workgroup (whole subgroups on every device: 8 x 8 SIMD
 // lanes on llvmpipe, 2 x 32 on NVIDIA, 1 x 64 on AMD); the gutter pass runs one invocation per rule.
@@ -157,6 +177,16 @@ SHR_CONST(kGutterLocalSize, 64u)
 // Both passes dispatch at most this many workgroups in x (the limit every device offers is 65535)
 // and the rest as further rows in y; the shaders number invocations row after row.
 SHR_CONST(kMaxDispatchGroupsX, 32768u)
+
+// The head of a Volume field's basis buffer (decompress_volume.comp): grid.x = N, grid.y = the
+// bounce cap, grid.z = 1 for the highest-energy rule (0: first refraction); origin.xyz the centre
+// of voxel (0, 0, 0) in object space, origin.w the voxel spacing; media.x = n_outside / n_inside
+// (the entry), media.y its inverse (the way out), media.z the inner medium's absorption.
+struct VolumeHeader {
+  uvec4 grid;
+  vec4 origin;
+  vec4 media;
+};
 
 // A decoded sum (or a bilinear sample of decoded directions) whose squared length is at most
 // this has no direction: decompression writes the zero vector, and the raster pass then looks

@@ -1,0 +1,208 @@
+// A Volume field's decode on the CPU (field.h traceVolumeSample): each sample's path traced through
+// the object's signed distance grid for the eye. decompress_volume.comp mirrors these operations
+// (float, same order); the bake measures its volume with them and the CPU reference builds on them
+// through evaluateSample.
+#include <shrefract/cpu_reference.h>
+#include <shrefract/field.h>
+#include <shrefract/gpu_layout.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace shrefract {
+
+static_assert(kVolumeBandVoxels == gpu::kVolumeBandVoxels, "field.h and gpu_layout.h must agree on the band");
+
+namespace {
+
+struct V3 {
+  float x = 0.0f, y = 0.0f, z = 0.0f;
+};
+V3 operator+(V3 a, V3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+V3 operator-(V3 a, V3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+V3 operator*(float s, V3 a) { return {s * a.x, s * a.y, s * a.z}; }
+float dot(V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+V3 normalized(V3 a) {
+  const float len2 = dot(a, a);
+  return len2 > 0.0f ? (1.0f / std::sqrt(len2)) * a : V3{0.0f, 0.0f, 1.0f};
+}
+
+// The 8 voxels around grid point g (voxel units, voxel centres at integers), clamped to the grid,
+// and their trilinear weights.
+struct Corners {
+  uint32_t index[8];
+  float weight[8];
+};
+
+Corners cornersAt(uint32_t n, V3 g) {
+  const float hi = float(n - 1);
+  g = {std::clamp(g.x, 0.0f, hi), std::clamp(g.y, 0.0f, hi), std::clamp(g.z, 0.0f, hi)};
+  const uint32_t x0 = std::min(uint32_t(g.x), n - 2), y0 = std::min(uint32_t(g.y), n - 2),
+                 z0 = std::min(uint32_t(g.z), n - 2);
+  const float fx = g.x - float(x0), fy = g.y - float(y0), fz = g.z - float(z0);
+  Corners c{};
+  for (uint32_t k = 0; k < 8; ++k) {
+    const uint32_t dx = k & 1u, dy = (k >> 1) & 1u, dz = (k >> 2) & 1u;
+    c.index[k] = ((z0 + dz) * n + (y0 + dy)) * n + (x0 + dx);
+    c.weight[k] = (dx ? fx : 1.0f - fx) * (dy ? fy : 1.0f - fy) * (dz ? fz : 1.0f - fz);
+  }
+  return c;
+}
+
+float voxelDistance(uint32_t word) {
+  return (float(word & 0xfffu) - float(gpu::kVolumeDistanceZero)) * (kVolumeBandVoxels / float(gpu::kVolumeDistanceZero));
+}
+
+float distanceAt(const FieldVolume& v, V3 g) {
+  const Corners c = cornersAt(v.size, g);
+  float d = 0.0f;
+  for (uint32_t k = 0; k < 8; ++k) d += c.weight[k] * voxelDistance(v.voxels[c.index[k]]);
+  return d;
+}
+
+// The trilinear normal of the corners that face the way the nearest corner (the largest weight,
+// the first of equals) faces: across an edge of the surface (a cube's) the voxels on either side
+// hold the normals of different faces, whose blend would round the edge off.
+V3 normalAt(const FieldVolume& v, V3 g) {
+  const Corners c = cornersAt(v.size, g);
+  V3 u[8];
+  uint32_t nearest = 0;
+  for (uint32_t k = 0; k < 8; ++k) {
+    const std::array<float, 3> a = unpackVolumeNormal(v.voxels[c.index[k]]);
+    u[k] = {a[0], a[1], a[2]};
+    if (c.weight[k] > c.weight[nearest]) nearest = k;
+  }
+  V3 n{};
+  for (uint32_t k = 0; k < 8; ++k)
+    if (dot(u[k], u[nearest]) >= gpu::kVolumeNormalBlendCos) n = n + c.weight[k] * u[k];
+  return normalized(n);
+}
+
+// The distance along d (unit) from g, inside the medium, to where the grid's distance turns
+// positive: marched by 0.9 of the distance, at least kVolumeMinStep, then bisected. Negative when
+// the march leaves the grid (or runs kVolumeMaxSteps) without crossing. The march must have seen
+// the inside (a negative distance) before a crossing counts, so that the interpolation's slack
+// around the start point is not taken for the way out.
+float crossing(const FieldVolume& v, V3 g, V3 d) {
+  const float limit = 2.0f * float(v.size);
+  float t = gpu::kVolumeStartStep, previous = 0.0f;
+  bool inside = false;
+  for (uint32_t step = 0; step < gpu::kVolumeMaxSteps && t < limit; ++step) {
+    const float s = distanceAt(v, g + t * d);
+    if (s < 0.0f) {
+      inside = true;
+    } else if (inside) {
+      float lo = previous, hi = t;
+      for (uint32_t k = 0; k < gpu::kVolumeBisections; ++k) {
+        const float mid = 0.5f * (lo + hi);
+        if (distanceAt(v, g + mid * d) > 0.0f) hi = mid;
+        else lo = mid;
+      }
+      return 0.5f * (lo + hi);
+    }
+    previous = t;
+    t += std::max(gpu::kVolumeStepScale * std::fabs(s), gpu::kVolumeMinStep);
+  }
+  return -1.0f;
+}
+
+// Refraction of unit d at unit n facing it (dot(d, n) <= 0), eta = n_from / n_to; false on total
+// internal reflection.
+bool refracted(V3 d, V3 n, float eta, V3& out) {
+  const float cosI = std::clamp(-dot(d, n), 0.0f, 1.0f);
+  const float k = 1.0f - eta * eta * (1.0f - cosI * cosI);
+  if (k < 0.0f) return false;
+  out = normalized(eta * d + (eta * cosI - std::sqrt(k)) * n);
+  return true;
+}
+
+V3 reflected(V3 d, V3 n) { return d - (2.0f * dot(d, n)) * n; }
+
+}  // namespace
+
+uint32_t packVolumeVoxel(float distanceVoxels, const std::array<float, 3>& normal) {
+  const float d = std::clamp(distanceVoxels, -kVolumeBandVoxels, kVolumeBandVoxels);
+  float x = normal[0], y = normal[1], z = normal[2];
+  const float l1 = std::fabs(x) + std::fabs(y) + std::fabs(z);
+  float px = l1 > 0.0f ? x / l1 : 0.0f, py = l1 > 0.0f ? y / l1 : 0.0f;
+  if (l1 > 0.0f && z < 0.0f) {  // the lower half folded over the diagonals
+    const float fx = (1.0f - std::fabs(py)) * (px >= 0.0f ? 1.0f : -1.0f);
+    const float fy = (1.0f - std::fabs(px)) * (py >= 0.0f ? 1.0f : -1.0f);
+    px = fx;
+    py = fy;
+  }
+  // Odd level counts (2 zero + 1), so that 0 and the band's ends, and 0 and +-1 of a normal's
+  // coordinates (the axes: a box's faces), are levels exactly.
+  const float zero = float(gpu::kVolumeDistanceZero), nzero = float(gpu::kVolumeNormalZero);
+  const uint32_t q = uint32_t(std::lround(d / kVolumeBandVoxels * zero + zero));
+  auto level = [&](float p) { return uint32_t(std::lround(std::clamp(p * nzero + nzero, 0.0f, 2.0f * nzero))); };
+  return q | (level(px) << 12) | (level(py) << 22);
+}
+
+std::array<float, 3> unpackVolumeNormal(uint32_t word) {
+  const float nzero = float(gpu::kVolumeNormalZero);
+  const float px = std::min((float((word >> 12) & 0x3ffu) - nzero) / nzero, 1.0f);
+  const float py = std::min((float((word >> 22) & 0x3ffu) - nzero) / nzero, 1.0f);
+  V3 n{px, py, 1.0f - std::fabs(px) - std::fabs(py)};
+  if (n.z < 0.0f) {
+    const float x = n.x;
+    n.x = (1.0f - std::fabs(n.y)) * (x >= 0.0f ? 1.0f : -1.0f);
+    n.y = (1.0f - std::fabs(x)) * (n.y >= 0.0f ? 1.0f : -1.0f);
+  }
+  n = normalized(n);
+  return {n.x, n.y, n.z};
+}
+
+float volumeDistance(const FieldVolume& volume, const std::array<float, 3>& objectPoint) {
+  const float inv = 1.0f / volume.spacing;
+  const V3 g{(objectPoint[0] - volume.origin[0]) * inv, (objectPoint[1] - volume.origin[1]) * inv,
+             (objectPoint[2] - volume.origin[2]) * inv};
+  return distanceAt(volume, g) * volume.spacing;
+}
+
+void traceVolumeSample(const Field& field, const float* m, const std::array<float, 3>& w, float* out) {
+  const FieldVolume& v = field.volume;
+  // The sample's point and normal from its frame's rows (M_s = [R | -R p]).
+  const V3 ax{m[0], m[1], m[2]}, ay{m[4], m[5], m[6]}, az{m[8], m[9], m[10]};
+  const V3 p = -1.0f * (m[3] * ax + m[7] * ay + m[11] * az);
+  const V3 normal = normalized(az);
+  const V3 local = normalized(V3{w[0], w[1], std::max(w[2], 0.0f)});
+  V3 d = -1.0f * (local.x * ax + local.y * ay + local.z * az);
+  const float outside = field.media[0].ior, inside = field.media[1].ior;
+  const float absorption = field.media[1].absorption;
+  const bool highestEnergy = field.settings.pathRule == PathRule::HighestEnergy;
+  float tau = 0.0f, energy = 1.0f;
+  V3 exit = reflected(d, normal);  // total internal reflection at the entry: the path never enters
+  V3 into{};
+  if (refracted(d, normal, outside / inside, into)) {
+    d = into;
+    exit = d;  // a trapped path leaves along its direction of travel
+    const float inv = 1.0f / v.spacing;
+    V3 g = inv * (p - V3{v.origin[0], v.origin[1], v.origin[2]});
+    for (uint32_t bounce = 0; bounce < field.settings.maxBounces; ++bounce) {
+      const float t = crossing(v, g, d);
+      if (t < 0.0f) break;  // out of the grid without a crossing: leaves as it travels
+      g = g + t * d;
+      tau += t * v.spacing * absorption;
+      const V3 n = normalAt(v, g);  // outward: the ray arrives from inside, against -n
+      const float R = reference::fresnelDielectric(dot(d, n), inside / outside);
+      V3 out3{};
+      const bool canRefract = R < 1.0f && refracted(d, -1.0f * n, inside / outside, out3);
+      if (canRefract && !(highestEnergy && R >= 0.5f)) {  // the tracer's rule (tracer.cpp)
+        energy *= 1.0f - R;
+        exit = out3;
+        break;
+      }
+      energy *= canRefract ? R : 1.0f;
+      d = normalized(reflected(d, n));
+      exit = d;
+    }
+  }
+  out[0] = exit.x;
+  out[1] = exit.y;
+  out[2] = exit.z;
+  if (field.hasOpticalDepth()) out[3] = tau;
+  if (field.throughput) out[field.throughputChannel()] = energy;
+}
+
+}  // namespace shrefract
