@@ -1,6 +1,8 @@
 #include "bench/bench_support.h"
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
@@ -18,7 +20,8 @@ Field syntheticHeader(const SyntheticOptions& o) {
   f.height = o.height;
   f.encoding = o.encoding;
   f.order = sh ? o.order : 0;
-  f.tableSize = sh ? 0 : o.tableSize;
+  const bool volume = o.encoding == Encoding::Volume;
+  f.tableSize = sh || volume ? 0 : o.tableSize;
   f.components = o.encoding == Encoding::Pca ? o.components : 0;
   f.channels = o.channels;
   f.throughput = o.throughput;
@@ -54,6 +57,32 @@ void placeSamples(Field& f, uint64_t samples, uint32_t width, uint32_t height) {
     m[5] = 1.0f, m[7] = -y;
     m[10] = 1.0f;
   }
+}
+
+// Volume: the grid of a glass box under the samples' square (|x|, |y| <= 1/2, -1/2 <= z <= 0),
+// N = o.tableSize voxels per side: every path enters through its top, may reflect off its sides,
+// and leaves through its bottom; each voxel the exact distance and its nearest face's normal.
+FieldVolume boxUnderTheSquare(uint32_t n) {
+  FieldVolume v;
+  v.size = n;
+  v.spacing = 1.0f / float(n - 5);
+  v.origin = {-0.5f * float(n - 1) * v.spacing, -0.5f * float(n - 1) * v.spacing, -0.25f - 0.5f * float(n - 1) * v.spacing};
+  v.voxels.resize(size_t(n) * n * n);
+  for (uint32_t z = 0; z < n; ++z)
+    for (uint32_t y = 0; y < n; ++y)
+      for (uint32_t x = 0; x < n; ++x) {
+        const float p[3] = {v.origin[0] + v.spacing * float(x), v.origin[1] + v.spacing * float(y),
+                            v.origin[2] + v.spacing * float(z) + 0.25f};  // relative to the box's centre
+        const float q[3] = {std::fabs(p[0]) - 0.5f, std::fabs(p[1]) - 0.5f, std::fabs(p[2]) - 0.25f};
+        float outside = 0.0f;
+        for (float c : q) outside += std::max(c, 0.0f) * std::max(c, 0.0f);
+        const float inside = std::min(std::max({q[0], q[1], q[2]}), 0.0f);
+        const int axis = q[0] >= q[1] && q[0] >= q[2] ? 0 : q[1] >= q[2] ? 1 : 2;
+        std::array<float, 3> normal{0.0f, 0.0f, 0.0f};
+        normal[size_t(axis)] = p[axis] >= 0.0f ? 1.0f : -1.0f;
+        v.voxels[(size_t(z) * n + y) * n + x] = packVolumeVoxel((std::sqrt(outside) + inside) / v.spacing, normal);
+      }
+  return v;
 }
 
 // Whether channel c of the field's decoded values is the throughput (the last, when it has one).
@@ -118,8 +147,13 @@ Field syntheticField(const SyntheticOptions& o) {
       std::min<uint64_t>(texels, static_cast<uint64_t>(double(texels) * double(std::clamp(o.sampleFraction, 0.0f, 1.0f))));
   placeSamples(f, samples, o.width, o.height);
   std::mt19937 rng(o.seed);  // one generator: the basis's draws, then the coefficients'
-  if (o.encoding == Encoding::Pca) randomBasis(f, o, rng);  // before the coefficients: encodeCoefficients checks its size
-  (void)encodeCoefficients(f, randomCoefficients(f, o, samples, rng));
+  if (o.encoding == Encoding::Volume) {
+    f.volume = boxUnderTheSquare(o.tableSize);
+    f.settings.volumeSize = o.tableSize;
+  } else {
+    if (o.encoding == Encoding::Pca) randomBasis(f, o, rng);  // before the coefficients: encodeCoefficients checks its size
+    (void)encodeCoefficients(f, randomCoefficients(f, o, samples, rng));
+  }
   f.mesh = unitSquareMesh();
   return f;
 }
@@ -133,6 +167,10 @@ bool parseQuantization(const std::string& text, Quantization& out) {
 
 std::string encodingLabel(const Field& f) {
   const std::string n = std::to_string(f.tableSize);
+  if (f.encoding == Encoding::Volume) {
+    const std::string v = std::to_string(f.volume.size);
+    return "volume " + v + "^3" + (f.throughput ? " +throughput" : "");
+  }
   std::string label = f.encoding == Encoding::Sh      ? "sh L=" + std::to_string(f.order)
                       : f.encoding == Encoding::Table ? "table " + n + "x" + n
                       : f.clustered                   ? "pca clustered K=" + std::to_string(f.components) + " N=" + n

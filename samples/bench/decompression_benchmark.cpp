@@ -25,9 +25,11 @@
 // the same order or table over the budget with the throughput channel, each uploaded as its own
 // object and decompressed by the engine (Decompressor::record) in turns within every repetition.
 // It prints the median GPU milliseconds of a decompression, the median over repetitions of its
-// ratio to SH order 8 (u8, 4 channels: the paper's field) in the same repetition, the process
+// ratio to SH order 8 (u8, 4 channels: the paper's field) in the same repetition (and two Volume
+// fields, which store nothing per sample: a glass box's grid at 128^3 and 256^3), the process
 // CPU time, and the device memory of each field's buffers (coefficients, scale/bias table, Pca
-// basis: their sizes as gpu_layout.h lays them out) and of the whole object
+// basis, or a Volume field's grid, in the basis column: their sizes as gpu_layout.h lays them out)
+// and of the whole object
 // (Object::gpuMemoryBytes(), with the frames, texel indices, distortion image and mesh).
 // Exit code 0 with "SKIPPED:" when there is no Vulkan device or FIELD.shrf is missing.
 #include <shrefract/decompressor.h>
@@ -284,7 +286,7 @@ struct EncodingCase {
 // bunny). The tool's default bake is the N=64 case: 64x64 node tables, a basis 16 times the N=16
 // cases' (324 x 4096 nodes x 5 channels, 26.5 MB of floats). "clustered" is the same shape stored
 // as the bake stores a clustered field: each sample the index of one of the K tables (2 bytes).
-constexpr std::array<EncodingCase, 16> kEncodingCases{{
+constexpr std::array<EncodingCase, 18> kEncodingCases{{
     {"sh L=8 (paper)", Encoding::Sh, 8, 0, 0, 4, false, Quantization::U8},
     {"sh L=5", Encoding::Sh, 5, 0, 0, 4, false, Quantization::F16},
     {"table 9x9", Encoding::Table, 0, 9, 0, 4, false, Quantization::U8},
@@ -305,6 +307,9 @@ constexpr std::array<EncodingCase, 16> kEncodingCases{{
     {"table 9x9 +throughput", Encoding::Table, 0, 9, 0, 5, true, Quantization::U8},
     {"table 8x8 +throughput", Encoding::Table, 0, 8, 0, 5, true, Quantization::U8},
     {"pca K=324 N=16 +throughput", Encoding::Pca, 0, 16, 324, 5, true, Quantization::U8},
+    // No bytes per sample: each sample's path traced through a glass box's grid (table size = N).
+    {"volume 128^3", Encoding::Volume, 0, 128, 0, 4, false, Quantization::U8},
+    {"volume 256^3", Encoding::Volume, 0, 256, 0, 4, false, Quantization::U8},
 }};
 
 // Bytes of the field's buffers as createFromField sizes them (gpu_layout.h): the coefficients of
@@ -324,6 +329,7 @@ FieldBufferBytes fieldBufferBytes(const Field& field, uint64_t samples) {
   b.scaleBias = field.encoding == Encoding::Sh ? layers * (field.channels > 4 ? 3 : 2) * 16
                                                : std::max<uint64_t>(layers * values * 8, 16);
   b.basis = std::max<uint64_t>((field.basis.size() * field.basisValueBytes() + 3) / 4 * 4, 16);
+  if (field.encoding == Encoding::Volume) b.basis = 48 + 4 * uint64_t(field.volume.voxels.size());  // VolumeHeader + grid
   return b;
 }
 
@@ -405,7 +411,7 @@ void printEncodingTable(harness::Harness& h, const SyntheticOptions& base, const
     for (size_t r = 0; r < t[k].rounds.size() && r < t[0].rounds.size(); ++r)
       if (t[0].rounds[r] > 0.0) ratios.push_back(t[k].rounds[r] / t[0].rounds[r]);
     char basis[32] = "-";  // the placeholder vec4 of a field without a basis is not shown
-    if (e.c.encoding == Encoding::Pca) std::snprintf(basis, sizeof(basis), "%.1f", double(e.buffers.basis) / 1024.0);
+    if (e.c.encoding == Encoding::Pca || e.c.encoding == Encoding::Volume) std::snprintf(basis, sizeof(basis), "%.1f", double(e.buffers.basis) / 1024.0);
     std::printf("| %-26s | %-3s | %u | %3u | %9.3f | %6.2f | %9.3f | %9.1f | %7.2f | %8s | %7.2f |\n", e.c.name,
                 toString(e.c.quantization), e.c.channels, e.bytesPerSample, t[k].ms, median(ratios), t[k].cpuMs,
                 double(e.buffers.coefficients) / 1024.0, double(e.buffers.scaleBias) / 1024.0, basis,
@@ -788,11 +794,15 @@ int run(const Options& options) {
   auto recordDecompression = [&](VkCommandBuffer cmd) {
     if (auto r = decompressor.value()->record(cmd, eye, {object.get()}); !r) failed = true;
   };
-  if (options.profile) {
+  // A Volume field reads no coefficients (it traces its grid), so there are no bytes to copy
+  // beside it: its decompression is timed alone.
+  const bool volume = field.encoding == Encoding::Volume;
+  if (options.profile || volume) {
     const std::vector<Timing> t = timeTurns(h, timer, options.reps, {recordDecompression}, failed);
     if (!failed)
-      std::printf("decompression alone: %.3f ms GPU (fastest %.3f), %.3f ms process CPU (median of %u)\n", t[0].ms,
-                  t[0].fastestMs, t[0].cpuMs, options.reps);
+      std::printf("%sdecompression alone: %.3f ms GPU (fastest %.3f), %.3f ms process CPU (median of %u)\n",
+                  volume ? "volume field (no coefficients to copy beside it): " : "", t[0].ms, t[0].fastestMs,
+                  t[0].cpuMs, options.reps);
     return failed ? 1 : 0;
   }
   return compareWithCopies(h, timer, options, field, object, decompressor.value(), recordDecompression, failed);

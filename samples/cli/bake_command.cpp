@@ -236,9 +236,11 @@ Result<void> applyEncodingFlag(const Args& args, const NumericFlags& n, BakeSett
   else if (encoding == "pca") s.encoding = Encoding::Pca;
   else if (encoding == "volume") s.encoding = Encoding::Volume;
   else return usageError("shrefract bake: --encoding must be sh, table, pca or volume, got '" + encoding + "'");
-  // The default (no --encoding, no byte budget): Pca, and the volume tried beside it where the scene
-  // allows (BakeSettings::tryVolume).
-  s.tryVolume = !args.get("encoding") && !shImplied && !n.maxBytes;
+  // The default (no --encoding, no byte budget, none of Pca's own flags): Pca, and the volume tried
+  // beside it where the scene allows (BakeSettings::tryVolume). A flag of Pca's asks for a Pca field.
+  const bool pcaAsked = n.components || n.clusters || n.tableSize || n.dirs || args.get("direction-sampling") ||
+                        args.get("exit-frame") || args.has("no-jump-distance");
+  s.tryVolume = !args.get("encoding") && !shImplied && !n.maxBytes && !pcaAsked;
   if (n.volumeSize && s.encoding != Encoding::Volume && !s.tryVolume)
     return usageError("shrefract bake: --volume-size needs --encoding volume (or no --encoding)");
   s.volumeSize = n.volumeSize ? static_cast<uint32_t>(*n.volumeSize) : kDefaultVolumeSize;

@@ -160,7 +160,9 @@ void addDefaultVariants(Profile& p, const BakeSettings& base, ReportSize size) {
                                : fmt(" %ux%u", base.directionsTheta, base.directionsPhi);
   const std::string baseLabel = base.encoding == Encoding::Sh ? fmt("sh L%u", base.order)
                                                                : fmt("pca K%u N%u", base.components, base.tableSize);
-  p.variants.push_back({"default", baseLabel + dirs, base, true});
+  // The default bake may keep the volume it tries (BakeSettings::tryVolume): the rows say which.
+  const std::string tried = base.tryVolume ? fmt(" or volume %u^3", base.volumeSize) : std::string();
+  p.variants.push_back({"default", baseLabel + dirs + tried, base, true});
   if (base.directionSampling == DirectionSampling::Nodes && size != ReportSize::Smoke) {
     // The sampling decision, measured: the default field fitted to the 32x64 grid instead.
     // Its tables are those the tool fits to a grid (32x64 directions hold fewer values than 64x64 nodes).
@@ -483,6 +485,11 @@ Result<void> measureQuantization(SceneContext& c, const Variant& v, FidelityRow 
   // A clustered field stores 2 bytes a sample and its K tables once (docs/encodings.md, "One index
   // per sample"): its row says so beside the K it was baked with.
   if (field.clustered) row.parameters += fmt(" clustered (%u tables)", field.components);
+  // A default bake that kept the volume it tried: the row names what the field is.
+  if (field.encoding != s.encoding) {
+    row.encoding = toString(field.encoding);
+    row.parameters = parametersOf(field.settings);
+  }
   row.samples = f16.statistics.uniqueSamples;
   auto object = offscreen::uploadField(c.session, field);
   if (!object) {

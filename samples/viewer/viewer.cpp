@@ -251,6 +251,7 @@ VkExtent2D framebufferExtent(GLFWwindow* window) {
 std::string encodingLabel(const Field& f) {
   if (f.encoding == Encoding::Table) return "table " + std::to_string(f.tableSize) + "x" + std::to_string(f.tableSize);
   if (f.encoding == Encoding::Pca) return "pca K=" + std::to_string(f.components);
+  if (f.encoding == Encoding::Volume) return "volume " + std::to_string(f.volume.size) + "^3";
   return "sh";
 }
 

@@ -239,6 +239,35 @@ TEST_F(SceneCli, DefaultBakeTracesTheTableNodesAndAGridSizeAsksForTheGrid) {
   EXPECT_EQ(fs::file_size(dir_ / "object.shrf"), before);
 }
 
+// The default bake (no --encoding nor a flag of Pca's) makes the Pca field and, where the scene is
+// one medium in air, the volume beside it, and keeps the one whose decode sees the traced views'
+// colours closer: one line says which, with both figures, and the file is that field, recording
+// that it tried. --encoding pca keeps the Pca without trying; nested media (the glass of water)
+// have no volume to try.
+TEST_F(SceneCli, DefaultBakeTriesTheVolumeAndKeepsTheCloser) {
+  const ToolRun tried = run(".", {"bake", "builtin:sphere?tessellation=1", "--samples", "100", "-o", "tried.shrf"});
+  ASSERT_EQ(tried.exit, 0) << tried.err;
+  const size_t note = tried.err.find("encoding: chose ");
+  ASSERT_NE(note, std::string::npos) << tried.err;
+  const std::string chosen = tried.err.substr(note + 16, tried.err.find(' ', note + 16) - note - 16);
+  EXPECT_TRUE(chosen == "pca" || chosen == "volume") << tried.err;
+  EXPECT_NE(tried.err.find("dB with pca, "), std::string::npos) << tried.err;
+  EXPECT_NE(tried.err.find("dB with volume 128^3"), std::string::npos) << tried.err;
+  const ToolRun info = run(".", {"info", "tried.shrf", "--json"});
+  ASSERT_EQ(info.exit, 0) << info.err;
+  EXPECT_NE(info.out.find("\"encoding\": \"" + chosen + "\""), std::string::npos) << info.out;
+  const Result<Field> field = readField((dir_ / "tried.shrf").string());
+  ASSERT_TRUE(field.ok()) << field.error().message;
+  EXPECT_TRUE(field.value().settings.tryVolume);
+  const ToolRun pca = run(".", {"bake", "builtin:sphere?tessellation=1", "--samples", "100", "--encoding", "pca",
+                                "-o", "pca.shrf"});
+  ASSERT_EQ(pca.exit, 0) << pca.err;
+  EXPECT_EQ(pca.err.find("encoding: chose"), std::string::npos) << pca.err;
+  const ToolRun water = run(".", {"bake", "builtin:glass-of-water?tessellation=1", "--samples", "100", "-o", "w.shrf"});
+  ASSERT_EQ(water.exit, 0) << water.err;
+  EXPECT_EQ(water.err.find("encoding: chose"), std::string::npos) << water.err;
+}
+
 // A u8 Pca bake gives its widest components refinement layers (table_fit.h) and says how many;
 // an f16 bake has none. The split layout's 42 samples at this budget leave the trailing components
 // of K = 64 empty (the rank is at most the sample count), so the bake refines: 22 layers measured.
