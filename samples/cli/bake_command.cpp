@@ -47,8 +47,9 @@ std::vector<FlagSpec> bakeFlags() {
                        "(docs/fitting.md)"},
       {"spatial", true, "spatial smoothing with 0 (default), 3 or 5 neighbours"},
       {"quant", true, "coefficient storage: u8 (default) or f16"},
-      {"encoding", true, "hemisphere encoding: pca (default: learned basis, the measured best at 324 bytes per "
-                         "sample), table (hemi-octahedral map), sh (the paper's; implied by --order and --max-error) "
+      {"encoding", true, "hemisphere encoding: pca (learned basis; by default, where the scene is one medium in air "
+                         "and no flag of pca's is given, the volume is baked beside it and the field closer on traced "
+                         "views kept), table (hemi-octahedral map), sh (the paper's; implied by --order and --max-error) "
                          "or volume (no bytes per sample: the object's distance grid, through which the decode traces "
                          "each sample's path; one medium in air only; docs/encodings.md \"Volume\")"},
       {"volume-size", true, "volume: voxels per side of the grid (default " + std::to_string(kDefaultVolumeSize) +
