@@ -1558,9 +1558,9 @@ Result<Field> bakeVolumeField(const Scene& scene, const BakePlan& plan, BakeSett
 
 // BakeSettings::tryVolume: the scene's Volume field beside the baked one; the one whose decode sees
 // the colours of the traced views more closely (fieldViewsError's colour PSNR) is kept, and the
-// note says which. The colour ranks the measured scenes as their images do; the clipped angle
-// (printed too) would give the torus the volume, 3.2 dB worse in its image (docs/encodings.md,
-// "Volume").
+// note says which. The colour ranks the cube, torus and bunny as their images do (the sphere's two
+// fields tie within 0.07 dB); the clipped angle (printed too) would give the torus the volume, 3.2
+// dB worse in its image (docs/encodings.md, "Volume").
 Result<Field> keepVolumeWhereCloser(const Scene& scene, const BakePlan& plan, Field baked, Clock::time_point start) {
   const uint32_t channels = baked.decodedChannels();  // without a jump distance channel
   BakeSettings settings = plan.settings;
