@@ -1515,9 +1515,9 @@ ViewsError fieldViewsError(const Field& field, const SampleAtlas& atlas, const F
 }
 
 // The Volume encoding traces no paths per sample: the layout's frames, the grid, and its check on
-// the traced views (printed as a note, in the measure the Pca bake chooses by).
+// the traced views (printed as a note, in the measures the default's choice reads).
 Result<Field> bakeVolumeField(const Scene& scene, const BakePlan& plan, BakeSettings settings, uint32_t channels,
-                              Clock::time_point start) {
+                              const FrameChoiceViews& views, Clock::time_point start) {
   settings.encoding = Encoding::Volume;
   settings.order = settings.tableSize = settings.components = settings.clusters = 0;
   settings.shFit = ShFit::LeastSquares;
@@ -1535,7 +1535,6 @@ Result<Field> bakeVolumeField(const Scene& scene, const BakePlan& plan, BakeSett
   field.media = plan.media;
   field.settings = settings;
   plan.begin("checking the volume's paths against traced ones");
-  const FrameChoiceViews views = traceFrameChoiceViews(plan);
   const ViewsError e = fieldViewsError(field, plan.atlas, views, settings.threads);
   if (plan.note)
     plan.note("volume " + std::to_string(n) + "^3: to " + std::to_string(views.views.directions.size()) +
@@ -1565,10 +1564,11 @@ Result<Field> keepVolumeWhereCloser(const Scene& scene, const BakePlan& plan, Fi
   const uint32_t channels = baked.decodedChannels();  // without a jump distance channel
   BakeSettings settings = plan.settings;
   settings.volumeSize = settings.volumeSize ? settings.volumeSize : kDefaultVolumeSize;
-  auto volume = bakeVolumeField(scene, plan, settings, channels, start);
+  const FrameChoiceViews views = traceFrameChoiceViews(plan);
+  auto volume = bakeVolumeField(scene, plan, settings, channels, views, start);
   if (!volume) return volume.error();
-  const ViewsError a = fieldViewsError(baked, plan.atlas, traceFrameChoiceViews(plan), plan.settings.threads);
-  const ViewsError b = fieldViewsError(volume.value(), plan.atlas, traceFrameChoiceViews(plan), plan.settings.threads);
+  const ViewsError a = fieldViewsError(baked, plan.atlas, views, plan.settings.threads);
+  const ViewsError b = fieldViewsError(volume.value(), plan.atlas, views, plan.settings.threads);
   const bool keep = b.colourPsnr > a.colourPsnr;
   if (plan.note)
     plan.note(std::string("encoding: chose ") + (keep ? "volume" : toString(baked.encoding)) +
@@ -1596,7 +1596,8 @@ Result<Field> bakeField(const Scene& scene, const BakeOptions& options) {
   auto plan = planBake(scene, options, true);
   if (!plan) return plan.error();
   if (plan->settings.encoding == Encoding::Volume)
-    return bakeVolumeField(scene, plan.value(), plan->settings, plan->channels, start);
+    return bakeVolumeField(scene, plan.value(), plan->settings, plan->channels, traceFrameChoiceViews(plan.value()),
+                           start);
   auto part = tracePart(plan.value(), options, Shard{}, start);
   if (!part) return part.error();
   std::vector<BakePart> parts;
