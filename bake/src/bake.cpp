@@ -1515,9 +1515,10 @@ ViewsError fieldViewsError(const Field& field, const SampleAtlas& atlas, const F
 }
 
 // The Volume encoding traces no paths per sample: the layout's frames, the grid, and its check on
-// the traced views (printed as a note, in the measures the default's choice reads).
+// the traced views (printed as a note, in the measures the default's choice reads; `measured`,
+// when given, receives it).
 Result<Field> bakeVolumeField(const Scene& scene, const BakePlan& plan, BakeSettings settings, uint32_t channels,
-                              const FrameChoiceViews& views, Clock::time_point start) {
+                              const FrameChoiceViews& views, Clock::time_point start, ViewsError* measured = nullptr) {
   settings.encoding = Encoding::Volume;
   settings.order = settings.tableSize = settings.components = settings.clusters = 0;
   settings.shFit = ShFit::LeastSquares;
@@ -1536,6 +1537,7 @@ Result<Field> bakeVolumeField(const Scene& scene, const BakePlan& plan, BakeSett
   field.settings = settings;
   plan.begin("checking the volume's paths against traced ones");
   const ViewsError e = fieldViewsError(field, plan.atlas, views, settings.threads);
+  if (measured) *measured = e;
   if (plan.note)
     plan.note("volume " + std::to_string(n) + "^3: to " + std::to_string(views.views.directions.size()) +
               " traced views, colours in the built-in environment " + std::to_string(e.colourPsnr) +
@@ -1565,10 +1567,10 @@ Result<Field> keepVolumeWhereCloser(const Scene& scene, const BakePlan& plan, Fi
   BakeSettings settings = plan.settings;
   settings.volumeSize = settings.volumeSize ? settings.volumeSize : kDefaultVolumeSize;
   const FrameChoiceViews views = traceFrameChoiceViews(plan);
-  auto volume = bakeVolumeField(scene, plan, settings, channels, views, start);
+  ViewsError b;
+  auto volume = bakeVolumeField(scene, plan, settings, channels, views, start, &b);
   if (!volume) return volume.error();
   const ViewsError a = fieldViewsError(baked, plan.atlas, views, plan.settings.threads);
-  const ViewsError b = fieldViewsError(volume.value(), plan.atlas, views, plan.settings.threads);
   const bool keep = b.colourPsnr > a.colourPsnr;
   if (plan.note)
     plan.note(std::string("encoding: chose ") + (keep ? "volume" : toString(baked.encoding)) +

@@ -6,6 +6,9 @@
 #include <shrefract/field.h>
 #include <shrefract/gpu_layout.h>
 
+#include <glm/geometric.hpp>
+#include <glm/vec3.hpp>
+
 #include <algorithm>
 #include <cmath>
 
@@ -15,13 +18,9 @@ static_assert(kVolumeBandVoxels == gpu::kVolumeBandVoxels, "field.h and gpu_layo
 
 namespace {
 
-struct V3 {
-  float x = 0.0f, y = 0.0f, z = 0.0f;
-};
-V3 operator+(V3 a, V3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-V3 operator-(V3 a, V3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-V3 operator*(float s, V3 a) { return {s * a.x, s * a.y, s * a.z}; }
-float dot(V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+using V3 = glm::vec3;
+using glm::dot;
+
 V3 normalized(V3 a) {
   const float len2 = dot(a, a);
   return len2 > 0.0f ? (1.0f / std::sqrt(len2)) * a : V3{0.0f, 0.0f, 1.0f};
@@ -72,7 +71,7 @@ V3 normalAt(const FieldVolume& v, V3 g) {
     u[k] = {a[0], a[1], a[2]};
     if (c.weight[k] > c.weight[nearest]) nearest = k;
   }
-  V3 n{};
+  V3 n(0.0f);
   for (uint32_t k = 0; k < 8; ++k)
     if (dot(u[k], u[nearest]) >= gpu::kVolumeNormalBlendCos) n = n + c.weight[k] * u[k];
   return normalized(n);
@@ -173,7 +172,7 @@ void traceVolumeSample(const Field& field, const float* m, const std::array<floa
   const bool highestEnergy = field.settings.pathRule == PathRule::HighestEnergy;
   float tau = 0.0f, energy = 1.0f;
   V3 exit = reflected(d, normal);  // total internal reflection at the entry: the path never enters
-  V3 into{};
+  V3 into(0.0f);
   if (refracted(d, normal, outside / inside, into)) {
     d = into;
     exit = d;  // a trapped path leaves along its direction of travel
@@ -186,7 +185,7 @@ void traceVolumeSample(const Field& field, const float* m, const std::array<floa
       tau += t * v.spacing * absorption;
       const V3 n = normalAt(v, g);  // outward: the ray arrives from inside, against -n
       const float R = reference::fresnelDielectric(dot(d, n), inside / outside);
-      V3 out3{};
+      V3 out3(0.0f);
       const bool canRefract = R < 1.0f && refracted(d, -1.0f * n, inside / outside, out3);
       if (canRefract && !(highestEnergy && R >= 0.5f)) {  // the tracer's rule (tracer.cpp)
         energy *= 1.0f - R;
