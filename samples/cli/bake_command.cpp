@@ -36,7 +36,9 @@ std::vector<FlagSpec> bakeFlags() {
        {double(bake::kMinDirectionRows), double(bake::kMaxDirectionRows)},
        {double(bake::kMinDirectionColumns), double(bake::kMaxDirectionColumns)}},
       {"layout", true, "charts (default: a chart atlas, the measured best at the default budget) or split (every triangle its own patch, continuous across edges)"},
-      {"samples", true, "total surface sample budget (default " + std::to_string(bake::kDefaultSampleBudget) + ")",
+      {"samples", true, "total surface sample budget (default " + std::to_string(bake::kDefaultSampleBudget) +
+                      "; a volume field whose texels miss the paths between them is laid out at " +
+                      std::to_string(bake::kVolumeDensifyFactor) + "x that, its samples storing nothing)",
        K::Integer, {1, 1e8}},
       {"density", true, "samples per unit area instead of a budget", K::Real, {0, kUnbounded, true}},
       {"threads", true, "worker threads (default: all cores); never changes the result", K::Integer, {1, 1024}},
@@ -308,6 +310,9 @@ Result<BakeSettings> bakeSettingsFrom(const Args& args, const NumericFlags& n) {
   BakeSettings s;
   s.source = args.positional()[0];
   s.sampleBudget = bake::kDefaultSampleBudget;
+  // With the default budget a Volume field takes more samples where its texels miss the paths
+  // between them (bake.h kVolumeDensifyBelowDb); a budget or density given is kept.
+  s.volumeDensify = !n.samples && !n.density;
   if (auto applied = applyNumericFlags(n, s); !applied) return applied.error();
   if (auto applied = applyLayoutFlags(args, s); !applied) return applied.error();
   if (auto applied = applyEncodingFlag(args, n, s); !applied) return applied.error();

@@ -216,6 +216,11 @@ struct BakeSettings {
   // the Volume encoding (volumeSize, or kDefaultVolumeSize when 0) and keeps whichever field decodes
   // closer to traced views; a field so chosen records it (a Pca or Volume field).
   bool tryVolume = false;
+  // A Volume field (asked for, or kept by tryVolume) whose texels predict the paths between them
+  // poorly is laid out again at more samples (bake.h kVolumeDensifyBelowDb): the tool's default
+  // when no --samples or --density is given. Not stored: the field's sampleBudget is the budget it
+  // was laid out at.
+  bool volumeDensify = false;
 };
 
 // Timing fields (seconds, rays per second, memory) vary from run to run; everything else is
