@@ -4,7 +4,8 @@
 // Physical reference: the full Fresnel tree (every branch at every interface) to depth 8, 4x4
 // stratified samples per pixel (bake/reference_render.h). Every render is 4x4 supersampled; errors
 // are PSNR over the object's pixels (coverage > 0.5 in the physical reference), colours clamped to
-// [0, 1]. Per scene: exact single paths (highest-energy, first-refraction, each with and without
+// [0, 1]; every row also against the same tree at 8x8, which shares no sample positions with the
+// 4x4 renders. Per scene: exact single paths (highest-energy, first-refraction, each with and without
 // the path's Fresnel throughput), single-interface refraction, and fields baked at several
 // encodings and budgets; then the error decomposition of the default field (order 8, 32x64
 // directions, split layout, u8):

@@ -59,6 +59,7 @@ bake::BakeOptions orbitBakeOptions(const FlickerOptions& options, const OrbitPro
   bo.settings = defaultFieldSettings();
   bo.settings.source = spec;
   bo.settings.sampleBudget = p.samples;
+  bo.settings.volumeDensify = false;  // a budget given, as `bake --samples`
   bo.settings.threads = options.threads;
   bo.heldOutDirections = 0;
   return bo;

@@ -65,6 +65,9 @@ struct FidelityRow {
   uint64_t samples = 0;          // fields: distinct surface points traced (BakeStatistics::uniqueSamples)
   double psnrPhysical = 0.0;     // dB against the physical reference
   double psnrSameRule = 0.0;     // dB against the exact render of the same path rule (see fidelity.cpp)
+  // dB against the full tree at 2S x 2S, which shares no sample positions with the S x S renders
+  // (the physical row: the S x S reference's own figure against it).
+  double psnrDense = 0.0;
   double bakeSeconds = 0.0;      // fields: the bake (a u8 row shares its f16 twin's trace: that bake's)
   double decompressionMs = 0.0;  // GPU timestamps, 1 spp, last timed frame
   double rasterMs = 0.0;
