@@ -218,8 +218,8 @@ struct BakeSettings {
   bool tryVolume = false;
   // A Volume field (asked for, or kept by tryVolume) whose texels predict the paths between them
   // poorly is laid out again at more samples (bake.h kVolumeDensifyBelowDb): the tool's default
-  // when no --samples or --density is given. Not stored: the field's sampleBudget is the budget it
-  // was laid out at.
+  // when no --samples or --density is given. Not stored in a field (its sampleBudget is the budget
+  // it was laid out at); a part file carries it, so that a merge does what the bake would.
   bool volumeDensify = false;
 };
 
