@@ -463,10 +463,12 @@ void addErrorRows(const SceneContext& c, const Variant& v, const FidelityRow& pr
                message.c_str());
 }
 
-// Empty when the bake returned the field asked for; otherwise what it returned instead.
+// Empty when the bake returned the field asked for (or, asked to try the volume, the volume it
+// kept: BakeSettings::tryVolume); otherwise what it returned instead.
 std::string bakeMismatch(const Field& f16, const BakeSettings& s) {
-  if (f16.encoding != s.encoding || f16.settings.pathRule != s.pathRule || f16.throughput != s.throughput ||
-      f16.quantization != Quantization::F16)
+  const bool keptVolume = s.tryVolume && f16.encoding == Encoding::Volume;
+  if ((f16.encoding != s.encoding && !keptVolume) || f16.settings.pathRule != s.pathRule ||
+      f16.throughput != s.throughput || f16.quantization != Quantization::F16)
     return fmt("the bake returned a %s field (%s, throughput %s, %s) for a %s request (%s, throughput %s)",
                toString(f16.encoding), ruleName(f16.settings.pathRule), f16.throughput ? "on" : "off",
                toString(f16.quantization), toString(s.encoding), ruleName(s.pathRule), s.throughput ? "on" : "off");
