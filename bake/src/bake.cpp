@@ -1475,7 +1475,6 @@ glm::vec3 choiceColour(glm::vec3 d) {
 
 ViewsError fieldViewsError(const Field& field, const SampleAtlas& atlas, const FrameChoiceViews& v, uint32_t threads) {
   const std::vector<uint64_t> texelOf = firstTexels(atlas);
-  auto seen = choiceColour;
   std::vector<double> clipped(v.samples.size()), squares(v.samples.size()), worst(v.samples.size()),
       colour(v.samples.size());
   parallelFor(v.samples.size(), threads, [&](size_t k) {
@@ -1488,7 +1487,7 @@ ViewsError fieldViewsError(const Field& field, const SampleAtlas& atlas, const F
       clipped[k] += std::min(a, kFrameChoiceClipDegrees);
       squares[k] += a * a;
       worst[k] = std::max(worst[k], a);
-      const glm::vec3 e = seen(decoded) - seen(traced);
+      const glm::vec3 e = choiceColour(decoded) - choiceColour(traced);
       colour[k] += double(glm::dot(e, e)) / 3.0;
     }
   });
@@ -1545,13 +1544,7 @@ double volumeSpatialPsnr(const Field& field, uint32_t threads) {
     const float* b = a + 12;
     const glm::vec3 normal = glm::normalize(glm::vec3(a[8], a[9], a[10]) + glm::vec3(b[8], b[9], b[10]));
     const LocalFrame frame = frameFromNormal(normal);
-    const glm::vec3 mid = 0.5f * (framePoint(a) + framePoint(b));
-    const glm::vec3 axes[3] = {frame.tangent, frame.bitangent, frame.normal};
-    float m[12];
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) m[4 * r + c] = axes[r][c];
-      m[4 * r + 3] = -glm::dot(axes[r], mid);
-    }
+    const std::array<float, 12> m = localFromWorldRows(0.5f * (framePoint(a) + framePoint(b)), frame);
     uint64_t rng = 0x564f4c554d45ull ^ (uint64_t(chosen[k]) * 0x9e3779b97f4a7c15ull);
     for (uint32_t h = 0; h < kFrameChoiceViews; ++h) {
       const glm::vec3 toEye = localToWorld(frame, cosineWeightedDirection(rng));  // the eye far away
@@ -1565,7 +1558,7 @@ double volumeSpatialPsnr(const Field& field, uint32_t threads) {
       };
       const glm::vec3 between = exitAt(a) + exitAt(b);
       const glm::vec3 e = choiceColour(glm::length(between) > 0.0f ? glm::normalize(between) : toEye) -
-                          choiceColour(exitAt(m));
+                          choiceColour(exitAt(m.data()));
       squares[k] += double(glm::dot(e, e)) / 3.0;
     }
   });
@@ -1575,10 +1568,18 @@ double volumeSpatialPsnr(const Field& field, uint32_t threads) {
   return 10.0 * std::log10(1.0 / std::max(mean, 1e-10));
 }
 
-// The Volume encoding traces no paths per sample: the layout's frames, the grid, and its check on
-// the traced views (printed as a note, in the measures the default's choice reads; `measured`,
-// when given, receives it).
-Result<Field> bakeVolumeField(const Scene& scene, const BakePlan& plan, BakeSettings settings, uint32_t channels,
+// The Volume encoding's grid for `plan`'s scene at settings.volumeSize.
+Result<FieldVolume> buildVolume(const Scene& scene, const BakePlan& plan, const BakeSettings& settings) {
+  const uint32_t n = settings.volumeSize;
+  plan.begin("building the " + std::to_string(n) + "x" + std::to_string(n) + "x" + std::to_string(n) +
+             " distance volume");
+  return buildDistanceVolume(scene, *plan.tracer, n, settings.threads);
+}
+
+// The Volume encoding traces no paths per sample: the layout's frames, the grid (buildVolume), and
+// its check on the traced views (printed as a note, in the measures the default's choice reads;
+// `measured`, when given, receives it).
+Result<Field> bakeVolumeField(const BakePlan& plan, BakeSettings settings, uint32_t channels, FieldVolume volume,
                               const FrameChoiceViews& views, Clock::time_point start, ViewsError* measured = nullptr) {
   settings.encoding = Encoding::Volume;
   settings.order = settings.tableSize = settings.components = settings.clusters = 0;
@@ -1587,13 +1588,9 @@ Result<Field> bakeVolumeField(const Scene& scene, const BakePlan& plan, BakeSett
   settings.directionSampling = DirectionSampling::Grid;
   settings.jumpDistance = false;
   const uint32_t n = settings.volumeSize;
-  plan.begin("building the " + std::to_string(n) + "x" + std::to_string(n) + "x" + std::to_string(n) +
-             " distance volume");
-  auto volume = buildDistanceVolume(scene, *plan.tracer, n, settings.threads);
-  if (!volume) return volume.error();
   Field field = fieldLayout(plan, settings, shapeOf(settings, channels), {});
   field.channels = channels;
-  field.volume = std::move(volume.value());
+  field.volume = std::move(volume);
   field.media = plan.media;
   field.settings = settings;
   plan.begin("checking the volume's paths against traced ones");
@@ -1644,8 +1641,9 @@ Result<Field> densifiedVolume(const Scene& scene, const BakePlan& plan, Field fi
   options.stage = plan.stage;
   auto dense = planBake(scene, options, false);
   if (!dense) return dense.error();
-  auto out = bakeVolumeField(scene, dense.value(), dense->settings, field.channels, traceFrameChoiceViews(dense.value()),
-                             start);
+  // The grid depends on the scene and its size only: the denser layout keeps it.
+  auto out = bakeVolumeField(dense.value(), dense->settings, field.channels, std::move(field.volume),
+                             traceFrameChoiceViews(dense.value()), start);
   if (out) out->settings.tryVolume = field.settings.tryVolume;  // the dense plan's settings are a Volume bake's
   return out;
 }
@@ -1659,9 +1657,11 @@ Result<Field> keepVolumeWhereCloser(const Scene& scene, const BakePlan& plan, Fi
   const uint32_t channels = baked.decodedChannels();  // without a jump distance channel
   BakeSettings settings = plan.settings;
   settings.volumeSize = settings.volumeSize ? settings.volumeSize : kDefaultVolumeSize;
+  auto grid = buildVolume(scene, plan, settings);
+  if (!grid) return grid.error();
   const FrameChoiceViews views = traceFrameChoiceViews(plan);
   ViewsError b;
-  auto volume = bakeVolumeField(scene, plan, settings, channels, views, start, &b);
+  auto volume = bakeVolumeField(plan, settings, channels, std::move(grid.value()), views, start, &b);
   if (!volume) return volume.error();
   const ViewsError a = fieldViewsError(baked, plan.atlas, views, plan.settings.threads);
   const bool keep = b.colourPsnr > a.colourPsnr;
@@ -1691,7 +1691,9 @@ Result<Field> bakeField(const Scene& scene, const BakeOptions& options) {
   auto plan = planBake(scene, options, true);
   if (!plan) return plan.error();
   if (plan->settings.encoding == Encoding::Volume) {
-    auto volume = bakeVolumeField(scene, plan.value(), plan->settings, plan->channels,
+    auto grid = buildVolume(scene, plan.value(), plan->settings);
+    if (!grid) return grid.error();
+    auto volume = bakeVolumeField(plan.value(), plan->settings, plan->channels, std::move(grid.value()),
                                   traceFrameChoiceViews(plan.value()), start);
     if (!volume) return volume.error();
     return densifiedVolume(scene, plan.value(), std::move(volume.value()), start);

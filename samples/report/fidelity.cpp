@@ -651,7 +651,6 @@ Result<void> decompose(SceneContext& c, const DefaultField& def, FidelityScene& 
 // shading sample, silhouettes covered at 4), the exact highest-energy path and the full tree
 // (CPU, ReferenceOptions::filtered).
 Result<void> measureAntialiasing(SceneContext& c, const DefaultField& def, FidelityScene& out) {
-  bake::ReferenceImage* denser = &c.dense;
   bake::ReferenceOptions ro;
   ro.mode = bake::ReferenceMode::FullTree;
   ro.treeDepth = c.profile.treeDepth;
@@ -659,8 +658,8 @@ Result<void> measureAntialiasing(SceneContext& c, const DefaultField& def, Fidel
     FidelityAntialiasing a{mode};
     for (auto [image, reference, psnr] : {std::tuple{&one, &c.physical.color, &a.psnrOneSample},
                                           std::tuple{&supersampled, &c.physical.color, &a.psnrSupersampled},
-                                          std::tuple{&one, &denser->color, &a.denseOneSample},
-                                          std::tuple{&supersampled, &denser->color, &a.denseSupersampled}}) {
+                                          std::tuple{&one, &c.dense.color, &a.denseOneSample},
+                                          std::tuple{&supersampled, &c.dense.color, &a.denseSupersampled}}) {
       auto r = psnrOf(c, *image, *reference);
       if (!r) return r.error();
       *psnr = r.value();
