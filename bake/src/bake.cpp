@@ -774,59 +774,102 @@ constexpr size_t kMinSamplesPerCluster = 8;
 // over three): the clusterings of this many seeds are measured on the views, the closest kept.
 constexpr uint32_t kClusterRestarts = 4;
 
-// The clusters a Pca bake tries (BakeSettings::clusters; as many as the components by default).
-uint32_t clusterCount(const BakeSettings& settings, const EncodingShape& shape) {
-  return settings.clusters ? settings.clusters : shape.components;
+// With BakeSettings::moreClusters (the tool's default) the bake also tries kDefaultClustersPerComponent times as many
+// clusters as components: a cluster's table is stored once per field, not per sample, so more of
+// them cost memory, not bytes per sample, and each holds fewer samples' jumps (the torus at 40000
+// samples: 26.38 dB at 4x4 with 324 clusters, 26.69 with 1024; docs/encodings.md "More clusters").
+// Tried, not assumed: on a 1500-sample sphere of 8x8 tables 96 clusters read farther on the views
+// than 24. Their tables stay within kDefaultClusterTableBytes, well under the smallest storage
+// buffer range Vulkan allows a device (2^27 bytes).
+constexpr uint32_t kDefaultClustersPerComponent = 3;
+constexpr size_t kDefaultClusterTableBytes = size_t(64) << 20;
+
+// The cluster counts a Pca bake tries, fewest first: BakeSettings::clusters where asked, else the
+// components' count and, with BakeSettings::moreClusters where the samples and the tables' memory
+// allow, kDefaultClustersPerComponent times it.
+std::vector<uint32_t> clusterCounts(const BakeSettings& settings, const EncodingShape& shape, size_t samples) {
+  if (settings.clusters) return {settings.clusters};
+  std::vector<uint32_t> counts{shape.components};
+  if (!settings.moreClusters) return counts;
+  const uint64_t more = uint64_t(shape.components) * kDefaultClustersPerComponent;
+  const size_t tableBytes = tableValues(shape) * sizeof(uint16_t);  // binary16 (docs/encodings.md)
+  if (more <= kMaxClusters && samples >= kMinSamplesPerCluster * more &&
+      more * tableBytes <= kDefaultClusterTableBytes)
+    counts.push_back(uint32_t(more));
+  return counts;
 }
 
 // Spatial smoothing (--spatial) blends neighbours' weights, which an index cannot hold: those bakes
 // keep the components.
 bool clustersEligible(const BakeSettings& settings, size_t samples, const EncodingShape& shape) {
-  return settings.spatialNeighbours == 0 && samples >= kMinSamplesPerCluster * size_t(clusterCount(settings, shape));
+  return settings.spatialNeighbours == 0 &&
+         samples >= kMinSamplesPerCluster * size_t(clusterCounts(settings, shape, samples).front());
 }
 
-// Clusters (table_fit.h): whether the field keeps the mean tables of clusterCount clusters of its
-// samples, each sample storing its cluster's index (EncodingShape::clustered: 2 bytes, one table
-// read per decode), rather than its K components; `learned` is replaced where it does: the cluster
-// means and one float per sample, the index. Chosen by the exit frame's measure
+// The best of kClusterRestarts k-means seeds at `count` clusters, by the views' clipped mean angle.
+struct ClusterTry {
+  ClusteredBasis basis;
+  uint32_t count = 0;
+  double degrees = std::numeric_limits<double>::max();
+};
+
+Result<ClusterTry> bestClustering(const BakePlan& plan, const EncodingShape& shape, const std::vector<float>& tables,
+                                  const FrameChoiceViews& views, const LearnedBasis& learned, uint32_t count) {
+  const size_t n = plan.atlas.samples.size(), dim = tableValues(shape);
+  EncodingShape clusteredShape = shape;
+  clusteredShape.components = count;
+  plan.begin("clustering " + std::to_string(n) + " samples into " + std::to_string(count) + " tables, " +
+             std::to_string(kClusterRestarts) + " times");
+  ClusterTry best;
+  best.count = count;
+  for (uint32_t seed = 0; seed < kClusterRestarts; ++seed) {
+    auto clustered =
+        clusterTables(tables, n, dim, learned.weights, shape.components, count, seed, plan.settings.threads);
+    if (!clustered) return clustered.error();
+    const std::vector<float> weights = gatherTables(clustered.value().weights, views.samples, count);
+    const double degrees = meanClippedDegrees(clusteredShape, clustered.value().basis, weights, plan.atlas, views);
+    if (degrees < best.degrees) {
+      best.degrees = degrees;
+      best.basis = std::move(clustered.value());
+    }
+  }
+  return best;
+}
+
+// Clusters (table_fit.h): whether the field keeps the mean tables of clusters of its samples (the
+// closest of clusterCounts' tries), each sample storing its cluster's index (EncodingShape::clustered:
+// 2 bytes, one table read per decode), rather than its K components; `learned` is replaced where it
+// does: the cluster means and one float per sample, the index. Chosen by the exit frame's measure
 // (meanClippedDegrees, the same views): the nodes' RMS prefers the components on every scene (torus
 // 15.9 against 18.7 deg), while the images prefer the clusters on glass turned on a lathe
-// (docs/encodings.md, "Clusters").
-Result<bool> keepClusters(const BakePlan& plan, const EncodingShape& shape, const std::vector<float>& tables,
-                          const FrameChoiceViews& views, LearnedBasis& learned) {
-  const size_t n = plan.atlas.samples.size(), dim = tableValues(shape);
-  if (!clustersEligible(plan.settings, n, shape)) return false;
-  EncodingShape clusteredShape = shape;
-  clusteredShape.components = clusterCount(plan.settings, shape);
-  plan.begin("clustering " + std::to_string(n) + " samples into " + std::to_string(clusteredShape.components) +
-             " tables, " + std::to_string(kClusterRestarts) + " times");
+// (docs/encodings.md, "Clusters"). Returns the clusters kept, 0 where the components stay.
+Result<uint32_t> keepClusters(const BakePlan& plan, const EncodingShape& shape, const std::vector<float>& tables,
+                              const FrameChoiceViews& views, LearnedBasis& learned) {
+  const size_t n = plan.atlas.samples.size();
+  if (!clustersEligible(plan.settings, n, shape)) return 0u;
   const double components = meanClippedDegrees(shape, learned.basis, gatherTables(learned.weights, views.samples,
                                                                                   shape.components),
                                                plan.atlas, views);
-  ClusteredBasis best;
-  double clusters = std::numeric_limits<double>::max();
-  for (uint32_t seed = 0; seed < kClusterRestarts; ++seed) {
-    auto clustered = clusterTables(tables, n, dim, learned.weights, shape.components, clusteredShape.components, seed,
-                                   plan.settings.threads);
-    if (!clustered) return clustered.error();
-    const std::vector<float> weights = gatherTables(clustered.value().weights, views.samples, clusteredShape.components);
-    const double degrees = meanClippedDegrees(clusteredShape, clustered.value().basis, weights, plan.atlas, views);
-    if (degrees < clusters) {
-      clusters = degrees;
-      best = std::move(clustered.value());
-    }
+  ClusterTry best;
+  std::string others;
+  for (uint32_t count : clusterCounts(plan.settings, shape, n)) {
+    auto tried = bestClustering(plan, shape, tables, views, learned, count);
+    if (!tried) return tried.error();
+    if (tried.value().degrees < best.degrees) std::swap(best, tried.value());
+    if (tried.value().count) others += "; " + std::to_string(tried.value().degrees) + " deg with " + std::to_string(tried.value().count);
   }
-  const bool keep = clusters < components;
+  const bool keep = best.degrees < components;
   if (plan.note)
     plan.note(std::string("pca basis: chose ") + (keep ? "clusters" : "components") + " (mean angle, clipped at " +
               std::to_string(int(kFrameChoiceClipDegrees)) + " deg, to " + std::to_string(views.views.directions.size()) +
               " traced views: " + std::to_string(components) + " deg with " + std::to_string(shape.components) +
-              " components, " + std::to_string(clusters) + " deg with " +
-              (clusteredShape.components == shape.components ? std::string("as many")
-                                                             : std::to_string(clusteredShape.components)) +
-              " clusters, the best of " + std::to_string(kClusterRestarts) + " seeds)");
-  if (keep) learned = LearnedBasis{std::move(best.basis), std::vector<float>(best.cluster.begin(), best.cluster.end())};
-  return keep;
+              " components, " + std::to_string(best.degrees) + " deg with " +
+              (best.count == shape.components ? std::string("as many") : std::to_string(best.count)) +
+              " clusters" + others + ", the best of " + std::to_string(kClusterRestarts) + " seeds each)");
+  if (!keep) return 0u;
+  learned = LearnedBasis{std::move(best.basis.basis),
+                         std::vector<float>(best.basis.cluster.begin(), best.basis.cluster.end())};
+  return best.count;
 }
 
 // Pca: replaces each sample's table by its weights over a basis learned from all of them, in the
@@ -864,8 +907,8 @@ Result<void> learnBasisInItsFrame(const BakePlan& plan, EncodingShape& shape, st
   if (!learned) return learned.error();
   auto clusters = keepClusters(plan, shape, coeffs, views, learned.value());
   if (!clusters) return clusters.error();
-  shape.clustered = clusters.value();
-  if (shape.clustered) shape.components = clusterCount(plan.settings, shape);
+  shape.clustered = clusters.value() != 0;
+  if (shape.clustered) shape.components = clusters.value();
   basis = std::move(learned.value().basis);
   coeffs = std::move(learned.value().weights);
   return {};

@@ -19,7 +19,7 @@ constexpr char kMagic[8] = {'S', 'H', 'R', 'F', 'P', 'A', 'R', 'T'};
 // 5: the frames of the polar cap of a curved surface (sample_frame.h frameAt): an older part traced
 // those samples in frames its merge would no longer store; 6: the clusters a Pca bake tries; 7: how
 // an SH bake fits; 8: the volume size and whether the merge tries the volume.
-constexpr uint32_t kPartVersion = 9;  // 9: BakeSettings::volumeDensify
+constexpr uint32_t kPartVersion = 10;  // 9: BakeSettings::volumeDensify; 10: moreClusters
 constexpr size_t kHeaderBytes = 8 + 4 + 8 + 8;  // magic, version, payload size, checksum
 
 uint64_t fnv1a(const uint8_t* data, size_t size) {
@@ -123,6 +123,7 @@ void visitSettings(S& s, V& v) {
   v.u32("volume size", s.volumeSize);
   v.boolean("try volume", s.tryVolume);
   v.boolean("volume densify", s.volumeDensify);  // a merge densifies the volume it keeps as the bake would
+  v.boolean("more clusters", s.moreClusters);  // and tries the clusters the bake would
   v.f32("max error", s.maxErrorDegrees);
   v.u32("threads", s.threads);
 }

@@ -66,10 +66,11 @@ std::vector<FlagSpec> bakeFlags() {
       {"components", true, "pca: basis functions K = bytes per sample in u8 (default 324): K components, or the mean "
                           "tables of K clusters of the samples where those decode closer (the bake prints which)", K::Integer,
        {1, double(kMaxComponents)}},
-      {"clusters", true, "pca: the number of clusters tried against the K components (default K); where they "
-                        "decode closer each sample stores its cluster's index (2 bytes) and the field their mean "
-                        "tables, each 40 KiB at 64x64 with 5 channels (1024: +0.32 dB on the torus at 40000 samples, "
-                        "docs/encodings.md \"More clusters\")", K::Integer,
+      {"clusters", true, "pca: the number of clusters tried against the K components (default K, and without "
+                        "--components also 3K where the samples hold 8 a cluster and its tables fit 64 MiB, the "
+                        "closer on the views kept); where they decode closer each sample stores its cluster's index (2 bytes) and the "
+                        "field their mean tables, each 40 KiB at 64x64 with 5 channels (docs/encodings.md \"More "
+                        "clusters\")", K::Integer,
        {1, double(kMaxClusters)}},
       {"direction-sampling", true, "directions traced per sample: nodes (default for pca: the tables' own "
                                    "node directions, exact at every node; also for table) or grid (--directions, "
@@ -313,6 +314,8 @@ Result<BakeSettings> bakeSettingsFrom(const Args& args, const NumericFlags& n) {
   // With the default budget a Volume field takes more samples where its texels miss the paths
   // between them (bake.h kVolumeDensifyBelowDb); a budget or density given is kept.
   s.volumeDensify = !n.samples && !n.density;
+  // Nor a basis size: the clusters tried may outnumber the components (BakeSettings::moreClusters).
+  s.moreClusters = !n.components && !n.clusters && !n.maxBytes;
   if (auto applied = applyNumericFlags(n, s); !applied) return applied.error();
   if (auto applied = applyLayoutFlags(args, s); !applied) return applied.error();
   if (auto applied = applyEncodingFlag(args, n, s); !applied) return applied.error();

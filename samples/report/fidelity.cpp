@@ -80,6 +80,7 @@ BakeSettings defaultFieldSettings() {
   s.tryVolume = true;
   s.volumeSize = kDefaultVolumeSize;
   s.volumeDensify = true;  // at the default budget, as the tool (bake.h kVolumeDensifyBelowDb)
+  s.moreClusters = true;   // and the clusters it tries beside the components (BakeSettings::moreClusters)
   return s;
 }
 

@@ -298,16 +298,19 @@ struct BasisChoice {
   Field field;
   double components = 0.0, clusters = 0.0;
   bool keptClusters = false;
+  std::string note;  // the bake's "pca basis: chose ..." line
 };
 
 // expectChoice false: the bake is to make no choice (too few samples for the clusters).
-BasisChoice bakeAndChooseBasis(const char* scene, uint32_t components, uint32_t clusters = 0, bool expectChoice = true) {
+BasisChoice bakeAndChooseBasis(const char* scene, uint32_t components, uint32_t clusters = 0, bool expectChoice = true,
+                               bool moreClusters = false) {
   BakeSettings s = small();
   s.encoding = Encoding::Pca;
   s.order = 0;
   s.tableSize = 8;
   s.components = components;
   s.clusters = clusters;
+  s.moreClusters = moreClusters;
   s.directionSampling = DirectionSampling::Nodes;
   s.exitFrame = ExitFrame::Sample;
   s.sampleBudget = 1500;
@@ -323,6 +326,7 @@ BasisChoice bakeAndChooseBasis(const char* scene, uint32_t components, uint32_t 
   if (at == std::string::npos) return out;
   const std::string line = notes.substr(at, notes.find('\n', at) - at);
   std::printf("%s: %s\n", scene, line.c_str());
+  out.note = line;
   out.keptClusters = line.find("chose clusters") != std::string::npos;
   out.components = std::stod(line.substr(line.find("views: ") + 7));
   out.clusters = std::stod(line.substr(line.find("components, ") + 12));
@@ -373,6 +377,30 @@ TEST(Bake, PcaTriesTheClustersAskedFor) {
   const BasisChoice tooMany = bakeAndChooseBasis("sphere", 24, 200, false);
   EXPECT_FALSE(tooMany.field.clustered);
   EXPECT_EQ(tooMany.field.components, 24u);
+}
+
+// BakeSettings::moreClusters (the tool's default): without `clusters` the bake tries as many
+// clusters as components and three times as many (bake.cpp kDefaultClustersPerComponent), where the
+// samples hold 8 a cluster, and keeps the closest on the views: its note names both tries, and the
+// field holds the closer one's tables. Without the flag only as many are tried (the tests above).
+TEST(Bake, PcaTriesThreeTimesTheClustersByDefault) {
+  const BasisChoice tried = bakeAndChooseBasis("sphere", 24, 0, true, true);
+  const Field& f = tried.field;
+  ASSERT_TRUE(f.clustered);
+  // The note: "<components> deg with 24 components, <kept> deg with <N|as many> clusters; <other> deg with <M>, ..."
+  const std::string line = tried.note;
+  const size_t other = line.find("; ");
+  ASSERT_NE(other, std::string::npos) << line;
+  const double otherDegrees = std::stod(line.substr(other + 2));
+  const uint32_t otherCount = uint32_t(std::stoul(line.substr(line.find(" deg with ", other) + 10)));
+  EXPECT_LE(tried.clusters, otherDegrees);
+  EXPECT_TRUE((f.components == 24u && otherCount == 72u) || (f.components == 72u && otherCount == 24u)) << line;
+  EXPECT_EQ(f.settings.clusters, 0u);
+  EXPECT_EQ(f.basis.size(), size_t(f.components) * 8 * 8 * f.channels);
+  EXPECT_TRUE(storesIndices(f));
+  // 64 components: 192 clusters would hold under 8 samples each of these ~1500, so only 64 are tried.
+  const std::string one = bakeAndChooseBasis("sphere", 64, 0, true, true).note;
+  EXPECT_EQ(one.find("; "), std::string::npos) << one;
 }
 
 // --max-bytes-per-sample measures its candidates on grid fits (Pca on 16x16 tables) but bakes a

@@ -298,12 +298,14 @@ TEST(Shard, PartBytesRoundTripAndNonFiniteValuesAreRefused) {
   p.coefficients = {0.5f, -1.0f, 2.0f, 0.0f};
   p.heldOut = {0.0f, 0.0f, 1.0f, 0.0f, 1.0f, 0.0f};
   p.settings.tryVolume = p.settings.volumeDensify = true;  // what the merge does with the volume
+  p.settings.moreClusters = true;                          // and with the clusters
   const std::vector<uint8_t> bytes = bake::serializePart(p);
   auto back = bake::parsePart(bytes.data(), bytes.size(), "memory");
   ASSERT_TRUE(back.ok()) << back.error().message;
   EXPECT_EQ(bake::serializePart(back.value()), bytes);
   EXPECT_TRUE(back.value().settings.tryVolume);
   EXPECT_TRUE(back.value().settings.volumeDensify);
+  EXPECT_TRUE(back.value().settings.moreClusters);
 
   const fs::path dir = workDir("nan");
   p.coefficients[2] = std::numeric_limits<float>::quiet_NaN();

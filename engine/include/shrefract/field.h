@@ -221,6 +221,12 @@ struct BakeSettings {
   // when no --samples or --density is given. Not stored in a field (its sampleBudget is the budget
   // it was laid out at); a part file carries it, so that a merge does what the bake would.
   bool volumeDensify = false;
+  // Pca without `clusters`: also tries 3 times as many clusters as components (bake.cpp
+  // kDefaultClustersPerComponent; where the samples hold 8 a cluster and the tables fit 64 MiB) and
+  // keeps the closest on the traced views. The tool's default when no --components or --clusters is
+  // given: a cluster's table is stored once per field, so more of them cost memory, not bytes per
+  // sample. Not stored in a field (its `components` says how many it kept); a part file carries it.
+  bool moreClusters = false;
 };
 
 // Timing fields (seconds, rays per second, memory) vary from run to run; everything else is
