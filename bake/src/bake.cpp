@@ -788,10 +788,13 @@ constexpr size_t kDefaultClusterTableBytes = size_t(64) << 20;
 // The cluster counts a Pca bake tries, fewest first: BakeSettings::clusters where asked, else the
 // components' count and, with BakeSettings::moreClusters where the samples and the tables' memory
 // allow, kDefaultClustersPerComponent times it.
+uint32_t fewestClusters(const BakeSettings& settings, const EncodingShape& shape) {
+  return settings.clusters ? settings.clusters : shape.components;
+}
+
 std::vector<uint32_t> clusterCounts(const BakeSettings& settings, const EncodingShape& shape, size_t samples) {
-  if (settings.clusters) return {settings.clusters};
-  std::vector<uint32_t> counts{shape.components};
-  if (!settings.moreClusters) return counts;
+  std::vector<uint32_t> counts{fewestClusters(settings, shape)};
+  if (settings.clusters || !settings.moreClusters) return counts;
   const uint64_t more = uint64_t(shape.components) * kDefaultClustersPerComponent;
   const size_t tableBytes = tableValues(shape) * sizeof(uint16_t);  // binary16 (docs/encodings.md)
   if (more <= kMaxClusters && samples >= kMinSamplesPerCluster * more &&
@@ -803,8 +806,7 @@ std::vector<uint32_t> clusterCounts(const BakeSettings& settings, const Encoding
 // Spatial smoothing (--spatial) blends neighbours' weights, which an index cannot hold: those bakes
 // keep the components.
 bool clustersEligible(const BakeSettings& settings, size_t samples, const EncodingShape& shape) {
-  return settings.spatialNeighbours == 0 &&
-         samples >= kMinSamplesPerCluster * size_t(clusterCounts(settings, shape, samples).front());
+  return settings.spatialNeighbours == 0 && samples >= kMinSamplesPerCluster * size_t(fewestClusters(settings, shape));
 }
 
 // The best of kClusterRestarts k-means seeds at `count` clusters, by the views' clipped mean angle.
