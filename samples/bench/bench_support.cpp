@@ -291,6 +291,8 @@ Result<std::unique_ptr<Object>> uploadObject(Context& context, const Field& fiel
     auto created = Object::createFromField(context, field, cmd);
     if (!created) return created.error();
     object = std::move(created).value();
+    // This measures the decompression pass: a Volume field traces its sample texels into the image.
+    if (field.encoding == Encoding::Volume) (void)object->setTracesVolumePerFragment(false);
     return {};
   });
   if (!uploaded) return uploaded.error();

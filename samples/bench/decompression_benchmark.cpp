@@ -380,6 +380,8 @@ Result<EncodingEntry> uploadEncodingCase(Context& context, Decompressor& decompr
       auto created = Object::createFromField(context, field, cmd);
       if (!created) return created.error();
       e.object = std::move(created).value();
+      // The decompression pass is what is measured: a Volume field traces its sample texels here.
+      if (field.encoding == Encoding::Volume) (void)e.object->setTracesVolumePerFragment(false);
       return {};
     });
     if (!uploaded) return makeError(uploaded.error().code, std::string(c.name) + ": " + uploaded.error().message);

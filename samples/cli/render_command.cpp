@@ -65,6 +65,9 @@ std::vector<FlagSpec> renderFlags() {
                      "per pixel, silhouettes covered at N samples and resolved (docs/antialiasing.md, \"MSAA and "
                      "the sphere's rim\")",
        K::Integer, {1, 8}},
+      {"volume-texels", false, "field mode, a volume field: trace the sample texels in texture space and interpolate "
+                               "between them, as the other encodings (default: each fragment traces its own path; "
+                               "docs/encodings.md, \"Volume traced per fragment\")"},
       {"threads", true, "CPU modes: worker threads (default: all cores)", K::Integer, {1, 1024}},
       {"absorption", true, "absorption scale k in exp(-tau * k) (default 1: the media as defined)", K::Real, {0, kUnbounded}},
       {"exposure", true, "linear scale applied before writing (default 1)", K::Real, {0, kUnbounded, true}},
@@ -119,6 +122,7 @@ struct Request {
   std::optional<float> exposure, absorption;
   uint32_t samplesPerAxis = 1, frames = 1;
   uint32_t msaa = 1;  // --msaa: a power of two in 1..8
+  bool volumeTexels = false;  // --volume-texels
   std::optional<uint32_t> environmentTaps;  // --env-taps; each mode has its own default
   std::optional<float> environmentLevelBias;  // --env-level-bias (CPU references only)
   std::optional<uint32_t> maxBounces, treeDepth, threads;
@@ -162,6 +166,8 @@ Result<void> checkApplicability(const Args& args, const Request& r) {
   if (cpu && args.has("msaa"))
     return usage("shrefract render: --msaa applies to the GPU modes (field, single-interface) only; the CPU modes "
                  "supersample with --spp");
+  if (args.has("volume-texels") && (r.scene || r.mode != "field"))
+    return usage("shrefract render: --volume-texels applies to --mode field of a volume field only");
   if (args.has("env-level-bias") && !(cpu && args.has("filtered")))
     return usage("shrefract render: --env-level-bias applies to --mode exact and full-tree with --filtered only");
   if (r.scene && r.mode == "field")
@@ -213,6 +219,7 @@ Result<Request> readRequest(const Args& args) {
   r.device = narrow<int>(args.integer("device").value()).value_or(-1);
   r.environmentTaps = narrow<uint32_t>(args.integer("env-taps").value());
   r.msaa = narrow<uint32_t>(args.integer("msaa").value()).value_or(1u);
+  r.volumeTexels = args.has("volume-texels");
   if (r.msaa & (r.msaa - 1))
     return usage("shrefract render: --msaa must be 1, 2, 4 or 8, got " + std::to_string(r.msaa));
   if (auto v = args.number("env-level-bias").value()) r.environmentLevelBias = static_cast<float>(*v);
@@ -423,6 +430,8 @@ Result<std::vector<std::unique_ptr<Object>>> uploadObjects(offscreen::Session& s
     auto uploaded = offscreen::uploadField(s, *in.field);
     if (!uploaded) return makeError(uploaded.error().code, r.input + ": " + uploaded.error().message);
     objects.push_back(std::move(uploaded).value());
+    if (r.volumeTexels)
+      if (auto set = objects.back()->setTracesVolumePerFragment(false); !set) return set.error();
   } else {
     auto uploaded = offscreen::uploadScene(s, *in.scene);
     if (!uploaded) return uploaded.error();
@@ -515,6 +524,10 @@ int renderCommand(int argc, char** argv) {
   if (auto writable = checkOutputPath(r.output); !writable) return fail(writable.error());
   auto inputs = loadInputs(r);
   if (!inputs) return fail(inputs.error());
+  if (r.volumeTexels && inputs.value().field->encoding != Encoding::Volume)
+    return fail(usage("shrefract render: --volume-texels applies to a volume field; " + r.input + " is " +
+                      toString(inputs.value().field->encoding)),
+                2);
   const Camera camera = cameraFor(r, inputs.value());
   if (auto ok = checkCamera(camera, r); !ok) return fail(ok.error(), 2);
   if (r.mode == "exact" || r.mode == "full-tree") return renderCpu(args, r, inputs.value(), camera);

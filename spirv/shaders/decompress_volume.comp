@@ -5,7 +5,7 @@
 // signed distance grid (kBindingBasis: gpu_layout.h VolumeHeader, then the voxel words): marched
 // along the trilinear distance until it turns positive, the crossing bisected, the interface's
 // normal the trilinear normal there, the branch the field's path rule picks, up to the bounce cap.
-// The sample's texel gets the exit's distortion texel (decompress_common.glsl). Mirrored by
+// The trace is volume_trace.glsl's; the sample's texel gets the exit's distortion texel (decompress_common.glsl). Mirrored by
 // engine/src/field/volume_trace.cpp (traceVolumeSample), the same float operations in the same
 // order, which cpu_reference.cpp (decodeTexel) uses.
 //
@@ -17,108 +17,13 @@
 
 layout(local_size_x = kDecompressLocalSize) in;
 
-// The unit vector along a, or +z for the zero vector (volume_trace.cpp normalized).
-vec3 unitOr(vec3 a) {
-  float len2 = dot(a, a);
-  return len2 > 0.0 ? (1.0 / sqrt(len2)) * a : vec3(0.0, 0.0, 1.0);
-}
-
 layout(std430, set = 0, binding = kBindingBasis) readonly buffer Volume {
   VolumeHeader head;
   uint voxels[];
 };
+uint volumeVoxel(uint index) { return voxels[index]; }
 
-// The 8 voxels around grid point g (voxel units), clamped to the grid, as volume_trace.cpp cornersAt.
-void corners(vec3 g, out uint index[8], out float weight[8]) {
-  uint n = head.grid.x;
-  float hi = float(n - 1u);
-  g = clamp(g, vec3(0.0), vec3(hi));
-  uvec3 c0 = min(uvec3(g), uvec3(n - 2u));
-  vec3 f = g - vec3(c0);
-  for (uint k = 0u; k < 8u; ++k) {
-    uvec3 dk = uvec3(k & 1u, (k >> 1u) & 1u, (k >> 2u) & 1u);
-    index[k] = ((c0.z + dk.z) * n + (c0.y + dk.y)) * n + (c0.x + dk.x);
-    weight[k] = (dk.x != 0u ? f.x : 1.0 - f.x) * (dk.y != 0u ? f.y : 1.0 - f.y) * (dk.z != 0u ? f.z : 1.0 - f.z);
-  }
-}
-
-float voxelDistance(uint word) {
-  return (float(word & 0xfffu) - float(kVolumeDistanceZero)) * (kVolumeBandVoxels / float(kVolumeDistanceZero));
-}
-
-float distanceAt(vec3 g) {
-  uint index[8];
-  float weight[8];
-  corners(g, index, weight);
-  float d = 0.0;
-  for (uint k = 0u; k < 8u; ++k) d += weight[k] * voxelDistance(voxels[index[k]]);
-  return d;
-}
-
-vec3 unpackNormal(uint word) {
-  float nzero = float(kVolumeNormalZero);
-  float px = min((float((word >> 12u) & 0x3ffu) - nzero) / nzero, 1.0);
-  float py = min((float((word >> 22u) & 0x3ffu) - nzero) / nzero, 1.0);
-  vec3 n = vec3(px, py, 1.0 - abs(px) - abs(py));
-  if (n.z < 0.0) {
-    float x = n.x;
-    n.x = (1.0 - abs(n.y)) * (x >= 0.0 ? 1.0 : -1.0);
-    n.y = (1.0 - abs(x)) * (n.y >= 0.0 ? 1.0 : -1.0);
-  }
-  return unitOr(n);
-}
-
-// As volume_trace.cpp normalAt: the corners facing the nearest corner's way, blended.
-vec3 normalAt(vec3 g) {
-  uint index[8];
-  float weight[8];
-  corners(g, index, weight);
-  vec3 u[8];
-  uint nearest = 0u;
-  for (uint k = 0u; k < 8u; ++k) {
-    u[k] = unpackNormal(voxels[index[k]]);
-    if (weight[k] > weight[nearest]) nearest = k;
-  }
-  vec3 n = vec3(0.0);
-  for (uint k = 0u; k < 8u; ++k)
-    if (dot(u[k], u[nearest]) >= kVolumeNormalBlendCos) n = n + weight[k] * u[k];
-  return unitOr(n);
-}
-
-// As volume_trace.cpp crossing: the distance along d to the way out, or -1.
-float crossing(vec3 g, vec3 d) {
-  float limit = 2.0 * float(head.grid.x);
-  float t = kVolumeStartStep, previous = 0.0;
-  bool inside = false;
-  for (uint step = 0u; step < kVolumeMaxSteps && t < limit; ++step) {
-    float s = distanceAt(g + t * d);
-    if (s < 0.0) {
-      inside = true;
-    } else if (inside) {
-      float lo = previous, hi = t;
-      for (uint k = 0u; k < kVolumeBisections; ++k) {
-        float mid = 0.5 * (lo + hi);
-        if (distanceAt(g + mid * d) > 0.0) hi = mid;
-        else lo = mid;
-      }
-      return 0.5 * (lo + hi);
-    }
-    previous = t;
-    t += max(kVolumeStepScale * abs(s), kVolumeMinStep);
-  }
-  return -1.0;
-}
-
-bool refracted(vec3 d, vec3 n, float eta, out vec3 outDir) {
-  float cosI = clamp(-dot(d, n), 0.0, 1.0);
-  float k = 1.0 - eta * eta * (1.0 - cosI * cosI);
-  outDir = vec3(0.0);
-  if (k < 0.0) return false;
-  outDir = unitOr(eta * d + (eta * cosI - sqrt(k)) * n);
-  return true;
-}
-
-vec3 reflected(vec3 d, vec3 n) { return d - (2.0 * dot(d, n)) * n; }
+#include "volume_trace.glsl"
 
 void main() {
   uint s = invocationIndex();
@@ -126,35 +31,8 @@ void main() {
   vec4 r0 = frames[3u * s], r1 = frames[3u * s + 1u], r2 = frames[3u * s + 2u];
   vec3 ax = r0.xyz, ay = r1.xyz, az = r2.xyz;
   vec3 p = -1.0 * (r0.w * ax + r1.w * ay + r2.w * az);
-  vec3 normal = unitOr(az);
   vec3 local = unitOr(eyeInFrame(s, vec4(pc.eyeObject.xyz, 1.0)));
   vec3 d = -1.0 * (local.x * ax + local.y * ay + local.z * az);
-  float tau = 0.0, energy = 1.0;
-  vec3 exitDir = reflected(d, normal);  // total internal reflection at the entry
-  vec3 into;
-  if (refracted(d, normal, head.media.x, into)) {
-    d = into;
-    exitDir = d;
-    float inv = 1.0 / head.origin.w;
-    vec3 g = inv * (p - head.origin.xyz);
-    for (uint bounce = 0u; bounce < head.grid.y; ++bounce) {
-      float t = crossing(g, d);
-      if (t < 0.0) break;
-      g = g + t * d;
-      tau += t * head.origin.w * head.media.z;
-      vec3 n = normalAt(g);
-      float R = fresnelDielectric(dot(d, n), head.media.y);
-      vec3 out3;
-      bool canRefract = R < 1.0 && refracted(d, -1.0 * n, head.media.y, out3);
-      if (canRefract && !(head.grid.z != 0u && R >= 0.5)) {
-        energy *= 1.0 - R;
-        exitDir = out3;
-        break;
-      }
-      energy *= canRefract ? R : 1.0;
-      d = unitOr(reflected(d, n));
-      exitDir = d;
-    }
-  }
-  storeSample(s, distortionTexel(exitDir, HAS_TAU ? tau : energy, energy));
+  VolumePath path = traceVolumePath(p, unitOr(az), d);
+  storeSample(s, distortionTexel(path.exit, HAS_TAU ? path.tau : path.energy, path.energy));
 }

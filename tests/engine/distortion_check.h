@@ -37,6 +37,8 @@ inline Result<std::unique_ptr<Object>> uploadFieldNow(Context& ctx, const Field&
     auto created = Object::createFromField(ctx, field, cmd);
     if (!created) return created.error();
     object = std::move(created).value();
+    // This checks the decompression pass: a Volume field traces its sample texels into the image.
+    if (field.encoding == Encoding::Volume) (void)object->setTracesVolumePerFragment(false);
     return {};
   });
   if (!uploaded) return uploaded.error();

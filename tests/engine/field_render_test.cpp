@@ -7,6 +7,7 @@
 // with SHREFRACT_WRITE_TEST_IMAGES set in the environment they are written on success too.
 #include <gtest/gtest.h>
 #include <shrefract/bake/bake.h>
+#include <shrefract/bake/scene.h>
 #include <shrefract/cpu_reference.h>
 #include <shrefract/gpu_layout.h>
 
@@ -320,6 +321,66 @@ TEST_F(FieldRender, FilteredLookupsMatchCpuMirror) {
 // scatter beyond kSpatialScatterThreshold, and taps between texels that point apart read theirs
 // widened by kFilteredExitSpreadBlur; the GPU matches the CPU mirror at 2 taps per axis (each tap
 // weighs a quarter of the pixel) over stripes with bright ones among them.
+// A Volume field traced per fragment (object_volume_body.glsl; Object::tracesVolumePerFragment,
+// the default for Volume fields) against the CPU mirror (reference::render with
+// RenderObject::volume): the built-in sphere's 64^3 grid, every object pixel's paths (the centre's,
+// its quad neighbours' for the derivatives, and the 2x2 traced taps) traced on both sides in the
+// same float operations. The Decompressor leaves the object out, and the texture-space shading of
+// the same field (setTracesVolumePerFragment(false)) differs from it.
+TEST_F(FieldRender, VolumeTracedPerFragmentMatchesCpuMirror) {
+  const bake::Image env = smoothEnvironment(256);
+  auto gpuEnv = offscreen::uploadEnvironment(*session, env);
+  ASSERT_TRUE(gpuEnv.ok()) << gpuEnv.error().message;
+  bake::BuiltinSceneOptions so;
+  so.tessellation = 3;
+  auto scene = bake::makeBuiltinScene("sphere", so);
+  ASSERT_TRUE(scene.ok());
+  bake::BakeOptions o;
+  o.settings.encoding = Encoding::Volume;
+  o.settings.volumeSize = 64;
+  o.settings.sampleBudget = 3000;
+  o.settings.threads = 2;
+  auto baked = bake::bakeField(scene.value(), o);
+  ASSERT_TRUE(baked.ok()) << baked.error().message;
+  const Field& field = baked.value();
+  auto object = offscreen::uploadField(*session, field);
+  ASSERT_TRUE(object.ok()) << object.error().message;
+  ASSERT_TRUE(object.value()->tracesVolumePerFragment());
+  object.value()->shading.reflection = true;
+  offscreen::FrameSettings frame;
+  frame.width = 160;
+  frame.height = 120;
+  frame.camera.eye = {0.3f, 0.5f, 3.4f};
+  frame.mode = ShadingMode::Field;
+  auto gpu = offscreen::renderFrame(*session, *gpuEnv.value(), {object.value().get()}, frame);
+  ASSERT_TRUE(gpu.ok()) << gpu.error().message;
+  reference::LatLongImage cpuEnv{env.width, env.height, env.rgba.data()};
+  cpuEnv.tapsPerAxis = frame.environmentTapsPerAxis;
+  const reference::RenderedImage cpu = reference::render(
+      {{&field.mesh, nullptr, object.value()->shading, Transform{}, &field}}, cpuEnv, frame.camera, frame.width,
+      frame.height, frame.exposure);
+  bake::Image diff;
+  const Comparison mirror = compare(gpu.value(), cpu.rgba, kFieldTolerance, &cpu.object, &diff);
+  std::printf("volume per fragment: %u of %u object pixels outside tolerance against the CPU mirror (max |diff| "
+              "%.4f)\n", mirror.failed, mirror.pixels, double(mirror.maxDiff));
+  EXPECT_GT(mirror.pixels, 3000u);
+  const bool pass = float(mirror.failed) <= kFieldTolerance.failFraction * float(mirror.pixels);
+  EXPECT_TRUE(pass) << mirror.failed << " of " << mirror.pixels << " object pixels outside tolerance";
+  if (!pass || std::getenv("SHREFRACT_WRITE_TEST_IMAGES")) {
+    writeForInspection("volume_fragment_gpu.png", gpu.value());
+    writeForInspection("volume_fragment_cpu.png", bake::Image{cpu.width, cpu.height, cpu.rgba});
+    writeForInspection("volume_fragment_diff_x10.png", diff);
+  }
+  // The texture-space path of the same field: decoded by the Decompressor, another image.
+  ASSERT_TRUE(object.value()->setTracesVolumePerFragment(false).ok());
+  auto texels = offscreen::renderFrame(*session, *gpuEnv.value(), {object.value().get()}, frame);
+  ASSERT_TRUE(texels.ok()) << texels.error().message;
+  const Comparison apart = compare(texels.value(), gpu.value().rgba, kFieldTolerance, &cpu.object);
+  std::printf("volume per fragment against its texture-space shading: %u of %u object pixels apart\n", apart.failed,
+              apart.pixels);
+  EXPECT_GT(apart.failed, 0u);
+}
+
 TEST_F(FieldRender, ScatteredTexelsMatchCpuMirror) {
   // The stripes with one in eight 20 times as bright: a tap that reads a blurrier level near one
   // changes the pixel by much more than the tolerance.

@@ -127,6 +127,45 @@ TEST_F(SkipWork, SameEyeIsNotDecompressedAgain) {
               double(noSkipDiff));
 }
 
+// A Volume field traced per fragment (the default for Volume fields) has no image to write: the
+// Decompressor leaves it out and says so; switched to its texture-space path, it is decoded again
+// (the image was not kept up while unread), then skipped for an unchanged eye as any field.
+TEST_F(SkipWork, VolumeTracedPerFragmentIsNotDecompressed) {
+  testing::SyntheticFieldOptions options;
+  options.encoding = Encoding::Volume;
+  options.volumeSize = 24;
+  const Field field = testing::makeSyntheticField(options);
+  auto object = upload(field);
+  ASSERT_TRUE(object);
+  ASSERT_TRUE(object->tracesVolumePerFragment());
+  auto decompressor = Decompressor::create(*session->context);
+  ASSERT_TRUE(decompressor.ok());
+  Decompressor& d = *decompressor.value();
+  const std::array<float, 3> eye{0.3f, 0.8f, 3.0f};
+  DecompressStats s = decompress(d, eye, *object);
+  EXPECT_EQ(s.decompressed, 0u);
+  EXPECT_EQ(s.perFragment, 1u);
+  EXPECT_EQ(s.dispatches, 0u);
+  const std::vector<float> untouched = distortion(*object);
+  EXPECT_TRUE(std::all_of(untouched.begin(), untouched.end(), [](float v) { return v == 0.0f; }))
+      << "nothing may write the image of a field traced per fragment";
+  ASSERT_TRUE(object->setTracesVolumePerFragment(false).ok());
+  s = decompress(d, eye, *object);
+  EXPECT_EQ(s.decompressed, 1u);
+  EXPECT_EQ(s.perFragment, 0u);
+  EXPECT_GT(maxDifference(untouched, distortion(*object)), 1e-2f);
+  s = decompress(d, eye, *object);
+  EXPECT_EQ(s.unchanged, 1u);
+  ASSERT_TRUE(object->setTracesVolumePerFragment(true).ok());
+  ASSERT_TRUE(object->setTracesVolumePerFragment(false).ok());
+  EXPECT_EQ(decompress(d, eye, *object).decompressed, 1u) << "switched back: decoded again";
+  // A field of another encoding has no such switch.
+  auto sh = upload(testing::makeSyntheticField({}));
+  ASSERT_TRUE(sh);
+  EXPECT_FALSE(sh->tracesVolumePerFragment());
+  EXPECT_EQ(sh->setTracesVolumePerFragment(true).error().code, ErrorCode::InvalidArgument);
+}
+
 TEST_F(SkipWork, StaticFramesMatchTheNonSkippingPath) {
   const bake::Image env = bake::proceduralEnvironment(128);
   auto gpuEnv = offscreen::uploadEnvironment(*session, env);

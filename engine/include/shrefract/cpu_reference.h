@@ -147,6 +147,7 @@ struct LookupDerivatives {
   std::array<float, 2> uvDx{}, uvDy{};  // the field coordinate
   float cosViewDx = 0.0f, cosViewDy = 0.0f;  // the cosine between the view and the interpolated normal
   Vec3 positionDx{}, positionDy{};  // the surface point, in the space of SurfacePoint::position
+  Vec3 normalDx{}, normalDy{};  // the interpolated normal as interpolated (SurfacePoint::normal)
 };
 
 // How far four texels' exits (unit vectors; zero for an empty texel, which agrees with every
@@ -191,13 +192,31 @@ Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environme
                 const Vec3& eye, const ObjectShading& shading, float exposure = 1.0f,
                 const Transform& worldFromObject = Transform{}, const LookupDerivatives& derivatives = {});
 
+// ShadingMode::Field for one fragment of an object whose Volume field is traced per fragment
+// (Object::tracesVolumePerFragment; object_volume_body.glsl): the fragment's path, traceVolumePath
+// at its position and its normal bent toward the viewer as shadeField bends it, gives the exit and
+// the optical depth (clamped to +-kMaxOpticalDepth) of shadeField's formula, and where the field
+// has a throughput channel the transmitted term is multiplied by the path's throughput clamped to
+// [0, 1]. The transmitted light: the exit's derivatives (fine: pixelDerivatives traces the quad's
+// neighbours too) without an axis across which the exit jumps beyond acos(kSpatialSplitCosine)
+// while the other's does not, then min(kVolumeTracedTapsPerAxis, environment.tapsPerAxis)^2 paths
+// traced at the centres of the pixel's cells (position and normal moved along positionDx, Dy and
+// normalDx, Dy), each read over its cell with the remaining taps per axis (one path: the centre's,
+// sampleLatLongOverPixel). Precondition: a Volume field.
+Vec3 shadeVolume(const Field& volume, const LatLongImage& environment, const SurfacePoint& point, const Vec3& eye,
+                 const ObjectShading& shading, float exposure = 1.0f, const Transform& worldFromObject = Transform{},
+                 const LookupDerivatives& derivatives = {});
+
 // One object for render(): its mesh (positions, normals, uvs, frontIor, indices as in FieldMesh)
-// and its decompressed image. Pointers must stay valid during render().
+// and its decompressed image, or the Volume field it traces per fragment. Pointers must stay valid
+// during render().
 struct RenderObject {
   const FieldMesh* mesh = nullptr;
   const DistortionImage* distortion = nullptr;  // decompressed for the eye in object space
   ObjectShading shading;
   Transform worldFromObject;  // where the mesh is placed
+  // Set: shaded by shadeVolume (and its exits in pixelDerivatives) instead, `distortion` unread.
+  const Field* volume = nullptr;
 };
 
 struct RenderedImage {

@@ -74,6 +74,7 @@ struct DecompressStats {
   uint32_t decompressed = 0;  // field objects whose distortion image was rewritten
   uint32_t unchanged = 0;     // left out: the image already holds this eye's decompression
   uint32_t culled = 0;        // left out: outside the view frustum (camera overload only)
+  uint32_t perFragment = 0;   // left out: Volume fields the raster pass traces per fragment
   uint32_t dispatches = 0;    // compute dispatches (decompression and gutter passes)
 };
 

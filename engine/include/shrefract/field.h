@@ -419,6 +419,19 @@ float volumeDistance(const FieldVolume& volume, const std::array<float, 3>& obje
 // one. Mirrored by decompress_volume.comp. Preconditions: validateField(field), a Volume field.
 void traceVolumeSample(const Field& field, const float* frameRows, const std::array<float, 3>& w, float* out);
 
+// One path through a Volume field's grid, as traceVolumeSample follows it from a sample and the
+// raster pass from a fragment (Object::tracesVolumePerFragment; volume_trace.glsl): the unit view
+// direction `view` (toward the surface) meets it at `point` with unit normal `normal` (object
+// space, facing the view), refracts in (or reflects: total internal reflection at the entry) and
+// is followed as above. Preconditions as traceVolumeSample's.
+struct VolumePath {
+  std::array<float, 3> exit{};  // unit, object space
+  float opticalDepth = 0.0f;    // path length inside times media[1]'s absorption
+  float throughput = 1.0f;      // the Fresnel factors after the entry
+};
+VolumePath traceVolumePath(const Field& field, const std::array<float, 3>& point, const std::array<float, 3>& normal,
+                           const std::array<float, 3>& view);
+
 // One sample's dequantized coefficients (texel of kind kTexelSample), as evaluateCoefficients reads
 // them: out[layer * valuesPerLayer() + value], layerCount() * valuesPerLayer() floats. A caller that
 // decodes one sample at many directions dequantizes it once. Preconditions as evaluateSample's.

@@ -134,6 +134,18 @@ class Object {
   // object without a field.
   Result<void> setDecodeOrder(uint32_t order);
   uint32_t decodeOrder() const;
+  // A Volume field (field.h Encoding::Volume) is shaded per fragment by default: the raster pass
+  // traces each fragment's own path through the field's distance grid at its interpolated
+  // position and normal (ShadingMode::Field and FieldExitDirection), and Decompressor::record
+  // leaves the object out; nothing is interpolated between the field's sample texels, whose
+  // spacing then costs nothing (docs/encodings.md, "Volume traced per fragment"). false: the
+  // texture-space path of the other encodings (the Decompressor traces the sample texels into the
+  // distortion image, which the raster pass samples), whose cost follows the samples, not the
+  // pixels, and is paid only when the eye moves. Per object and per instance. Errors:
+  // InvalidArgument, an object without a Volume field; Unsupported, per fragment where the grid
+  // exceeds the device's maxTexelBufferElements (such an object starts with false).
+  bool tracesVolumePerFragment() const;
+  Result<void> setTracesVolumePerFragment(bool perFragment);
   // The distortion image (R16G16B16A16_SFLOAT, extent fieldExtent(), one level, one layer;
   // VK_NULL_HANDLE without a field): texel (x, y) holds the decoded exit direction (xyz, unit, or
   // zero for empty texels; for a field with throughput, of length the clamped throughput) and

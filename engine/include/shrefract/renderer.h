@@ -130,7 +130,9 @@ class Renderer {
                         VkExtent2D extent);
   // Field mode: each field object's distortion image must have been written for this camera's
   // eye by Decompressor::record() earlier on the same queue (outside the render pass); the
-  // Decompressor leaves it in SHADER_READ_ONLY_OPTIMAL, visible to fragment shaders. Null entries
+  // Decompressor leaves it in SHADER_READ_ONLY_OPTIMAL, visible to fragment shaders. An object
+  // whose Volume field is traced per fragment (Object::tracesVolumePerFragment) reads no image:
+  // each fragment traces its own path through the field's grid. Null entries
   // are skipped. Several objects in one call are drawn in order with depth testing. Objects whose
   // bounds lie outside the view frustum of (camera, extent) are not drawn (frustumCulling); the
   // Decompressor's camera overload leaves out the same objects.

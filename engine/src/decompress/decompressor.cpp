@@ -234,7 +234,8 @@ struct FieldsToDecode {
 };
 
 // The distinct field objects among `objects` that are in the frustum (null: no culling) and not
-// already decoded for this eye and order (when skipping is on); counts the others in `stats`.
+// already decoded for this eye and order (when skipping is on), nor Volume fields traced per fragment;
+// counts the others in `stats`.
 FieldsToDecode fieldsToDecode(const DecompressorImpl& d, const std::array<float, 3>& eye, const ViewFrustum* frustum,
                               std::span<Object* const> objects, DecompressStats& stats) {
   FieldsToDecode out;
@@ -245,6 +246,10 @@ FieldsToDecode fieldsToDecode(const DecompressorImpl& d, const std::array<float,
     if (!object.field || std::find(seen.begin(), seen.end(), &object) != seen.end()) continue;
     seen.push_back(&object);
     FieldResources* f = object.field.get();
+    if (f->volumePerFragment) {  // the raster pass traces it; no image to write
+      ++stats.perFragment;
+      continue;
+    }
     std::array<float, 3> lo{}, hi{};
     worldBounds(*o, lo, hi);
     if (frustum && outsideFrustum(*frustum, lo, hi)) {

@@ -49,10 +49,11 @@ bool shScaleBiasStorage(uint32_t order, uint32_t channels) {
 }
 
 Result<VkDescriptorSetLayout> createDistortionSetLayout(ContextImpl& c) {
-  const std::array<VkDescriptorSetLayoutBinding, 3> bindings{{
+  const std::array<VkDescriptorSetLayoutBinding, 4> bindings{{
       {gpu::kBindingDistortion, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
       {gpu::kBindingTriangleEdges, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
       {gpu::kBindingJumpDistance, VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+      {gpu::kBindingVolumeGrid, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
   }};
   return createLayout(c, bindings.data(), uint32_t(bindings.size()));
 }

@@ -159,14 +159,11 @@ float volumeDistance(const FieldVolume& volume, const std::array<float, 3>& obje
   return distanceAt(volume, g) * volume.spacing;
 }
 
-void traceVolumeSample(const Field& field, const float* m, const std::array<float, 3>& w, float* out) {
+VolumePath traceVolumePath(const Field& field, const std::array<float, 3>& point, const std::array<float, 3>& normalIn,
+                           const std::array<float, 3>& view) {
   const FieldVolume& v = field.volume;
-  // The sample's point and normal from its frame's rows (M_s = [R | -R p]).
-  const V3 ax{m[0], m[1], m[2]}, ay{m[4], m[5], m[6]}, az{m[8], m[9], m[10]};
-  const V3 p = -1.0f * (m[3] * ax + m[7] * ay + m[11] * az);
-  const V3 normal = normalized(az);
-  const V3 local = normalized(V3{w[0], w[1], std::max(w[2], 0.0f)});
-  V3 d = -1.0f * (local.x * ax + local.y * ay + local.z * az);
+  const V3 p{point[0], point[1], point[2]}, normal{normalIn[0], normalIn[1], normalIn[2]};
+  V3 d{view[0], view[1], view[2]};
   const float outside = field.media[0].ior, inside = field.media[1].ior;
   const float absorption = field.media[1].absorption;
   const bool highestEnergy = field.settings.pathRule == PathRule::HighestEnergy;
@@ -197,11 +194,22 @@ void traceVolumeSample(const Field& field, const float* m, const std::array<floa
       exit = d;
     }
   }
-  out[0] = exit.x;
-  out[1] = exit.y;
-  out[2] = exit.z;
-  if (field.hasOpticalDepth()) out[3] = tau;
-  if (field.throughput) out[field.throughputChannel()] = energy;
+  return VolumePath{{exit.x, exit.y, exit.z}, tau, energy};
+}
+
+void traceVolumeSample(const Field& field, const float* m, const std::array<float, 3>& w, float* out) {
+  // The sample's point and normal from its frame's rows (M_s = [R | -R p]).
+  const V3 ax{m[0], m[1], m[2]}, ay{m[4], m[5], m[6]}, az{m[8], m[9], m[10]};
+  const V3 p = -1.0f * (m[3] * ax + m[7] * ay + m[11] * az);
+  const V3 normal = normalized(az);
+  const V3 local = normalized(V3{w[0], w[1], std::max(w[2], 0.0f)});
+  const V3 d = -1.0f * (local.x * ax + local.y * ay + local.z * az);
+  const VolumePath path = traceVolumePath(field, {p.x, p.y, p.z}, {normal.x, normal.y, normal.z}, {d.x, d.y, d.z});
+  out[0] = path.exit[0];
+  out[1] = path.exit[1];
+  out[2] = path.exit[2];
+  if (field.hasOpticalDepth()) out[3] = path.opticalDepth;
+  if (field.throughput) out[field.throughputChannel()] = path.throughput;
 }
 
 }  // namespace shrefract

@@ -204,9 +204,10 @@ void recordUploadsVisible(ContextImpl& c, VkCommandBuffer cmd, const std::array<
   VkMemoryBarrier2 buffersToRead{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
   buffersToRead.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
   buffersToRead.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  buffersToRead.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  buffersToRead.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
   // Every way the decompression pass reads the uploaded buffers: coefficients as a uniform texel
-  // buffer (sampled read), scale/bias as a uniform buffer, frames and basis as storage buffers.
+  // buffer (sampled read), scale/bias as a uniform buffer, frames and basis as storage buffers; and
+  // the raster pass a Volume field's grid as a uniform texel buffer.
   buffersToRead.dstAccessMask =
       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_UNIFORM_READ_BIT;
   recordBarriers(c, cmd, toRead, &buffersToRead);
@@ -219,7 +220,7 @@ Result<void> allocateDescriptorSets(ContextImpl& c, FieldResources& f) {
       {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1},
       {VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE, 1},
       {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 7},
-      {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 1},
+      {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 2},
       {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
       {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2},
   }};
@@ -276,7 +277,7 @@ Result<void> createDescriptorSets(ContextImpl& c, FieldResources& f, VkBuffer tr
     writes.push_back(w);
     return writes.back();
   };
-  writes.reserve(13);
+  writes.reserve(14);
   write(f.decompressSet, gpu::kBindingDistortionOut, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE).pImageInfo = &storageInfo;
   write(f.decompressSet, gpu::kBindingJumpOut, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE).pImageInfo = &jumpStorageInfo;
   write(f.decompressSet, gpu::kBindingCoefficients, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER).pTexelBufferView =
@@ -289,6 +290,9 @@ Result<void> createDescriptorSets(ContextImpl& c, FieldResources& f, VkBuffer tr
   write(f.distortionSet, gpu::kBindingJumpDistance, VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE).pImageInfo = &jumpSampledInfo;
   const VkDescriptorBufferInfo edgesInfo{triangleEdges, 0, VK_WHOLE_SIZE};
   write(f.distortionSet, gpu::kBindingTriangleEdges, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER).pBufferInfo = &edgesInfo;
+  // A Volume field's grid (the coefficients' view as a placeholder that nothing reads otherwise).
+  write(f.distortionSet, gpu::kBindingVolumeGrid, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER).pTexelBufferView =
+      f.volumeWords ? &f.volumeWords : &f.coefficientWords;
   c.vk.vkUpdateDescriptorSets(c.device(), static_cast<uint32_t>(writes.size()), writes.data(), 0, nullptr);
   return {};
 }
@@ -309,6 +313,7 @@ void destroyFieldShared(ContextImpl& c, FieldResources& f) {
   if (f.distortionSetLayout) c.vk.vkDestroyDescriptorSetLayout(d, f.distortionSetLayout, c.alloc());
   if (f.sampler) c.vk.vkDestroySampler(d, f.sampler, c.alloc());
   if (f.coefficientWords) c.vk.vkDestroyBufferView(d, f.coefficientWords, c.alloc());
+  if (f.volumeWords) c.vk.vkDestroyBufferView(d, f.volumeWords, c.alloc());
   for (BufferAllocation* b : {&f.coefficients, &f.scaleBias, &f.frames, &f.sampleTexels, &f.gutters, &f.basis})
     c.destroyBuffer(*b);
   c.destroyBlock(f.block);
@@ -338,6 +343,21 @@ Result<void> Object::setDecodeOrder(uint32_t order) {
     return makeError(ErrorCode::InvalidArgument, "Object::setDecodeOrder: order " + std::to_string(order) +
                                                      " is above the field's order " + std::to_string(fieldOrder()));
   f->order = order;  // the Decompressor picks its pipeline, and decodes again, by this
+  return {};
+}
+
+bool Object::tracesVolumePerFragment() const { return impl_->field && impl_->field->volumePerFragment; }
+
+Result<void> Object::setTracesVolumePerFragment(bool perFragment) {
+  FieldResources* f = impl_->field.get();
+  if (!f || f->encoding != Encoding::Volume)
+    return makeError(ErrorCode::InvalidArgument, "Object::setTracesVolumePerFragment: the object has no Volume field");
+  if (perFragment && !f->volumeWords)
+    return makeError(ErrorCode::Unsupported, "Object::setTracesVolumePerFragment: the grid exceeds the device's "
+                                             "maxTexelBufferElements (" +
+                                                 std::to_string(impl_->context->properties.limits.maxTexelBufferElements) + ")");
+  if (f->volumePerFragment != perFragment) f->decoded = false;  // the image was not kept up while unread
+  f->volumePerFragment = perFragment;
   return {};
 }
 VkExtent2D Object::fieldExtent() const {
@@ -373,6 +393,7 @@ void describeField(const Field& field, uint32_t sampleCount, const FieldBufferSi
   f.width = field.width;
   f.height = field.height;
   f.encoding = field.encoding;
+  f.volumePerFragment = field.encoding == Encoding::Volume;
   f.order = f.bakedOrder = field.order;
   f.tableSize = field.tableSize;
   f.components = field.components;
@@ -435,6 +456,24 @@ HostTables hostTables(const Field& field, const std::vector<uint32_t>& sampleTex
   return h;
 }
 
+// A Volume field's grid as the raster pass reads it (kBindingVolumeGrid): an R32_UINT texel view
+// of the whole basis buffer, header included. Where the grid exceeds the device's
+// maxTexelBufferElements there is none, and the object shades by its sample texels instead.
+Result<void> createVolumeView(ContextImpl& c, const FieldBufferSizes& sizes, FieldResources& f) {
+  const VkDeviceSize words = sizes.basis / sizeof(uint32_t);
+  if (f.encoding != Encoding::Volume || words > c.properties.limits.maxTexelBufferElements) {
+    f.volumePerFragment = false;
+    return {};
+  }
+  VkBufferViewCreateInfo bvci{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
+  bvci.buffer = f.basis.buffer;
+  bvci.format = VK_FORMAT_R32_UINT;
+  bvci.range = words * sizeof(uint32_t);
+  const VkResult vr = c.vk.vkCreateBufferView(c.device(), &bvci, c.alloc(), &f.volumeWords);
+  if (vr != VK_SUCCESS) return vulkanError("vkCreateBufferView", vr);
+  return {};
+}
+
 struct Upload {
   BufferAllocation* target;
   const void* data;
@@ -448,9 +487,12 @@ Result<void> createFieldBuffers(ContextImpl& c, const std::array<Upload, 5>& upl
   FieldResources& f = *object.field;
   for (const Upload& u : uploads) {
     // The scale/bias table is read as a uniform buffer when it fits (gpu_layout.h).
+    // The scale/bias table is read as a uniform buffer when it fits (gpu_layout.h); a Volume
+    // field's grid (the basis) as a texel buffer by the raster pass (kBindingVolumeGrid).
     auto b = createDeviceBuffer(c, u.bytes,
                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
-                                    (u.target == &f.scaleBias ? VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT : 0));
+                                    (u.target == &f.scaleBias ? VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT : 0) |
+                                    (u.target == &f.basis ? VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT : 0));
     if (!b) return b.error();
     *u.target = b.value();
   }
@@ -472,7 +514,7 @@ Result<void> createFieldBuffers(ContextImpl& c, const std::array<Upload, 5>& upl
   bvci.range = std::min<VkDeviceSize>(words, c.properties.limits.maxTexelBufferElements) * sizeof(uint32_t);
   const VkResult vr = c.vk.vkCreateBufferView(c.device(), &bvci, c.alloc(), &f.coefficientWords);
   if (vr != VK_SUCCESS) return vulkanError("vkCreateBufferView", vr);
-  return {};
+  return createVolumeView(c, sizes, f);
 }
 
 // Records the copies of the coefficients (staged, written in place: the largest upload, no

@@ -34,6 +34,9 @@ struct FieldResources {
   bool clustered = false;            // Pca: EncodingShape::clustered (one index per sample)
   uint32_t channels = 4;
   bool throughput = false;           // the last channel is the throughput (raster: tint.a)
+  // Per instance: Volume fields only, the raster pass traces each fragment's path through the grid
+  // and the Decompressor leaves the object out (Object::setTracesVolumePerFragment).
+  bool volumePerFragment = false;
   Quantization quantization = Quantization::U8;
   uint32_t sampleCount = 0;
   bool scaleBiasStorage = false;     // Sh: the scale/bias table exceeds kMaxUniformScaleBiasBytes
@@ -43,6 +46,7 @@ struct FieldResources {
   MemoryBlock block;              // the memory of the buffers below (one allocation)
   BufferAllocation coefficients;  // Sh: channel planes; Table, Pca: sample-major (gpu_layout.h)
   VkBufferView coefficientWords = VK_NULL_HANDLE;  // R32_UINT texel view of `coefficients`
+  VkBufferView volumeWords = VK_NULL_HANDLE;  // Volume: R32_UINT texel view of `basis` (the raster pass's grid)
   ImageAllocation distortion;     // per instance: RGBA16F, written by the decompression pass
   ImageAllocation jump;           // per instance: R32F, the eye's distance from each texel's table jump
   BufferAllocation scaleBias;     // Sh: vec4s per basis function; Table, Pca: vec2 per (layer, value)

@@ -37,12 +37,15 @@ struct RendererImpl {
   std::array<VkPipeline, 2> field{};
   // ShadingMode::FieldExitDirection where `field` blends by silhouette coverage (else null: `field`).
   std::array<VkPipeline, 2> fieldExit{};
+  // Volume fields traced per fragment (Object::tracesVolumePerFragment), as `field` and `fieldExit`.
+  std::array<VkPipeline, 2> volume{};
+  std::array<VkPipeline, 2> volumeExit{};
   DrawStats lastDraw;
 
   void release() {
     if (!context) return;
     ContextImpl& c = *context;
-    for (const auto* group : {&background, &singleInterface, &field, &fieldExit})
+    for (const auto* group : {&background, &singleInterface, &field, &fieldExit, &volume, &volumeExit})
       for (VkPipeline p : *group)
         if (p) c.vk.vkDestroyPipeline(c.device(), p, c.alloc());
     for (VkPipelineLayout l : {backgroundLayout, objectLayout, fieldLayout})
@@ -373,6 +376,10 @@ std::vector<PipelineVariant> pipelineVariants(RendererImpl& impl, bool coverage)
                                 sizeof(kSpirv_object_field_frag)};
   const ShaderPair fieldCubeShaders{kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_field_cube_frag,
                                     sizeof(kSpirv_object_field_cube_frag)};
+  const ShaderPair volumeShaders{kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_volume_frag,
+                                 sizeof(kSpirv_object_volume_frag)};
+  const ShaderPair volumeCubeShaders{kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_volume_cube_frag,
+                                     sizeof(kSpirv_object_volume_cube_frag)};
   std::vector<PipelineVariant> variants{{
       {&impl.background[0], impl.backgroundLayout,
        {kSpirv_background_vert, sizeof(kSpirv_background_vert), kSpirv_background_frag,
@@ -392,10 +399,14 @@ std::vector<PipelineVariant> pipelineVariants(RendererImpl& impl, bool coverage)
        true},
       {&impl.field[0], impl.fieldLayout, fieldShaders, true, coverage},
       {&impl.field[1], impl.fieldLayout, fieldCubeShaders, true, coverage},
+      {&impl.volume[0], impl.fieldLayout, volumeShaders, true, coverage},
+      {&impl.volume[1], impl.fieldLayout, volumeCubeShaders, true, coverage},
   }};
   if (coverage) {
     variants.push_back({&impl.fieldExit[0], impl.fieldLayout, fieldShaders, true, false});
     variants.push_back({&impl.fieldExit[1], impl.fieldLayout, fieldCubeShaders, true, false});
+    variants.push_back({&impl.volumeExit[0], impl.fieldLayout, volumeShaders, true, false});
+    variants.push_back({&impl.volumeExit[1], impl.fieldLayout, volumeCubeShaders, true, false});
   }
   return variants;
 }
@@ -466,7 +477,10 @@ void Renderer::recordObjects(VkCommandBuffer cmd, const Environment& environment
     ++r.lastDraw.drawn;
     const bool field = (mode == ShadingMode::Field || mode == ShadingMode::FieldExitDirection) && o.field;
     const bool exitDirection = mode == ShadingMode::FieldExitDirection && r.fieldExit[encoding];
-    const VkPipeline pipeline = !field ? r.singleInterface[encoding] : exitDirection ? r.fieldExit[encoding] : r.field[encoding];
+    const bool perFragment = field && o.field->volumePerFragment;
+    const VkPipeline pipeline = !field          ? r.singleInterface[encoding]
+                                : exitDirection ? (perFragment ? r.volumeExit : r.fieldExit)[encoding]
+                                                : (perFragment ? r.volume : r.field)[encoding];
     const VkPipelineLayout layout = field ? r.fieldLayout : r.objectLayout;
     if (pipeline != bound) {
       // Set 0 (environment) stays bound across the switch: both layouts share it.

@@ -261,8 +261,9 @@ std::pair<glm::vec3, glm::vec3> viewAndNormal(const SurfacePoint& point, const V
   return {glm::normalize(toGlm(point.position) - toGlm(eyeArray)), glm::normalize(toGlm(point.normal))};
 }
 
-FieldFragment fieldFragment(const DistortionImage& distortion, const SurfacePoint& point, const Vec3& eyeArray,
-                            const Transform& worldFromObject) {
+// The view, the normal bent toward the viewer and the front reflection, as both object shadings
+// compute them before their exit.
+FieldFragment fragmentGeometry(const SurfacePoint& point, const Vec3& eyeArray, const Transform& worldFromObject) {
   FieldFragment f;
   f.uv = glm::vec2(point.uv[0], point.uv[1]);
   std::tie(f.v, f.n) = viewAndNormal(point, eyeArray);
@@ -271,13 +272,39 @@ FieldFragment fieldFragment(const DistortionImage& distortion, const SurfacePoin
     f.n = glm::normalize(f.n + (1e-4f - f.cosI) * -f.v);
     f.cosI = -glm::dot(f.v, f.n);
   }
+  f.reflectedWorld = toGlm(rotateDirection(worldFromObject, fromGlm(glm::reflect(f.v, f.n))));
+  return f;
+}
+
+FieldFragment fieldFragment(const DistortionImage& distortion, const SurfacePoint& point, const Vec3& eyeArray,
+                            const Transform& worldFromObject) {
+  FieldFragment f = fragmentGeometry(point, eyeArray, worldFromObject);
   f.d = sampleBilinear(distortion, point.uv[0], point.uv[1]);
   const glm::vec3 dir(f.d[0], f.d[1], f.d[2]);
   f.len2 = glm::dot(dir, dir);
   const glm::vec3 exitDirection = f.len2 > gpu::kMinDirectionLength2 ? dir / std::sqrt(f.len2) : f.v;
   f.exitWorld = toGlm(rotateDirection(worldFromObject, fromGlm(exitDirection)));
-  f.reflectedWorld = toGlm(rotateDirection(worldFromObject, fromGlm(glm::reflect(f.v, f.n))));
   return f;
+}
+
+// The fragment of object_volume_body.glsl: its own path traced through the Volume field's grid at
+// its position and bent normal; d holds the exit and the clamped optical depth (len2 = 1).
+FieldFragment volumeFragment(const Field& volume, const SurfacePoint& point, const Vec3& eyeArray,
+                             const Transform& worldFromObject, VolumePath* path = nullptr) {
+  FieldFragment f = fragmentGeometry(point, eyeArray, worldFromObject);
+  const VolumePath traced = traceVolumePath(volume, point.position, fromGlm(f.n), fromGlm(f.v));
+  if (path) *path = traced;
+  const float tau = std::clamp(traced.opticalDepth, -gpu::kMaxOpticalDepth, gpu::kMaxOpticalDepth);
+  f.d = {traced.exit[0], traced.exit[1], traced.exit[2], tau};
+  f.len2 = 1.0f;
+  f.exitWorld = toGlm(rotateDirection(worldFromObject, traced.exit));
+  return f;
+}
+
+// The fragment either shading computes for `object` at `point`.
+FieldFragment objectFragment(const RenderObject& object, const SurfacePoint& point, const Vec3& eye) {
+  return object.volume ? volumeFragment(*object.volume, point, eye, object.worldFromObject)
+                       : fieldFragment(*object.distortion, point, eye, object.worldFromObject);
 }
 
 // The four texels around a field coordinate (object_field_body.glsl TexelCell, readCell).
@@ -493,6 +520,67 @@ Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environme
   return fromGlm(color * exposure);
 }
 
+namespace {
+
+// object_volume_body.glsl lookupOverCell: `cells` x `cells` taps over one traced path's cell.
+glm::vec3 lookupOverCell(const LatLongImage& env, uint32_t cells, const glm::vec3& dir, const glm::vec3& dx,
+                         const glm::vec3& dy) {
+  const float n = float(cells);
+  const float footprint = directionFootprint(fromGlm(dx / n), fromGlm(dy / n));
+  glm::vec3 sum(0.0f);
+  for (uint32_t j = 0; j < cells; ++j)
+    for (uint32_t i = 0; i < cells; ++i) {
+      const glm::vec3 tap = dir + tapOffset(i, n) * dx + tapOffset(j, n) * dy;
+      sum += toGlm(sampleLatLong(env, fromGlm(glm::dot(tap, tap) > 1e-12f ? tap : dir), footprint));
+    }
+  return sum / (n * n);
+}
+
+// object_volume_body.glsl transmittedOverPixel: the jump rule on the exit's derivatives, then
+// kVolumeTracedTapsPerAxis^2 paths traced at the pixel's cells, each looked up over its cell.
+glm::vec3 volumeOverPixel(const Field& volume, const LatLongImage& env, const SurfacePoint& point, const Vec3& eye,
+                          const Transform& worldFromObject, const glm::vec3& exitWorld, const LookupDerivatives& d) {
+  glm::vec3 dx = toGlm(d.exitDx), dy = toGlm(d.exitDy);
+  const float jump = 2.0f * (1.0f - gpu::kSpatialSplitCosine);
+  const bool jumpX = glm::dot(dx, dx) > jump, jumpY = glm::dot(dy, dy) > jump;
+  if (jumpX != jumpY) (jumpX ? dx : dy) = glm::vec3(0.0f);
+  const uint32_t taps = std::clamp(env.tapsPerAxis, 1u, kMaxEnvironmentTapsPerAxis);
+  const uint32_t traced = std::min(gpu::kVolumeTracedTapsPerAxis, taps), cells = taps / traced;
+  if (traced == 1) return toGlm(sampleLatLongOverPixel(env, fromGlm(exitWorld), fromGlm(dx), fromGlm(dy)));
+  const float n = float(traced);
+  const glm::vec3 p0 = toGlm(point.position), n0 = toGlm(point.normal);
+  glm::vec3 sum(0.0f);
+  for (uint32_t j = 0; j < traced; ++j)
+    for (uint32_t i = 0; i < traced; ++i) {
+      const float a = tapOffset(i, n), b = tapOffset(j, n);
+      SurfacePoint tap = point;
+      tap.position = fromGlm(p0 + a * toGlm(d.positionDx) + b * toGlm(d.positionDy));
+      tap.normal = fromGlm(n0 + a * toGlm(d.normalDx) + b * toGlm(d.normalDy));
+      const FieldFragment f = fragmentGeometry(tap, eye, worldFromObject);
+      const VolumePath path = traceVolumePath(volume, tap.position, fromGlm(f.n), fromGlm(f.v));
+      sum += lookupOverCell(env, cells, toGlm(rotateDirection(worldFromObject, path.exit)), dx / n, dy / n);
+    }
+  return sum / (n * n);
+}
+
+}  // namespace
+
+Vec3 shadeVolume(const Field& volume, const LatLongImage& environment, const SurfacePoint& point, const Vec3& eyeArray,
+                 const ObjectShading& shading, float exposure, const Transform& worldFromObject,
+                 const LookupDerivatives& d) {
+  VolumePath path;
+  const FieldFragment f = volumeFragment(volume, point, eyeArray, worldFromObject, &path);
+  const float ior = point.frontIor > 0.0f ? point.frontIor : shading.ior;
+  const float fresnel = fresnelDielectric(f.cosI, 1.0f / ior);
+  float transmittance = std::exp(-std::max(f.d[3], 0.0f) * (shading.absorptionScale * worldFromObject.scale));
+  if (volume.throughput) transmittance *= std::clamp(path.throughput, 0.0f, 1.0f);
+  glm::vec3 color = (1.0f - fresnel) * transmittance * toGlm(shading.tint) *
+                    volumeOverPixel(volume, environment, point, eyeArray, worldFromObject, f.exitWorld, d);
+  if (shading.reflection)
+    color += fresnel * toGlm(sampleLatLongOverPixel(environment, fromGlm(f.reflectedWorld), d.reflectedDx, d.reflectedDy));
+  return fromGlm(color * exposure);
+}
+
 float silhouetteCoverage(const SurfacePoint& point, const Vec3& eye, const LookupDerivatives& derivatives) {
   const auto [v, n] = viewAndNormal(point, eye);
   const float cosView = -glm::dot(v, n);
@@ -610,11 +698,11 @@ LookupDerivatives pixelDerivatives(const RenderObject& object, uint32_t first, c
     TriangleHit hit{0.0, 0.0, 0.0};
     if (std::fabs(det) > 1e-300) hit = TriangleHit{glm::dot(e2, qv) / det, glm::dot(tv, pv) / det, glm::dot(ray, qv) / det};
     const SurfacePoint point = surfacePointAt(mesh, first, hit);
-    return std::pair{fieldFragment(*object.distortion, point, eyeObject, placed), toGlm(point.position)};
+    return std::tuple{objectFragment(object, point, eyeObject), toGlm(point.position), toGlm(point.normal)};
   };
-  const auto [self, selfPosition] = fragmentAt(x, y);
-  const auto [nx, nxPosition] = fragmentAt(x ^ 1u, y);
-  const auto [ny, nyPosition] = fragmentAt(x, y ^ 1u);
+  const auto [self, selfPosition, selfNormal] = fragmentAt(x, y);
+  const auto [nx, nxPosition, nxNormal] = fragmentAt(x ^ 1u, y);
+  const auto [ny, nyPosition, nyNormal] = fragmentAt(x, y ^ 1u);
   // Fine derivatives: odd column minus even column, odd row minus even row.
   const float sx = (x & 1u) ? 1.0f : -1.0f, sy = (y & 1u) ? 1.0f : -1.0f;
   LookupDerivatives out;
@@ -626,6 +714,8 @@ LookupDerivatives pixelDerivatives(const RenderObject& object, uint32_t first, c
   out.cosViewDy = sy * (self.cosView - ny.cosView);
   out.positionDx = fromGlm(sx * (selfPosition - nxPosition));
   out.positionDy = fromGlm(sy * (selfPosition - nyPosition));
+  out.normalDx = fromGlm(sx * (selfNormal - nxNormal));
+  out.normalDy = fromGlm(sy * (selfNormal - nyNormal));
   for (int k = 0; k < 2; ++k) {
     out.uvDx[size_t(k)] = sx * (self.uv[k] - nx.uv[k]);
     out.uvDy[size_t(k)] = sy * (self.uv[k] - ny.uv[k]);
@@ -710,14 +800,17 @@ RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImag
       const SurfacePoint point = surfacePointAt(*object.mesh, best.triangle, *best.hit);
       const Vec3& eye = objectEyes[size_t(best.object)];
       const LookupDerivatives derivatives = pixelDerivatives(object, best.triangle, camera, width, height, px, py);
-      const Vec3 c = shadeField(*object.distortion, filtered, point, eye, object.shading, exposure,
-                                object.worldFromObject, derivatives);
+      const Vec3 c = object.volume ? shadeVolume(*object.volume, filtered, point, eye, object.shading, exposure,
+                                                 object.worldFromObject, derivatives)
+                                   : shadeField(*object.distortion, filtered, point, eye, object.shading, exposure,
+                                                object.worldFromObject, derivatives);
       const Vec3 covered = silhouetteCoverage ? overBackground(c, point, eye, derivatives, environment, rayF,
                                                                &edges[size_t(best.object)][best.triangle / 3])
                                               : c;
       for (int k = 0; k < 3; ++k) out[k] = covered[size_t(k)];
       image.object[size_t(py) * width + px] = best.object;
-      const Vec3 dir = rotateDirection(object.worldFromObject, shadedExitDirection(*object.distortion, point, eye));
+      const Vec3 dir = object.volume ? fromGlm(objectFragment(object, point, eye).exitWorld)
+                                     : rotateDirection(object.worldFromObject, shadedExitDirection(*object.distortion, point, eye));
       for (int k = 0; k < 3; ++k) image.directions[(size_t(py) * width + px) * 3 + size_t(k)] = dir[size_t(k)];
     }
   return image;

@@ -34,6 +34,14 @@ SHR_CONST(kBindingTriangleEdges, 1u)
 // per texel, how far the eye lies from the nearest jump of that sample's table, in table cells
 // (kBindingJumpOut).
 SHR_CONST(kBindingJumpDistance, 2u)
+// Set 1, also: a Volume field's grid (VolumeHeader, then the voxel words: the same buffer as the
+// decompression pass's kBindingBasis), which the per-fragment volume shading
+// (object_volume_body.glsl, Object::tracesVolumePerFragment) traces each fragment's path through.
+// A uniform texel buffer (R32_UINT, fragment stage), not a storage buffer: the fine derivatives of
+// the traced exit need the helper invocations' traces, and lavapipe's helper invocations read
+// zeros from storage buffers (measured: a constant word's derivative was non-zero along every
+// triangle's edge). Other fields bind a placeholder that nothing reads.
+SHR_CONST(kBindingVolumeGrid, 3u)
 // shrefract/object.h TriangleEdges says what the members hold: edge[k] = (m, m . a), the edge's
 // inward unit normal in the triangle's plane and its offset; neighbour[k] = (n', n' . a), the
 // normal of the triangle across it and its offset.
@@ -282,6 +290,13 @@ SHR_CONST(kMaxEnvironmentTapsPerAxis, 4u)
 // lookup spreads over about twice the footprint, and half a level finer measured best for it
 // (docs/antialiasing.md, "Level bias"; with more taps each reads its own cell's level, unscaled).
 SHR_CONSTF(kOneTapFootprintScale, 0.70710678f)
+// The per-fragment volume shading (object_volume_body.glsl) traces this many paths per axis of
+// the pixel (at most the renderer's environment taps), each at its own sub-pixel place, and reads
+// the environment over each one's cell with the rest of the taps: one path per pixel aliased what
+// the texture-space shading's taps, reading many texels across the pixel, do not (the cube at one
+// sample per pixel: 30.51 dB with one path, 31.52 with 2x2, 31.86 with 3x3 at 9 traces; the
+// bunny 19.76, 21.73, 22.31; docs/encodings.md, "Volume traced per fragment").
+SHR_CONST(kVolumeTracedTapsPerAxis, 2u)
 
 // Jumps across texels (object_field_body.glsl transmittedOverPixel, docs/encodings.md "Jumps
 // across texels: blending colours"): where the four texels around a fragment are within

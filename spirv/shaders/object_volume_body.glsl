@@ -1,0 +1,133 @@
+// Volume shading per fragment (renderer.h ShadingMode::Field for an object whose Volume field
+// traces per fragment: Object::tracesVolumePerFragment): the fragment's own paths are refracted in
+// at its interpolated position and normal and traced through the field's distance grid
+// (volume_trace.glsl), where the texture-space shading reads the distortion image the
+// decompression pass traced at the sample texels and interpolates between them. Nothing between
+// texels is interpolated, so the field's spatial sampling costs nothing; the grid's own errors
+// remain. Mirrored by engine/src/reference/cpu_reference.cpp (shadeVolume).
+#include "shrefract/gpu_layout.h"
+#include "environment_select.glsl"
+
+layout(push_constant) uniform Push { ObjectPushConstants pc; };
+// The grid's words: the VolumeHeader's 12, then the voxels (gpu_layout.h kBindingVolumeGrid says
+// why a texel buffer).
+layout(set = 1, binding = kBindingVolumeGrid) uniform usamplerBuffer volumeWords;
+const int kVolumeHeaderWords = 12;
+VolumeHeader head;  // read from volumeWords at the start of main
+uint volumeVoxel(uint index) { return texelFetch(volumeWords, kVolumeHeaderWords + int(index)).x; }
+
+VolumeHeader readVolumeHeader() {
+  uvec4 grid = uvec4(texelFetch(volumeWords, 0).x, texelFetch(volumeWords, 1).x, texelFetch(volumeWords, 2).x,
+                     texelFetch(volumeWords, 3).x);
+  vec4 origin = uintBitsToFloat(uvec4(texelFetch(volumeWords, 4).x, texelFetch(volumeWords, 5).x,
+                                      texelFetch(volumeWords, 6).x, texelFetch(volumeWords, 7).x));
+  vec4 media = uintBitsToFloat(uvec4(texelFetch(volumeWords, 8).x, texelFetch(volumeWords, 9).x,
+                                     texelFetch(volumeWords, 10).x, texelFetch(volumeWords, 11).x));
+  return VolumeHeader(grid, origin, media);
+}
+
+layout(location = 0) in vec3 inPosition;
+layout(location = 1) in vec3 inNormal;
+layout(location = 2) in vec2 inFieldUv;
+layout(location = 3) in float inFrontIor;
+layout(location = 4) flat in uint inTriangle;  // the index of the fragment's triangle
+layout(location = 0) out vec4 outColor;
+layout(std430, set = 1, binding = kBindingTriangleEdges) readonly buffer TriangleEdgesBuffer {
+  TriangleEdges triangleEdges[];
+};
+// As object_field_body.glsl: the alpha written is the fragment's silhouette coverage.
+layout(constant_id = kSpecSilhouetteCoverage) const bool SILHOUETTE_COVERAGE = false;
+
+#include "volume_trace.glsl"
+#include "object_coverage.glsl"
+
+// Paths traced per axis of the pixel, and environment taps per axis of each one's cell.
+const uint TRACED_TAPS = ENVIRONMENT_TAPS < kVolumeTracedTapsPerAxis ? ENVIRONMENT_TAPS : kVolumeTracedTapsPerAxis;
+const uint CELL_TAPS = ENVIRONMENT_TAPS / TRACED_TAPS;  // at least 1
+
+// The view, and the normal bent toward it as object_field_body.glsl bends it (interpolated normals
+// can face away near silhouettes), at object-space point p with interpolated normal `normal`.
+void viewAndBentNormal(vec3 p, vec3 normal, out vec3 v, out vec3 n) {
+  n = normalize(normal);
+  v = normalize(p - pc.eyeObject.xyz);
+  float c = -dot(v, n);
+  if (c < 1e-4) n = normalize(n + (1e-4 - c) * -v);
+}
+
+// The environment over one traced path's cell of the pixel (ddx, ddy: the exit's change across
+// the cell): CELL_TAPS^2 taps of the parallelogram, as lookupEnvironmentOverPixel's over the pixel.
+vec3 lookupOverCell(vec3 dir, vec3 ddx, vec3 ddy) {
+  float n = float(CELL_TAPS);
+  float footprint = directionFootprint(ddx / n, ddy / n);
+  vec3 sum = vec3(0.0);
+  for (uint j = 0u; j < CELL_TAPS; ++j)
+    for (uint i = 0u; i < CELL_TAPS; ++i) {
+      vec3 tap = dir + tapOffset(i, n) * ddx + tapOffset(j, n) * ddy;
+      sum += lookupEnvironment(dot(tap, tap) > 1e-12 ? tap : dir, footprint);
+    }
+  return sum / (n * n);
+}
+
+// The transmitted light over the pixel: TRACED_TAPS^2 paths at the centres of the pixel's cells
+// (the position and normal moved along their screen derivatives), each looked up over its cell.
+// The exit's derivatives (exitDx, exitDy: the centre path's, fine) size the cells' footprints; an
+// axis across which the exit jumps (beyond acos(kSpatialSplitCosine)) while the other's is smooth
+// is a path discontinuity, not divergence, and is left out of them (a clean edge stays sharp,
+// where the jump's width would blur the whole pixel); where both axes jump (chaotic paths) both
+// are kept, and the blur stands for the colours the pixel mixes. One path: the centre's over
+// the pixel (lookupEnvironmentOverPixel).
+vec3 transmittedOverPixel(vec3 exitWorld, vec3 exitDx, vec3 exitDy, vec3 dPdx, vec3 dPdy) {
+  bool jumpX = dot(exitDx, exitDx) > 2.0 * (1.0 - kSpatialSplitCosine);
+  bool jumpY = dot(exitDy, exitDy) > 2.0 * (1.0 - kSpatialSplitCosine);
+  if (jumpX != jumpY) {
+    if (jumpX) exitDx = vec3(0.0);
+    else exitDy = vec3(0.0);
+  }
+  if (TRACED_TAPS == 1u) return lookupEnvironmentOverPixel(exitWorld, exitDx, exitDy);
+  float n = float(TRACED_TAPS);
+  vec3 dNdx = dFdxFine(inNormal), dNdy = dFdyFine(inNormal);
+  vec3 sum = vec3(0.0);
+  for (uint j = 0u; j < TRACED_TAPS; ++j)
+    for (uint i = 0u; i < TRACED_TAPS; ++i) {
+      float a = tapOffset(i, n), b = tapOffset(j, n);
+      vec3 p = inPosition + a * dPdx + b * dPdy;
+      vec3 v, nn;
+      viewAndBentNormal(p, inNormal + a * dNdx + b * dNdy, v, nn);
+      VolumePath path = traceVolumePath(p, nn, v);
+      sum += lookupOverCell(rotateByQuaternion(pc.worldFromObjectRotation, path.exit), exitDx / n, exitDy / n);
+    }
+  return sum / (n * n);
+}
+
+void main() {
+  head = readVolumeHeader();
+  vec3 v, n;
+  viewAndBentNormal(inPosition, inNormal, v, n);
+  // As object_field_body.glsl: the coverage from the cosine before the normal is bent.
+  float cosView = -dot(normalize(inPosition - pc.eyeObject.xyz), normalize(inNormal));
+  vec3 dPdx = dFdxFine(inPosition), dPdy = dFdyFine(inPosition);
+  float coverage = SILHOUETTE_COVERAGE ? min(silhouetteCoverage(cosView), polygonCoverage(dPdx, dPdy)) : 1.0;
+  float ior = inFrontIor > 0.0 ? inFrontIor : pc.medium.x;
+  float fresnel = fresnelDielectric(-dot(v, n), 1.0 / ior);
+
+  VolumePath path = traceVolumePath(inPosition, n, v);
+  vec3 exitWorld = rotateByQuaternion(pc.worldFromObjectRotation, path.exit);
+  vec3 reflectedWorld = rotateByQuaternion(pc.worldFromObjectRotation, reflect(v, n));
+  // In uniform control flow (every lane has left the trace's loops): the fine derivatives, which
+  // need the helper invocations' traces (gpu_layout.h kBindingVolumeGrid).
+  vec3 exitDx = dFdxFine(exitWorld), exitDy = dFdyFine(exitWorld);
+  vec3 reflectedDx = dFdxFine(reflectedWorld), reflectedDy = dFdyFine(reflectedWorld);
+  float tau = clamp(path.tau, -kMaxOpticalDepth, kMaxOpticalDepth);
+  if (uint(pc.medium.w) == kModeFieldExitDirection) {  // the measured quantity itself
+    outColor = vec4(exitWorld, tau);
+    return;
+  }
+  // Beer-Lambert as the texture-space shading (a medium without absorption has tau = 0), and the
+  // centre path's Fresnel factors where the field keeps its throughput (ObjectPushConstants.tint.a).
+  float transmittance = exp(-max(tau, 0.0) * pc.medium.y);
+  if (pc.tint.a > 0.5) transmittance *= clamp(path.energy, 0.0, 1.0);
+  vec3 color = (1.0 - fresnel) * transmittance * pc.tint.rgb * transmittedOverPixel(exitWorld, exitDx, exitDy, dPdx, dPdy);
+  if (pc.medium.z > 0.5)
+    color += fresnel * lookupEnvironmentOverPixel(reflectedWorld, reflectedDx, reflectedDy);
+  outColor = vec4(color * pc.eyeObject.w, coverage);
+}
