@@ -30,7 +30,9 @@
 // filtering on this device (docs/antialiasing.md, "Cost"). --msaa N (2, 4 or 8) runs everything
 // twice, into single-sample attachments and into N-sample ones resolved at the end of rendering
 // (the host's MSAA, RendererCreateInfo::sampleCount), and prints the raster time at N samples
-// against one sample, series by series, measured in the same run. Exit code 0 with "SKIPPED:" when there
+// against one sample, series by series, measured in the same run. A volume field (traced per
+// fragment by default, Object::tracesVolumePerFragment) runs again by its sample texels, and each
+// series' frame time per fragment against by texels is printed, measured in the same run. Exit code 0 with "SKIPPED:" when there
 // is no Vulkan device; 2 with one
 // line for bad arguments or a FIELD.shrf that does not exist.
 #include <shrefract/decompressor.h>
@@ -460,6 +462,23 @@ void printMsaaRatios(const Options& o, const std::vector<std::vector<Named>>& si
     }
 }
 
+// A volume field traced per fragment against the same field by its sample texels, series by series:
+// the frame's GPU time (decompression + raster; wall without timestamps), both measured in this run.
+void printVolumeRatios(const Options& o, const std::vector<std::vector<Named>>& perFragment,
+                       const std::vector<std::vector<Named>>& texels, bool timestamps) {
+  std::printf("volume traced per fragment against its sample texels (same run, %s):\n",
+              timestamps ? "GPU decompression + raster" : "wall");
+  for (size_t k = 0; k < perFragment.size() && k < texels.size(); ++k)
+    for (size_t s = 0; s < perFragment[k].size() && s < texels[k].size(); ++s) {
+      const SeriesResult& a = texels[k][s].result;
+      const SeriesResult& b = perFragment[k][s].result;
+      const double before = timestamps ? a.decompressMs + a.rasterMs : a.wallMs;
+      const double after = timestamps ? b.decompressMs + b.rasterMs : b.wallMs;
+      std::printf("  %u taps, %-28s texels %8.3f, per fragment %8.3f ms  %.2fx\n", o.environmentTaps[k],
+                  texels[k][s].name.c_str(), before, after, after / before);
+    }
+}
+
 // Every tap count's series of the scene into `frames`; prints them, and the tap ratios.
 Result<std::vector<std::vector<Named>>> benchmarkScene(Gpu& gpu, Frames& frames, const Environment& environment,
                                                        Scene& scene, const Options& o) {
@@ -535,6 +554,15 @@ int run(const Options& o) {
       if (!placed) return fail(scene.value().name + ": " + placed.error().message);
       auto single = benchmarkScene(*gpu, frames, *environment.value(), scene.value(), o);
       if (!single) return fail(single.error().message);
+      if (scene.value().objects[0]->tracesVolumePerFragment()) {
+        // The same volume field by its sample texels, measured in this run.
+        for (auto& object : scene.value().objects)
+          if (auto set = object->setTracesVolumePerFragment(false); !set) return fail(set.error().message);
+        auto texels = benchmarkScene(*gpu, frames, *environment.value(), scene.value(), o);
+        if (!texels) return fail(texels.error().message);
+        printVolumeRatios(o, single.value(), texels.value(), frames.timers[0]->available());
+        for (auto& object : scene.value().objects) (void)object->setTracesVolumePerFragment(true);
+      }
       if (o.msaa == VK_SAMPLE_COUNT_1_BIT) continue;
       auto multi = benchmarkScene(*gpu, multisampled, *environment.value(), scene.value(), o);
       if (!multi) return fail("--msaa " + std::to_string(uint32_t(o.msaa)) + ": " + multi.error().message);

@@ -240,8 +240,9 @@ TEST_F(SceneCli, DefaultBakeTracesTheTableNodesAndAGridSizeAsksForTheGrid) {
 }
 
 // The default bake (no --encoding nor a flag of Pca's) makes the Pca field and, where the scene is
-// one medium in air, the volume beside it, and keeps the one whose decode sees the traced views'
-// colours closer: one line says which, with both figures, and the file is that field, recording
+// one medium in air, the volume beside it, and keeps the one that sees the colours between the
+// sample texels closer (the Pca by its texels, the volume traced per fragment): one line says
+// which, with both figures, and the file is that field, recording
 // that it tried. --encoding pca keeps the Pca without trying; nested media (the glass of water)
 // have no volume to try.
 TEST_F(SceneCli, DefaultBakeTriesTheVolumeAndKeepsTheCloser) {
@@ -251,8 +252,8 @@ TEST_F(SceneCli, DefaultBakeTriesTheVolumeAndKeepsTheCloser) {
   ASSERT_NE(note, std::string::npos) << tried.err;
   const std::string chosen = tried.err.substr(note + 16, tried.err.find(' ', note + 16) - note - 16);
   EXPECT_TRUE(chosen == "pca" || chosen == "volume") << tried.err;
-  EXPECT_NE(tried.err.find("dB with pca, "), std::string::npos) << tried.err;
-  EXPECT_NE(tried.err.find("dB with volume 128^3"), std::string::npos) << tried.err;
+  EXPECT_NE(tried.err.find("dB with pca by its texels, "), std::string::npos) << tried.err;
+  EXPECT_NE(tried.err.find("dB with volume 128^3 traced per fragment"), std::string::npos) << tried.err;
   const ToolRun info = run(".", {"info", "tried.shrf", "--json"});
   ASSERT_EQ(info.exit, 0) << info.err;
   EXPECT_NE(info.out.find("\"encoding\": \"" + chosen + "\""), std::string::npos) << info.out;

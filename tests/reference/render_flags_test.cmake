@@ -1,7 +1,8 @@
 # `shrefract render` supersampling and path flags: --spp (a perfect square 1..64, every mode),
 # --path-rule and --throughput (exact mode), --filtered (exact and full-tree), --env-taps (GPU
 # modes, and CPU modes with --filtered), --env-level-bias (CPU modes with --filtered), --msaa (GPU
-# modes: 1, 2, 4 or 8, a count the device lacks refused naming the flag). Range and
+# modes: 1, 2, 4 or 8, a count the device lacks refused naming the flag), --volume-texels (field mode
+# of a volume field). Range and
 # usage errors exit 2 with one line naming the flag and write nothing; good values render (CPU
 # modes always; the GPU case skips without a device, printing "SKIPPED: no Vulkan device"). Inputs: SHREFRACT (the tool), WORK_DIR.
 file(REMOVE_RECURSE ${WORK_DIR})
@@ -45,6 +46,8 @@ expect_usage_error(--env-level-bias 16x12 --mode exact --filtered --env-level-bi
 expect_usage_error(--env-level-bias 16x12 --mode exact --filtered --env-level-bias nan)
 expect_usage_error(--env-level-bias 16x12 --mode exact --env-level-bias -1)
 expect_usage_error(--env-level-bias 16x12 --env-level-bias -1)
+expect_usage_error(--volume-texels 16x12 --volume-texels)
+expect_usage_error(--volume-texels 16x12 --mode exact --volume-texels)
 expect_usage_error(--msaa 16x12 --msaa 3)
 expect_usage_error(--msaa 16x12 --msaa 0)
 expect_usage_error(--msaa 16x12 --msaa 16)
