@@ -2,14 +2,17 @@
 #include <shrefract/bake/distance_volume.h>
 #include <shrefract/bake/fit.h>
 #include <shrefract/bake/image.h>
+#include <shrefract/bake/image_metrics.h>
 #include <shrefract/bake/jump_distance.h>
 #include <shrefract/bake/layout.h>
+#include <shrefract/bake/reference_render.h>
 #include <shrefract/bake/sample_frame.h>
 #include <shrefract/bake/shard.h>
 #include <shrefract/bake/table_fit.h>
 #include <shrefract/bake/tracer.h>
 #include <shrefract/gpu_layout.h>
 #include <shrefract/sh.h>
+#include <shrefract/cpu_reference.h>
 
 #include "splitmix.h"
 #include "parallel.h"
@@ -30,6 +33,7 @@
 #include <vector>
 
 #include <glm/geometric.hpp>
+#include <glm/trigonometric.hpp>
 
 
 namespace shrefract::bake {
@@ -1560,9 +1564,15 @@ glm::vec3 framePoint(const float* m) {
            m[11] * glm::vec3(m[8], m[9], m[10]));
 }
 
-// Up to kVolumeDensityPairs pairs of sample texels side by side in the atlas (x and x + 1, at most
-// twice the median spacing apart: not across a chart's border), evenly strided: their left texels.
-std::vector<uint64_t> neighbourPairs(const Field& field) {
+// How well a Volume field's texels predict the paths between them: for up to
+// kVolumeDensityPairs pairs of sample texels side by side in the atlas (x and x + 1, at most twice
+// the median spacing apart: not across a chart's border), kFrameChoiceViews cosine-weighted views
+// about their mean normal; the path the field traces at the pair's midpoint against the mean of
+// the two texels' exits (what bilinear filtering reads there), as the PSNR of the colours they see
+// in the built-in environment. Smooth glass predicts well (the sphere 37.6 dB at the default 40000
+// samples); where paths change faster than the texels (the bunny's 14.5, the cube's edges 28.0,
+// the torus's reflections 24.3) the texels do not. Deterministic for any thread count.
+double volumeSpatialPsnr(const Field& field, uint32_t threads) {
   std::vector<uint64_t> pairs;  // the left texel
   std::vector<float> spacing;
   for (uint64_t t = 0; t + 1 < field.texelCount(); ++t) {
@@ -1571,69 +1581,30 @@ std::vector<uint64_t> neighbourPairs(const Field& field) {
     pairs.push_back(t);
     spacing.push_back(glm::distance(framePoint(&field.frames[t * 12]), framePoint(&field.frames[(t + 1) * 12])));
   }
-  if (pairs.empty()) return {};
+  if (pairs.empty()) return std::numeric_limits<double>::infinity();
   std::vector<float> sorted = spacing;
   std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
   const float limit = 2.0f * sorted[sorted.size() / 2];
   const size_t step = std::max<size_t>(1, pairs.size() / kVolumeDensityPairs);
-  std::vector<uint64_t> chosen;
+  std::vector<size_t> chosen;
   for (size_t i = 0; i < pairs.size(); i += step)
-    if (spacing[i] <= limit) chosen.push_back(pairs[i]);
-  return chosen;
-}
-
-// The midpoint of sample texels a and a + 1 with their mean normal's frame, and the fixed sequence
-// of kFrameChoiceViews cosine-weighted views about it (directions to a far eye).
-struct PairViews {
-  glm::vec3 point{0.0f};
-  LocalFrame frame;
-  std::array<glm::vec3, kFrameChoiceViews> toEye{};
-};
-
-PairViews pairViews(const Field& field, uint64_t a) {
-  const float* ra = &field.frames[a * 12];
-  const float* rb = ra + 12;
-  PairViews v;
-  v.point = 0.5f * (framePoint(ra) + framePoint(rb));
-  v.frame = frameFromNormal(glm::normalize(glm::vec3(ra[8], ra[9], ra[10]) + glm::vec3(rb[8], rb[9], rb[10])));
-  uint64_t rng = 0x564f4c554d45ull ^ (uint64_t(a) * 0x9e3779b97f4a7c15ull);
-  for (glm::vec3& d : v.toEye) d = localToWorld(v.frame, cosineWeightedDirection(rng));
-  return v;
-}
-
-// `toEye` in the frame whose rows are `rows` (M_s), as the decompression pass's eyeInFrame for a far eye.
-std::array<float, 3> inFrame(const float* rows, glm::vec3 toEye) {
-  return {glm::dot(glm::vec3(rows[0], rows[1], rows[2]), toEye), glm::dot(glm::vec3(rows[4], rows[5], rows[6]), toEye),
-          glm::dot(glm::vec3(rows[8], rows[9], rows[10]), toEye)};
-}
-
-// The PSNR of a sum of squared colour differences over `views` lookups.
-double colourPsnr(const std::vector<double>& squares, size_t views) {
-  double sum = 0.0;
-  for (double v : squares) sum += v;  // in pair order: deterministic
-  const double mean = sum / double(std::max<size_t>(1, views));
-  return 10.0 * std::log10(1.0 / std::max(mean, 1e-10));
-}
-
-// How well a Volume field's texels predict the paths between them: for the neighbourPairs, their
-// pairViews; the path the field traces at the pair's midpoint against the mean of the two texels'
-// exits (what bilinear filtering reads there), as the PSNR of the colours they see in the built-in
-// environment. Smooth glass predicts well (the sphere 37.6 dB at the default 40000 samples); where
-// paths change faster than the texels (the bunny's 14.5, the cube's edges 28.0, the torus's
-// reflections 24.3) the texels do not. Deterministic for any thread count.
-double volumeSpatialPsnr(const Field& field, uint32_t threads) {
-  const std::vector<uint64_t> pairs = neighbourPairs(field);
-  if (pairs.empty()) return std::numeric_limits<double>::infinity();
-  std::vector<double> squares(pairs.size());
-  parallelFor(pairs.size(), threads, [&](size_t k) {
-    const float* a = &field.frames[pairs[k] * 12];
+    if (spacing[i] <= limit) chosen.push_back(i);
+  std::vector<double> squares(chosen.size());
+  parallelFor(chosen.size(), threads, [&](size_t k) {
+    const float* a = &field.frames[pairs[chosen[k]] * 12];
     const float* b = a + 12;
-    const PairViews v = pairViews(field, pairs[k]);
-    const std::array<float, 12> m = localFromWorldRows(v.point, v.frame);
-    for (const glm::vec3& toEye : v.toEye) {
+    const glm::vec3 normal = glm::normalize(glm::vec3(a[8], a[9], a[10]) + glm::vec3(b[8], b[9], b[10]));
+    const LocalFrame frame = frameFromNormal(normal);
+    const std::array<float, 12> m = localFromWorldRows(0.5f * (framePoint(a) + framePoint(b)), frame);
+    uint64_t rng = 0x564f4c554d45ull ^ (uint64_t(chosen[k]) * 0x9e3779b97f4a7c15ull);
+    for (uint32_t h = 0; h < kFrameChoiceViews; ++h) {
+      const glm::vec3 toEye = localToWorld(frame, cosineWeightedDirection(rng));  // the eye far away
       auto exitAt = [&](const float* rows) {
+        const std::array<float, 3> w{glm::dot(glm::vec3(rows[0], rows[1], rows[2]), toEye),
+                                     glm::dot(glm::vec3(rows[4], rows[5], rows[6]), toEye),
+                                     glm::dot(glm::vec3(rows[8], rows[9], rows[10]), toEye)};
         float out[kMaxFieldChannels] = {};
-        traceVolumeSample(field, rows, inFrame(rows, toEye), out);
+        traceVolumeSample(field, rows, w, out);
         return glm::vec3(out[0], out[1], out[2]);
       };
       const glm::vec3 between = exitAt(a) + exitAt(b);
@@ -1642,59 +1613,103 @@ double volumeSpatialPsnr(const Field& field, uint32_t threads) {
       squares[k] += double(glm::dot(e, e)) / 3.0;
     }
   });
-  return colourPsnr(squares, pairs.size() * kFrameChoiceViews);
+  double sum = 0.0;
+  for (double v : squares) sum += v;  // in pair order: deterministic
+  const double mean = sum / double(std::max<size_t>(1, chosen.size() * kFrameChoiceViews));
+  return 10.0 * std::log10(1.0 / std::max(mean, 1e-10));
 }
 
-// Where the image sees the two fields of the default's choice (keepVolumeWhereCloser): between
-// the sample texels. At the neighbourPairs' pairViews, an eye ray toward the midpoint (from one
-// texel spacing out along the view; a view whose hit lies further than that from the midpoint is
-// left out) is traced exactly; `baked` (a texture-space field) reads there the mean of its two
-// texels' decoded exits, as bilinear filtering does, and `volume`, traced per fragment
-// (Object::tracesVolumePerFragment), its own path from the hit; each as the PSNR of the colours
-// against the exact exit's in the built-in environment. The traced views at the samples
-// themselves (fieldViewsError) do not see the Pca's spatial sampling, which the per-fragment
-// volume does not have: the cube's Pca read 29.26 dB there against the volume's 24.15, where its
-// image is 31.45 against 33.39 (docs/encodings.md, "Volume traced per fragment").
-struct BetweenSamples {
+// The default's choice between the baked field and the volume (keepVolumeWhereCloser), by their
+// images: kChoiceViews views of the object (40 deg framing its bounds, from four sides and a little
+// above), each field drawn by the CPU mirror of the engine's raster pass as the engine draws it by
+// default (bake::renderDistortion: the baked field by its decoded sample texels, the volume traced
+// per fragment) against the exact render of the field's path rule, kChoiceImageWidth x
+// kChoiceImageHeight at 2x2 samples, in the built-in environment; PSNR over the exact render's
+// object pixels, colours clamped to [0, 1], the views pooled. The traced views at the samples
+// (fieldViewsError) did not rank them as the images do: the cube's Pca read 29.27 dB there against
+// the volume's 24.15, where its image reads 31.45 against 33.39; nor at the midpoints of
+// neighbouring texels (cosine-weighted views: 25.52 against 23.10; tried, not kept)
+// (docs/encodings.md, "Volume traced per fragment").
+constexpr uint32_t kChoiceViews = 4, kChoiceImageWidth = 128, kChoiceImageHeight = 96;
+struct ImageChoice {
   double baked = 0.0, volume = 0.0;
-  size_t views = 0;
+  uint64_t pixels = 0;
 };
 
-BetweenSamples colourBetweenSamples(const Field& baked, const Field& volume, const BakePlan& plan) {
-  const std::vector<uint64_t> pairs = neighbourPairs(baked);
-  const TraceSettings ts = traceSettingsOf(plan.settings);
-  std::vector<double> bakedSquares(pairs.size()), volumeSquares(pairs.size());
-  std::vector<size_t> counted(pairs.size());
-  parallelFor(pairs.size(), plan.settings.threads, [&](size_t k) {
-    const float* a = &baked.frames[pairs[k] * 12];
-    const float* b = a + 12;
-    const PairViews v = pairViews(baked, pairs[k]);
-    const float spacing = glm::distance(framePoint(a), framePoint(b));
-    for (const glm::vec3& toEye : v.toEye) {
-      const EyeRayResult hit = plan.tracer->traceEyeRay(v.point + spacing * toEye, -toEye, ts);
-      if (!hit.hit || glm::distance(hit.position, v.point) > spacing) continue;
-      const glm::vec3 exact = choiceColour(hit.transmitted.exitDirection);
-      auto decodedAt = [&](uint64_t texel, const float* rows) {
-        float out[kMaxFieldChannels] = {};
-        evaluateSample(baked, texel, inFrame(rows, toEye), out);
-        const glm::vec3 d(out[0], out[1], out[2]);
-        return glm::length(d) > 0.0f ? glm::normalize(d) : -toEye;
-      };
-      const glm::vec3 between = decodedAt(pairs[k], a) + decodedAt(pairs[k] + 1, b);
-      const glm::vec3 e = choiceColour(glm::length(between) > 0.0f ? glm::normalize(between) : -toEye) - exact;
-      bakedSquares[k] += double(glm::dot(e, e)) / 3.0;
-      const VolumePath path = traceVolumePath(volume, {hit.position.x, hit.position.y, hit.position.z},
-                                              {hit.shadingNormal.x, hit.shadingNormal.y, hit.shadingNormal.z},
-                                              {-toEye.x, -toEye.y, -toEye.z});
-      const glm::vec3 f = choiceColour(glm::vec3(path.exit[0], path.exit[1], path.exit[2])) - exact;
-      volumeSquares[k] += double(glm::dot(f, f)) / 3.0;
-      ++counted[k];
-    }
-  });
-  BetweenSamples out;
-  for (size_t c : counted) out.views += c;
-  out.baked = colourPsnr(bakedSquares, out.views);
-  out.volume = colourPsnr(volumeSquares, out.views);
+// The cameras of the image choice: kChoiceViews eyes about the field mesh's bounds.
+std::vector<Camera> choiceCameras(const FieldMesh& mesh) {
+  glm::vec3 lo(1e30f), hi(-1e30f);
+  for (size_t i = 0; i + 2 < mesh.positions.size(); i += 3) {
+    const glm::vec3 p(mesh.positions[i], mesh.positions[i + 1], mesh.positions[i + 2]);
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  const glm::vec3 centre = 0.5f * (lo + hi);
+  const float radius = std::max(0.5f * glm::length(hi - lo), 1e-3f);
+  const float distance = 1.1f * radius / std::sin(glm::radians(20.0f));
+  std::vector<Camera> cameras;
+  for (uint32_t k = 0; k < kChoiceViews; ++k) {
+    const float azimuth = glm::radians(30.0f + 90.0f * float(k)), elevation = glm::radians(20.0f);
+    const glm::vec3 eye = centre + distance * glm::vec3(std::sin(azimuth) * std::cos(elevation), std::sin(elevation),
+                                                        std::cos(azimuth) * std::cos(elevation));
+    Camera c;
+    c.eye = {eye.x, eye.y, eye.z};
+    c.target = {centre.x, centre.y, centre.z};
+    c.verticalFovDegrees = 40.0f;
+    c.nearPlane = 0.01f * distance;
+    c.farPlane = 10.0f * distance;
+    cameras.push_back(c);
+  }
+  return cameras;
+}
+
+// The mean squared colour error of `image` against `exact` over its object pixels (compareImages'
+// PSNR undone) times their count, to pool views; adds the count to `pixels`.
+Result<double> pooledSquares(const Image& image, const ReferenceImage& exact, uint64_t* pixels) {
+  auto e = compareImages(image, exact.color, exact.mask, {}, {});
+  if (!e) return e.error();
+  if (pixels) *pixels += e.value().pixels;
+  return double(e.value().pixels) * std::pow(10.0, -e.value().psnr / 10.0);
+}
+
+Result<ImageChoice> imagesAgainstExact(const Scene& scene, const BakePlan& plan, const Field& baked,
+                                       const Field& volume) {
+  static const Image environment = proceduralEnvironment(kChoiceEnvironmentWidth);
+  double bakedSum = 0.0, volumeSum = 0.0;
+  ImageChoice out;
+  for (const Camera& camera : choiceCameras(baked.mesh)) {
+    ReferenceOptions ro;
+    ro.width = kChoiceImageWidth;
+    ro.height = kChoiceImageHeight;
+    ro.camera = camera;
+    ro.pathRule = baked.settings.pathRule;
+    ro.maxBounces = baked.settings.maxBounces;
+    ro.samplesPerAxis = 2;
+    ro.threads = plan.settings.threads;
+    auto exact = renderReference(*plan.tracer, scene, environment, ro);
+    if (!exact) return exact.error();
+    DistortionRenderOptions d;
+    d.width = ro.width;
+    d.height = ro.height;
+    d.camera = camera;
+    d.samplesPerAxis = ro.samplesPerAxis;
+    d.threads = ro.threads;
+    const reference::DistortionImage decoded = reference::decompress(baked, camera.eye);
+    auto bakedImage = renderDistortion(baked.mesh, decoded, environment, d);
+    if (!bakedImage) return bakedImage.error();
+    d.volume = &volume;
+    auto volumeImage = renderDistortion(volume.mesh, {}, environment, d);
+    if (!volumeImage) return volumeImage.error();
+    auto a = pooledSquares(bakedImage.value().color, exact.value(), &out.pixels);
+    if (!a) return a.error();
+    auto b = pooledSquares(volumeImage.value().color, exact.value(), nullptr);
+    if (!b) return b.error();
+    bakedSum += a.value();
+    volumeSum += b.value();
+  }
+  const double n = double(std::max<uint64_t>(1, out.pixels));
+  out.baked = 10.0 * std::log10(1.0 / std::max(bakedSum / n, 1e-10));
+  out.volume = 10.0 * std::log10(1.0 / std::max(volumeSum / n, 1e-10));
   return out;
 }
 
@@ -1778,10 +1793,10 @@ Result<Field> densifiedVolume(const Scene& scene, const BakePlan& plan, Field fi
   return out;
 }
 
-// BakeSettings::tryVolume: the scene's Volume field beside the baked one; the one that sees the
-// colours between the sample texels more closely (colourBetweenSamples: the baked field by its
-// texels, the volume traced per fragment, as the engine draws each by default) is kept, and the note
-// says which, with the traced views' figures at the samples (fieldViewsError) beside them.
+// BakeSettings::tryVolume: the scene's Volume field beside the baked one; the one whose images come
+// closer to exact renders (imagesAgainstExact: the baked field by its texels, the volume traced per
+// fragment, as the engine draws each by default) is kept, and the note says which, with the traced
+// views' figures at the samples (fieldViewsError) beside them.
 Result<Field> keepVolumeWhereCloser(const Scene& scene, const BakePlan& plan, Field baked, Clock::time_point start) {
   const uint32_t channels = baked.decodedChannels();  // without a jump distance channel
   BakeSettings settings = plan.settings;
@@ -1793,15 +1808,17 @@ Result<Field> keepVolumeWhereCloser(const Scene& scene, const BakePlan& plan, Fi
   auto volume = bakeVolumeField(plan, settings, channels, std::move(grid.value()), views, start, &b);
   if (!volume) return volume.error();
   const ViewsError a = fieldViewsError(baked, plan.atlas, views, plan.settings.threads);
-  plan.begin("comparing the fields between the sample texels");
-  const BetweenSamples between = colourBetweenSamples(baked, volume.value(), plan);
-  const bool keep = between.volume > between.baked;
+  plan.begin("comparing the two fields' images with exact renders");
+  auto images = imagesAgainstExact(scene, plan, baked, volume.value());
+  if (!images) return images.error();
+  const bool keep = images.value().volume > images.value().baked;
   if (plan.note)
     plan.note(std::string("encoding: chose ") + (keep ? "volume" : toString(baked.encoding)) +
-              " (the colours between the sample texels, " + std::to_string(between.views) + " traced views: " +
-              std::to_string(between.baked) + " dB with " + toString(baked.encoding) + " by its texels, " +
-              std::to_string(between.volume) + " dB with volume " + std::to_string(settings.volumeSize) +
-              "^3 traced per fragment; at the samples: " + std::to_string(a.colourPsnr) + " and " +
+              " (their images against exact renders, " + std::to_string(kChoiceViews) + " views, " +
+              std::to_string(images.value().pixels) + " object pixels: " + std::to_string(images.value().baked) +
+              " dB with " + toString(baked.encoding) + " by its texels, " + std::to_string(images.value().volume) +
+              " dB with volume " + std::to_string(settings.volumeSize) +
+              "^3 traced per fragment; the traced views at the samples: " + std::to_string(a.colourPsnr) + " and " +
               std::to_string(b.colourPsnr) + " dB, mean angle clipped at " +
               std::to_string(int(kFrameChoiceClipDegrees)) + " deg " + std::to_string(a.clippedMean) + " and " +
               std::to_string(b.clippedMean) + " deg)");

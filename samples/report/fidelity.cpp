@@ -595,6 +595,35 @@ Result<bake::ReferenceImage> renderExactTexels(const SceneContext& c, const Fiel
   return texelRender;
 }
 
+// The decomposition's steps after the path rule for a Volume default field, which the engine traces
+// per fragment (Object::tracesVolumePerFragment): no texels are interpolated, so the spatial
+// sampling step is nothing (the exact render against itself); the grid replaces the angular
+// encoding (the CPU raster's per-fragment trace against the exact path per pixel).
+Result<void> decomposeVolume(SceneContext& c, const DefaultField& def, const Field& field,
+                             bake::DistortionRenderOptions ro, const bake::ReferenceImage& exactRule,
+                             FidelityScene& out) {
+  if (auto r = addStep(c, out, "spatial sampling", "none: the volume is traced per fragment (exact per pixel vs itself)",
+                       exactRule.color, exactRule.color);
+      !r)
+    return r;
+  ro.volume = &field;
+  auto traced = bake::renderDistortion(field.mesh, {}, c.environment, ro);
+  if (!traced) return traced.error();
+  if (auto r = addStep(c, out, "angular encoding", "the grid: volume traced per fragment (CPU raster) vs exact per pixel",
+                       traced.value().color, exactRule.color);
+      !r)
+    return r;
+  if (auto r = addStep(c, out, "GPU arithmetic", "volume on the GPU vs the same on the CPU raster", def.gpuF16->image,
+                       traced.value().color);
+      !r)
+    return r;
+  if (auto r = addStep(c, out, "quantization", "u8 field vs f16 field (GPU)", def.gpuU8->image, def.gpuF16->image); !r)
+    return r;
+  const uint32_t spp = c.profile.samplesPerAxis;
+  return addStep(c, out, "pixel sampling", fmt("u8 field at 1 spp vs at %ux%u (GPU)", spp, spp),
+                 def.gpuU8->image1spp, def.gpuU8->image);
+}
+
 // The error decomposition of the default field: each step adds one approximation to the one
 // before (see addStep).
 Result<void> decompose(SceneContext& c, const DefaultField& def, FidelityScene& out,
@@ -619,6 +648,7 @@ Result<void> decompose(SceneContext& c, const DefaultField& def, FidelityScene& 
   ro.samplesPerAxis = c.profile.samplesPerAxis;
   ro.threads = c.options.threads;
   ro.shading.tint = frontMediumColor(field);  // as Object::createFromField sets it
+  if (field.encoding == Encoding::Volume) return decomposeVolume(c, def, field, ro, exactRule, out);
   auto texelRender = renderExactTexels(c, field, eye, ro, out);
   if (!texelRender) return texelRender.error();
   texelsImage = texelRender.value().color;

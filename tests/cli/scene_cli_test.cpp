@@ -252,8 +252,17 @@ TEST_F(SceneCli, DefaultBakeTriesTheVolumeAndKeepsTheCloser) {
   ASSERT_NE(note, std::string::npos) << tried.err;
   const std::string chosen = tried.err.substr(note + 16, tried.err.find(' ', note + 16) - note - 16);
   EXPECT_TRUE(chosen == "pca" || chosen == "volume") << tried.err;
-  EXPECT_NE(tried.err.find("dB with pca by its texels, "), std::string::npos) << tried.err;
-  EXPECT_NE(tried.err.find("dB with volume 128^3 traced per fragment"), std::string::npos) << tried.err;
+  // The figures of the two images against the exact renders; the kept field has the higher.
+  auto figureBefore = [&](const std::string& tail) {
+    const size_t at = tried.err.find(tail, note);
+    if (at == std::string::npos) return std::nan("");
+    const size_t start = tried.err.rfind(' ', at - 2) + 1;
+    return std::stod(tried.err.substr(start, at - 1 - start));
+  };
+  const double pcaDb = figureBefore("dB with pca by its texels, "), volumeDb = figureBefore("dB with volume 128^3 traced per fragment");
+  ASSERT_TRUE(std::isfinite(pcaDb) && std::isfinite(volumeDb)) << tried.err;
+  EXPECT_EQ(chosen, volumeDb > pcaDb ? "volume" : "pca") << tried.err;
+  EXPECT_NE(tried.err.find("their images against exact renders, 4 views"), std::string::npos) << tried.err;
   const ToolRun info = run(".", {"info", "tried.shrf", "--json"});
   ASSERT_EQ(info.exit, 0) << info.err;
   EXPECT_NE(info.out.find("\"encoding\": \"" + chosen + "\""), std::string::npos) << info.out;

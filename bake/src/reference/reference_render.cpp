@@ -836,8 +836,10 @@ Result<void> checkDistortionInput(const FieldMesh& mesh, const reference::Distor
   if (auto r = checkSize("distortion render", o.width, o.height, o.samplesPerAxis); !r) return r.error();
   if (env.width == 0 || env.rgba.size() != size_t(env.width) * env.height * 4)
     return makeError(ErrorCode::InvalidArgument, "distortion render: empty environment");
-  if (distortion.width == 0 || distortion.height == 0 ||
-      distortion.rgba.size() != size_t(distortion.width) * distortion.height * 4)
+  if (o.volume && o.volume->encoding != Encoding::Volume)
+    return makeError(ErrorCode::InvalidArgument, "distortion render: the field traced per fragment is not a Volume field");
+  if (!o.volume && (distortion.width == 0 || distortion.height == 0 ||
+                    distortion.rgba.size() != size_t(distortion.width) * distortion.height * 4))
     return makeError(ErrorCode::InvalidArgument, "distortion render: the distortion image is empty or its size disagrees");
   for (uint32_t index : mesh.indices)
     if (size_t(index) * 3 + 2 >= mesh.positions.size() || size_t(index) * 3 + 2 >= mesh.normals.size() ||
@@ -857,7 +859,8 @@ struct DistortionScene {
         bins(binTriangles(m, options.camera, bigWidth, bigHeight)),
         // reference::render's filtered lookups: the engine's level chain, built once.
         levels(reference::environmentLevels(reference::LatLongImage{env.width, env.height, env.rgba.data()})),
-        latLong{env.width, env.height, env.rgba.data(), &levels}, object{&m, &d, options.shading, Transform{}},
+        latLong{env.width, env.height, env.rgba.data(), &levels},
+        object{&m, &d, options.shading, Transform{}, options.volume},
         edges(triangleEdges(m.positions.data(), uint32_t(m.positions.size() / 3), m.indices.data(),
                             uint32_t(m.indices.size()))) {}
   DistortionScene(const DistortionScene&) = delete;  // latLong points at levels
@@ -900,12 +903,23 @@ Sample distortionSample(const DistortionScene& c, uint32_t bx, uint32_t by) {
   const reference::LookupDerivatives derivatives =
       reference::pixelDerivatives(c.object, bestTriangle, o.camera, c.bigWidth, c.bigHeight, bx, by);
   const reference::Vec3 shaded =
-      reference::shadeField(c.distortion, c.latLong, point, o.camera.eye, o.shading, o.exposure, Transform{}, derivatives);
+      o.volume ? reference::shadeVolume(*o.volume, c.latLong, point, o.camera.eye, o.shading, o.exposure, Transform{},
+                                        derivatives)
+               : reference::shadeField(c.distortion, c.latLong, point, o.camera.eye, o.shading, o.exposure, Transform{},
+                                       derivatives);
   // Blended with the background by its silhouette coverage, as reference::render does by default.
   const reference::Vec3 covered = reference::overBackground(shaded, point, o.camera.eye, derivatives, c.latLong,
                                                             {rayF.x, rayF.y, rayF.z}, &c.edges[bestTriangle / 3]);
   sample.color = glm::vec3(covered[0], covered[1], covered[2]);
   sample.hit = true;
+  if (o.volume) {  // the centre path (before the normal's bend near silhouettes)
+    const glm::vec3 p(point.position[0], point.position[1], point.position[2]);
+    const glm::vec3 n = glm::normalize(glm::vec3(point.normal[0], point.normal[1], point.normal[2]));
+    const glm::vec3 v = glm::normalize(p - glm::vec3(o.camera.eye[0], o.camera.eye[1], o.camera.eye[2]));
+    const VolumePath path = traceVolumePath(*o.volume, point.position, {n.x, n.y, n.z}, {v.x, v.y, v.z});
+    sample.direction = glm::vec3(path.exit[0], path.exit[1], path.exit[2]);
+    return sample;
+  }
   const reference::Vec3 dir = reference::shadedExitDirection(c.distortion, point, o.camera.eye);
   sample.direction = glm::vec3(dir[0], dir[1], dir[2]);
   return sample;

@@ -181,6 +181,9 @@ struct DistortionRenderOptions {
   float exposure = 1.0f;
   uint32_t samplesPerAxis = 1;  // as ReferenceOptions
   uint32_t threads = 0;
+  // Set: a Volume field traced per fragment (Object::tracesVolumePerFragment), shaded by
+  // reference::shadeVolume; the distortion image is not read (an empty one will do).
+  const Field* volume = nullptr;
 };
 
 // The engine's raster pass on the CPU for one field object: per sub-sample, the same operations
