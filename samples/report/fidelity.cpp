@@ -595,6 +595,16 @@ Result<bake::ReferenceImage> renderExactTexels(const SceneContext& c, const Fiel
   return texelRender;
 }
 
+// The decomposition's last steps, on the GPU's renders: quantization, then the 1-spp image against
+// the 4x4 one (and, cumulative, against the 4x4 physical reference).
+Result<void> addGpuSteps(const SceneContext& c, const DefaultField& def, FidelityScene& out) {
+  if (auto r = addStep(c, out, "quantization", "u8 field vs f16 field (GPU)", def.gpuU8->image, def.gpuF16->image); !r)
+    return r;
+  const uint32_t spp = c.profile.samplesPerAxis;
+  return addStep(c, out, "pixel sampling", fmt("u8 field at 1 spp vs at %ux%u (GPU)", spp, spp),
+                 def.gpuU8->image1spp, def.gpuU8->image);
+}
+
 // The decomposition's steps after the path rule for a Volume default field, which the engine traces
 // per fragment (Object::tracesVolumePerFragment): no texels are interpolated, so the spatial
 // sampling step is nothing (the exact render against itself); the grid replaces the angular
@@ -617,11 +627,7 @@ Result<void> decomposeVolume(SceneContext& c, const DefaultField& def, const Fie
                        traced.value().color);
       !r)
     return r;
-  if (auto r = addStep(c, out, "quantization", "u8 field vs f16 field (GPU)", def.gpuU8->image, def.gpuF16->image); !r)
-    return r;
-  const uint32_t spp = c.profile.samplesPerAxis;
-  return addStep(c, out, "pixel sampling", fmt("u8 field at 1 spp vs at %ux%u (GPU)", spp, spp),
-                 def.gpuU8->image1spp, def.gpuU8->image);
+  return addGpuSteps(c, def, out);
 }
 
 // The error decomposition of the default field: each step adds one approximation to the one
@@ -668,12 +674,7 @@ Result<void> decompose(SceneContext& c, const DefaultField& def, FidelityScene& 
                        def.gpuF16->image, twin.value().color);
       !r)
     return r;
-  if (auto r = addStep(c, out, "quantization", "u8 field vs f16 field (GPU)", def.gpuU8->image, def.gpuF16->image); !r)
-    return r;
-  // The 1-spp image against the 4x4 one, and (cumulative) against the 4x4 physical reference.
-  const uint32_t spp = c.profile.samplesPerAxis;
-  return addStep(c, out, "pixel sampling", fmt("u8 field at 1 spp vs at %ux%u (GPU)", spp, spp),
-                 def.gpuU8->image1spp, def.gpuU8->image);
+  return addGpuSteps(c, def, out);
 }
 
 // Every mode at one sample per pixel with filtered lookups against itself supersampled, both

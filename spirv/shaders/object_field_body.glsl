@@ -5,23 +5,11 @@
 #include "shrefract/gpu_layout.h"
 #include "environment_select.glsl"
 
-layout(push_constant) uniform Push { ObjectPushConstants pc; };
+#include "object_field_common.glsl"
+
 layout(set = 1, binding = kBindingDistortion) uniform sampler2D distortionMap;
 // The jump image is read texel by texel with no sampler: R32F need not support linear filtering.
 layout(set = 1, binding = kBindingJumpDistance) uniform texture2D jumpMap;
-
-layout(location = 0) in vec3 inPosition;
-layout(location = 1) in vec3 inNormal;
-layout(location = 2) in vec2 inFieldUv;
-layout(location = 3) in float inFrontIor;
-layout(location = 4) flat in uint inTriangle;  // the index of the fragment's triangle
-layout(location = 0) out vec4 outColor;
-layout(std430, set = 1, binding = kBindingTriangleEdges) readonly buffer TriangleEdgesBuffer {
-  TriangleEdges triangleEdges[];
-};
-// true: the alpha written is the fragment's silhouette coverage, blended over what is drawn (the
-// pipeline's blend state); false: 1, or the optical depth in kModeFieldExitDirection.
-layout(constant_id = kSpecSilhouetteCoverage) const bool SILHOUETTE_COVERAGE = false;
 
 // The four texels around a field coordinate, with the sampler's bilinear weights, and how far
 // apart their exits are: 0 where every pair is within acos(kSpatialAgreeCosine), 1 where some pair
@@ -229,8 +217,6 @@ vec3 exitDerivative(vec3 exitWorld, vec3 fine, vec2 uv, vec2 uvD) {
   vec3 forward = ahead - exitWorld, backward = exitWorld - behind;
   return dot(forward, forward) < dot(backward, backward) ? forward : backward;
 }
-
-#include "object_coverage.glsl"
 
 void main() {
   vec3 n = normalize(inNormal);

@@ -8,7 +8,8 @@
 #include "shrefract/gpu_layout.h"
 #include "environment_select.glsl"
 
-layout(push_constant) uniform Push { ObjectPushConstants pc; };
+#include "object_field_common.glsl"
+
 // The grid's words: the VolumeHeader's 12, then the voxels (gpu_layout.h kBindingVolumeGrid says
 // why a texel buffer).
 layout(set = 1, binding = kBindingVolumeGrid) uniform usamplerBuffer volumeWords;
@@ -26,20 +27,7 @@ VolumeHeader readVolumeHeader() {
   return VolumeHeader(grid, origin, media);
 }
 
-layout(location = 0) in vec3 inPosition;
-layout(location = 1) in vec3 inNormal;
-layout(location = 2) in vec2 inFieldUv;
-layout(location = 3) in float inFrontIor;
-layout(location = 4) flat in uint inTriangle;  // the index of the fragment's triangle
-layout(location = 0) out vec4 outColor;
-layout(std430, set = 1, binding = kBindingTriangleEdges) readonly buffer TriangleEdgesBuffer {
-  TriangleEdges triangleEdges[];
-};
-// As object_field_body.glsl: the alpha written is the fragment's silhouette coverage.
-layout(constant_id = kSpecSilhouetteCoverage) const bool SILHOUETTE_COVERAGE = false;
-
 #include "volume_trace.glsl"
-#include "object_coverage.glsl"
 
 // Paths traced per axis of the pixel, and environment taps per axis of each one's cell.
 const uint TRACED_TAPS = ENVIRONMENT_TAPS < kVolumeTracedTapsPerAxis ? ENVIRONMENT_TAPS : kVolumeTracedTapsPerAxis;

@@ -1,6 +1,21 @@
-// The object pass's silhouette coverage (RendererCreateInfo::silhouetteCoverage), shared by the
-// field shadings (object_field_body.glsl, object_volume_body.glsl). The includer declares the push
-// constants `pc`, the inputs inPosition and inTriangle, and the triangleEdges buffer.
+// What the field shadings (object_field_body.glsl, object_volume_body.glsl) share: the object
+// pass's fragment interface (object.vert's outputs, the push constants, the triangles' edge
+// records) and its silhouette coverage (RendererCreateInfo::silhouetteCoverage). The includer
+// includes shrefract/gpu_layout.h first.
+
+layout(push_constant) uniform Push { ObjectPushConstants pc; };
+layout(location = 0) in vec3 inPosition;
+layout(location = 1) in vec3 inNormal;
+layout(location = 2) in vec2 inFieldUv;
+layout(location = 3) in float inFrontIor;
+layout(location = 4) flat in uint inTriangle;  // the index of the fragment's triangle
+layout(location = 0) out vec4 outColor;
+layout(std430, set = 1, binding = kBindingTriangleEdges) readonly buffer TriangleEdgesBuffer {
+  TriangleEdges triangleEdges[];
+};
+// true: the alpha written is the fragment's silhouette coverage, blended over what is drawn (the
+// pipeline's blend state); false: 1, or the optical depth in kModeFieldExitDirection.
+layout(constant_id = kSpecSilhouetteCoverage) const bool SILHOUETTE_COVERAGE = false;
 
 // The share of its pixel a fragment covers where the surface turns away from the eye: one sample
 // per pixel shades a pixel the silhouette crosses as if it were all glass (gpu_layout.h
