@@ -1636,16 +1636,11 @@ struct ImageChoice {
   uint64_t pixels = 0;
 };
 
-// The cameras of the image choice: kChoiceViews eyes about the field mesh's bounds.
-std::vector<Camera> choiceCameras(const FieldMesh& mesh) {
-  glm::vec3 lo(1e30f), hi(-1e30f);
-  for (size_t i = 0; i + 2 < mesh.positions.size(); i += 3) {
-    const glm::vec3 p(mesh.positions[i], mesh.positions[i + 1], mesh.positions[i + 2]);
-    lo = glm::min(lo, p);
-    hi = glm::max(hi, p);
-  }
-  const glm::vec3 centre = 0.5f * (lo + hi);
-  const float radius = std::max(0.5f * glm::length(hi - lo), 1e-3f);
+// The cameras of the image choice: kChoiceViews eyes about the scene's bounds.
+std::vector<Camera> choiceCameras(const Scene& scene) {
+  const Bounds box = bounds(scene);
+  const glm::vec3 centre = 0.5f * (box.min + box.max);
+  const float radius = std::max(0.5f * glm::length(box.max - box.min), 1e-3f);
   const float distance = 1.1f * radius / std::sin(glm::radians(20.0f));
   std::vector<Camera> cameras;
   for (uint32_t k = 0; k < kChoiceViews; ++k) {
@@ -1677,7 +1672,7 @@ Result<ImageChoice> imagesAgainstExact(const Scene& scene, const BakePlan& plan,
   static const Image environment = proceduralEnvironment(kChoiceEnvironmentWidth);
   double bakedSum = 0.0, volumeSum = 0.0;
   ImageChoice out;
-  for (const Camera& camera : choiceCameras(baked.mesh)) {
+  for (const Camera& camera : choiceCameras(scene)) {
     ReferenceOptions ro;
     ro.width = kChoiceImageWidth;
     ro.height = kChoiceImageHeight;

@@ -902,9 +902,10 @@ Sample distortionSample(const DistortionScene& c, uint32_t bx, uint32_t by) {
   const reference::SurfacePoint point = reference::surfacePointAt(c.mesh, bestTriangle, *best);
   const reference::LookupDerivatives derivatives =
       reference::pixelDerivatives(c.object, bestTriangle, o.camera, c.bigWidth, c.bigHeight, bx, by);
+  reference::Vec3 dir{};
   const reference::Vec3 shaded =
       o.volume ? reference::shadeVolume(*o.volume, c.latLong, point, o.camera.eye, o.shading, o.exposure, Transform{},
-                                        derivatives)
+                                        derivatives, &dir)
                : reference::shadeField(c.distortion, c.latLong, point, o.camera.eye, o.shading, o.exposure, Transform{},
                                        derivatives);
   // Blended with the background by its silhouette coverage, as reference::render does by default.
@@ -912,15 +913,7 @@ Sample distortionSample(const DistortionScene& c, uint32_t bx, uint32_t by) {
                                                             {rayF.x, rayF.y, rayF.z}, &c.edges[bestTriangle / 3]);
   sample.color = glm::vec3(covered[0], covered[1], covered[2]);
   sample.hit = true;
-  if (o.volume) {  // the centre path (before the normal's bend near silhouettes)
-    const glm::vec3 p(point.position[0], point.position[1], point.position[2]);
-    const glm::vec3 n = glm::normalize(glm::vec3(point.normal[0], point.normal[1], point.normal[2]));
-    const glm::vec3 v = glm::normalize(p - glm::vec3(o.camera.eye[0], o.camera.eye[1], o.camera.eye[2]));
-    const VolumePath path = traceVolumePath(*o.volume, point.position, {n.x, n.y, n.z}, {v.x, v.y, v.z});
-    sample.direction = glm::vec3(path.exit[0], path.exit[1], path.exit[2]);
-    return sample;
-  }
-  const reference::Vec3 dir = reference::shadedExitDirection(c.distortion, point, o.camera.eye);
+  if (!o.volume) dir = reference::shadedExitDirection(c.distortion, point, o.camera.eye);
   sample.direction = glm::vec3(dir[0], dir[1], dir[2]);
   return sample;
 }

@@ -202,10 +202,11 @@ Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environme
 // while the other's does not, then min(kVolumeTracedTapsPerAxis, environment.tapsPerAxis)^2 paths
 // traced at the centres of the pixel's cells (position and normal moved along positionDx, Dy and
 // normalDx, Dy), each read over its cell with the remaining taps per axis (one path: the centre's,
-// sampleLatLongOverPixel). Precondition: a Volume field.
+// sampleLatLongOverPixel). exitWorld (optional): the centre path's exit, in world space.
+// Precondition: a Volume field.
 Vec3 shadeVolume(const Field& volume, const LatLongImage& environment, const SurfacePoint& point, const Vec3& eye,
                  const ObjectShading& shading, float exposure = 1.0f, const Transform& worldFromObject = Transform{},
-                 const LookupDerivatives& derivatives = {});
+                 const LookupDerivatives& derivatives = {}, Vec3* exitWorld = nullptr);
 
 // One object for render(): its mesh (positions, normals, uvs, frontIor, indices as in FieldMesh)
 // and its decompressed image, or the Volume field it traces per fragment. Pointers must stay valid

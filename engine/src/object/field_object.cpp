@@ -393,7 +393,6 @@ void describeField(const Field& field, uint32_t sampleCount, const FieldBufferSi
   f.width = field.width;
   f.height = field.height;
   f.encoding = field.encoding;
-  f.volumePerFragment = field.encoding == Encoding::Volume;
   f.order = f.bakedOrder = field.order;
   f.tableSize = field.tableSize;
   f.components = field.components;
@@ -461,16 +460,14 @@ HostTables hostTables(const Field& field, const std::vector<uint32_t>& sampleTex
 // maxTexelBufferElements there is none, and the object shades by its sample texels instead.
 Result<void> createVolumeView(ContextImpl& c, const FieldBufferSizes& sizes, FieldResources& f) {
   const VkDeviceSize words = sizes.basis / sizeof(uint32_t);
-  if (f.encoding != Encoding::Volume || words > c.properties.limits.maxTexelBufferElements) {
-    f.volumePerFragment = false;
-    return {};
-  }
+  if (f.encoding != Encoding::Volume || words > c.properties.limits.maxTexelBufferElements) return {};
   VkBufferViewCreateInfo bvci{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
   bvci.buffer = f.basis.buffer;
   bvci.format = VK_FORMAT_R32_UINT;
   bvci.range = words * sizeof(uint32_t);
   const VkResult vr = c.vk.vkCreateBufferView(c.device(), &bvci, c.alloc(), &f.volumeWords);
   if (vr != VK_SUCCESS) return vulkanError("vkCreateBufferView", vr);
+  f.volumePerFragment = true;  // the default where the grid can be read per fragment
   return {};
 }
 

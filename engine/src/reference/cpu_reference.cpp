@@ -567,9 +567,10 @@ glm::vec3 volumeOverPixel(const Field& volume, const LatLongImage& env, const Su
 
 Vec3 shadeVolume(const Field& volume, const LatLongImage& environment, const SurfacePoint& point, const Vec3& eyeArray,
                  const ObjectShading& shading, float exposure, const Transform& worldFromObject,
-                 const LookupDerivatives& d) {
+                 const LookupDerivatives& d, Vec3* exitWorld) {
   VolumePath path;
   const FieldFragment f = volumeFragment(volume, point, eyeArray, worldFromObject, &path);
+  if (exitWorld) *exitWorld = fromGlm(f.exitWorld);
   const float ior = point.frontIor > 0.0f ? point.frontIor : shading.ior;
   const float fresnel = fresnelDielectric(f.cosI, 1.0f / ior);
   float transmittance = std::exp(-std::max(f.d[3], 0.0f) * (shading.absorptionScale * worldFromObject.scale));
@@ -800,17 +801,17 @@ RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImag
       const SurfacePoint point = surfacePointAt(*object.mesh, best.triangle, *best.hit);
       const Vec3& eye = objectEyes[size_t(best.object)];
       const LookupDerivatives derivatives = pixelDerivatives(object, best.triangle, camera, width, height, px, py);
+      Vec3 dir{};
       const Vec3 c = object.volume ? shadeVolume(*object.volume, filtered, point, eye, object.shading, exposure,
-                                                 object.worldFromObject, derivatives)
+                                                 object.worldFromObject, derivatives, &dir)
                                    : shadeField(*object.distortion, filtered, point, eye, object.shading, exposure,
                                                 object.worldFromObject, derivatives);
+      if (!object.volume) dir = rotateDirection(object.worldFromObject, shadedExitDirection(*object.distortion, point, eye));
       const Vec3 covered = silhouetteCoverage ? overBackground(c, point, eye, derivatives, environment, rayF,
                                                                &edges[size_t(best.object)][best.triangle / 3])
                                               : c;
       for (int k = 0; k < 3; ++k) out[k] = covered[size_t(k)];
       image.object[size_t(py) * width + px] = best.object;
-      const Vec3 dir = object.volume ? fromGlm(objectFragment(object, point, eye).exitWorld)
-                                     : rotateDirection(object.worldFromObject, shadedExitDirection(*object.distortion, point, eye));
       for (int k = 0; k < 3; ++k) image.directions[(size_t(py) * width + px) * 3 + size_t(k)] = dir[size_t(k)];
     }
   return image;
