@@ -1,6 +1,7 @@
 // The Volume encoding's path trace (shrefract/field.h traceVolumePath): a path refracted into the
 // object at a surface point and followed through its signed distance grid, marched along the
-// trilinear distance until it turns positive, the crossing bisected, the interface's normal the
+// trilinear distance until it changes sign (out of the object, or back into it where the way out
+// meets it again), the crossing bisected, the interface's normal the
 // trilinear normal there, the branch the field's path rule picks, up to the bounce cap. Used by
 // decompress_volume.comp (at each sample, in texture space) and object_volume_body.glsl (at each
 // fragment). The includer declares the grid: `head` (gpu_layout.h VolumeHeader) and
@@ -70,23 +71,27 @@ vec3 normalAt(vec3 g) {
   return unitOr(n);
 }
 
-// As volume_trace.cpp crossing: the distance along d to the way out, or -1.
-float crossing(vec3 g, vec3 d) {
-  float limit = 2.0 * float(head.grid.x);
+// As volume_trace.cpp crossing: the distance along d to the next interface (`outside`: from outside
+// the object, where the march stops as it leaves the grid's box), or -1.
+float crossing(vec3 g, vec3 d, bool outside) {
+  float m = outside ? -1.0 : 1.0;
+  float limit = 2.0 * float(head.grid.x), hi = float(head.grid.x - 1u);
   float t = kVolumeStartStep, previous = 0.0;
-  bool inside = false;
+  bool seen = false;
   for (uint step = 0u; step < kVolumeMaxSteps && t < limit; ++step) {
-    float s = distanceAt(g + t * d);
+    vec3 q = g + t * d;
+    if (outside && (min(q.x, min(q.y, q.z)) < 0.0 || max(q.x, max(q.y, q.z)) > hi)) return -1.0;
+    float s = m * distanceAt(q);
     if (s < 0.0) {
-      inside = true;
-    } else if (inside) {
-      float lo = previous, hi = t;
+      seen = true;
+    } else if (seen) {
+      float lo = previous, up = t;
       for (uint k = 0u; k < kVolumeBisections; ++k) {
-        float mid = 0.5 * (lo + hi);
-        if (distanceAt(g + mid * d) > 0.0) hi = mid;
+        float mid = 0.5 * (lo + up);
+        if (m * distanceAt(g + mid * d) > 0.0) up = mid;
         else lo = mid;
       }
-      return 0.5 * (lo + hi);
+      return 0.5 * (lo + up);
     }
     previous = t;
     t += max(kVolumeStepScale * abs(s), kVolumeMinStep);
@@ -124,22 +129,26 @@ VolumePath traceVolumePath(vec3 p, vec3 normal, vec3 d) {
     exitDir = d;
     float inv = 1.0 / head.origin.w;
     vec3 g = inv * (p - head.origin.xyz);
+    bool outsideNow = false;  // between leaving the object and meeting it again
     for (uint bounce = 0u; bounce < head.grid.y; ++bounce) {
-      float t = crossing(g, d);
+      float t = crossing(g, d, outsideNow);
       if (t < 0.0) break;
       g = g + t * d;
-      tau += t * head.origin.w * head.media.z;
+      if (!outsideNow) tau += t * head.origin.w * head.media.z;
       vec3 n = normalAt(g);
-      float R = fresnelDielectric(dot(d, n), head.media.y);
-      vec3 out3;
-      bool canRefract = R < 1.0 && refracted(d, -1.0 * n, head.media.y, out3);
+      float eta = outsideNow ? head.media.x : head.media.y;
+      vec3 facing = outsideNow ? n : -1.0 * n;
+      float R = fresnelDielectric(-dot(d, facing), eta);
+      vec3 across;
+      bool canRefract = R < 1.0 && refracted(d, facing, eta, across);
       if (canRefract && !(head.grid.z != 0u && R >= 0.5)) {
         energy *= 1.0 - R;
-        exitDir = out3;
-        break;
+        d = across;
+        outsideNow = !outsideNow;
+      } else {
+        energy *= canRefract ? R : 1.0;
+        d = unitOr(reflected(d, n));
       }
-      energy *= canRefract ? R : 1.0;
-      d = unitOr(reflected(d, n));
       exitDir = d;
     }
   }

@@ -1,5 +1,5 @@
 // The Volume encoding's bake: the distance grid of a built-in scene against its closed form (the
-// unit sphere), a baked sphere field decoded at its sample texels against Snell's law and the
+// unit sphere), sealed air inside the medium, a baked sphere field decoded at its sample texels against Snell's law and the
 // tracer, and the scenes and bakes it refuses.
 #include <gtest/gtest.h>
 #include <shrefract/bake/bake.h>
@@ -71,6 +71,41 @@ TEST(DistanceVolume, TheSphereGridIsItsClosedForm) {
   EXPECT_GT(band, 5000u);
   EXPECT_LT(worstDistance, 0.02);  // measured 0.0060 (facets of 20480 triangles, levels of 0.002)
   EXPECT_LT(worstNormal, 0.6);     // measured 0.39 (interpolated vertex normals, 10-bit levels)
+}
+
+// A glass ball around a sealed bubble of air (the bubble's surface a sphere of half the radius,
+// its normals toward its centre, where the air is): the bubble's core lies beyond the band and
+// reaches the outside by no path of such voxels, yet it is air. A path through the centre leaves
+// the glass into the bubble, meets the glass again and leaves the ball along the axis: its optical
+// depth is the two walls' (1, not the diameter's 2).
+TEST(DistanceVolume, SealedAirIsNotTheMedium) {
+  Scene scene = sphereScene(4);
+  Surface bubble = scene.surfaces.front();
+  bubble.name = "bubble";
+  for (glm::vec3& p : bubble.positions) p *= 0.5f;
+  for (glm::vec3& n : bubble.normals) n = -n;
+  for (size_t t = 0; t + 2 < bubble.indices.size(); t += 3) std::swap(bubble.indices[t + 1], bubble.indices[t + 2]);
+  scene.surfaces.push_back(bubble);
+  ASSERT_EQ(volumeSceneProblem(scene), "");
+  auto tracer = Tracer::create(scene);
+  ASSERT_TRUE(tracer.ok());
+  auto built = buildDistanceVolume(scene, *tracer.value(), 40, 2);
+  ASSERT_TRUE(built.ok()) << built.error().message;
+  const float centre = volumeDistance(built.value(), {0.0f, 0.0f, 0.0f}) / built.value().spacing;
+  const float wall = volumeDistance(built.value(), {0.0f, 0.75f, 0.0f}) / built.value().spacing;
+  Field f;
+  f.encoding = f.settings.encoding = Encoding::Volume;
+  f.settings.pathRule = PathRule::FirstRefraction;
+  f.volume = built.value();
+  f.media = {FieldMedium{"air", 1.0f, 0.0f, {1.0f, 1.0f, 1.0f}}, FieldMedium{"glass", 1.5f, 1.0f, {1.0f, 1.0f, 1.0f}}};
+  const VolumePath path = traceVolumePath(f, {-1.0f, 0.0f, 0.0f}, {-1.0f, 0.0f, 0.0f}, {1.0f, 0.0f, 0.0f});
+  std::printf("sealed bubble: distance %.3f voxels at its centre, %.3f in the wall; the axis path's depth %.4f, exit "
+              "(%.4f, %.4f, %.4f)\n", double(centre), double(wall), double(path.opticalDepth), double(path.exit[0]),
+              double(path.exit[1]), double(path.exit[2]));
+  EXPECT_GT(centre, 0.0f);  // measured: 4 (air beyond the band); the medium before (-4)
+  EXPECT_LT(wall, 0.0f);
+  EXPECT_NEAR(path.opticalDepth, 1.0f, 0.02f);
+  EXPECT_GT(path.exit[0], 0.9999f);
 }
 
 TEST(DistanceVolume, RefusesWhatItCannotTrace) {

@@ -110,30 +110,6 @@ Band nearestInBand(const Scene& scene, const Grid& g, uint32_t threads) {
   return band;
 }
 
-// The voxels beyond the band that a path of such voxels joins to voxel (0, 0, 0), which the
-// padding puts outside the object.
-std::vector<uint8_t> outsideBeyondBand(const Grid& g, const Band& band) {
-  std::vector<uint8_t> outside(band.distance.size(), 0);
-  std::vector<size_t> stack{0};
-  outside[0] = 1;
-  const int n = int(g.n);
-  while (!stack.empty()) {
-    const size_t i = stack.back();
-    stack.pop_back();
-    const int x = int(i % g.n), y = int((i / g.n) % g.n), z = int(i / (size_t(g.n) * g.n));
-    const int step[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-    for (const auto& o : step) {
-      const int X = x + o[0], Y = y + o[1], Z = z + o[2];
-      if (X < 0 || Y < 0 || Z < 0 || X >= n || Y >= n || Z >= n) continue;
-      const size_t j = g.index(uint32_t(X), uint32_t(Y), uint32_t(Z));
-      if (outside[j] || std::isfinite(band.distance[j])) continue;
-      outside[j] = 1;
-      stack.push_back(j);
-    }
-  }
-  return outside;
-}
-
 // Inside the medium: the first surface a ray from p meets faces away from it (its normal points
 // toward the outer medium, which the ray then enters). A direction off every axis and diagonal,
 // so that it runs along no face of an axis-aligned box.
@@ -141,6 +117,44 @@ bool insideByRay(const Tracer& tracer, glm::vec3 p) {
   const glm::vec3 d = glm::normalize(glm::vec3(0.5377f, 0.6294f, 0.5604f));
   const std::optional<SurfacePoint> hit = tracer.firstHit(p, d);
   return hit && glm::dot(hit->geometricNormal, d) > 0.0f;
+}
+
+// Per voxel beyond the band, the connected region of such voxels it lies in (6-neighbours), and
+// per region the voxel it was first reached from; kNoRegion within the band. Region 0 holds voxel
+// (0, 0, 0), which the padding puts outside the object.
+constexpr uint32_t kNoRegion = ~0u;
+struct Regions {
+  std::vector<uint32_t> of;
+  std::vector<size_t> seed;
+};
+
+Regions regionsBeyondBand(const Grid& g, const Band& band) {
+  Regions r;
+  r.of.assign(band.distance.size(), kNoRegion);
+  const int n = int(g.n);
+  std::vector<size_t> stack;
+  for (size_t start = 0; start < band.distance.size(); ++start) {
+    if (r.of[start] != kNoRegion || std::isfinite(band.distance[start])) continue;
+    const uint32_t region = uint32_t(r.seed.size());
+    r.seed.push_back(start);
+    r.of[start] = region;
+    stack.push_back(start);
+    while (!stack.empty()) {
+      const size_t i = stack.back();
+      stack.pop_back();
+      const int x = int(i % g.n), y = int((i / g.n) % g.n), z = int(i / (size_t(g.n) * g.n));
+      const int step[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+      for (const auto& o : step) {
+        const int X = x + o[0], Y = y + o[1], Z = z + o[2];
+        if (X < 0 || Y < 0 || Z < 0 || X >= n || Y >= n || Z >= n) continue;
+        const size_t j = g.index(uint32_t(X), uint32_t(Y), uint32_t(Z));
+        if (r.of[j] != kNoRegion || std::isfinite(band.distance[j])) continue;
+        r.of[j] = region;
+        stack.push_back(j);
+      }
+    }
+  }
+  return r;
 }
 
 }  // namespace
@@ -165,7 +179,16 @@ Result<FieldVolume> buildDistanceVolume(const Scene& scene, const Tracer& tracer
     return makeError(ErrorCode::InvalidArgument, problem);
   const Grid g = gridOver(scene, size);
   const Band band = nearestInBand(scene, g, threads);
-  const std::vector<uint8_t> outside = outsideBeyondBand(g, band);
+  // A region beyond the band is all inside or all outside. The band's own voxels and every region
+  // but the padding's are told by a ray: a pocket of air the band encloses (between the bunny's
+  // ears) is no part of the medium, and a path that leaves the object may now cross it.
+  const Regions regions = regionsBeyondBand(g, band);
+  std::vector<uint8_t> regionInside(regions.seed.size(), 0);
+  for (size_t k = 1; k < regions.seed.size(); ++k) {
+    const size_t i = regions.seed[k];
+    const uint32_t x = uint32_t(i % size), y = uint32_t((i / size) % size), z = uint32_t(i / (size_t(size) * size));
+    regionInside[k] = insideByRay(tracer, g.centre(x, y, z)) ? 1 : 0;
+  }
   FieldVolume v;
   v.size = size;
   v.origin = {g.origin.x, g.origin.y, g.origin.z};
@@ -174,7 +197,7 @@ Result<FieldVolume> buildDistanceVolume(const Scene& scene, const Tracer& tracer
   parallelFor(band.distance.size(), threads, [&](size_t i) {
     const uint32_t x = uint32_t(i % size), y = uint32_t((i / size) % size), z = uint32_t(i / (size_t(size) * size));
     const bool inBand = std::isfinite(band.distance[i]);
-    const bool inside = inBand ? insideByRay(tracer, g.centre(x, y, z)) : !outside[i];
+    const bool inside = inBand ? insideByRay(tracer, g.centre(x, y, z)) : regionInside[regions.of[i]] != 0;
     const float d = inBand ? band.distance[i] : kVolumeBandVoxels;
     const glm::vec3 n = band.normal[i];
     v.voxels[i] = packVolumeVoxel(inside ? -d : d, {n.x, n.y, n.z});

@@ -411,10 +411,12 @@ float volumeDistance(const FieldVolume& volume, const std::array<float, 3>& obje
 // the sample's frame (as evaluateSample takes it; z clamped to >= 0) arrives at the sample's point
 // and normal (from its frame's rows `frameRows`), refracts into media[1] and is traced through the
 // grid under the field's path rule and bounce cap: marched along the trilinear distance until it
-// turns positive, the crossing bisected, the interface's normal the trilinear normal there
-// (docs/encodings.md, "Volume"). out[0..2]: the exit direction in object space (unit; a path still
-// inside after maxBounces interfaces, or that leaves the grid without a crossing, leaves along its
-// direction of travel), then the optical depth (path length inside times media[1]'s absorption)
+// changes sign, the crossing bisected, the interface's normal the trilinear normal there; a way
+// out is marched on outside the object until it meets the object again (re-entering it, as the
+// tracer's paths do: the torus's hole) or leaves the grid, and every interface counts toward the
+// cap (docs/encodings.md, "Volume"). out[0..2]: the exit direction in object space (unit; a path
+// still inside after maxBounces interfaces, or that leaves the grid without a crossing, leaves
+// along its direction of travel), then the optical depth (path length inside times media[1]'s absorption)
 // where the field has one, then the throughput (the Fresnel factors after the entry) where it has
 // one. Mirrored by decompress_volume.comp. Preconditions: validateField(field), a Volume field.
 void traceVolumeSample(const Field& field, const float* frameRows, const std::array<float, 3>& w, float* out);

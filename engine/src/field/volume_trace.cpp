@@ -77,27 +77,33 @@ V3 normalAt(const FieldVolume& v, V3 g) {
   return normalized(n);
 }
 
-// The distance along d (unit) from g, inside the medium, to where the grid's distance turns
-// positive: marched by 0.9 of the distance, at least kVolumeMinStep, then bisected. Negative when
-// the march leaves the grid (or runs kVolumeMaxSteps) without crossing. The march must have seen
-// the inside (a negative distance) before a crossing counts, so that the interpolation's slack
-// around the start point is not taken for the way out.
-float crossing(const FieldVolume& v, V3 g, V3 d) {
-  const float limit = 2.0f * float(v.size);
+// The distance along d (unit) from g to where the grid's distance changes sign: turns positive
+// inside the medium, negative `outside` it (a path re-entering the object: the torus's hole):
+// marched by 0.9 of the distance, at
+// least kVolumeMinStep, then bisected. Negative when the march leaves the grid (or runs
+// kVolumeMaxSteps) without crossing; outside, the march stops as soon as it leaves the grid's box,
+// which a straight ray does not enter again. The march must have seen its own side before a
+// crossing counts, so that the interpolation's slack around the start point is not taken for the
+// next interface. (Outside, the distance is negated: exactly, so the inside march is unchanged.)
+float crossing(const FieldVolume& v, V3 g, V3 d, bool outside) {
+  const float m = outside ? -1.0f : 1.0f;
+  const float limit = 2.0f * float(v.size), hi = float(v.size - 1);
   float t = gpu::kVolumeStartStep, previous = 0.0f;
-  bool inside = false;
+  bool seen = false;
   for (uint32_t step = 0; step < gpu::kVolumeMaxSteps && t < limit; ++step) {
-    const float s = distanceAt(v, g + t * d);
+    const V3 q = g + t * d;
+    if (outside && (std::min({q.x, q.y, q.z}) < 0.0f || std::max({q.x, q.y, q.z}) > hi)) return -1.0f;
+    const float s = m * distanceAt(v, q);
     if (s < 0.0f) {
-      inside = true;
-    } else if (inside) {
-      float lo = previous, hi = t;
+      seen = true;
+    } else if (seen) {
+      float lo = previous, up = t;
       for (uint32_t k = 0; k < gpu::kVolumeBisections; ++k) {
-        const float mid = 0.5f * (lo + hi);
-        if (distanceAt(v, g + mid * d) > 0.0f) hi = mid;
+        const float mid = 0.5f * (lo + up);
+        if (m * distanceAt(v, g + mid * d) > 0.0f) up = mid;
         else lo = mid;
       }
-      return 0.5f * (lo + hi);
+      return 0.5f * (lo + up);
     }
     previous = t;
     t += std::max(gpu::kVolumeStepScale * std::fabs(s), gpu::kVolumeMinStep);
@@ -175,22 +181,27 @@ VolumePath traceVolumePath(const Field& field, const std::array<float, 3>& point
     exit = d;  // a trapped path leaves along its direction of travel
     const float inv = 1.0f / v.spacing;
     V3 g = inv * (p - V3{v.origin[0], v.origin[1], v.origin[2]});
+    bool outsideNow = false;  // between leaving the object and meeting it again
     for (uint32_t bounce = 0; bounce < field.settings.maxBounces; ++bounce) {
-      const float t = crossing(v, g, d);
+      const float t = crossing(v, g, d, outsideNow);
       if (t < 0.0f) break;  // out of the grid without a crossing: leaves as it travels
       g = g + t * d;
-      tau += t * v.spacing * absorption;
-      const V3 n = normalAt(v, g);  // outward: the ray arrives from inside, against -n
-      const float R = reference::fresnelDielectric(dot(d, n), inside / outside);
-      V3 out3(0.0f);
-      const bool canRefract = R < 1.0f && refracted(d, -1.0f * n, inside / outside, out3);
-      if (canRefract && !(highestEnergy && R >= 0.5f)) {  // the tracer's rule (tracer.cpp)
+      if (!outsideNow) tau += t * v.spacing * absorption;
+      const V3 n = normalAt(v, g);  // outward
+      // The tracer's rule (tracer.cpp) at either side: refract unless the rule picks the reflection.
+      const float from = outsideNow ? outside : inside, to = outsideNow ? inside : outside;
+      const V3 facing = outsideNow ? n : -1.0f * n;  // against the arriving ray
+      const float R = reference::fresnelDielectric(-dot(d, facing), from / to);
+      V3 across(0.0f);
+      const bool canRefract = R < 1.0f && refracted(d, facing, from / to, across);
+      if (canRefract && !(highestEnergy && R >= 0.5f)) {
         energy *= 1.0f - R;
-        exit = out3;
-        break;
+        d = across;
+        outsideNow = !outsideNow;
+      } else {
+        energy *= canRefract ? R : 1.0f;
+        d = normalized(reflected(d, n));
       }
-      energy *= canRefract ? R : 1.0f;
-      d = normalized(reflected(d, n));
       exit = d;
     }
   }

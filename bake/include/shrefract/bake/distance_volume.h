@@ -21,8 +21,10 @@ inline constexpr uint32_t kVolumePaddingVoxels = 2;
 // kVolumeBandVoxels of a triangle store the exact distance to the nearest one, in voxels, and the
 // interpolated vertex normal at the nearest point; the sign is that of a ray from the voxel's
 // centre (inside when the first surface it meets faces away from it, tracer.firstHit). Voxels
-// beyond the band store the band with the sign of their side: outside if a path of such voxels
-// joins them to the grid's corner, inside otherwise. Deterministic for any thread count.
+// beyond the band store the band with the sign of their side, one side per connected region of
+// such voxels: outside for the region of the grid's corner, and for every other region the side a
+// ray from its first voxel finds (a pocket of air the band encloses, a sealed bubble, is air).
+// Deterministic for any thread count.
 // Errors (InvalidArgument): size outside kMinVolumeSize..kMaxVolumeSize; a scene that is not one
 // medium in air (media.size() != 2, or a surface whose inner medium is not media[1] or outer not
 // media[0]): the trace follows one interface rule, air to media[1].
