@@ -108,6 +108,41 @@ TEST(DistanceVolume, SealedAirIsNotTheMedium) {
   EXPECT_GT(path.exit[0], 0.9999f);
 }
 
+// The built-in cube (side 2): the grid's padding lies within the band of its faces, so the first
+// region beyond the band, in voxel order, is the inside. Every voxel takes the side the box's
+// closed form gives it, and a path along an axis crosses the whole glass: depth 2.
+TEST(DistanceVolume, ABoxWhoseBandCoversThePaddingIsGlassInside) {
+  auto cube = makeBuiltinScene("cube");
+  ASSERT_TRUE(cube.ok());
+  auto tracer = Tracer::create(cube.value());
+  ASSERT_TRUE(tracer.ok());
+  auto built = buildDistanceVolume(cube.value(), *tracer.value(), 32, 2);
+  ASSERT_TRUE(built.ok()) << built.error().message;
+  const FieldVolume& v = built.value();
+  size_t wrongSide = 0, inside = 0;
+  for (uint32_t z = 0; z < 32; ++z)
+    for (uint32_t y = 0; y < 32; ++y)
+      for (uint32_t x = 0; x < 32; ++x) {
+        const glm::vec3 p = glm::vec3(v.origin[0], v.origin[1], v.origin[2]) + v.spacing * glm::vec3(x, y, z);
+        const float exact = (std::max({std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)}) - 1.0f) / v.spacing;
+        const float stored = volumeDistance(v, {p.x, p.y, p.z}) / v.spacing;
+        if (std::fabs(exact) < 0.05f) continue;
+        inside += exact < 0.0f ? 1 : 0;
+        wrongSide += (stored < 0.0f) != (exact < 0.0f) ? 1 : 0;
+      }
+  Field f;
+  f.encoding = f.settings.encoding = Encoding::Volume;
+  f.settings.pathRule = PathRule::FirstRefraction;
+  f.volume = v;
+  f.media = {FieldMedium{"air", 1.0f, 0.0f, {1.0f, 1.0f, 1.0f}}, FieldMedium{"glass", 1.5f, 1.0f, {1.0f, 1.0f, 1.0f}}};
+  const VolumePath path = traceVolumePath(f, {-1.0f, 0.1f, 0.2f}, {-1.0f, 0.0f, 0.0f}, {1.0f, 0.0f, 0.0f});
+  std::printf("cube grid 32^3: %zu of %zu inside voxels on the wrong side; the axis path's depth %.4f, exit x %.5f\n",
+              wrongSide, inside, double(path.opticalDepth), double(path.exit[0]));
+  EXPECT_EQ(wrongSide, 0u);  // the inside taken for the padding's air: every voxel beyond the band
+  EXPECT_NEAR(path.opticalDepth, 2.0f, 0.02f);
+  EXPECT_GT(path.exit[0], 0.9999f);
+}
+
 TEST(DistanceVolume, RefusesWhatItCannotTrace) {
   const Scene sphere = sphereScene(1);
   auto tracer = Tracer::create(sphere);

@@ -120,8 +120,7 @@ bool insideByRay(const Tracer& tracer, glm::vec3 p) {
 }
 
 // Per voxel beyond the band, the connected region of such voxels it lies in (6-neighbours), and
-// per region the voxel it was first reached from; kNoRegion within the band. Region 0 holds voxel
-// (0, 0, 0), which the padding puts outside the object.
+// per region the voxel it was first reached from; kNoRegion within the band.
 constexpr uint32_t kNoRegion = ~0u;
 struct Regions {
   std::vector<uint32_t> of;
@@ -180,11 +179,12 @@ Result<FieldVolume> buildDistanceVolume(const Scene& scene, const Tracer& tracer
   const Grid g = gridOver(scene, size);
   const Band band = nearestInBand(scene, g, threads);
   // A region beyond the band is all inside or all outside. The band's own voxels and every region
-  // but the padding's are told by a ray: a pocket of air the band encloses (between the bunny's
-  // ears) is no part of the medium, and a path that leaves the object may now cross it.
+  // are told by a ray: a pocket of air the band encloses (between the bunny's ears) is no part of
+  // the medium, and a path that leaves the object may now cross it. Region 0 too: where the band
+  // covers the padding (a box's corners lie within 4 voxels of its own), it is the inside.
   const Regions regions = regionsBeyondBand(g, band);
   std::vector<uint8_t> regionInside(regions.seed.size(), 0);
-  for (size_t k = 1; k < regions.seed.size(); ++k) {
+  for (size_t k = 0; k < regions.seed.size(); ++k) {
     const size_t i = regions.seed[k];
     const uint32_t x = uint32_t(i % size), y = uint32_t((i / size) % size), z = uint32_t(i / (size_t(size) * size));
     regionInside[k] = insideByRay(tracer, g.centre(x, y, z)) ? 1 : 0;
