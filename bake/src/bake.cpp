@@ -28,6 +28,8 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <cstdio>
+#include <span>
 #include <string>
 #include <thread>
 #include <vector>
@@ -1629,10 +1631,14 @@ double volumeSpatialPsnr(const Field& field, uint32_t threads) {
 // (fieldViewsError) did not rank them as the images do: the cube's Pca read 29.27 dB there against
 // the volume's 24.15, where its image reads 31.45 against 33.39; nor at the midpoints of
 // neighbouring texels (cosine-weighted views: 25.52 against 23.10; tried, not kept)
-// (docs/encodings.md, "Volume traced per fragment").
-constexpr uint32_t kChoiceViews = 4, kChoiceImageWidth = 128, kChoiceImageHeight = 96;
+// (docs/encodings.md, "Volume traced per fragment"). At the report's 320x240: at 128x96 the
+// torus's tube is a few pixels across and the pixel sampling term ranks them (its Pca 24.32 dB
+// against the volume's 24.07; 192x144 25.62 / 25.50, 256x192 26.17 / 26.72, 320x240 26.55 /
+// 27.74, where the report's views read the volume 1.2 to 2.0 dB closer to the full tree), for
+// about 4 s of the bake (docs/encodings.md, "The choice's images at the report's size").
+constexpr uint32_t kChoiceViews = 4, kChoiceImageWidth = 320, kChoiceImageHeight = 240;
 struct ImageChoice {
-  double baked = 0.0, volume = 0.0;
+  std::vector<double> psnr;  // per field, in the order given
   uint64_t pixels = 0;
 };
 
@@ -1667,44 +1673,44 @@ Result<double> pooledSquares(const Image& image, const ReferenceImage& exact, ui
   return double(e.value().pixels) * std::pow(10.0, -e.value().psnr / 10.0);
 }
 
-Result<ImageChoice> imagesAgainstExact(const Scene& scene, const BakePlan& plan, const Field& baked,
-                                       const Field& volume) {
+// The image choice's figures of `fields` (drawn as the engine draws each by default: a Volume field
+// traced per fragment, the others by their decoded sample texels), rendered against the same
+// exact renders; the path rule and bounce cap are the first field's.
+Result<ImageChoice> imagesAgainstExact(const Scene& scene, const BakePlan& plan, std::span<const Field* const> fields) {
   static const Image environment = proceduralEnvironment(kChoiceEnvironmentWidth);
-  double bakedSum = 0.0, volumeSum = 0.0;
+  std::vector<double> sums(fields.size(), 0.0);
   ImageChoice out;
   for (const Camera& camera : choiceCameras(scene)) {
     ReferenceOptions ro;
     ro.width = kChoiceImageWidth;
     ro.height = kChoiceImageHeight;
     ro.camera = camera;
-    ro.pathRule = baked.settings.pathRule;
-    ro.maxBounces = baked.settings.maxBounces;
+    ro.pathRule = fields.front()->settings.pathRule;
+    ro.maxBounces = fields.front()->settings.maxBounces;
     ro.samplesPerAxis = 2;
     ro.threads = plan.settings.threads;
     auto exact = renderReference(*plan.tracer, scene, environment, ro);
     if (!exact) return exact.error();
-    DistortionRenderOptions d;
-    d.width = ro.width;
-    d.height = ro.height;
-    d.camera = camera;
-    d.samplesPerAxis = ro.samplesPerAxis;
-    d.threads = ro.threads;
-    const reference::DistortionImage decoded = reference::decompress(baked, camera.eye);
-    auto bakedImage = renderDistortion(baked.mesh, decoded, environment, d);
-    if (!bakedImage) return bakedImage.error();
-    d.volume = &volume;
-    auto volumeImage = renderDistortion(volume.mesh, {}, environment, d);
-    if (!volumeImage) return volumeImage.error();
-    auto a = pooledSquares(bakedImage.value().color, exact.value(), &out.pixels);
-    if (!a) return a.error();
-    auto b = pooledSquares(volumeImage.value().color, exact.value(), nullptr);
-    if (!b) return b.error();
-    bakedSum += a.value();
-    volumeSum += b.value();
+    for (size_t k = 0; k < fields.size(); ++k) {
+      DistortionRenderOptions d;
+      d.width = ro.width;
+      d.height = ro.height;
+      d.camera = camera;
+      d.samplesPerAxis = ro.samplesPerAxis;
+      d.threads = ro.threads;
+      const bool traced = fields[k]->encoding == Encoding::Volume;
+      d.volume = traced ? fields[k] : nullptr;
+      const reference::DistortionImage decoded = traced ? reference::DistortionImage{}
+                                                        : reference::decompress(*fields[k], camera.eye);
+      auto image = renderDistortion(fields[k]->mesh, decoded, environment, d);
+      if (!image) return image.error();
+      auto e = pooledSquares(image.value().color, exact.value(), k == 0 ? &out.pixels : nullptr);
+      if (!e) return e.error();
+      sums[k] += e.value();
+    }
   }
   const double n = double(std::max<uint64_t>(1, out.pixels));
-  out.baked = 10.0 * std::log10(1.0 / std::max(bakedSum / n, 1e-10));
-  out.volume = 10.0 * std::log10(1.0 / std::max(volumeSum / n, 1e-10));
+  for (double sum : sums) out.psnr.push_back(10.0 * std::log10(1.0 / std::max(sum / n, 1e-10)));
   return out;
 }
 
@@ -1791,34 +1797,55 @@ Result<Field> densifiedVolume(const Scene& scene, const BakePlan& plan, Field fi
 // BakeSettings::tryVolume: the scene's Volume field beside the baked one; the one whose images come
 // closer to exact renders (imagesAgainstExact: the baked field by its texels, the volume traced per
 // fragment, as the engine draws each by default) is kept, and the note says which, with the traced
-// views' figures at the samples (fieldViewsError) beside them.
+// views' figures at the samples (fieldViewsError) beside them. With no volumeSize asked for, the
+// volume's grid is kDefaultVolumeSize per side, or twice that where its images gain at least
+// kFinerVolumeGainDb by it (bake.h).
 Result<Field> keepVolumeWhereCloser(const Scene& scene, const BakePlan& plan, Field baked, Clock::time_point start) {
   const uint32_t channels = baked.decodedChannels();  // without a jump distance channel
-  BakeSettings settings = plan.settings;
-  settings.volumeSize = settings.volumeSize ? settings.volumeSize : kDefaultVolumeSize;
-  auto grid = buildVolume(scene, plan, settings);
-  if (!grid) return grid.error();
+  const uint32_t asked = plan.settings.volumeSize;
+  std::vector<uint32_t> sizes{asked ? asked : kDefaultVolumeSize};
+  if (!asked && 2 * kDefaultVolumeSize <= kMaxVolumeSize) sizes.push_back(2 * kDefaultVolumeSize);
   const FrameChoiceViews views = traceFrameChoiceViews(plan);
-  ViewsError b;
-  auto volume = bakeVolumeField(plan, settings, channels, std::move(grid.value()), views, start, &b);
-  if (!volume) return volume.error();
+  std::vector<Field> volumes;
+  std::vector<ViewsError> seen;
+  for (uint32_t n : sizes) {
+    BakeSettings settings = plan.settings;
+    settings.volumeSize = n;
+    auto grid = buildVolume(scene, plan, settings);
+    if (!grid) return grid.error();
+    ViewsError e;
+    auto volume = bakeVolumeField(plan, settings, channels, std::move(grid.value()), views, start, &e);
+    if (!volume) return volume.error();
+    volumes.push_back(std::move(volume.value()));
+    seen.push_back(e);
+  }
   const ViewsError a = fieldViewsError(baked, plan.atlas, views, plan.settings.threads);
-  plan.begin("comparing the two fields' images with exact renders");
-  auto images = imagesAgainstExact(scene, plan, baked, volume.value());
+  plan.begin("comparing the fields' images with exact renders");
+  std::vector<const Field*> drawn{&baked};
+  for (const Field& v : volumes) drawn.push_back(&v);
+  auto images = imagesAgainstExact(scene, plan, drawn);
   if (!images) return images.error();
-  const bool keep = images.value().volume > images.value().baked;
-  if (plan.note)
-    plan.note(std::string("encoding: chose ") + (keep ? "volume" : toString(baked.encoding)) +
-              " (their images against exact renders, " + std::to_string(kChoiceViews) + " views, " +
-              std::to_string(images.value().pixels) + " object pixels: " + std::to_string(images.value().baked) +
-              " dB with " + toString(baked.encoding) + " by its texels, " + std::to_string(images.value().volume) +
-              " dB with volume " + std::to_string(settings.volumeSize) +
-              "^3 traced per fragment; the traced views at the samples: " + std::to_string(a.colourPsnr) + " and " +
-              std::to_string(b.colourPsnr) + " dB, mean angle clipped at " +
+  const std::vector<double>& psnr = images.value().psnr;
+  const size_t best = volumes.size() == 2 && psnr[2] >= psnr[1] + kFinerVolumeGainDb ? 1 : 0;
+  const bool keep = psnr[best + 1] > psnr[0];
+  if (plan.note) {
+    char gain[32];
+    std::snprintf(gain, sizeof gain, "%.2f", kFinerVolumeGainDb);
+    std::string figures;
+    for (size_t k = 0; k < volumes.size(); ++k)
+      figures += (k ? ", " : "") + std::to_string(psnr[k + 1]) + " dB with volume " + std::to_string(sizes[k]) + "^3";
+    const std::string kept = keep ? "volume " + std::to_string(sizes[best]) + "^3" : toString(baked.encoding);
+    plan.note("encoding: chose " + kept + " (their images against exact renders, " + std::to_string(kChoiceViews) +
+              " views, " + std::to_string(images.value().pixels) + " object pixels: " + std::to_string(psnr[0]) +
+              " dB with " + toString(baked.encoding) + " by its texels, " + figures + " traced per fragment" +
+              (volumes.size() == 2 ? " (the finer where it gains " + std::string(gain) + " dB)" : "") +
+              "; the traced views at the samples: " + std::to_string(a.colourPsnr) + " and " +
+              std::to_string(seen[best].colourPsnr) + " dB, mean angle clipped at " +
               std::to_string(int(kFrameChoiceClipDegrees)) + " deg " + std::to_string(a.clippedMean) + " and " +
-              std::to_string(b.clippedMean) + " deg)");
+              std::to_string(seen[best].clippedMean) + " deg)");
+  }
   if (!keep) return baked;
-  return densifiedVolume(scene, plan, std::move(volume.value()), start);
+  return densifiedVolume(scene, plan, std::move(volumes[best]), start);
 }
 
 // finishBake, then the volume tried where the settings ask for it and the scene allows it.

@@ -55,7 +55,9 @@ std::vector<FlagSpec> bakeFlags() {
                          "or volume (no bytes per sample: the object's distance grid, through which the decode traces "
                          "each sample's path; one medium in air only; docs/encodings.md \"Volume\")"},
       {"volume-size", true, "volume: voxels per side of the grid (default " + std::to_string(kDefaultVolumeSize) +
-                                "; 4 bytes a voxel)", K::Integer,
+                                "; the default bake's: " + std::to_string(kDefaultVolumeSize) + " or " +
+                                std::to_string(2 * kDefaultVolumeSize) + ", the finer where its images gain " +
+                                "0.25 dB; 4 bytes a voxel)", K::Integer,
        {double(kMinVolumeSize), double(kMaxVolumeSize)}},
       {"table-size", true,
        "table: nodes per side N (default 9); pca: N of the basis tables (default " +
@@ -247,7 +249,8 @@ Result<void> applyEncodingFlag(const Args& args, const NumericFlags& n, BakeSett
   s.tryVolume = !args.get("encoding") && !shImplied && !n.maxBytes && !pcaAsked;
   if (n.volumeSize && s.encoding != Encoding::Volume && !s.tryVolume)
     return usageError("shrefract bake: --volume-size needs --encoding volume (or no --encoding)");
-  s.volumeSize = n.volumeSize ? static_cast<uint32_t>(*n.volumeSize) : kDefaultVolumeSize;
+  // The default bake chooses its volume's size by images (bake.h kFinerVolumeGainDb): 0 asks for that.
+  s.volumeSize = n.volumeSize ? static_cast<uint32_t>(*n.volumeSize) : s.tryVolume ? 0u : kDefaultVolumeSize;
   if (s.encoding == Encoding::Volume && (n.tableSize || n.components || n.maxBytes))
     return usageError("shrefract bake: --table-size, --components and --max-bytes-per-sample do not apply to "
                       "--encoding volume (it stores no bytes per sample)");

@@ -78,7 +78,7 @@ BakeSettings defaultFieldSettings() {
   s.pathRule = PathRule::FirstRefraction;
   // And, as the tool, the volume tried beside the Pca where the scene is one medium in air.
   s.tryVolume = true;
-  s.volumeSize = kDefaultVolumeSize;
+  s.volumeSize = 0;  // chosen by images, as the tool's default (bake.h kFinerVolumeGainDb)
   s.volumeDensify = true;  // at the default budget, as the tool (bake.h kVolumeDensifyBelowDb)
   s.moreClusters = true;   // and the clusters it tries beside the components (BakeSettings::moreClusters)
   return s;
@@ -163,7 +163,9 @@ void addDefaultVariants(Profile& p, const BakeSettings& base, ReportSize size) {
   const std::string baseLabel = base.encoding == Encoding::Sh ? fmt("sh L%u", base.order)
                                                                : fmt("pca K%u N%u", base.components, base.tableSize);
   // The default bake may keep the volume it tries (BakeSettings::tryVolume): the rows say which.
-  const std::string tried = base.tryVolume ? fmt(" or volume %u^3", base.volumeSize) : std::string();
+  const std::string tried = !base.tryVolume   ? std::string()
+                            : base.volumeSize ? fmt(" or volume %u^3", base.volumeSize)
+                                              : fmt(" or volume %u^3 / %u^3", kDefaultVolumeSize, 2 * kDefaultVolumeSize);
   p.variants.push_back({"default", baseLabel + dirs + tried, base, true});
   if (base.directionSampling == DirectionSampling::Nodes && size != ReportSize::Smoke) {
     // The sampling decision, measured: the default field fitted to the 32x64 grid instead.
