@@ -1798,13 +1798,18 @@ Result<Field> densifiedVolume(const Scene& scene, const BakePlan& plan, Field fi
 // closer to exact renders (imagesAgainstExact: the baked field by its texels, the volume traced per
 // fragment, as the engine draws each by default) is kept, and the note says which, with the traced
 // views' figures at the samples (fieldViewsError) beside them. With no volumeSize asked for, the
-// volume's grid is kDefaultVolumeSize per side, or twice that where its images gain at least
+// volume's grid is kDefaultVolumeSize per side, or twice that where its grid fits the paper's
+// budget over the field's samples (volumeFitsDefaultBudget) and its images gain at least
 // kFinerVolumeGainDb by it (bake.h).
 Result<Field> keepVolumeWhereCloser(const Scene& scene, const BakePlan& plan, Field baked, Clock::time_point start) {
   const uint32_t channels = baked.decodedChannels();  // without a jump distance channel
   const uint32_t asked = plan.settings.volumeSize;
   std::vector<uint32_t> sizes{asked ? asked : kDefaultVolumeSize};
-  if (!asked && 2 * kDefaultVolumeSize <= kMaxVolumeSize) sizes.push_back(2 * kDefaultVolumeSize);
+  uint64_t samples = 0;
+  for (uint8_t kind : plan.atlas.texelKinds) samples += kind == kTexelSample ? 1u : 0u;
+  const uint32_t finer = 2 * kDefaultVolumeSize;
+  const bool finerFits = volumeFitsDefaultBudget(finer, samples);
+  if (!asked && finer <= kMaxVolumeSize && finerFits) sizes.push_back(finer);
   const FrameChoiceViews views = traceFrameChoiceViews(plan);
   std::vector<Field> volumes;
   std::vector<ViewsError> seen;
@@ -1838,7 +1843,12 @@ Result<Field> keepVolumeWhereCloser(const Scene& scene, const BakePlan& plan, Fi
     plan.note("encoding: chose " + kept + " (their images against exact renders, " + std::to_string(kChoiceViews) +
               " views, " + std::to_string(images.value().pixels) + " object pixels: " + std::to_string(psnr[0]) +
               " dB with " + toString(baked.encoding) + " by its texels, " + figures + " traced per fragment" +
-              (volumes.size() == 2 ? " (the finer where it gains " + std::string(gain) + " dB)" : "") +
+              (volumes.size() == 2 ? " (the finer where it gains " + std::string(gain) + " dB)"
+               : !asked && !finerFits
+                   ? " (" + std::to_string(finer) + "^3 not tried: over " +
+                         std::to_string(int(kDefaultBytesPerSampleBudget)) + " bytes a sample of " +
+                         std::to_string(samples) + ")"
+                   : "") +
               "; the traced views at the samples: " + std::to_string(a.colourPsnr) + " and " +
               std::to_string(seen[best].colourPsnr) + " dB, mean angle clipped at " +
               std::to_string(int(kFrameChoiceClipDegrees)) + " deg " + std::to_string(a.clippedMean) + " and " +

@@ -56,8 +56,8 @@ std::vector<FlagSpec> bakeFlags() {
                          "each sample's path; one medium in air only; docs/encodings.md \"Volume\")"},
       {"volume-size", true, "volume: voxels per side of the grid (default " + std::to_string(kDefaultVolumeSize) +
                                 "; the default bake's: " + std::to_string(kDefaultVolumeSize) + " or " +
-                                std::to_string(2 * kDefaultVolumeSize) + ", the finer where its images gain " +
-                                "0.25 dB; 4 bytes a voxel)", K::Integer,
+                                std::to_string(2 * kDefaultVolumeSize) + ", the finer where it fits 324 bytes a sample and " +
+                                "its images gain 0.25 dB; 4 bytes a voxel)", K::Integer,
        {double(kMinVolumeSize), double(kMaxVolumeSize)}},
       {"table-size", true,
        "table: nodes per side N (default 9); pca: N of the basis tables (default " +

@@ -174,6 +174,16 @@ TEST(DistanceVolume, RefusesWhatItCannotTrace) {
 // texel): the twice-refracted exit of the ideal unit sphere for the eyes that see the texel, and
 // the tracer's own path (exactDistortion) through the same mesh. No bytes per sample; its bake
 // statistics are finite, and it survives a file round trip.
+// The default bake's grids are held to the paper's 324 bytes a sample, 4 bytes a voxel over the
+// field's samples: 256^3 (67108864 bytes) needs 207127 of them, 128^3 fits the default 40000.
+TEST(VolumeBake, TheDefaultGridsFitThePapersBudget) {
+  EXPECT_TRUE(bake::volumeFitsDefaultBudget(128, 40000));
+  EXPECT_FALSE(bake::volumeFitsDefaultBudget(128, 25000));
+  EXPECT_FALSE(bake::volumeFitsDefaultBudget(256, 160000));
+  EXPECT_FALSE(bake::volumeFitsDefaultBudget(256, 207126));
+  EXPECT_TRUE(bake::volumeFitsDefaultBudget(256, 207127));
+}
+
 TEST(VolumeBake, TheSphereFieldFollowsSnell) {
   const Scene scene = sphereScene(4);
   BakeOptions o;

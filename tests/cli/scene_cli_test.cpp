@@ -240,10 +240,9 @@ TEST_F(SceneCli, DefaultBakeTracesTheTableNodesAndAGridSizeAsksForTheGrid) {
 }
 
 // The default bake (no --encoding nor a flag of Pca's) makes the Pca field and, where the scene is
-// one medium in air, the volume beside it at 128^3 and 256^3, and keeps the one whose images come
-// closer to exact renders (the Pca by its texels, the volume traced per fragment; the finer grid
-// only where it gains kFinerVolumeGainDb over the coarser): one line says which, with every
-// figure, and the file is that field, recording that it tried. --encoding pca keeps the Pca
+// one medium in air, the volume beside it at 128^3 (and 256^3 where that grid fits 324 bytes a
+// sample: not these 100), and keeps the one whose images come closer to exact renders (the Pca by
+// its texels, the volume traced per fragment): one line says which, with every figure, and the file is that field, recording that it tried. --encoding pca keeps the Pca
 // without trying; nested media (the glass of water) have no volume to try.
 TEST_F(SceneCli, DefaultBakeTriesTheVolumeAndKeepsTheCloser) {
   const ToolRun tried = run(".", {"bake", "builtin:sphere?tessellation=1", "--samples", "100", "-o", "tried.shrf"});
@@ -259,14 +258,15 @@ TEST_F(SceneCli, DefaultBakeTriesTheVolumeAndKeepsTheCloser) {
     const size_t start = tried.err.rfind(' ', at - 2) + 1;
     return std::stod(tried.err.substr(start, at - 1 - start));
   };
-  const double pcaDb = figureBefore("dB with pca by its texels, "), coarseDb = figureBefore("dB with volume 128^3, "),
-               fineDb = figureBefore("dB with volume 256^3 traced per fragment");
-  ASSERT_TRUE(std::isfinite(pcaDb) && std::isfinite(coarseDb) && std::isfinite(fineDb)) << tried.err;
-  const bool fine = fineDb >= coarseDb + bake::kFinerVolumeGainDb;
-  const double volumeDb = fine ? fineDb : coarseDb;
+  // 256^3 (64 MiB) is over 324 bytes a sample of these 100 samples: the coarser grid alone is drawn.
+  const double pcaDb = figureBefore("dB with pca by its texels, "),
+               volumeDb = figureBefore("dB with volume 128^3 traced per fragment");
+  ASSERT_TRUE(std::isfinite(pcaDb) && std::isfinite(volumeDb)) << tried.err;
+  EXPECT_EQ(tried.err.find("dB with volume 256^3"), std::string::npos) << tried.err;
+  EXPECT_NE(tried.err.find("(256^3 not tried: over 324 bytes a sample of "), std::string::npos) << tried.err;
   EXPECT_EQ(chosen, volumeDb > pcaDb ? "volume" : "pca") << tried.err;
   if (chosen == "volume") {
-    EXPECT_NE(tried.err.find(fine ? "chose volume 256^3" : "chose volume 128^3"), std::string::npos) << tried.err;
+    EXPECT_NE(tried.err.find("chose volume 128^3"), std::string::npos) << tried.err;
   }
   EXPECT_NE(tried.err.find("their images against exact renders, 4 views"), std::string::npos) << tried.err;
   const ToolRun info = run(".", {"info", "tried.shrf", "--json"});
@@ -276,7 +276,7 @@ TEST_F(SceneCli, DefaultBakeTriesTheVolumeAndKeepsTheCloser) {
   ASSERT_TRUE(field.ok()) << field.error().message;
   EXPECT_TRUE(field.value().settings.tryVolume);
   if (chosen == "volume") {
-    EXPECT_EQ(field.value().volume.size, fine ? 256u : 128u);
+    EXPECT_EQ(field.value().volume.size, 128u);
   }
   const ToolRun pca = run(".", {"bake", "builtin:sphere?tessellation=1", "--samples", "100", "--encoding", "pca",
                                 "-o", "pca.shrf"});

@@ -84,6 +84,17 @@ inline constexpr uint64_t kVolumeDensifyFactor = 4;
 // 4x4 full tree): cube 33.39 -> 34.15, bunny 24.07 -> 24.90, for 8x the grid's memory (8 -> 64 MiB)
 // (docs/encodings.md, "The grid's size, chosen by images").
 inline constexpr double kFinerVolumeGainDb = 0.25;
+// The budget the default bake's grids are held to: the paper's 324 encoded bytes per sample (81 SH
+// coefficients x 4 channels x 1 byte), a grid's 4 bytes a voxel counted over the field's samples
+// (its frames and mesh not counted, as for every encoding). 128^3 is 8 MiB, 210 bytes a sample at
+// the default 40000; 256^3 is 64 MiB, which needs 207127 samples (the cube's and the bunny's
+// densified 160000 would hold 419), so the default tries it only on bakes of that many samples
+// (docs/encodings.md, "The grid's size, chosen by images").
+inline constexpr double kDefaultBytesPerSampleBudget = 324.0;
+// Whether an n^3 grid fits kDefaultBytesPerSampleBudget over `samples` samples.
+constexpr bool volumeFitsDefaultBudget(uint32_t n, uint64_t samples) {
+  return 4.0 * double(n) * double(n) * double(n) <= kDefaultBytesPerSampleBudget * double(samples);
+}
 // The pairs of texels the check traces (kFrameChoiceViews views each).
 inline constexpr size_t kVolumeDensityPairs = 4000;
 
