@@ -1737,6 +1737,7 @@ Result<Field> bakeVolumeField(const BakePlan& plan, BakeSettings settings, uint3
   Field field = fieldLayout(plan, settings, shapeOf(settings, channels), {});
   field.channels = channels;
   field.volume = std::move(volume);
+  field.volume.convex = meshIsConvex(field.mesh);
   field.media = plan.media;
   field.settings = settings;
   plan.begin("checking the volume's paths against traced ones");

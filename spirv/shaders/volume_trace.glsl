@@ -150,6 +150,7 @@ VolumePath traceVolumePath(vec3 p, vec3 normal, vec3 d) {
         d = unitOr(reflected(d, n));
       }
       exitDir = d;
+      if (outsideNow && head.grid.w != 0u) break;  // no way out of a convex object meets it again
     }
   }
   return VolumePath(exitDir, tau, energy);

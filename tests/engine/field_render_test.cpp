@@ -116,7 +116,9 @@ class FieldRender : public ::testing::Test {
   void TearDown() override {
     testing::expectNoMessagesThroughDestruction(session);
   }
-  void expectVolumeMirror(const char* sceneName, std::array<float, 3> eye);
+  // `convex`: what the baked grid is taken for (FieldVolume::convex); `forceConvex`: the flag set
+  // on a grid that is not, so that the GPU's and the CPU's traces both stop at the first way out.
+  void expectVolumeMirror(const char* sceneName, std::array<float, 3> eye, bool convex, bool forceConvex = false);
   std::unique_ptr<offscreen::Session> session;
 };
 
@@ -329,7 +331,7 @@ TEST_F(FieldRender, FilteredLookupsMatchCpuMirror) {
 // same float operations. The Decompressor leaves the object out, and the texture-space shading of
 // the same field (setTracesVolumePerFragment(false)) differs from it.
 // One built-in scene's volume field at 64^3, traced per fragment on the GPU and by the CPU mirror.
-void FieldRender::expectVolumeMirror(const char* sceneName, std::array<float, 3> eye) {
+void FieldRender::expectVolumeMirror(const char* sceneName, std::array<float, 3> eye, bool convex, bool forceConvex) {
   const bake::Image env = smoothEnvironment(256);
   auto gpuEnv = offscreen::uploadEnvironment(*session, env);
   ASSERT_TRUE(gpuEnv.ok()) << gpuEnv.error().message;
@@ -344,7 +346,9 @@ void FieldRender::expectVolumeMirror(const char* sceneName, std::array<float, 3>
   o.settings.threads = 2;
   auto baked = bake::bakeField(scene.value(), o);
   ASSERT_TRUE(baked.ok()) << baked.error().message;
-  const Field& field = baked.value();
+  EXPECT_EQ(baked.value().volume.convex, convex) << sceneName;
+  Field field = baked.value();
+  field.volume.convex = convex || forceConvex;
   auto object = offscreen::uploadField(*session, field);
   ASSERT_TRUE(object.ok()) << object.error().message;
   ASSERT_TRUE(object.value()->tracesVolumePerFragment());
@@ -373,6 +377,19 @@ void FieldRender::expectVolumeMirror(const char* sceneName, std::array<float, 3>
     writeForInspection(std::string(sceneName) + "_volume_fragment_cpu.png", bake::Image{cpu.width, cpu.height, cpu.rgba});
     writeForInspection(std::string(sceneName) + "_volume_fragment_diff_x10.png", diff);
   }
+  if (forceConvex) {
+    // The flag changes the paths that meet the object again: the grid as baked renders otherwise.
+    auto reentering = offscreen::uploadField(*session, baked.value());
+    ASSERT_TRUE(reentering.ok()) << reentering.error().message;
+    reentering.value()->shading.reflection = true;
+    auto full = offscreen::renderFrame(*session, *gpuEnv.value(), {reentering.value().get()}, frame);
+    ASSERT_TRUE(full.ok()) << full.error().message;
+    const Comparison stopped = compare(full.value(), gpu.value().rgba, kFieldTolerance, &cpu.object);
+    std::printf("%s taken for convex: %u of %u object pixels apart from the re-entering paths\n", sceneName,
+                stopped.failed, stopped.pixels);
+    EXPECT_GT(stopped.failed, 100u) << sceneName;
+    return;
+  }
   // The texture-space path of the same field: decoded by the Decompressor, another image.
   ASSERT_TRUE(object.value()->setTracesVolumePerFragment(false).ok());
   auto texels = offscreen::renderFrame(*session, *gpuEnv.value(), {object.value().get()}, frame);
@@ -383,11 +400,19 @@ void FieldRender::expectVolumeMirror(const char* sceneName, std::array<float, 3>
   EXPECT_GT(apart.failed, 0u) << sceneName;
 }
 
-TEST_F(FieldRender, VolumeTracedPerFragmentMatchesCpuMirror) { expectVolumeMirror("sphere", {0.3f, 0.5f, 3.4f}); }
+TEST_F(FieldRender, VolumeTracedPerFragmentMatchesCpuMirror) {
+  expectVolumeMirror("sphere", {0.3f, 0.5f, 3.4f}, true);
+}
 
 // The torus seen into its hole: the ways out of the near side of the tube meet the far side again,
 // so the paths re-enter the object (volume_trace.glsl's march outside).
-TEST_F(FieldRender, VolumeReenteringPathsMatchCpuMirror) { expectVolumeMirror("torus", {0.0f, 1.6f, 3.2f}); }
+TEST_F(FieldRender, VolumeReenteringPathsMatchCpuMirror) { expectVolumeMirror("torus", {0.0f, 1.6f, 3.2f}, false); }
+
+// A convex object's trace stops at the first way out (gpu_layout.h VolumeHeader grid.w): the
+// torus taken for one, so that the stop changes its image, GPU against the CPU mirror.
+TEST_F(FieldRender, AConvexGridStopsAtTheFirstWayOut) {
+  expectVolumeMirror("torus", {0.0f, 1.6f, 3.2f}, false, true);
+}
 
 TEST_F(FieldRender, ScatteredTexelsMatchCpuMirror) {
   // The stripes with one in eight 20 times as bright: a tap that reads a blurrier level near one

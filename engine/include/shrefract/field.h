@@ -164,6 +164,12 @@ struct FieldVolume {
   std::array<float, 3> origin{0.0f, 0.0f, 0.0f};
   float spacing = 0.0f;
   std::vector<uint32_t> voxels;  // N^3 words
+  // No straight way out meets the object again (meshIsConvex of the field's mesh): the trace stops
+  // at the first way out instead of marching it to the grid's box, which cost convex objects 1.2x
+  // the frame for nothing (docs/encodings.md, "Convex objects stop at the first way out"). Not
+  // stored: parseField and the bake set it from the mesh; a grid built by hand leaves it false,
+  // which costs time, never a path.
+  bool convex = false;
 };
 
 struct FieldMedium {
@@ -405,6 +411,13 @@ void evaluateCoefficients(const EncodingShape& shape, const float* coefficients,
 // and the unit normal back from a word.
 uint32_t packVolumeVoxel(float distanceVoxels, const std::array<float, 3>& normal);
 std::array<float, 3> unpackVolumeNormal(uint32_t word);
+// Whether every vertex of `mesh` lies on or behind every triangle's plane (within 1e-5 of its
+// extent, each plane facing the way its vertex normals do): the mesh then bounds one convex body,
+// which a straight ray leaving it never meets again (two convex parts fail: each lies in front of
+// a face of the other). Gives up, answering false, after kConvexTestPairs (triangle, vertex) pairs,
+// so a large convex mesh loses the early stop, never a path.
+inline constexpr uint64_t kConvexTestPairs = uint64_t(1) << 26;
+bool meshIsConvex(const FieldMesh& mesh);
 // The grid's signed distance at an object-space point, in object units (trilinear, clamped to the grid).
 float volumeDistance(const FieldVolume& volume, const std::array<float, 3>& objectPoint);
 

@@ -1284,6 +1284,7 @@ Result<Field> parseField(const uint8_t* data, size_t size, const std::string& na
   if (auto r = readHeader(data, version.value(), name, field); !r) return r.error();
   if (auto r = readSections(data, size - kChecksumBytes, version.value(), name, field); !r) return r.error();
   if (auto r = validateField(field); !r) return makeError(ErrorCode::CorruptData, name + ": " + r.error().message);
+  if (field.encoding == Encoding::Volume) field.volume.convex = meshIsConvex(field.mesh);
   return field;
 }
 

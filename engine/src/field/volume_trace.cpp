@@ -158,6 +158,35 @@ std::array<float, 3> unpackVolumeNormal(uint32_t word) {
   return {n.x, n.y, n.z};
 }
 
+bool meshIsConvex(const FieldMesh& mesh) {
+  const size_t vertices = mesh.positions.size() / 3;
+  if (vertices < 4 || mesh.indices.size() < 12 || mesh.normals.size() != mesh.positions.size()) return false;
+  auto at = [&](const std::vector<float>& a, uint32_t i) { return V3{a[3 * i], a[3 * i + 1], a[3 * i + 2]}; };
+  V3 lo = at(mesh.positions, 0), hi = lo;
+  for (size_t i = 1; i < vertices; ++i) {
+    lo = glm::min(lo, at(mesh.positions, uint32_t(i)));
+    hi = glm::max(hi, at(mesh.positions, uint32_t(i)));
+  }
+  const float tolerance = 1e-5f * glm::length(hi - lo);
+  uint64_t pairs = 0;
+  for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+    const uint32_t a = mesh.indices[t], b = mesh.indices[t + 1], c = mesh.indices[t + 2];
+    const V3 pa = at(mesh.positions, a);
+    V3 n = glm::cross(at(mesh.positions, b) - pa, at(mesh.positions, c) - pa);
+    const float len = glm::length(n);
+    if (!(len > 0.0f)) continue;  // a degenerate triangle has no plane
+    n = (1.0f / len) * n;
+    // The winding may be either way: the plane faces where the triangle's vertex normals point.
+    if (dot(n, at(mesh.normals, a) + at(mesh.normals, b) + at(mesh.normals, c)) < 0.0f) n = -1.0f * n;
+    const float offset = dot(n, pa);
+    pairs += vertices;
+    if (pairs > kConvexTestPairs) return false;
+    for (size_t i = 0; i < vertices; ++i)
+      if (dot(n, at(mesh.positions, uint32_t(i))) - offset > tolerance) return false;
+  }
+  return true;
+}
+
 float volumeDistance(const FieldVolume& volume, const std::array<float, 3>& objectPoint) {
   const float inv = 1.0f / volume.spacing;
   const V3 g{(objectPoint[0] - volume.origin[0]) * inv, (objectPoint[1] - volume.origin[1]) * inv,
@@ -203,6 +232,7 @@ VolumePath traceVolumePath(const Field& field, const std::array<float, 3>& point
         d = normalized(reflected(d, n));
       }
       exit = d;
+      if (outsideNow && v.convex) break;  // no way out of a convex object meets it again
     }
   }
   return VolumePath{{exit.x, exit.y, exit.z}, tau, energy};

@@ -418,7 +418,8 @@ std::vector<uint32_t> volumeWords(const Field& field) {
   if (field.encoding != Encoding::Volume) return {};
   gpu::VolumeHeader head{};
   const FieldVolume& v = field.volume;
-  head.grid = {v.size, field.settings.maxBounces, field.settings.pathRule == PathRule::HighestEnergy ? 1u : 0u, 0u};
+  head.grid = {v.size, field.settings.maxBounces, field.settings.pathRule == PathRule::HighestEnergy ? 1u : 0u,
+               v.convex ? 1u : 0u};
   head.origin = {v.origin[0], v.origin[1], v.origin[2], v.spacing};
   const float outside = field.media[0].ior, inside = field.media[1].ior;
   head.media = {outside / inside, inside / outside, field.media[1].absorption, 0.0f};

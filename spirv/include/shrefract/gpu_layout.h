@@ -187,7 +187,8 @@ SHR_CONST(kGutterLocalSize, 64u)
 SHR_CONST(kMaxDispatchGroupsX, 32768u)
 
 // The head of a Volume field's basis buffer (decompress_volume.comp): grid.x = N, grid.y = the
-// bounce cap, grid.z = 1 for the highest-energy rule (0: first refraction); origin.xyz the centre
+// bounce cap, grid.z = 1 for the highest-energy rule (0: first refraction), grid.w = 1 for a convex object
+// (field.h FieldVolume::convex: the trace stops at the first way out); origin.xyz the centre
 // of voxel (0, 0, 0) in object space, origin.w the voxel spacing; media.x = n_outside / n_inside
 // (the entry), media.y its inverse (the way out), media.z the inner medium's absorption.
 struct VolumeHeader {
