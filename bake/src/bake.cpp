@@ -1795,6 +1795,40 @@ Result<Field> densifiedVolume(const Scene& scene, const BakePlan& plan, Field fi
   return out;
 }
 
+// The grid sizes keepVolumeWhereCloser draws: the one asked for, or kDefaultVolumeSize and twice
+// that where it fits the paper's budget over the field's samples; `skipped` says why the finer
+// one was left out, when it was.
+std::vector<uint32_t> volumeSizesToTry(const BakePlan& plan, std::string* skipped) {
+  const uint32_t asked = plan.settings.volumeSize, finer = 2 * kDefaultVolumeSize;
+  if (asked) return {asked};
+  if (finer > kMaxVolumeSize) return {kDefaultVolumeSize};
+  uint64_t samples = 0;
+  for (uint8_t kind : plan.atlas.texelKinds) samples += kind == kTexelSample ? 1u : 0u;
+  if (volumeFitsDefaultBudget(finer, samples)) return {kDefaultVolumeSize, finer};
+  *skipped = " (" + std::to_string(finer) + "^3 not tried: over " + std::to_string(int(kDefaultBytesPerSampleBudget)) +
+             " bytes a sample of " + std::to_string(samples) + ")";
+  return {kDefaultVolumeSize};
+}
+
+// keepVolumeWhereCloser's line: what it kept, every image figure, and the traced views' figures.
+std::string volumeChoiceNote(const std::string& kept, const Field& baked, const ImageChoice& images,
+                             const std::vector<uint32_t>& sizes, const std::string& skipped, const ViewsError& a,
+                             const ViewsError& b) {
+  const std::vector<double>& psnr = images.psnr;
+  char gain[32];
+  std::snprintf(gain, sizeof gain, "%.2f", kFinerVolumeGainDb);
+  std::string figures;
+  for (size_t k = 0; k < sizes.size(); ++k)
+    figures += (k ? ", " : "") + std::to_string(psnr[k + 1]) + " dB with volume " + std::to_string(sizes[k]) + "^3";
+  return "encoding: chose " + kept + " (their images against exact renders, " + std::to_string(kChoiceViews) +
+         " views, " + std::to_string(images.pixels) + " object pixels: " + std::to_string(psnr[0]) + " dB with " +
+         toString(baked.encoding) + " by its texels, " + figures + " traced per fragment" +
+         (sizes.size() == 2 ? " (the finer where it gains " + std::string(gain) + " dB)" : skipped) +
+         "; the traced views at the samples: " + std::to_string(a.colourPsnr) + " and " +
+         std::to_string(b.colourPsnr) + " dB, mean angle clipped at " + std::to_string(int(kFrameChoiceClipDegrees)) +
+         " deg " + std::to_string(a.clippedMean) + " and " + std::to_string(b.clippedMean) + " deg)";
+}
+
 // BakeSettings::tryVolume: the scene's Volume field beside the baked one; the one whose images come
 // closer to exact renders (imagesAgainstExact: the baked field by its texels, the volume traced per
 // fragment, as the engine draws each by default) is kept, and the note says which, with the traced
@@ -1804,13 +1838,8 @@ Result<Field> densifiedVolume(const Scene& scene, const BakePlan& plan, Field fi
 // kFinerVolumeGainDb by it (bake.h).
 Result<Field> keepVolumeWhereCloser(const Scene& scene, const BakePlan& plan, Field baked, Clock::time_point start) {
   const uint32_t channels = baked.decodedChannels();  // without a jump distance channel
-  const uint32_t asked = plan.settings.volumeSize;
-  std::vector<uint32_t> sizes{asked ? asked : kDefaultVolumeSize};
-  uint64_t samples = 0;
-  for (uint8_t kind : plan.atlas.texelKinds) samples += kind == kTexelSample ? 1u : 0u;
-  const uint32_t finer = 2 * kDefaultVolumeSize;
-  const bool finerFits = volumeFitsDefaultBudget(finer, samples);
-  if (!asked && finer <= kMaxVolumeSize && finerFits) sizes.push_back(finer);
+  std::string skipped;
+  const std::vector<uint32_t> sizes = volumeSizesToTry(plan, &skipped);
   const FrameChoiceViews views = traceFrameChoiceViews(plan);
   std::vector<Field> volumes;
   std::vector<ViewsError> seen;
@@ -1834,27 +1863,8 @@ Result<Field> keepVolumeWhereCloser(const Scene& scene, const BakePlan& plan, Fi
   const std::vector<double>& psnr = images.value().psnr;
   const size_t best = volumes.size() == 2 && psnr[2] >= psnr[1] + kFinerVolumeGainDb ? 1 : 0;
   const bool keep = psnr[best + 1] > psnr[0];
-  if (plan.note) {
-    char gain[32];
-    std::snprintf(gain, sizeof gain, "%.2f", kFinerVolumeGainDb);
-    std::string figures;
-    for (size_t k = 0; k < volumes.size(); ++k)
-      figures += (k ? ", " : "") + std::to_string(psnr[k + 1]) + " dB with volume " + std::to_string(sizes[k]) + "^3";
-    const std::string kept = keep ? "volume " + std::to_string(sizes[best]) + "^3" : toString(baked.encoding);
-    plan.note("encoding: chose " + kept + " (their images against exact renders, " + std::to_string(kChoiceViews) +
-              " views, " + std::to_string(images.value().pixels) + " object pixels: " + std::to_string(psnr[0]) +
-              " dB with " + toString(baked.encoding) + " by its texels, " + figures + " traced per fragment" +
-              (volumes.size() == 2 ? " (the finer where it gains " + std::string(gain) + " dB)"
-               : !asked && !finerFits
-                   ? " (" + std::to_string(finer) + "^3 not tried: over " +
-                         std::to_string(int(kDefaultBytesPerSampleBudget)) + " bytes a sample of " +
-                         std::to_string(samples) + ")"
-                   : "") +
-              "; the traced views at the samples: " + std::to_string(a.colourPsnr) + " and " +
-              std::to_string(seen[best].colourPsnr) + " dB, mean angle clipped at " +
-              std::to_string(int(kFrameChoiceClipDegrees)) + " deg " + std::to_string(a.clippedMean) + " and " +
-              std::to_string(seen[best].clippedMean) + " deg)");
-  }
+  const std::string kept = keep ? "volume " + std::to_string(sizes[best]) + "^3" : toString(baked.encoding);
+  if (plan.note) plan.note(volumeChoiceNote(kept, baked, images.value(), sizes, skipped, a, seen[best]));
   if (!keep) return baked;
   return densifiedVolume(scene, plan, std::move(volumes[best]), start);
 }
