@@ -24,11 +24,11 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <limits>
 #include <memory>
 #include <mutex>
 #include <optional>
-#include <cstdio>
 #include <span>
 #include <string>
 #include <thread>
@@ -1373,12 +1373,19 @@ void measureQuantization(const Field& field, const SampleAtlas& atlas, const std
   st.quantizationMaxDegrees = static_cast<float>(maxAngle);
 }
 
+// The atlas's texels of kind kTexelSample: the field's samples, as its statistics count them.
+uint64_t sampleTexelCount(const SampleAtlas& atlas) {
+  uint64_t samples = 0;
+  for (uint8_t kind : atlas.texelKinds) samples += kind == kTexelSample ? 1u : 0u;
+  return samples;
+}
+
 // Counts, fit errors and timings. Parts may have run at the same time on different machines: the
 // longest one is the bake's wall time, the thread times of all apportion it between trace and fit.
 void fillStatistics(const SampleAtlas& atlas, const std::vector<BakePart>& parts, const std::vector<SampleError>& errors,
                     uint32_t nd, double finishSeconds, BakeStatistics& st) {
   st.uniqueSamples = atlas.samples.size();
-  for (uint8_t kind : atlas.texelKinds) st.samples += kind == kTexelSample ? 1u : 0u;
+  st.samples = sampleTexelCount(atlas);
   st.directions = nd;
   double gridSquares = 0, heldSquares = 0, traceWall = 0, partSeconds = 0, threadTrace = 0, threadFit = 0;
   uint64_t gridCount = 0, heldCount = 0, peak = peakResidentBytes();
@@ -1691,13 +1698,13 @@ Result<ImageChoice> imagesAgainstExact(const Scene& scene, const BakePlan& plan,
     ro.threads = plan.settings.threads;
     auto exact = renderReference(*plan.tracer, scene, environment, ro);
     if (!exact) return exact.error();
+    DistortionRenderOptions d;
+    d.width = ro.width;
+    d.height = ro.height;
+    d.camera = camera;
+    d.samplesPerAxis = ro.samplesPerAxis;
+    d.threads = ro.threads;
     for (size_t k = 0; k < fields.size(); ++k) {
-      DistortionRenderOptions d;
-      d.width = ro.width;
-      d.height = ro.height;
-      d.camera = camera;
-      d.samplesPerAxis = ro.samplesPerAxis;
-      d.threads = ro.threads;
       const bool traced = fields[k]->encoding == Encoding::Volume;
       d.volume = traced ? fields[k] : nullptr;
       const reference::DistortionImage decoded = traced ? reference::DistortionImage{}
@@ -1754,7 +1761,7 @@ Result<Field> bakeVolumeField(const BakePlan& plan, BakeSettings settings, uint3
   st.heldOutMaxDegrees = st.fitMaxDegrees = static_cast<float>(e.max);
   st.paths = views.views.directions.size();
   st.uniqueSamples = plan.atlas.samples.size();
-  for (uint8_t kind : plan.atlas.texelKinds) st.samples += kind == kTexelSample ? 1u : 0u;
+  st.samples = sampleTexelCount(plan.atlas);
   st.bakeSeconds = st.fitSeconds = secondsSince(start);
   st.peakMemoryBytes = peakResidentBytes();
   if (auto valid = validateField(field); !valid)
@@ -1802,8 +1809,7 @@ std::vector<uint32_t> volumeSizesToTry(const BakePlan& plan, std::string* skippe
   const uint32_t asked = plan.settings.volumeSize, finer = 2 * kDefaultVolumeSize;
   if (asked) return {asked};
   if (finer > kMaxVolumeSize) return {kDefaultVolumeSize};
-  uint64_t samples = 0;
-  for (uint8_t kind : plan.atlas.texelKinds) samples += kind == kTexelSample ? 1u : 0u;
+  const uint64_t samples = sampleTexelCount(plan.atlas);
   if (volumeFitsDefaultBudget(finer, samples)) return {kDefaultVolumeSize, finer};
   *skipped = " (" + std::to_string(finer) + "^3 not tried: over " + std::to_string(int(kDefaultBytesPerSampleBudget)) +
              " bytes a sample of " + std::to_string(samples) + ")";

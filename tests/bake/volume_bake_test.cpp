@@ -170,10 +170,6 @@ TEST(DistanceVolume, RefusesWhatItCannotTrace) {
   EXPECT_NE(part.error().message.find("one process"), std::string::npos) << part.error().message;
 }
 
-// A baked sphere field, decoded where the engine decodes it (reference::decodeTexel at every sample
-// texel): the twice-refracted exit of the ideal unit sphere for the eyes that see the texel, and
-// the tracer's own path (exactDistortion) through the same mesh. No bytes per sample; its bake
-// statistics are finite, and it survives a file round trip.
 // The default bake's grids are held to the paper's 324 bytes a sample, 4 bytes a voxel over the
 // field's samples: 256^3 (67108864 bytes) needs 207127 of them, 128^3 fits the default 40000.
 TEST(VolumeBake, TheDefaultGridsFitThePapersBudget) {
@@ -184,6 +180,10 @@ TEST(VolumeBake, TheDefaultGridsFitThePapersBudget) {
   EXPECT_TRUE(bake::volumeFitsDefaultBudget(256, 207127));
 }
 
+// A baked sphere field, decoded where the engine decodes it (reference::decodeTexel at every sample
+// texel): the twice-refracted exit of the ideal unit sphere for the eyes that see the texel, and
+// the tracer's own path (exactDistortion) through the same mesh. No bytes per sample; its bake
+// statistics are finite, and it survives a file round trip.
 TEST(VolumeBake, TheSphereFieldFollowsSnell) {
   const Scene scene = sphereScene(4);
   BakeOptions o;

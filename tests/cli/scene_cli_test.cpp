@@ -242,8 +242,9 @@ TEST_F(SceneCli, DefaultBakeTracesTheTableNodesAndAGridSizeAsksForTheGrid) {
 // The default bake (no --encoding nor a flag of Pca's) makes the Pca field and, where the scene is
 // one medium in air, the volume beside it at 128^3 (and 256^3 where that grid fits 324 bytes a
 // sample: not these 100), and keeps the one whose images come closer to exact renders (the Pca by
-// its texels, the volume traced per fragment): one line says which, with every figure, and the file is that field, recording that it tried. --encoding pca keeps the Pca
-// without trying; nested media (the glass of water) have no volume to try.
+// its texels, the volume traced per fragment): one line says which, with every figure, and the
+// file is that field, recording that it tried. --encoding pca keeps the Pca without trying; nested
+// media (the glass of water) have no volume to try.
 TEST_F(SceneCli, DefaultBakeTriesTheVolumeAndKeepsTheCloser) {
   const ToolRun tried = run(".", {"bake", "builtin:sphere?tessellation=1", "--samples", "100", "-o", "tried.shrf"});
   ASSERT_EQ(tried.exit, 0) << tried.err;

@@ -219,9 +219,9 @@ struct BakeSettings {
   uint32_t threads = 0;              // informational: does not change the data
   uint32_t volumeSize = 0;           // Volume: voxels per side N; 0 otherwise
   // Pca (the tool's default encoding): where the scene is one medium in air, the bake also builds
-  // the Volume encoding (volumeSize; when 0, kDefaultVolumeSize or twice it where that fits 324 bytes
-  // a sample, by images: bake.h kFinerVolumeGainDb) and keeps whichever field's images come closer to exact renders; a field so
-  // chosen records it (a Pca or Volume field).
+  // the Volume encoding (volumeSize; when 0, kDefaultVolumeSize or twice it where that fits 324
+  // bytes a sample, by images: bake.h kFinerVolumeGainDb) and keeps whichever field's images come
+  // closer to exact renders; a field so chosen records it (a Pca or Volume field).
   bool tryVolume = false;
   // A Volume field (asked for, or kept by tryVolume) whose texels predict the paths between them
   // poorly is laid out again at more samples (bake.h kVolumeDensifyBelowDb): the tool's default
