@@ -1803,17 +1803,21 @@ Result<Field> densifiedVolume(const Scene& scene, const BakePlan& plan, Field fi
 }
 
 // The grid sizes keepVolumeWhereCloser draws: the one asked for, or kDefaultVolumeSize and twice
-// that where it fits the paper's budget over the field's samples; `skipped` says why the finer
-// one was left out, when it was.
-std::vector<uint32_t> volumeSizesToTry(const BakePlan& plan, std::string* skipped) {
+// that (kept where it fits the paper's budget over the field's samples: finerFits).
+std::vector<uint32_t> volumeSizesToTry(const BakePlan& plan) {
   const uint32_t asked = plan.settings.volumeSize, finer = 2 * kDefaultVolumeSize;
   if (asked) return {asked};
   if (finer > kMaxVolumeSize) return {kDefaultVolumeSize};
-  const uint64_t samples = sampleTexelCount(plan.atlas);
-  if (volumeFitsDefaultBudget(finer, samples)) return {kDefaultVolumeSize, finer};
-  *skipped = " (" + std::to_string(finer) + "^3 not tried: over " + std::to_string(int(kDefaultBytesPerSampleBudget)) +
-             " bytes a sample of " + std::to_string(samples) + ")";
-  return {kDefaultVolumeSize};
+  return {kDefaultVolumeSize, finer};
+}
+
+// Whether the finer default grid fits the budget over the field's samples; `skipped` says why not.
+bool finerFits(const BakePlan& plan, const FieldVolume& grid, std::string* skipped) {
+  const uint64_t samples = sampleTexelCount(plan.atlas), bytes = volumeGridBytes(grid);
+  if (volumeFitsDefaultBudget(bytes, samples)) return true;
+  *skipped = " (" + std::to_string(grid.size) + "^3 left out: its " + std::to_string(bytes) + " bytes are over " +
+             std::to_string(int(kDefaultBytesPerSampleBudget)) + " bytes a sample of " + std::to_string(samples) + ")";
+  return false;
 }
 
 // keepVolumeWhereCloser's line: what it kept, every image figure, and the traced views' figures.
@@ -1840,20 +1844,24 @@ std::string volumeChoiceNote(const std::string& kept, const Field& baked, const 
 // fragment, as the engine draws each by default) is kept, and the note says which, with the traced
 // views' figures at the samples (fieldViewsError) beside them. With no volumeSize asked for, the
 // volume's grid is kDefaultVolumeSize per side, or twice that where its grid fits the paper's
-// budget over the field's samples (volumeFitsDefaultBudget) and its images gain at least
+// budget over the field's samples (finerFits) and its images gain at least
 // kFinerVolumeGainDb by it (bake.h).
 Result<Field> keepVolumeWhereCloser(const Scene& scene, const BakePlan& plan, Field baked, Clock::time_point start) {
   const uint32_t channels = baked.decodedChannels();  // without a jump distance channel
   std::string skipped;
-  const std::vector<uint32_t> sizes = volumeSizesToTry(plan, &skipped);
+  std::vector<uint32_t> sizes = volumeSizesToTry(plan);
   const FrameChoiceViews views = traceFrameChoiceViews(plan);
   std::vector<Field> volumes;
   std::vector<ViewsError> seen;
-  for (uint32_t n : sizes) {
+  for (size_t k = 0; k < sizes.size(); ++k) {
     BakeSettings settings = plan.settings;
-    settings.volumeSize = n;
+    settings.volumeSize = sizes[k];
     auto grid = buildVolume(scene, plan, settings);
     if (!grid) return grid.error();
+    if (k == 1 && !finerFits(plan, grid.value(), &skipped)) {
+      sizes.pop_back();
+      break;
+    }
     ViewsError e;
     auto volume = bakeVolumeField(plan, settings, channels, std::move(grid.value()), views, start, &e);
     if (!volume) return volume.error();

@@ -67,7 +67,7 @@ FieldVolume boxUnderTheSquare(uint32_t n) {
   v.size = n;
   v.spacing = 1.0f / float(n - 5);
   v.origin = {-0.5f * float(n - 1) * v.spacing, -0.5f * float(n - 1) * v.spacing, -0.25f - 0.5f * float(n - 1) * v.spacing};
-  v.voxels.resize(size_t(n) * n * n);
+  std::vector<uint32_t> dense(size_t(n) * n * n);
   for (uint32_t z = 0; z < n; ++z)
     for (uint32_t y = 0; y < n; ++y)
       for (uint32_t x = 0; x < n; ++x) {
@@ -80,8 +80,9 @@ FieldVolume boxUnderTheSquare(uint32_t n) {
         const int axis = q[0] >= q[1] && q[0] >= q[2] ? 0 : q[1] >= q[2] ? 1 : 2;
         std::array<float, 3> normal{0.0f, 0.0f, 0.0f};
         normal[size_t(axis)] = p[axis] >= 0.0f ? 1.0f : -1.0f;
-        v.voxels[(size_t(z) * n + y) * n + x] = packVolumeVoxel((std::sqrt(outside) + inside) / v.spacing, normal);
+        dense[(size_t(z) * n + y) * n + x] = packVolumeVoxel((std::sqrt(outside) + inside) / v.spacing, normal);
       }
+  setVolumeVoxels(v, dense);
   return v;
 }
 

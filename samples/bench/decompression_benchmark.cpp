@@ -329,7 +329,7 @@ FieldBufferBytes fieldBufferBytes(const Field& field, uint64_t samples) {
   b.scaleBias = field.encoding == Encoding::Sh ? layers * (field.channels > 4 ? 3 : 2) * 16
                                                : std::max<uint64_t>(layers * values * 8, 16);
   b.basis = std::max<uint64_t>((field.basis.size() * field.basisValueBytes() + 3) / 4 * 4, 16);
-  if (field.encoding == Encoding::Volume) b.basis = 48 + 4 * uint64_t(field.volume.voxels.size());  // VolumeHeader + grid
+  if (field.encoding == Encoding::Volume) b.basis = 48 + volumeGridBytes(field.volume);  // VolumeHeader + grid
   return b;
 }
 

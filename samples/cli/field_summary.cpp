@@ -65,7 +65,7 @@ static std::string encodingText(const Field& f) {
     case Encoding::Volume: {
       const uint32_t n = f.volume.size;
       return format("volume %ux%ux%u voxels (spacing %.4g, %s), paths traced through it per eye%s", n, n, n,
-                    static_cast<double>(f.volume.spacing), bytesText(uint64_t(f.volume.voxels.size()) * 4).c_str(),
+                    static_cast<double>(f.volume.spacing), bytesText(volumeGridBytes(f.volume)).c_str(),
                     f.volume.convex ? " (convex: each stops at its first way out)" : "");
     }
   }

@@ -2,7 +2,7 @@
 // Decompression in data space of the Volume encoding (shrefract/field.h): for every sample, the
 // eye in the sample's frame (as in decompress.comp) gives the view direction, which refracts at the
 // sample's point and normal (its frame's rows) into the object and is traced through the object's
-// signed distance grid (kBindingBasis: gpu_layout.h VolumeHeader, then the voxel words): marched
+// signed distance grid (kBindingBasis: gpu_layout.h VolumeHeader, then the bricks): marched
 // along the trilinear distance until it turns positive, the crossing bisected, the interface's
 // normal the trilinear normal there, the branch the field's path rule picks, up to the bounce cap.
 // The trace is volume_trace.glsl's; the sample's texel gets the exit's distortion texel (decompress_common.glsl). Mirrored by
@@ -19,9 +19,9 @@ layout(local_size_x = kDecompressLocalSize) in;
 
 layout(std430, set = 0, binding = kBindingBasis) readonly buffer Volume {
   VolumeHeader head;
-  uint voxels[];
+  uint words[];  // the brick entries, then the stored bricks
 };
-uint volumeVoxel(uint index) { return voxels[index]; }
+uint volumeWord(uint index) { return words[index]; }
 
 #include "volume_trace.glsl"
 

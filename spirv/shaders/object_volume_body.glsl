@@ -10,12 +10,12 @@
 
 #include "object_field_common.glsl"
 
-// The grid's words: the VolumeHeader's 12, then the voxels (gpu_layout.h kBindingVolumeGrid says
+// The grid's words: the VolumeHeader's 12, then the bricks (gpu_layout.h kBindingVolumeGrid says
 // why a texel buffer).
 layout(set = 1, binding = kBindingVolumeGrid) uniform usamplerBuffer volumeWords;
 const int kVolumeHeaderWords = 12;
 VolumeHeader head;  // read from volumeWords at the start of main
-uint volumeVoxel(uint index) { return texelFetch(volumeWords, kVolumeHeaderWords + int(index)).x; }
+uint volumeWord(uint index) { return texelFetch(volumeWords, kVolumeHeaderWords + int(index)).x; }
 
 VolumeHeader readVolumeHeader() {
   uvec4 grid = uvec4(texelFetch(volumeWords, 0).x, texelFetch(volumeWords, 1).x, texelFetch(volumeWords, 2).x,

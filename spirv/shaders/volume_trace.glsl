@@ -5,8 +5,8 @@
 // trilinear normal there, the branch the field's path rule picks, up to the bounce cap. Used by
 // decompress_volume.comp (at each sample, in texture space) and object_volume_body.glsl (at each
 // fragment). The includer declares the grid: `head` (gpu_layout.h VolumeHeader) and
-// `uint volumeVoxel(uint index)`, the voxel words, and includes shrefract/environment.glsl
-// (fresnelDielectric).
+// `uint volumeWord(uint index)`, the words after the header (the brick entries, then the stored
+// bricks), and includes shrefract/environment.glsl (fresnelDielectric).
 
 // The unit vector along a, or +z for the zero vector (volume_trace.cpp normalized).
 vec3 unitOr(vec3 a) {
@@ -14,37 +14,52 @@ vec3 unitOr(vec3 a) {
   return len2 > 0.0 ? (1.0 / sqrt(len2)) * a : vec3(0.0, 0.0, 1.0);
 }
 
-// The 8 voxels around grid point g (voxel units), clamped to the grid, as volume_trace.cpp cornersAt.
-void corners(vec3 g, out uint index[8], out float weight[8]) {
+// The far word (field.h volumeFarWord): the band's end on the `inside` side, the normal's levels at 0.
+uint volumeFarWord(bool inside) {
+  return (inside ? 0u : 2u * kVolumeDistanceZero) | (kVolumeNormalZero << kVolumeNormalShiftX) |
+         (kVolumeNormalZero << kVolumeNormalShiftY);
+}
+
+// Voxel c of the grid through its brick's entry, as field.h volumeVoxel.
+uint volumeVoxel(uvec3 c) {
+  uint per = (head.grid.x + kVolumeBrickSide - 1u) / kVolumeBrickSide;
+  uvec3 b = c / kVolumeBrickSide, l = c % kVolumeBrickSide;
+  uint entry = volumeWord((b.z * per + b.y) * per + b.x);
+  if (entry >= kVolumeBrickInside) return volumeFarWord(entry == kVolumeBrickInside);
+  return volumeWord(per * per * per + entry * kVolumeBrickWords + (l.z * kVolumeBrickSide + l.y) * kVolumeBrickSide + l.x);
+}
+
+// The 8 voxels around grid point g (voxel units), clamped to the grid, as volume_trace.cpp cornersAt:
+// corner k is c0 + (k & 1, (k >> 1) & 1, k >> 2).
+void corners(vec3 g, out uvec3 c0, out float weight[8]) {
   uint n = head.grid.x;
   float hi = float(n - 1u);
   g = clamp(g, vec3(0.0), vec3(hi));
-  uvec3 c0 = min(uvec3(g), uvec3(n - 2u));
+  c0 = min(uvec3(g), uvec3(n - 2u));
   vec3 f = g - vec3(c0);
   for (uint k = 0u; k < 8u; ++k) {
     uvec3 dk = uvec3(k & 1u, (k >> 1u) & 1u, (k >> 2u) & 1u);
-    index[k] = ((c0.z + dk.z) * n + (c0.y + dk.y)) * n + (c0.x + dk.x);
     weight[k] = (dk.x != 0u ? f.x : 1.0 - f.x) * (dk.y != 0u ? f.y : 1.0 - f.y) * (dk.z != 0u ? f.z : 1.0 - f.z);
   }
 }
 
 float voxelDistance(uint word) {
-  return (float(word & 0xfffu) - float(kVolumeDistanceZero)) * (kVolumeBandVoxels / float(kVolumeDistanceZero));
+  return (float(word & kVolumeDistanceMask) - float(kVolumeDistanceZero)) * (kVolumeBandVoxels / float(kVolumeDistanceZero));
 }
 
 float distanceAt(vec3 g) {
-  uint index[8];
+  uvec3 c0;
   float weight[8];
-  corners(g, index, weight);
+  corners(g, c0, weight);
   float d = 0.0;
-  for (uint k = 0u; k < 8u; ++k) d += weight[k] * voxelDistance(volumeVoxel(index[k]));
+  for (uint k = 0u; k < 8u; ++k) d += weight[k] * voxelDistance(volumeVoxel(c0 + uvec3(k & 1u, (k >> 1u) & 1u, k >> 2u)));
   return d;
 }
 
 vec3 unpackNormal(uint word) {
   float nzero = float(kVolumeNormalZero);
-  float px = min((float((word >> 12u) & 0x3ffu) - nzero) / nzero, 1.0);
-  float py = min((float((word >> 22u) & 0x3ffu) - nzero) / nzero, 1.0);
+  float px = min((float((word >> kVolumeNormalShiftX) & kVolumeNormalMask) - nzero) / nzero, 1.0);
+  float py = min((float((word >> kVolumeNormalShiftY) & kVolumeNormalMask) - nzero) / nzero, 1.0);
   vec3 n = vec3(px, py, 1.0 - abs(px) - abs(py));
   if (n.z < 0.0) {
     float x = n.x;
@@ -56,13 +71,13 @@ vec3 unpackNormal(uint word) {
 
 // As volume_trace.cpp normalAt: the corners facing the nearest corner's way, blended.
 vec3 normalAt(vec3 g) {
-  uint index[8];
+  uvec3 c0;
   float weight[8];
-  corners(g, index, weight);
+  corners(g, c0, weight);
   vec3 u[8];
   uint nearest = 0u;
   for (uint k = 0u; k < 8u; ++k) {
-    u[k] = unpackNormal(volumeVoxel(index[k]));
+    u[k] = unpackNormal(volumeVoxel(c0 + uvec3(k & 1u, (k >> 1u) & 1u, k >> 2u)));
     if (weight[k] > weight[nearest]) nearest = k;
   }
   vec3 n = vec3(0.0);

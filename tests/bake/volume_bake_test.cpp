@@ -43,14 +43,14 @@ TEST(DistanceVolume, TheSphereGridIsItsClosedForm) {
   auto built = buildDistanceVolume(scene, *tracer.value(), 40, 2);
   ASSERT_TRUE(built.ok()) << built.error().message;
   const FieldVolume& v = built.value();
-  ASSERT_EQ(v.voxels.size(), size_t(40) * 40 * 40);
+  ASSERT_EQ(v.bricks.size(), size_t(5) * 5 * 5);
   double worstDistance = 0.0, worstNormal = 0.0;
   size_t band = 0, wrongSide = 0, notAtTheBandsEnd = 0;
   for (uint32_t z = 0; z < 40; ++z)
     for (uint32_t y = 0; y < 40; ++y)
       for (uint32_t x = 0; x < 40; ++x) {
         const glm::vec3 p = glm::vec3(v.origin[0], v.origin[1], v.origin[2]) + v.spacing * glm::vec3(x, y, z);
-        const uint32_t word = v.voxels[(size_t(z) * 40 + y) * 40 + x];
+        const uint32_t word = volumeVoxel(v, x, y, z);
         const float stored = volumeDistance(v, {p.x, p.y, p.z}) / v.spacing;  // at a centre: the voxel's own
         const float exact = (glm::length(p) - 1.0f) / v.spacing;
         if (std::fabs(exact) > 0.05f && (stored < 0.0f) != (exact < 0.0f)) ++wrongSide;
@@ -170,14 +170,37 @@ TEST(DistanceVolume, RefusesWhatItCannotTrace) {
   EXPECT_NE(part.error().message.find("one process"), std::string::npos) << part.error().message;
 }
 
-// The default bake's grids are held to the paper's 324 bytes a sample, 4 bytes a voxel over the
-// field's samples: 256^3 (67108864 bytes) needs 207127 of them, 128^3 fits the default 40000.
-TEST(VolumeBake, TheDefaultGridsFitThePapersBudget) {
-  EXPECT_TRUE(bake::volumeFitsDefaultBudget(128, 40000));
-  EXPECT_FALSE(bake::volumeFitsDefaultBudget(128, 25000));
-  EXPECT_FALSE(bake::volumeFitsDefaultBudget(256, 160000));
-  EXPECT_FALSE(bake::volumeFitsDefaultBudget(256, 207126));
-  EXPECT_TRUE(bake::volumeFitsDefaultBudget(256, 207127));
+// The default bake's grids are held to the paper's 324 bytes a sample, the grid's stored bytes over
+// the field's samples; a grid stores only the bricks the band reaches (the sphere's at 64^3: the
+// others are entries), and a brick is stored exactly when one of its voxels is not a far word.
+TEST(VolumeBake, TheGridStoresTheBandsBricksAndTheBudgetCountsThem) {
+  EXPECT_TRUE(bake::volumeFitsDefaultBudget(324000, 1000));
+  EXPECT_FALSE(bake::volumeFitsDefaultBudget(324001, 1000));
+  const Scene scene = sphereScene(3);
+  auto tracer = Tracer::create(scene);
+  ASSERT_TRUE(tracer.ok());
+  auto built = buildDistanceVolume(scene, *tracer.value(), 64, 2);
+  ASSERT_TRUE(built.ok()) << built.error().message;
+  const FieldVolume& v = built.value();
+  ASSERT_EQ(v.bricks.size(), size_t(8) * 8 * 8);
+  size_t stored = 0, wrong = 0;
+  for (uint32_t c = 0; c < 8; ++c)
+    for (uint32_t b = 0; b < 8; ++b)
+      for (uint32_t a = 0; a < 8; ++a) {
+        bool band = false;
+        for (uint32_t k = 0; k < kVolumeBrickWords; ++k) {
+          const uint32_t w = volumeVoxel(v, 8 * a + k % 8, 8 * b + (k / 8) % 8, 8 * c + k / 64);
+          band = band || (w != volumeFarWord(true) && w != volumeFarWord(false));
+        }
+        const bool isStored = v.bricks[(size_t(c) * 8 + b) * 8 + a] < kVolumeBrickInside;
+        stored += isStored;
+        wrong += isStored != band;
+      }
+  std::printf("sphere grid 64^3: %zu of 512 bricks stored, %.2f MiB against %.2f dense\n", stored,
+              double(volumeGridBytes(v)) / 1048576.0, 4.0 * 64 * 64 * 64 / 1048576.0);
+  EXPECT_EQ(wrong, 0u);
+  EXPECT_EQ(v.brickVoxels.size(), stored * kVolumeBrickWords);
+  EXPECT_LT(stored, 400u);
 }
 
 // A baked sphere field, decoded where the engine decodes it (reference::decodeTexel at every sample
@@ -246,7 +269,8 @@ TEST(VolumeBake, TheSphereFieldFollowsSnell) {
   const std::vector<uint8_t> bytes = serializeField(f);
   auto parsed = parseField(bytes.data(), bytes.size(), "sphere.shrf");
   ASSERT_TRUE(parsed.ok()) << parsed.error().message;
-  EXPECT_EQ(parsed.value().volume.voxels, f.volume.voxels);
+  EXPECT_EQ(parsed.value().volume.bricks, f.volume.bricks);
+  EXPECT_EQ(parsed.value().volume.brickVoxels, f.volume.brickVoxels);
 }
 
 // BakeSettings::volumeDensify: the cube's edges change its paths faster than its texels resolve,

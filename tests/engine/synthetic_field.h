@@ -286,7 +286,7 @@ inline FieldVolume syntheticSphereVolume(const SyntheticFieldOptions& o) {
   v.spacing = 2.0f * o.radius / float(o.volumeSize - 5);
   for (int k = 0; k < 3; ++k) v.origin[size_t(k)] = o.center[size_t(k)] - 0.5f * float(o.volumeSize - 1) * v.spacing;
   const uint32_t n = o.volumeSize;
-  v.voxels.resize(size_t(n) * n * n);
+  std::vector<uint32_t> dense(size_t(n) * n * n);
   for (uint32_t z = 0; z < n; ++z)
     for (uint32_t y = 0; y < n; ++y)
       for (uint32_t x = 0; x < n; ++x) {
@@ -296,8 +296,9 @@ inline FieldVolume syntheticSphereVolume(const SyntheticFieldOptions& o) {
         const float r = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
         const std::array<float, 3> normal = r > 0.0f ? std::array<float, 3>{p[0] / r, p[1] / r, p[2] / r}
                                                      : std::array<float, 3>{0.0f, 0.0f, 1.0f};
-        v.voxels[(size_t(z) * n + y) * n + x] = packVolumeVoxel((r - o.radius) / v.spacing, normal);
+        dense[(size_t(z) * n + y) * n + x] = packVolumeVoxel((r - o.radius) / v.spacing, normal);
       }
+  setVolumeVoxels(v, dense);
   return v;
 }
 

@@ -295,8 +295,9 @@ TEST_P(FieldFormat, HeaderMatchesTheSpec) {
                                                                                // clustered, no indices, the
                                                                                // clusters asked for, no binary16
                                                                                // tables, the SH fit
-                            (4 + 12 + 4 + 8 + 4 + 4) +  // no volume: size 0, origin, spacing, no voxels,
-                                                        // the size asked, not tried
+                            (4 + 12 + 4 + 8 + 4 + 4 + 8 + 8) +  // no volume: size 0, origin, spacing, no
+                                                                // voxels, the size asked, not tried, no
+                                                                // bricks, no brick voxels
 
                             4;
   EXPECT_EQ(b.size(), expected);
@@ -997,6 +998,23 @@ INSTANTIATE_TEST_SUITE_P(Encodings, FieldEncodings,
 // Version 8: the Volume encoding (a grid at the end of ENCD, no coefficients).
 
 // makeField's atlas as a Volume field over an 8^3 grid of varied distance levels and normals.
+// A 12^3 grid, 2^3 bricks of which the last ones lie partly beyond it: voxels with x >= 8 beyond
+// the band outside, those with y >= 8 (and x < 8) beyond it inside, the others varied; its bricks
+// (1, *, *) are entries outside, (0, 1, *) inside, and (0, 0, 0) and (0, 0, 1) stored.
+constexpr uint32_t kVolumeFieldSize = 12;
+std::vector<uint32_t> volumeFieldVoxels() {
+  const uint32_t n = kVolumeFieldSize;
+  std::vector<uint32_t> dense;
+  for (uint32_t i = 0; i < n * n * n; ++i) {
+    const uint32_t x = i % n, y = (i / n) % n;
+    dense.push_back(x >= 8   ? volumeFarWord(false)
+                    : y >= 8 ? volumeFarWord(true)
+                             : packVolumeVoxel(4.0f * std::sin(0.7f * float(i)),
+                                               {std::cos(0.3f * float(i)), std::sin(0.3f * float(i)), 0.5f}));
+  }
+  return dense;
+}
+
 Field makeVolumeField(Quantization q, bool throughput) {
   Field f = makeField({4, q});
   f.encoding = f.settings.encoding = Encoding::Volume;
@@ -1010,12 +1028,10 @@ Field makeVolumeField(Quantization q, bool throughput) {
   f.settings.pathRule = PathRule::FirstRefraction;
   f.settings.tryVolume = q == Quantization::F16;  // chosen by a default bake, or asked for
   FieldVolume& v = f.volume;
-  v.size = f.settings.volumeSize = 8;
+  v.size = f.settings.volumeSize = kVolumeFieldSize;
   v.origin = {-1.25f, -0.5f, 0.75f};
   v.spacing = 0.375f;
-  for (uint32_t i = 0; i < 8 * 8 * 8; ++i)
-    v.voxels.push_back(packVolumeVoxel(4.0f * std::sin(0.7f * float(i)),
-                                       {std::cos(0.3f * float(i)), std::sin(0.3f * float(i)), 0.5f}));
+  setVolumeVoxels(v, volumeFieldVoxels());
   return f;
 }
 
@@ -1031,13 +1047,14 @@ TEST(FieldVolume, RoundTripIsExactAndEveryTruncationIsRejected) {
       const Field& g = parsed.value();
       expectSameField(f, g);
       EXPECT_EQ(g.encoding, Encoding::Volume);
-      EXPECT_EQ(g.volume.size, 8u);
-      EXPECT_EQ(g.settings.volumeSize, 8u);
+      EXPECT_EQ(g.volume.size, kVolumeFieldSize);
+      EXPECT_EQ(g.settings.volumeSize, kVolumeFieldSize);
       EXPECT_EQ(g.settings.tryVolume, f.settings.tryVolume);
       EXPECT_EQ(bits(std::vector<float>(g.volume.origin.begin(), g.volume.origin.end())),
                 bits(std::vector<float>(f.volume.origin.begin(), f.volume.origin.end())));
       EXPECT_EQ(bits(std::vector<float>{g.volume.spacing}), bits(std::vector<float>{f.volume.spacing}));
-      EXPECT_EQ(g.volume.voxels, f.volume.voxels);
+      EXPECT_EQ(g.volume.bricks, f.volume.bricks);
+      EXPECT_EQ(g.volume.brickVoxels, f.volume.brickVoxels);
       EXPECT_EQ(serializeField(g), bytes);
       for (size_t size = 0; size < bytes.size(); ++size) {
         const std::vector<uint8_t> cut(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(size));
@@ -1047,13 +1064,41 @@ TEST(FieldVolume, RoundTripIsExactAndEveryTruncationIsRejected) {
     }
 }
 
+// setVolumeVoxels keeps every voxel: a brick wholly of one far word becomes its entry (partial
+// bricks too, their voxels beyond the grid ignored), every other brick is stored in brick order.
+TEST(FieldVolume, BricksReadBackEveryVoxel) {
+  const std::vector<uint32_t> dense = volumeFieldVoxels();
+  FieldVolume v;
+  v.size = kVolumeFieldSize;
+  setVolumeVoxels(v, dense);
+  const uint32_t in = kVolumeBrickInside, out = kVolumeBrickOutside;
+  EXPECT_EQ(v.bricks, (std::vector<uint32_t>{0, out, in, out, 1, out, in, out}));
+  EXPECT_EQ(v.brickVoxels.size(), 2 * size_t(kVolumeBrickWords));
+  const uint32_t n = kVolumeFieldSize;
+  size_t wrong = 0;
+  for (uint32_t z = 0; z < n; ++z)
+    for (uint32_t y = 0; y < n; ++y)
+      for (uint32_t x = 0; x < n; ++x) wrong += volumeVoxel(v, x, y, z) != dense[(size_t(z) * n + y) * n + x];
+  EXPECT_EQ(wrong, 0u);
+  EXPECT_EQ(volumeGridBytes(v), 4 * (8 + 2 * uint64_t(kVolumeBrickWords)));
+  // One varied voxel keeps its brick: the far outside brick (1, 0, 0) is stored once it differs.
+  std::vector<uint32_t> touched = dense;
+  touched[(size_t(3) * n + 2) * n + 9] = packVolumeVoxel(3.5f, {0.0f, 0.0f, 1.0f});
+  setVolumeVoxels(v, touched);
+  EXPECT_EQ(v.bricks[1], 1u);
+  EXPECT_EQ(v.brickVoxels.size(), 3 * size_t(kVolumeBrickWords));
+  EXPECT_EQ(volumeVoxel(v, 9, 2, 3), touched[(size_t(3) * n + 2) * n + 9]);
+}
+
 // What the trace reads is bounded: a grid of the right size, within the band, finite and
 // not degenerate, two media, a bounded bounce cap; and only a Volume field has a grid.
 TEST(FieldVolume, BrokenVolumesAreRejected) {
   const std::vector<std::pair<std::string, std::function<void(Field&)>>> cases = {
       {"volume size 4", [](Field& f) { f.volume.size = f.settings.volumeSize = 4; }},
-      {"volume has 511 voxels", [](Field& f) { f.volume.voxels.pop_back(); }},
-      {"distance level 4095", [](Field& f) { f.volume.voxels[7] |= 0xfffu; }},
+      {"volume has 7 bricks, expected 2^3", [](Field& f) { f.volume.bricks.pop_back(); }},
+      {"not a whole number of 512-voxel bricks", [](Field& f) { f.volume.brickVoxels.pop_back(); }},
+      {"brick 0 refers to stored brick 2 of 2", [](Field& f) { f.volume.bricks[0] = 2; }},
+      {"distance level 255", [](Field& f) { f.volume.brickVoxels[7] |= 0xffu; }},
       {"volume spacing", [](Field& f) { f.volume.spacing = 0.0f; }},
       {"volume spacing", [](Field& f) { f.volume.spacing = std::numeric_limits<float>::quiet_NaN(); }},
       {"volume spacing", [](Field& f) { f.volume.spacing = 1e-30f; }},
@@ -1195,8 +1240,11 @@ constexpr uint64_t kClusteredBytes = 4 + 8 + 4 + 8;
 // What version 7 appends after them: how an SH field was fitted.
 constexpr uint64_t kShFitBytes = 4;
 // What version 8 appends after it for a field that is not a Volume field: the grid's size, origin
-// and spacing, an empty array of voxels, the size asked for and whether the volume was tried.
-constexpr uint64_t kVolumeBytes = 4 + 12 + 4 + 8 + 4 + 4;
+// and spacing, an empty array of voxels, the size asked for and whether the volume was tried; and
+// what version 9 appends after them: empty arrays of bricks and of their voxels.
+constexpr uint64_t kVolumeV8Bytes = 4 + 12 + 4 + 8 + 4 + 4;
+constexpr uint64_t kBrickBytes = 8 + 8;
+constexpr uint64_t kVolumeBytes = kVolumeV8Bytes + kBrickBytes;
 
 // A clustered field's tables are binary16 at the end of ENCD and its f32 basis is empty; a file
 // that says clustered beside an f32 basis is refused, and so is a non-clustered one's flag set.
@@ -1258,6 +1306,98 @@ TEST(FieldVersion7, StillReadWithoutAVolume) {
   putU32(b, 4, 8);
   resign(b);
   EXPECT_FALSE(parse(b, "v7.shrf").ok());
+}
+
+// The bytes of a version 8 file of `f`: ENCD's volume dense (`dense`, N^3 words or none) in place
+// of version 9's empty array, without the bricks after it.
+std::vector<uint8_t> asVersion8(const Field& f, const std::vector<uint32_t>& dense) {
+  std::vector<uint8_t> b = serializeField(f);
+  const size_t encd = sectionPayload(b, "ENCD");
+  const uint64_t length = getU64(b, encd - 8);
+  const uint64_t bricks = 8 + 4 * (f.volume.bricks.size() + f.volume.brickVoxels.size()) + 8;
+  const size_t end = encd + length, denseAt = size_t(end - bricks - 8 - 8);  // its count, then the two u32
+  EXPECT_EQ(getU64(b, denseAt), 0u);
+  b.erase(b.begin() + static_cast<std::ptrdiff_t>(end - bricks), b.begin() + static_cast<std::ptrdiff_t>(end));
+  std::vector<uint8_t> words(8 + 4 * dense.size());
+  for (size_t k = 0; k < 8; ++k) words[k] = uint8_t(uint64_t(dense.size()) >> (8 * k));
+  for (size_t i = 0; i < dense.size(); ++i)
+    for (size_t k = 0; k < 4; ++k) words[8 + 4 * i + k] = uint8_t(dense[i] >> (8 * k));
+  b.erase(b.begin() + static_cast<std::ptrdiff_t>(denseAt), b.begin() + static_cast<std::ptrdiff_t>(denseAt + 8));
+  b.insert(b.begin() + static_cast<std::ptrdiff_t>(denseAt), words.begin(), words.end());
+  putU64(b, encd - 8, length - bricks - 8 + words.size());
+  putU32(b, 4, 8);
+  putU64(b, 8, b.size());
+  resign(b);
+  return b;
+}
+
+// A version 8 voxel word: 12 distance bits over +-kVolumeBandVoxels, then 10 bits each of the
+// normal's octahedral coordinates (the zero vector at the levels' middle).
+uint32_t version8Word(float d, std::array<float, 3> n) {
+  const float l1 = std::fabs(n[0]) + std::fabs(n[1]) + std::fabs(n[2]);
+  float px = l1 > 0.0f ? n[0] / l1 : 0.0f, py = l1 > 0.0f ? n[1] / l1 : 0.0f;
+  if (l1 > 0.0f && n[2] < 0.0f) {
+    const float fx = (1.0f - std::fabs(py)) * (px >= 0.0f ? 1.0f : -1.0f);
+    py = (1.0f - std::fabs(px)) * (py >= 0.0f ? 1.0f : -1.0f);
+    px = fx;
+  }
+  const auto level = [](float p) { return uint32_t(std::lround(p * 511.0f + 511.0f)); };
+  return uint32_t(std::lround(std::clamp(d, -4.0f, 4.0f) / 4.0f * 2047.0f + 2047.0f)) | (level(px) << 12) |
+         (level(py) << 22);
+}
+
+// A version 8 grid is dense in the 12-and-10-bit word: it reads into this version's word and
+// bricks (its far voxels entries again, the others within the two layouts' steps), and a wrong
+// count of voxels is refused. Version 9 stores bricks only: a dense array there is refused.
+TEST(FieldVersion8, ADenseGridIsReadIntoBricks) {
+  const Field f = makeVolumeField(Quantization::U8, false);
+  const uint32_t n = kVolumeFieldSize;
+  std::vector<uint32_t> old;
+  std::vector<float> distance;
+  std::vector<std::array<float, 3>> normal;
+  for (uint32_t i = 0; i < n * n * n; ++i) {
+    const uint32_t x = i % n, y = (i / n) % n;
+    const float d = x >= 8 ? 4.0f : y >= 8 ? -4.0f : 4.0f * std::sin(0.7f * float(i));
+    const std::array<float, 3> u = x >= 8 || y >= 8 ? std::array<float, 3>{0.0f, 0.0f, 0.0f}
+                                                    : std::array<float, 3>{std::cos(0.3f * float(i)),
+                                                                           std::sin(0.3f * float(i)), 0.5f};
+    distance.push_back(d);
+    normal.push_back(u);
+    old.push_back(version8Word(d, u));
+  }
+  const Result<Field> r = parse(asVersion8(f, old), "v8.shrf");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  expectSameField(f, r.value());
+  const FieldVolume& v = r.value().volume;
+  EXPECT_EQ(v.bricks, f.volume.bricks);
+  double worstDistance = 0.0, worstNormal = 0.0;
+  for (uint32_t i = 0; i < n * n * n; ++i) {
+    const uint32_t word = volumeVoxel(v, i % n, (i / n) % n, i / (n * n));
+    const float d = (float(word & 0xffu) - 127.0f) * (4.0f / 127.0f);
+    worstDistance = std::max(worstDistance, double(std::fabs(d - distance[i])));
+    const std::array<float, 3>& u = normal[i];
+    if (u[0] == 0.0f && u[1] == 0.0f && u[2] == 0.0f) continue;
+    const std::array<float, 3> back = unpackVolumeNormal(word);
+    const float len = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    const float c = (back[0] * u[0] + back[1] * u[1] + back[2] * u[2]) / len;
+    worstNormal = std::max(worstNormal, std::acos(std::min(1.0, double(c))) * 180.0 / 3.14159265358979);
+  }
+  EXPECT_LE(worstDistance, 2.0 / 127.0 + 2.0 / 2047.0 + 1e-6);  // half of each layout's step
+  EXPECT_LT(worstNormal, 0.3);                                 // version 8's 10 bits: at most 0.232 deg
+  std::vector<uint32_t> short_ = old;
+  short_.pop_back();
+  const Result<Field> cut = parse(asVersion8(f, short_), "v8.shrf");
+  ASSERT_FALSE(cut.ok());
+  EXPECT_TRUE(contains(cut.error().message, "volume has 1727 voxels, expected 12^3")) << cut.error().message;
+  std::vector<uint8_t> nine = asVersion8(f, old);
+  putU32(nine, 4, 9);
+  resign(nine);
+  EXPECT_FALSE(parse(nine, "v9.shrf").ok());
+  // A field without a grid: version 8 is version 9 without the two empty arrays at the end.
+  const Field sh = makeField({4, Quantization::U8});
+  const Result<Field> plain = parse(withShorterEncoding(sh, kBrickBytes, 8), "v8.shrf");
+  ASSERT_TRUE(plain.ok()) << plain.error().message;
+  expectSameField(sh, plain.value());
 }
 
 TEST(FieldVersion5, StillReadUnclustered) {

@@ -193,15 +193,16 @@ Result<FieldVolume> buildDistanceVolume(const Scene& scene, const Tracer& tracer
   v.size = size;
   v.origin = {g.origin.x, g.origin.y, g.origin.z};
   v.spacing = g.spacing;
-  v.voxels.assign(band.distance.size(), 0u);
+  std::vector<uint32_t> words(band.distance.size(), 0u);
   parallelFor(band.distance.size(), threads, [&](size_t i) {
     const uint32_t x = uint32_t(i % size), y = uint32_t((i / size) % size), z = uint32_t(i / (size_t(size) * size));
     const bool inBand = std::isfinite(band.distance[i]);
     const bool inside = inBand ? insideByRay(tracer, g.centre(x, y, z)) : regionInside[regions.of[i]] != 0;
     const float d = inBand ? band.distance[i] : kVolumeBandVoxels;
     const glm::vec3 n = band.normal[i];
-    v.voxels[i] = packVolumeVoxel(inside ? -d : d, {n.x, n.y, n.z});
+    words[i] = packVolumeVoxel(inside ? -d : d, {n.x, n.y, n.z});  // volumeFarWord beyond the band
   });
+  setVolumeVoxels(v, words);
   return v;
 }
 

@@ -33,8 +33,9 @@ namespace shrefract {
 
 // 1: SH only, no throughput; 2: adds ENCD; 3: adds the direction sampling; 4: adds the jump
 // distance channel; 5: adds exits stored in the sample's frame; 6: adds clustered Pca fields, one
-// function index per sample; 7: adds how an SH field was fitted (1 to 6 still read).
-inline constexpr uint32_t kFieldFormatVersion = 8;
+// function index per sample; 7: adds how an SH field was fitted; 8: adds the Volume encoding's
+// grid, dense; 9: stores that grid in bricks (1 to 8 still read).
+inline constexpr uint32_t kFieldFormatVersion = 9;
 
 // Largest magnitude of a decoded coefficient (validateField, encodeCoefficients). With at most
 // 1089 basis functions (order 32) the sum of |Y_i| is at most 1089 / sqrt(4 pi) = 307, so every
@@ -140,30 +141,44 @@ struct JumpCosines {
 };
 JumpCosines jumpCosines(uint32_t n);
 
-// Voxels per side of a Volume field's grid: 8 to 256 (256^3 words are 64 MiB, half of lavapipe's
-// maxStorageBufferRange), and the default of the tool (the bunny's exits at 128^3 render within
+// Voxels per side of a Volume field's grid: 8 to 512 (in bricks the bunny's 512^3 is 43 MiB; a grid
+// over the device's buffer limits is refused at upload), and the default of the tool (the bunny's exits at 128^3 render within
 // 0.8 dB of exact paths at its sample texels, docs/encodings.md "Volume").
 inline constexpr uint32_t kMinVolumeSize = 8;
-inline constexpr uint32_t kMaxVolumeSize = 256;
+inline constexpr uint32_t kMaxVolumeSize = 512;
 inline constexpr uint32_t kDefaultVolumeSize = 128;
 
 // A Volume field's grid: N^3 voxels, voxel (i, j, k) centred at origin + (i, j, k) * spacing
-// (object space), index (k * N + j) * N + i. Each voxel is one 32-bit word (packVolumeVoxel): bits
-// 0..11 the signed distance from its centre to the object's surface in voxels (negative inside the
-// medium; 4095 levels over +-kVolumeBandVoxels, 0 exact; beyond the band the band's end with its
-// sign), bits 12..21 and 22..31 the unit normal of the nearest surface point, octahedral (1023
-// levels over [-1, 1] a coordinate, 0 and +-1 exact; gpu_layout.h kVolumeDistanceZero and
-// kVolumeNormalZero). Decoded by trilinear interpolation of the 8 voxels around a point (the
-// distance; the normals of the corners that face the nearest one's way, then normalized).
-// Mirrored by decompress_volume.comp.
+// (object space). Each voxel is one 32-bit word (packVolumeVoxel): bits 0..7 the signed distance
+// from its centre to the object's surface in voxels (negative inside the medium; 255 levels over
+// +-kVolumeBandVoxels, 0 exact; beyond the band the band's end with its sign), bits 8..19 and
+// 20..31 the unit normal of the nearest surface point, octahedral (4095 levels over [-1, 1] a
+// coordinate, 0 and +-1 exact; gpu_layout.h kVolumeDistanceZero and kVolumeNormalZero). The
+// normal has the bits: version 8's 12 distance bits and 10 a coordinate read the bunny's 256^3
+// traced views 17.08 dB, 8 and 12 read 17.41, 12 and 9 read 16.30 (docs/encodings.md, "Bricks"). Decoded
+// by trilinear interpolation of the 8 voxels around a point (the distance; the normals of the
+// corners that face the nearest one's way, then normalized). Mirrored by decompress_volume.comp.
+//
+// Stored in bricks of kVolumeBrickSide^3 voxels: only the bricks the band reaches hold words.
+// Beyond the band a voxel holds nothing but its side (volumeFarWord), so a brick wholly beyond it
+// is an entry, not 512 words; a dense grid of the bunny at 256^3 would be 64 MiB, over the paper's
+// budget (docs/encodings.md, "Bricks").
 inline constexpr float kVolumeBandVoxels = 4.0f;  // gpu_layout.h kVolumeBandVoxels
+inline constexpr uint32_t kVolumeBrickSide = 8;   // gpu_layout.h kVolumeBrickSide
+inline constexpr uint32_t kVolumeBrickWords = kVolumeBrickSide * kVolumeBrickSide * kVolumeBrickSide;
+inline constexpr uint32_t kVolumeBrickInside = 0xfffffffeu;   // gpu_layout.h: a brick beyond the band, inside
+inline constexpr uint32_t kVolumeBrickOutside = 0xffffffffu;  // and outside
 // The bounce cap (BakeSettings::maxBounces) a Volume field may ask its decode to trace.
 inline constexpr uint32_t kMaxVolumeBounces = 1024;
 struct FieldVolume {
   uint32_t size = 0;  // N; 0 for the other encodings
   std::array<float, 3> origin{0.0f, 0.0f, 0.0f};
   float spacing = 0.0f;
-  std::vector<uint32_t> voxels;  // N^3 words
+  // Per brick (volumeBricksPerSide(N)^3 of them, brick (a, b, c) at (c * B + b) * B + a), the index
+  // of its words in brickVoxels (kVolumeBrickWords each, voxel (x, y, z) of the brick at
+  // (z * 8 + y) * 8 + x), or kVolumeBrickInside / kVolumeBrickOutside. Set by setVolumeVoxels.
+  std::vector<uint32_t> bricks;
+  std::vector<uint32_t> brickVoxels;
   // No straight way out meets the object again (meshIsConvex of the field's mesh): the trace stops
   // at the first way out instead of marching it to the grid's box, which cost convex objects 1.2x
   // the frame for nothing (docs/encodings.md, "Convex objects stop at the first way out"). Not
@@ -171,6 +186,32 @@ struct FieldVolume {
   // which costs time, never a path.
   bool convex = false;
 };
+
+// Bricks per side of an N^3 grid: N / kVolumeBrickSide, rounded up (the last ones partly outside
+// the grid; their voxels beyond it are never read).
+inline uint32_t volumeBricksPerSide(uint32_t n) { return (n + kVolumeBrickSide - 1) / kVolumeBrickSide; }
+
+// The word of a voxel beyond the band on the `inside` side or the other: the band's end, and the
+// normal's levels at 0 (packVolumeVoxel of +-kVolumeBandVoxels and the zero vector).
+inline uint32_t volumeFarWord(bool inside) { return (inside ? 0u : 254u) | (2047u << 8) | (2047u << 20); }
+
+// Voxel (x, y, z) of the grid, each < N (volume.size).
+inline uint32_t volumeVoxel(const FieldVolume& v, uint32_t x, uint32_t y, uint32_t z) {
+  const uint32_t per = volumeBricksPerSide(v.size), s = kVolumeBrickSide;
+  const uint32_t entry = v.bricks[(size_t(z / s) * per + y / s) * per + x / s];
+  if (entry >= kVolumeBrickInside) return volumeFarWord(entry == kVolumeBrickInside);
+  return v.brickVoxels[size_t(entry) * kVolumeBrickWords + ((z % s) * s + y % s) * s + x % s];
+}
+
+// Stores `dense` (N^3 words, voxel (x, y, z) at (z * N + y) * N + x; N = v.size) as v's bricks: a
+// brick whose every voxel within the grid is one far word becomes its entry; the others are
+// stored in brick order. volumeVoxel then reads every voxel back exactly.
+void setVolumeVoxels(FieldVolume& v, const std::vector<uint32_t>& dense);
+
+// The grid's bytes as stored and uploaded: its entries and its stored bricks' words.
+inline uint64_t volumeGridBytes(const FieldVolume& v) {
+  return 4 * (uint64_t(v.bricks.size()) + uint64_t(v.brickVoxels.size()));
+}
 
 struct FieldMedium {
   std::string name;
@@ -407,10 +448,13 @@ void evaluateCoefficients(const EncodingShape& shape, const float* coefficients,
                           float* eyeJump = nullptr);
 
 // A Volume field's voxel word (FieldVolume) from a signed distance in voxels (clamped to
-// +-kVolumeBandVoxels, rounded to its level) and a unit normal (octahedral, 10 bits a coordinate),
+// +-kVolumeBandVoxels, rounded to its level) and a unit normal (octahedral, 12 bits a coordinate),
 // and the unit normal back from a word.
 uint32_t packVolumeVoxel(float distanceVoxels, const std::array<float, 3>& normal);
 std::array<float, 3> unpackVolumeNormal(uint32_t word);
+// A version 8 file's voxel word (12 distance bits, 10 a normal coordinate) in this layout, its far
+// words far words again.
+uint32_t volumeVoxelFromVersion8(uint32_t word);
 // Whether every vertex of `mesh` lies on or behind every triangle's plane (within 1e-5 of its
 // extent, each plane facing the way its vertex normals do): the mesh then bounds one convex body,
 // which a straight ray leaving it never meets again (two convex parts fail: each lies in front of

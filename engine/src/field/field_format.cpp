@@ -473,15 +473,30 @@ void readMesh(SectionReader& r, FieldMesh& mesh) {
 // before it; the settings record what the field has), version 5 the frame of the exits (object
 // space before it), version 6 whether a Pca field is clustered, its samples' indices and the
 // clusters the bake was asked for, version 7 how an SH field was fitted (least squares before it).
-// ENCD version 8: a Volume field's grid (FieldVolume; size 0 and no voxels for the other encodings).
-void readVolume(SectionReader& r, Field& field) {
+// ENCD version 8: a Volume field's grid (FieldVolume; size 0 and no voxels for the other encodings),
+// its N^3 voxel words dense. Version 9 leaves that array empty and appends the grid's bricks
+// (FieldVolume::bricks, then brickVoxels) in a word of 8 distance bits and 12 a normal coordinate
+// (field.h); a version 8 grid's words (12 and 10) are read into that word and into bricks.
+void readVolume(SectionReader& r, Field& field, uint32_t version) {
   FieldVolume& v = field.volume;
   v.size = r.u32("volume.size");
   for (int k = 0; k < 3; ++k) v.origin[k] = r.f32("volume.origin");
   v.spacing = r.f32("volume.spacing");
-  r.arrayU32(v.voxels, "volume voxels");
+  std::vector<uint32_t> dense;
+  r.arrayU32(dense, "volume voxels");
   field.settings.volumeSize = r.u32("settings.volumeSize");
   field.settings.tryVolume = r.u32("settings.tryVolume") != 0;
+  if (version >= 9) {
+    r.arrayU32(v.bricks, "volume bricks");
+    r.arrayU32(v.brickVoxels, "volume brick voxels");
+    if (!dense.empty()) r.fail("a version 9 volume has " + std::to_string(dense.size()) + " dense voxels; it stores bricks");
+    return;
+  }
+  if (dense.empty() || r.failed()) return;  // no grid: validateVolume names what is missing
+  if (v.size < kMinVolumeSize || v.size > kMaxVolumeSize || dense.size() != uint64_t(v.size) * v.size * v.size)
+    return r.fail("volume has " + std::to_string(dense.size()) + " voxels, expected " + std::to_string(v.size) + "^3");
+  for (uint32_t& w : dense) w = volumeVoxelFromVersion8(w);
+  setVolumeVoxels(v, dense);
 }
 
 void writeVolume(ByteWriter& w, const Field& field) {
@@ -489,9 +504,11 @@ void writeVolume(ByteWriter& w, const Field& field) {
   w.u32(v.size);
   for (float o : v.origin) w.f32(o);
   w.f32(v.spacing);
-  w.arrayU32(v.voxels);
+  w.arrayU32({});  // version 8's dense voxels
   w.u32(field.settings.volumeSize);
   w.u32(field.settings.tryVolume ? 1u : 0u);
+  w.arrayU32(v.bricks);
+  w.arrayU32(v.brickVoxels);
 }
 
 void readEncoding(SectionReader& r, Field& field, uint32_t version) {
@@ -521,7 +538,7 @@ void readEncoding(SectionReader& r, Field& field, uint32_t version) {
   std::vector<uint16_t> tables;
   r.arrayU16(tables, "cluster tables");
   if (version >= 7) s.shFit = static_cast<ShFit>(r.u32("settings.shFit"));
-  if (version >= 8) readVolume(r, field);
+  if (version >= 8) readVolume(r, field, version);
   if (field.clustered && !field.basis.empty()) return r.fail("a clustered field has an f32 basis (its tables are binary16)");
   if (!field.clustered && !tables.empty()) return r.fail("cluster tables are stored, but the field is not clustered");
   if (!field.clustered) return;
@@ -598,20 +615,29 @@ Result<void> validateVolume(const Field& field) {
   if (v.size < kMinVolumeSize || v.size > kMaxVolumeSize)
     return invalid("volume size " + std::to_string(v.size) + " is outside " + std::to_string(kMinVolumeSize) + ".." +
                    std::to_string(kMaxVolumeSize));
-  if (v.voxels.size() != uint64_t(v.size) * v.size * v.size)
-    return invalid("volume has " + std::to_string(v.voxels.size()) + " voxels, expected " + std::to_string(v.size) +
-                   "^3");
+  const uint64_t per = volumeBricksPerSide(v.size), stored = v.brickVoxels.size() / kVolumeBrickWords;
+  if (v.bricks.size() != per * per * per)
+    return invalid("volume has " + std::to_string(v.bricks.size()) + " bricks, expected " + std::to_string(per) +
+                   "^3 for " + std::to_string(v.size) + "^3 voxels");
+  if (v.brickVoxels.size() % kVolumeBrickWords != 0)
+    return invalid("volume has " + std::to_string(v.brickVoxels.size()) + " brick voxels, not a whole number of " +
+                   std::to_string(kVolumeBrickWords) + "-voxel bricks");
+  for (size_t i = 0; i < v.bricks.size(); ++i)
+    if (v.bricks[i] < kVolumeBrickInside && v.bricks[i] >= stored)
+      return invalid("volume brick " + std::to_string(i) + " refers to stored brick " + std::to_string(v.bricks[i]) +
+                     " of " + std::to_string(stored));
   // Within 1e-15..1e15: points within kMaxFrameMagnitude of the origin stay finite in voxels.
   if (!(std::isfinite(v.spacing) && v.spacing >= 1e-15f && v.spacing <= kMaxFrameMagnitude))
     return invalid("volume spacing " + formatFloat(v.spacing) + " is not within 1e-15..1e15");
   for (float o : v.origin)
     if (!(std::fabs(o) <= kMaxFrameMagnitude))
       return invalid("volume origin " + formatFloat(o) + " is not finite or beyond +-" + formatFloat(kMaxFrameMagnitude));
-  // A distance level beyond the band's end (4094) would read beyond it.
-  for (size_t i = 0; i < v.voxels.size(); ++i)
-    if ((v.voxels[i] & 0xfffu) > 2 * gpu::kVolumeDistanceZero)
-      return invalid("volume voxel " + std::to_string(i) + " has distance level " + std::to_string(v.voxels[i] & 0xfffu) +
-                     ", beyond the band's " + std::to_string(2 * gpu::kVolumeDistanceZero));
+  // A distance level beyond the band's end (254) would read beyond it.
+  for (size_t i = 0; i < v.brickVoxels.size(); ++i)
+    if ((v.brickVoxels[i] & gpu::kVolumeDistanceMask) > 2 * gpu::kVolumeDistanceZero)
+      return invalid("volume brick voxel " + std::to_string(i) + " has distance level " +
+                     std::to_string(v.brickVoxels[i] & gpu::kVolumeDistanceMask) + ", beyond the band's " +
+                     std::to_string(2 * gpu::kVolumeDistanceZero));
   if (field.media.size() != 2)
     return invalid("a volume field has " + std::to_string(field.media.size()) +
                    " media, expected 2 (the surrounding one and the object's)");
@@ -660,7 +686,8 @@ Result<void> validateEncoding(const Field& field) {
       return invalid("encoding " + std::to_string(static_cast<uint32_t>(field.encoding)) +
                      " is not sh (0), table (1), pca (2) or volume (3)");
   }
-  if (field.encoding != Encoding::Volume && (field.volume.size != 0 || !field.volume.voxels.empty()))
+  if (field.encoding != Encoding::Volume && (field.volume.size != 0 || !field.volume.bricks.empty() ||
+                                              !field.volume.brickVoxels.empty()))
     return invalid(std::string("a ") + toString(field.encoding) + " field has a volume grid");
   if (field.settings.tryVolume && field.encoding != Encoding::Pca && field.encoding != Encoding::Volume)
     return invalid(std::string("settings.tryVolume is set on a ") + toString(field.encoding) +

@@ -15,6 +15,12 @@
 namespace shrefract {
 
 static_assert(kVolumeBandVoxels == gpu::kVolumeBandVoxels, "field.h and gpu_layout.h must agree on the band");
+static_assert(kVolumeBrickSide == gpu::kVolumeBrickSide && kVolumeBrickWords == gpu::kVolumeBrickWords &&
+                  kVolumeBrickInside == gpu::kVolumeBrickInside && kVolumeBrickOutside == gpu::kVolumeBrickOutside,
+              "field.h and gpu_layout.h must agree on the bricks");
+static_assert(gpu::kVolumeDistanceZero == 127u && gpu::kVolumeNormalZero == 2047u && gpu::kVolumeNormalShiftX == 8u &&
+                  gpu::kVolumeNormalShiftY == 20u,
+              "volumeFarWord's levels");
 
 namespace {
 
@@ -29,8 +35,11 @@ V3 normalized(V3 a) {
 // The 8 voxels around grid point g (voxel units, voxel centres at integers), clamped to the grid,
 // and their trilinear weights.
 struct Corners {
-  uint32_t index[8];
+  uint32_t x0, y0, z0;  // corner k is (x0, y0, z0) + (k & 1, (k >> 1) & 1, k >> 2)
   float weight[8];
+  uint32_t word(const FieldVolume& v, uint32_t k) const {
+    return volumeVoxel(v, x0 + (k & 1u), y0 + ((k >> 1) & 1u), z0 + (k >> 2));
+  }
 };
 
 Corners cornersAt(uint32_t n, V3 g) {
@@ -39,23 +48,22 @@ Corners cornersAt(uint32_t n, V3 g) {
   const uint32_t x0 = std::min(uint32_t(g.x), n - 2), y0 = std::min(uint32_t(g.y), n - 2),
                  z0 = std::min(uint32_t(g.z), n - 2);
   const float fx = g.x - float(x0), fy = g.y - float(y0), fz = g.z - float(z0);
-  Corners c{};
+  Corners c{x0, y0, z0, {}};
   for (uint32_t k = 0; k < 8; ++k) {
     const uint32_t dx = k & 1u, dy = (k >> 1) & 1u, dz = (k >> 2) & 1u;
-    c.index[k] = ((z0 + dz) * n + (y0 + dy)) * n + (x0 + dx);
     c.weight[k] = (dx ? fx : 1.0f - fx) * (dy ? fy : 1.0f - fy) * (dz ? fz : 1.0f - fz);
   }
   return c;
 }
 
 float voxelDistance(uint32_t word) {
-  return (float(word & 0xfffu) - float(gpu::kVolumeDistanceZero)) * (kVolumeBandVoxels / float(gpu::kVolumeDistanceZero));
+  return (float(word & gpu::kVolumeDistanceMask) - float(gpu::kVolumeDistanceZero)) * (kVolumeBandVoxels / float(gpu::kVolumeDistanceZero));
 }
 
 float distanceAt(const FieldVolume& v, V3 g) {
   const Corners c = cornersAt(v.size, g);
   float d = 0.0f;
-  for (uint32_t k = 0; k < 8; ++k) d += c.weight[k] * voxelDistance(v.voxels[c.index[k]]);
+  for (uint32_t k = 0; k < 8; ++k) d += c.weight[k] * voxelDistance(c.word(v, k));
   return d;
 }
 
@@ -67,7 +75,7 @@ V3 normalAt(const FieldVolume& v, V3 g) {
   V3 u[8];
   uint32_t nearest = 0;
   for (uint32_t k = 0; k < 8; ++k) {
-    const std::array<float, 3> a = unpackVolumeNormal(v.voxels[c.index[k]]);
+    const std::array<float, 3> a = unpackVolumeNormal(c.word(v, k));
     u[k] = {a[0], a[1], a[2]};
     if (c.weight[k] > c.weight[nearest]) nearest = k;
   }
@@ -141,21 +149,65 @@ uint32_t packVolumeVoxel(float distanceVoxels, const std::array<float, 3>& norma
   const float zero = float(gpu::kVolumeDistanceZero), nzero = float(gpu::kVolumeNormalZero);
   const uint32_t q = uint32_t(std::lround(d / kVolumeBandVoxels * zero + zero));
   auto level = [&](float p) { return uint32_t(std::lround(std::clamp(p * nzero + nzero, 0.0f, 2.0f * nzero))); };
-  return q | (level(px) << 12) | (level(py) << 22);
+  return q | (level(px) << gpu::kVolumeNormalShiftX) | (level(py) << gpu::kVolumeNormalShiftY);
 }
 
-std::array<float, 3> unpackVolumeNormal(uint32_t word) {
-  const float nzero = float(gpu::kVolumeNormalZero);
-  const float px = std::min((float((word >> 12) & 0x3ffu) - nzero) / nzero, 1.0f);
-  const float py = std::min((float((word >> 22) & 0x3ffu) - nzero) / nzero, 1.0f);
+namespace {
+
+// The unit normal of octahedral coordinates (px, py), each in [-1, 1].
+V3 unfoldOctahedral(float px, float py) {
   V3 n{px, py, 1.0f - std::fabs(px) - std::fabs(py)};
   if (n.z < 0.0f) {
     const float x = n.x;
     n.x = (1.0f - std::fabs(n.y)) * (x >= 0.0f ? 1.0f : -1.0f);
     n.y = (1.0f - std::fabs(x)) * (n.y >= 0.0f ? 1.0f : -1.0f);
   }
-  n = normalized(n);
+  return normalized(n);
+}
+
+}  // namespace
+
+std::array<float, 3> unpackVolumeNormal(uint32_t word) {
+  const float nzero = float(gpu::kVolumeNormalZero);
+  const float px = std::min((float((word >> gpu::kVolumeNormalShiftX) & gpu::kVolumeNormalMask) - nzero) / nzero, 1.0f);
+  const float py = std::min((float((word >> gpu::kVolumeNormalShiftY) & gpu::kVolumeNormalMask) - nzero) / nzero, 1.0f);
+  const V3 n = unfoldOctahedral(px, py);
   return {n.x, n.y, n.z};
+}
+
+uint32_t volumeVoxelFromVersion8(uint32_t word) {
+  const float d = (float(word & 0xfffu) - 2047.0f) * (kVolumeBandVoxels / 2047.0f);
+  const float px = std::min((float((word >> 12) & 0x3ffu) - 511.0f) / 511.0f, 1.0f);
+  const float py = std::min((float((word >> 22) & 0x3ffu) - 511.0f) / 511.0f, 1.0f);
+  // The middle levels are +z (the far words' zero normal packs there too): far words stay far.
+  const V3 n = unfoldOctahedral(px, py);
+  return packVolumeVoxel(d, {n.x, n.y, n.z});
+}
+
+void setVolumeVoxels(FieldVolume& v, const std::vector<uint32_t>& dense) {
+  const uint32_t n = v.size, per = volumeBricksPerSide(n), s = kVolumeBrickSide;
+  v.bricks.assign(size_t(per) * per * per, 0u);
+  v.brickVoxels.clear();
+  std::vector<uint32_t> words(kVolumeBrickWords);
+  for (uint32_t c = 0; c < per; ++c)
+    for (uint32_t b = 0; b < per; ++b)
+      for (uint32_t a = 0; a < per; ++a) {
+        // Voxels beyond the grid (a partial brick's) read as the brick's first voxel, so they
+        // neither keep a far brick from being an entry nor are ever read.
+        const uint32_t first = dense[(size_t(c * s) * n + b * s) * n + a * s];
+        for (uint32_t k = 0; k < kVolumeBrickWords; ++k) {
+          const uint32_t x = a * s + k % s, y = b * s + (k / s) % s, z = c * s + k / (s * s);
+          words[k] = x < n && y < n && z < n ? dense[(size_t(z) * n + y) * n + x] : first;
+        }
+        const bool uniform = std::all_of(words.begin(), words.end(), [&](uint32_t w) { return w == first; });
+        uint32_t& entry = v.bricks[(size_t(c) * per + b) * per + a];
+        if (uniform && first == volumeFarWord(true)) entry = kVolumeBrickInside;
+        else if (uniform && first == volumeFarWord(false)) entry = kVolumeBrickOutside;
+        else {
+          entry = uint32_t(v.brickVoxels.size() / kVolumeBrickWords);
+          v.brickVoxels.insert(v.brickVoxels.end(), words.begin(), words.end());
+        }
+      }
 }
 
 bool meshIsConvex(const FieldMesh& mesh) {

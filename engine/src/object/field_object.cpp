@@ -149,7 +149,7 @@ Result<FieldBufferSizes> fieldBufferSizes(const Field& field, uint64_t samples, 
   sizes.frames = std::max<VkDeviceSize>(VkDeviceSize(samples) * 12 * sizeof(float), 16);
   sizes.basis = std::max<VkDeviceSize>((VkDeviceSize(field.basis.size()) * field.basisValueBytes() + 3) / 4 * 4, 16);
   if (field.encoding == Encoding::Volume)
-    sizes.basis = sizeof(gpu::VolumeHeader) + VkDeviceSize(field.volume.voxels.size()) * sizeof(uint32_t);
+    sizes.basis = sizeof(gpu::VolumeHeader) + volumeGridBytes(field.volume);
   if (sizes.coefficientsStorage && sizes.coefficients > limits.maxStorageBufferRange)
     return tooBig("coefficients", sizes.coefficients,
                   std::max<VkDeviceSize>(VkDeviceSize(limits.maxTexelBufferElements) * sizeof(uint32_t),
@@ -412,7 +412,7 @@ void describeField(const Field& field, uint32_t sampleCount, const FieldBufferSi
 }
 
 // The small buffers' contents on the host, kept until their uploads are recorded.
-// A Volume field's basis binding (gpu_layout.h VolumeHeader, then the voxel words); empty for the
+// A Volume field's basis binding (gpu_layout.h VolumeHeader, then the bricks); empty for the
 // other encodings.
 std::vector<uint32_t> volumeWords(const Field& field) {
   if (field.encoding != Encoding::Volume) return {};
@@ -423,9 +423,11 @@ std::vector<uint32_t> volumeWords(const Field& field) {
   head.origin = {v.origin[0], v.origin[1], v.origin[2], v.spacing};
   const float outside = field.media[0].ior, inside = field.media[1].ior;
   head.media = {outside / inside, inside / outside, field.media[1].absorption, 0.0f};
-  std::vector<uint32_t> words(sizeof(head) / sizeof(uint32_t) + v.voxels.size());
+  const size_t headWords = sizeof(head) / sizeof(uint32_t);
+  std::vector<uint32_t> words(headWords + v.bricks.size() + v.brickVoxels.size());
   std::memcpy(words.data(), &head, sizeof(head));
-  std::copy(v.voxels.begin(), v.voxels.end(), words.begin() + sizeof(head) / sizeof(uint32_t));
+  std::copy(v.bricks.begin(), v.bricks.end(), words.begin() + headWords);
+  std::copy(v.brickVoxels.begin(), v.brickVoxels.end(), words.begin() + headWords + v.bricks.size());
   return words;
 }
 

@@ -158,7 +158,8 @@ SHR_CONST(kEncodingTable, 1u)    // field.h Encoding::Table
 SHR_CONST(kEncodingPca, 2u)      // field.h Encoding::Pca
 SHR_CONST(kEncodingVolume, 3u)   // field.h Encoding::Volume
 // decompress_volume.comp (and field.h traceVolumeSample): the basis binding (kBindingBasis) holds
-// VolumeHeader, then the grid's N^3 voxel words (field.h FieldVolume). A path marches from its
+// VolumeHeader, then the grid's bricks (field.h FieldVolume): ceil(N / kVolumeBrickSide)^3 entries,
+// then the stored bricks' kVolumeBrickWords voxel words each. A path marches from its
 // start by kVolumeStartStep voxels, then by kVolumeStepScale times the grid's distance there, at
 // least kVolumeMinStep voxels, at most kVolumeMaxSteps steps a segment, and bisects the step that
 // turns the distance positive kVolumeBisections times (docs/encodings.md, "Volume").
@@ -170,11 +171,24 @@ SHR_CONST(kVolumeBisections, 16u)
 // The normal at a crossing blends the 8 voxels' normals that lie within acos(kVolumeNormalBlendCos)
 // (45 deg) of the nearest voxel's, so that an edge of the surface stays sharp.
 SHR_CONSTF(kVolumeNormalBlendCos, 0.70710678f)
-// A voxel word (field.h FieldVolume): the distance's level (bits 0..11) is kVolumeDistanceZero at 0
-// and 0 or 2 kVolumeDistanceZero at -+kVolumeBandVoxels; a normal coordinate's (10 bits) is
+// A voxel word (field.h FieldVolume): the distance's level (bits 0..7, kVolumeDistanceMask) is
+// kVolumeDistanceZero at 0 and 0 or 2 kVolumeDistanceZero at -+kVolumeBandVoxels; a normal
+// coordinate's (12 bits from kVolumeNormalShiftX and kVolumeNormalShiftY, kVolumeNormalMask) is
 // kVolumeNormalZero at 0 and 0 or 2 kVolumeNormalZero at -+1.
-SHR_CONST(kVolumeDistanceZero, 2047u)
-SHR_CONST(kVolumeNormalZero, 511u)
+SHR_CONST(kVolumeDistanceZero, 127u)
+SHR_CONST(kVolumeDistanceMask, 0xffu)
+SHR_CONST(kVolumeNormalMask, 0xfffu)
+SHR_CONST(kVolumeNormalShiftX, 8u)
+SHR_CONST(kVolumeNormalShiftY, 20u)
+// The grid's bricks (field.h FieldVolume): kVolumeBrickSide^3 voxels each, x fastest. A brick's
+// entry is the index of its words among the stored bricks, or kVolumeBrickOutside /
+// kVolumeBrickInside for a brick that lies wholly beyond the band on that side, which is not
+// stored: its every voxel reads as the far word (field.h volumeFarWord).
+SHR_CONST(kVolumeBrickSide, 8u)
+SHR_CONST(kVolumeBrickWords, 512u)
+SHR_CONST(kVolumeBrickInside, 0xfffffffeu)
+SHR_CONST(kVolumeBrickOutside, 0xffffffffu)
+SHR_CONST(kVolumeNormalZero, 2047u)
 SHR_CONSTF(kVolumeBandVoxels, 4.0f)
 // Workgroup sizes: the Sh decompression runs one invocation per 4 samples, the Table and Pca
 // decompression one per sample, 64 to a workgroup (whole subgroups on every device: 8 x 8 SIMD

@@ -85,15 +85,15 @@ inline constexpr uint64_t kVolumeDensifyFactor = 4;
 // (docs/encodings.md, "The grid's size, chosen by images").
 inline constexpr double kFinerVolumeGainDb = 0.25;
 // The budget the default bake's grids are held to: the paper's 324 encoded bytes per sample (81 SH
-// coefficients x 4 channels x 1 byte), a grid's 4 bytes a voxel counted over the field's samples
-// (its frames and mesh not counted, as for every encoding). 128^3 is 8 MiB, 210 bytes a sample at
-// the default 40000; 256^3 is 64 MiB, which needs 207127 samples (the cube's and the bunny's
-// densified 160000 would hold 419), so the default tries it only on bakes of that many samples
-// (docs/encodings.md, "The grid's size, chosen by images").
+// coefficients x 4 channels x 1 byte), a grid's stored bytes (volumeGridBytes: its brick entries
+// and the words of the bricks the band reaches) counted over the field's samples (its frames and
+// mesh not counted, as for every encoding). Dense, 256^3 was 64 MiB, which needed 207127 samples;
+// in bricks the bunny's is 10.16 MiB, the sphere's 13.84, the cube's 11.39, which fit the default
+// samples (docs/encodings.md, "Bricks").
 inline constexpr double kDefaultBytesPerSampleBudget = 324.0;
-// Whether an n^3 grid fits kDefaultBytesPerSampleBudget over `samples` samples.
-constexpr bool volumeFitsDefaultBudget(uint32_t n, uint64_t samples) {
-  return 4.0 * double(n) * double(n) * double(n) <= kDefaultBytesPerSampleBudget * double(samples);
+// Whether a grid of `gridBytes` fits kDefaultBytesPerSampleBudget over `samples` samples.
+constexpr bool volumeFitsDefaultBudget(uint64_t gridBytes, uint64_t samples) {
+  return double(gridBytes) <= kDefaultBytesPerSampleBudget * double(samples);
 }
 // The pairs of texels the check traces (kFrameChoiceViews views each).
 inline constexpr size_t kVolumeDensityPairs = 4000;
