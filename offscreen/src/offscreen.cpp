@@ -179,6 +179,7 @@ Result<std::unique_ptr<Renderer>> createFrameRenderer(Session& session, const Fr
   rci.frustumCulling = settings.skipWork;
   rci.environmentTapsPerAxis = settings.environmentTapsPerAxis;
   rci.silhouetteCoverage = settings.silhouetteCoverage;
+  rci.refineVolumePaths = settings.refineVolumePaths;
   rci.sampleCount = settings.msaaSamples;
   return Renderer::create(*session.context, rci);
 }

@@ -6,7 +6,8 @@
 //
 //   shrefract_frame_benchmark [FIELD.shrf ...] [--instances N] [--size WxH] [--frames N] [--cube-env]
 //                             [--shading field|exit-direction|single-interface]
-//                             [--format rgba16f|rgba8|rgba32f] [--env-taps N[,N...]] [--msaa N] [--validation]
+//                             [--format rgba16f|rgba8|rgba32f] [--env-taps N[,N...]] [--msaa N]
+//                             [--no-volume-refine] [--validation]
 //
 // Scenes: each FIELD.shrf (read with readField), or without one a synthetic field (bench_support:
 // order 8, u8, 4 channels, a 256x256 atlas of samples on a flat square). The environment is
@@ -32,7 +33,9 @@
 // (the host's MSAA, RendererCreateInfo::sampleCount), and prints the raster time at N samples
 // against one sample, series by series, measured in the same run. A volume field (traced per
 // fragment by default, Object::tracesVolumePerFragment) runs again by its sample texels, and each
-// series' frame time per fragment against by texels is printed, measured in the same run. Exit code 0 with "SKIPPED:" when there
+// series' frame time per fragment against by texels is printed, measured in the same run; then once
+// more with the other setting of RendererCreateInfo::refineVolumePaths (--no-volume-refine starts
+// with it off), and the refined pixels' cost is printed the same way. Exit code 0 with "SKIPPED:" when there
 // is no Vulkan device; 2 with one
 // line for bad arguments or a FIELD.shrf that does not exist.
 #include <shrefract/decompressor.h>
@@ -71,6 +74,7 @@ struct Options {
   std::vector<uint32_t> environmentTaps{RendererCreateInfo{}.environmentTapsPerAxis};
   VkSampleCountFlagBits msaa = VK_SAMPLE_COUNT_1_BIT;  // > 1: also run with this many samples
   bool validation = false;
+  bool refineVolumePaths = RendererCreateInfo{}.refineVolumePaths;  // --no-volume-refine: false
 };
 
 // Bad arguments: one line naming the flag or file, exit 2. --help: the synopsis, exit 0.
@@ -83,7 +87,7 @@ int help() {
   std::printf("usage: shrefract_frame_benchmark [FIELD.shrf ...] [--instances N] [--size WxH] [--frames N]\n"
               "                                 [--cube-env] [--shading field|exit-direction|single-interface]\n"
               "                                 [--format rgba16f|rgba8|rgba32f] [--env-taps N[,N...]] [--msaa N]\n"
-              "                                 [--validation]\n");
+              "                                 [--no-volume-refine] [--validation]\n");
   return 0;
 }
 
@@ -413,6 +417,7 @@ Result<std::vector<Named>> runTapCount(Gpu& gpu, Frames& frames, Decompressor& d
   RendererCreateInfo info{o.colorFormat, VK_FORMAT_D32_SFLOAT};
   info.environmentTapsPerAxis = taps;
   info.sampleCount = frames.samples;
+  info.refineVolumePaths = o.refineVolumePaths;
   auto renderer = Renderer::create(*gpu.context, info);
   if (!renderer) return renderer.error();
   if (o.environmentTaps.size() > 1) std::printf("environment taps per axis: %u\n", taps);
@@ -462,20 +467,20 @@ void printMsaaRatios(const Options& o, const std::vector<std::vector<Named>>& si
     }
 }
 
-// A volume field traced per fragment against the same field by its sample texels, series by series:
-// the frame's GPU time (decompression + raster; wall without timestamps), both measured in this run.
-void printVolumeRatios(const Options& o, const std::vector<std::vector<Named>>& perFragment,
-                       const std::vector<std::vector<Named>>& texels, bool timestamps) {
-  std::printf("volume traced per fragment against its sample texels (same run, %s):\n",
-              timestamps ? "GPU decompression + raster" : "wall");
-  for (size_t k = 0; k < perFragment.size() && k < texels.size(); ++k)
-    for (size_t s = 0; s < perFragment[k].size() && s < texels[k].size(); ++s) {
-      const SeriesResult& a = texels[k][s].result;
-      const SeriesResult& b = perFragment[k][s].result;
-      const double before = timestamps ? a.decompressMs + a.rasterMs : a.wallMs;
-      const double after = timestamps ? b.decompressMs + b.rasterMs : b.wallMs;
-      std::printf("  %u taps, %-28s texels %8.3f, per fragment %8.3f ms  %.2fx\n", o.environmentTaps[k],
-                  texels[k][s].name.c_str(), before, after, after / before);
+// Two runs of the same scene, series by series (`before` then `after`, labelled so): the frame's GPU
+// time (decompression + raster; wall without timestamps), both measured in this run.
+void printPairRatios(const Options& o, const char* heading, const char* beforeLabel, const char* afterLabel,
+                     const std::vector<std::vector<Named>>& before, const std::vector<std::vector<Named>>& after,
+                     bool timestamps) {
+  std::printf("%s (same run, %s):\n", heading, timestamps ? "GPU decompression + raster" : "wall");
+  for (size_t k = 0; k < before.size() && k < after.size(); ++k)
+    for (size_t s = 0; s < before[k].size() && s < after[k].size(); ++s) {
+      const SeriesResult& a = before[k][s].result;
+      const SeriesResult& b = after[k][s].result;
+      const double msA = timestamps ? a.decompressMs + a.rasterMs : a.wallMs;
+      const double msB = timestamps ? b.decompressMs + b.rasterMs : b.wallMs;
+      std::printf("  %u taps, %-28s %s %8.3f, %s %8.3f ms  %.2fx\n", o.environmentTaps[k], before[k][s].name.c_str(),
+                  beforeLabel, msA, afterLabel, msB, msB / msA);
     }
 }
 
@@ -560,8 +565,18 @@ int run(const Options& o) {
           if (auto set = object->setTracesVolumePerFragment(false); !set) return fail(set.error().message);
         auto texels = benchmarkScene(*gpu, frames, *environment.value(), scene.value(), o);
         if (!texels) return fail(texels.error().message);
-        printVolumeRatios(o, single.value(), texels.value(), frames.timers[0]->available());
+        const bool timestamps = frames.timers[0]->available();
+        printPairRatios(o, "volume traced per fragment against its sample texels", "texels", "per fragment",
+                        texels.value(), single.value(), timestamps);
         for (auto& object : scene.value().objects) (void)object->setTracesVolumePerFragment(true);
+        // And per fragment without the refined pixels (RendererCreateInfo::refineVolumePaths).
+        Options unrefined = o;
+        unrefined.refineVolumePaths = !o.refineVolumePaths;
+        auto other = benchmarkScene(*gpu, frames, *environment.value(), scene.value(), unrefined);
+        if (!other) return fail(other.error().message);
+        printPairRatios(o, "volume paths refined where they part against 2x2 paths everywhere", "2x2", "refined",
+                        o.refineVolumePaths ? other.value() : single.value(),
+                        o.refineVolumePaths ? single.value() : other.value(), timestamps);
       }
       if (o.msaa == VK_SAMPLE_COUNT_1_BIT) continue;
       auto multi = benchmarkScene(*gpu, multisampled, *environment.value(), scene.value(), o);
@@ -626,6 +641,8 @@ int parseArguments(int argc, char** argv, Options& o) {
       o.msaa = static_cast<VkSampleCountFlagBits>(n);  // 1, 2, 4, 8 are the flag bits
     } else if (a == "--cube-env") {
       o.cube = true;
+    } else if (a == "--no-volume-refine") {
+      o.refineVolumePaths = false;
     } else if (a == "--validation") {
       o.validation = true;
     } else if (!a.empty() && a[0] != '-') {

@@ -68,6 +68,9 @@ std::vector<FlagSpec> renderFlags() {
       {"volume-texels", false, "field mode, a volume field: trace the sample texels in texture space and interpolate "
                                "between them, as the other encodings (default: each fragment traces its own path; "
                                "docs/encodings.md, \"Volume traced per fragment\")"},
+      {"no-volume-refine", false, "field mode, a volume field traced per fragment: keep its 2x2 paths a pixel where "
+                                  "they disagree, instead of tracing 4x4 there (cheaper; docs/antialiasing.md, "
+                                  "\"Refined paths where the volume's exits part\")"},
       {"threads", true, "CPU modes: worker threads (default: all cores)", K::Integer, {1, 1024}},
       {"absorption", true, "absorption scale k in exp(-tau * k) (default 1: the media as defined)", K::Real, {0, kUnbounded}},
       {"exposure", true, "linear scale applied before writing (default 1)", K::Real, {0, kUnbounded, true}},
@@ -123,6 +126,7 @@ struct Request {
   uint32_t samplesPerAxis = 1, frames = 1;
   uint32_t msaa = 1;  // --msaa: a power of two in 1..8
   bool volumeTexels = false;  // --volume-texels
+  bool refineVolumePaths = true;  // not --no-volume-refine
   std::optional<uint32_t> environmentTaps;  // --env-taps; each mode has its own default
   std::optional<float> environmentLevelBias;  // --env-level-bias (CPU references only)
   std::optional<uint32_t> maxBounces, treeDepth, threads;
@@ -168,6 +172,9 @@ Result<void> checkApplicability(const Args& args, const Request& r) {
                  "supersample with --spp");
   if (args.has("volume-texels") && (r.scene || r.mode != "field"))
     return usage("shrefract render: --volume-texels applies to --mode field of a volume field only");
+  if (args.has("no-volume-refine") && (r.scene || r.mode != "field" || args.has("volume-texels")))
+    return usage("shrefract render: --no-volume-refine applies to --mode field of a volume field traced per fragment "
+                 "only (not with --volume-texels)");
   if (args.has("env-level-bias") && !(cpu && args.has("filtered")))
     return usage("shrefract render: --env-level-bias applies to --mode exact and full-tree with --filtered only");
   if (r.scene && r.mode == "field")
@@ -220,6 +227,7 @@ Result<Request> readRequest(const Args& args) {
   r.environmentTaps = narrow<uint32_t>(args.integer("env-taps").value());
   r.msaa = narrow<uint32_t>(args.integer("msaa").value()).value_or(1u);
   r.volumeTexels = args.has("volume-texels");
+  r.refineVolumePaths = !args.has("no-volume-refine");
   if (r.msaa & (r.msaa - 1))
     return usage("shrefract render: --msaa must be 1, 2, 4 or 8, got " + std::to_string(r.msaa));
   if (auto v = args.number("env-level-bias").value()) r.environmentLevelBias = static_cast<float>(*v);
@@ -454,6 +462,7 @@ offscreen::FrameSettings frameSettingsFor(const Request& r, const Camera& camera
   frame.frames = r.frames;
   frame.samplesPerAxis = r.samplesPerAxis;
   frame.environmentTapsPerAxis = r.environmentTaps.value_or(frame.environmentTapsPerAxis);
+  frame.refineVolumePaths = r.refineVolumePaths;
   frame.msaaSamples = static_cast<VkSampleCountFlagBits>(r.msaa);  // 1, 2, 4, 8 are the flag bits
   return frame;
 }
@@ -524,10 +533,12 @@ int renderCommand(int argc, char** argv) {
   if (auto writable = checkOutputPath(r.output); !writable) return fail(writable.error());
   auto inputs = loadInputs(r);
   if (!inputs) return fail(inputs.error());
-  if (r.volumeTexels && inputs.value().field->encoding != Encoding::Volume)
-    return fail(usage("shrefract render: --volume-texels applies to a volume field; " + r.input + " is " +
-                      toString(inputs.value().field->encoding)),
-                2);
+  for (const auto& [given, flag] : {std::pair{r.volumeTexels, "--volume-texels"},
+                                    std::pair{!r.refineVolumePaths, "--no-volume-refine"}})
+    if (given && inputs.value().field->encoding != Encoding::Volume)
+      return fail(usage(std::string("shrefract render: ") + flag + " applies to a volume field; " + r.input + " is " +
+                        toString(inputs.value().field->encoding)),
+                  2);
   const Camera camera = cameraFor(r, inputs.value());
   if (auto ok = checkCamera(camera, r); !ok) return fail(ok.error(), 2);
   if (r.mode == "exact" || r.mode == "full-tree") return renderCpu(args, r, inputs.value(), camera);

@@ -29,9 +29,11 @@ VolumeHeader readVolumeHeader() {
 
 #include "volume_trace.glsl"
 
-// Paths traced per axis of the pixel, and environment taps per axis of each one's cell.
+// Paths traced per axis of the pixel, and of a pixel refined where they disagree.
+// (REFINE_VOLUME_PATHS: RendererCreateInfo::refineVolumePaths).
+layout(constant_id = kSpecRefineVolumePaths) const bool REFINE_VOLUME_PATHS = true;
 const uint TRACED_TAPS = ENVIRONMENT_TAPS < kVolumeTracedTapsPerAxis ? ENVIRONMENT_TAPS : kVolumeTracedTapsPerAxis;
-const uint CELL_TAPS = ENVIRONMENT_TAPS / TRACED_TAPS;  // at least 1
+const uint REFINED_TAPS = kVolumeRefinedTapsPerAxis;
 
 // The view, and the normal bent toward it as object_field_body.glsl bends it (interpolated normals
 // can face away near silhouettes), at object-space point p with interpolated normal `normal`.
@@ -43,28 +45,56 @@ void viewAndBentNormal(vec3 p, vec3 normal, out vec3 v, out vec3 n) {
 }
 
 // The environment over one traced path's cell of the pixel (ddx, ddy: the exit's change across
-// the cell): CELL_TAPS^2 taps of the parallelogram, as lookupEnvironmentOverPixel's over the pixel.
-vec3 lookupOverCell(vec3 dir, vec3 ddx, vec3 ddy) {
-  float n = float(CELL_TAPS);
+// the cell): cellTaps^2 taps of the parallelogram, as lookupEnvironmentOverPixel's over the pixel.
+vec3 lookupOverCell(vec3 dir, vec3 ddx, vec3 ddy, uint cellTaps) {
+  float n = float(cellTaps);
   float footprint = directionFootprint(ddx / n, ddy / n);
   vec3 sum = vec3(0.0);
-  for (uint j = 0u; j < CELL_TAPS; ++j)
-    for (uint i = 0u; i < CELL_TAPS; ++i) {
+  for (uint j = 0u; j < cellTaps; ++j)
+    for (uint i = 0u; i < cellTaps; ++i) {
       vec3 tap = dir + tapOffset(i, n) * ddx + tapOffset(j, n) * ddy;
       sum += lookupEnvironment(dot(tap, tap) > 1e-12 ? tap : dir, footprint);
     }
   return sum / (n * n);
 }
 
+// The pixel's surface moved along its screen derivatives, for the traced paths.
+struct PixelSurface {
+  vec3 dPdx, dPdy, dNdx, dNdy;
+};
+
+// taps x taps paths at the centres of the pixel's cells, each looked up over its cell (the
+// exit's derivatives exitDx, exitDy divided among them); the mean, and in `apart` whether any
+// path left more than acos(kVolumeRefineCosine) away from the centre path's exit.
+vec3 pathsOverPixel(uint taps, vec3 exitWorld, vec3 exitDx, vec3 exitDy, PixelSurface s, out bool apart) {
+  float n = float(taps);
+  uint cellTaps = max(ENVIRONMENT_TAPS / taps, 1u);
+  vec3 sum = vec3(0.0);
+  apart = false;
+  for (uint j = 0u; j < taps; ++j)
+    for (uint i = 0u; i < taps; ++i) {
+      float a = tapOffset(i, n), b = tapOffset(j, n);
+      vec3 v, nn;
+      viewAndBentNormal(inPosition + a * s.dPdx + b * s.dPdy, inNormal + a * s.dNdx + b * s.dNdy, v, nn);
+      VolumePath path = traceVolumePath(inPosition + a * s.dPdx + b * s.dPdy, nn, v);
+      vec3 exit = rotateByQuaternion(pc.worldFromObjectRotation, path.exit);
+      apart = apart || dot(exit, exitWorld) < kVolumeRefineCosine;
+      sum += lookupOverCell(exit, exitDx / n, exitDy / n, cellTaps);
+    }
+  return sum / (n * n);
+}
+
 // The transmitted light over the pixel: TRACED_TAPS^2 paths at the centres of the pixel's cells
-// (the position and normal moved along their screen derivatives), each looked up over its cell.
+// (the position and normal moved along their screen derivatives), each looked up over its cell;
+// where one of them leaves apart from the centre path, REFINED_TAPS^2 instead (a 1-spp pixel
+// across a path discontinuity otherwise shows whichever side its few paths fell on).
 // The exit's derivatives (exitDx, exitDy: the centre path's, fine) size the cells' footprints; an
 // axis across which the exit jumps (beyond acos(kSpatialSplitCosine)) while the other's is smooth
 // is a path discontinuity, not divergence, and is left out of them (a clean edge stays sharp,
 // where the jump's width would blur the whole pixel); where both axes jump (chaotic paths) both
 // are kept, and the blur stands for the colours the pixel mixes. One path: the centre's over
 // the pixel (lookupEnvironmentOverPixel).
-vec3 transmittedOverPixel(vec3 exitWorld, vec3 exitDx, vec3 exitDy, vec3 dPdx, vec3 dPdy) {
+vec3 transmittedOverPixel(vec3 exitWorld, vec3 exitDx, vec3 exitDy, vec3 dPdx, vec3 dPdy, float weight) {
   bool jumpX = dot(exitDx, exitDx) > 2.0 * (1.0 - kSpatialSplitCosine);
   bool jumpY = dot(exitDy, exitDy) > 2.0 * (1.0 - kSpatialSplitCosine);
   if (jumpX != jumpY) {
@@ -72,19 +102,19 @@ vec3 transmittedOverPixel(vec3 exitWorld, vec3 exitDx, vec3 exitDy, vec3 dPdx, v
     else exitDy = vec3(0.0);
   }
   if (TRACED_TAPS == 1u) return lookupEnvironmentOverPixel(exitWorld, exitDx, exitDy);
-  float n = float(TRACED_TAPS);
-  vec3 dNdx = dFdxFine(inNormal), dNdy = dFdyFine(inNormal);
-  vec3 sum = vec3(0.0);
-  for (uint j = 0u; j < TRACED_TAPS; ++j)
-    for (uint i = 0u; i < TRACED_TAPS; ++i) {
-      float a = tapOffset(i, n), b = tapOffset(j, n);
-      vec3 p = inPosition + a * dPdx + b * dPdy;
-      vec3 v, nn;
-      viewAndBentNormal(p, inNormal + a * dNdx + b * dNdy, v, nn);
-      VolumePath path = traceVolumePath(p, nn, v);
-      sum += lookupOverCell(rotateByQuaternion(pc.worldFromObjectRotation, path.exit), exitDx / n, exitDy / n);
-    }
-  return sum / (n * n);
+  PixelSurface s = PixelSurface(dPdx, dPdy, dFdxFine(inNormal), dFdyFine(inNormal));
+  // A loop rather than an if: a software rasterizer (lavapipe) runs both sides of a branch under a
+  // mask, but leaves a loop once no lane is in it, so the pixels that need no refinement cost
+  // nothing more there either.
+  uint taps = TRACED_TAPS;
+  vec3 traced;
+  while (true) {
+    bool apart;
+    traced = pathsOverPixel(taps, exitWorld, exitDx, exitDy, s, apart);
+    if (!apart || !REFINE_VOLUME_PATHS || taps == REFINED_TAPS || weight < kVolumeRefineWeight) break;
+    taps = REFINED_TAPS;
+  }
+  return traced;
 }
 
 void main() {
@@ -114,7 +144,8 @@ void main() {
   // centre path's Fresnel factors where the field keeps its throughput (ObjectPushConstants.tint.a).
   float transmittance = exp(-max(tau, 0.0) * pc.medium.y);
   if (pc.tint.a > 0.5) transmittance *= clamp(path.energy, 0.0, 1.0);
-  vec3 color = (1.0 - fresnel) * transmittance * pc.tint.rgb * transmittedOverPixel(exitWorld, exitDx, exitDy, dPdx, dPdy);
+  vec3 color = (1.0 - fresnel) * transmittance * pc.tint.rgb *
+               transmittedOverPixel(exitWorld, exitDx, exitDy, dPdx, dPdy, (1.0 - fresnel) * transmittance);
   if (pc.medium.z > 0.5)
     color += fresnel * lookupEnvironmentOverPixel(reflectedWorld, reflectedDx, reflectedDy);
   outColor = vec4(color * pc.eyeObject.w, coverage);

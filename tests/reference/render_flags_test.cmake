@@ -1,8 +1,8 @@
 # `shrefract render` supersampling and path flags: --spp (a perfect square 1..64, every mode),
 # --path-rule and --throughput (exact mode), --filtered (exact and full-tree), --env-taps (GPU
 # modes, and CPU modes with --filtered), --env-level-bias (CPU modes with --filtered), --msaa (GPU
-# modes: 1, 2, 4 or 8, a count the device lacks refused naming the flag), --volume-texels (field mode
-# of a volume field). Range and
+# modes: 1, 2, 4 or 8, a count the device lacks refused naming the flag), --volume-texels and
+# --no-volume-refine (field mode of a volume field; the latter not with the former). Range and
 # usage errors exit 2 with one line naming the flag and write nothing; good values render (CPU
 # modes always; the GPU case skips without a device, printing "SKIPPED: no Vulkan device"). Inputs: SHREFRACT (the tool), WORK_DIR.
 file(REMOVE_RECURSE ${WORK_DIR})
@@ -48,6 +48,8 @@ expect_usage_error(--env-level-bias 16x12 --mode exact --env-level-bias -1)
 expect_usage_error(--env-level-bias 16x12 --env-level-bias -1)
 expect_usage_error(--volume-texels 16x12 --volume-texels)
 expect_usage_error(--volume-texels 16x12 --mode exact --volume-texels)
+expect_usage_error(--no-volume-refine 16x12 --no-volume-refine)
+expect_usage_error(--no-volume-refine 16x12 --mode full-tree --no-volume-refine)
 expect_usage_error(--msaa 16x12 --msaa 3)
 expect_usage_error(--msaa 16x12 --msaa 0)
 expect_usage_error(--msaa 16x12 --msaa 16)
@@ -97,6 +99,16 @@ foreach(rule "" highest-energy)
     message(FATAL_ERROR "exact render of a first-refraction field with '${flags}': expected ${expect} (${rc}): ${err}${out}")
   endif()
   file(REMOVE ${WORK_DIR}/out.png)
+endforeach()
+# The volume flags on a field of another encoding (found once the field is read): exit 2 naming
+# the flag, nothing written; with --volume-texels, --no-volume-refine is refused before reading.
+foreach(flags "--volume-texels" "--no-volume-refine" "--volume-texels;--no-volume-refine")
+  execute_process(COMMAND ${SHREFRACT} render ${WORK_DIR}/tiny.shrf --size 16x12 ${flags} -o ${WORK_DIR}/out.png
+                  RESULT_VARIABLE rc ERROR_VARIABLE err)
+  list(GET flags -1 named)
+  if(NOT rc EQUAL 2 OR NOT err MATCHES "${named}" OR EXISTS ${WORK_DIR}/out.png)
+    message(FATAL_ERROR "render of an SH field with '${flags}': expected exit 2 naming ${named} (${rc}): ${err}")
+  endif()
 endforeach()
 
 # A GPU mode.

@@ -83,6 +83,9 @@ struct LatLongImage {
   // Taps per axis of sampleLatLongOverPixel, as RendererCreateInfo::environmentTapsPerAxis
   // (clamped to 1..kMaxEnvironmentTapsPerAxis).
   uint32_t tapsPerAxis = RendererCreateInfo{}.environmentTapsPerAxis;
+  // As RendererCreateInfo::refineVolumePaths: shadeVolume traces a pixel whose paths disagree again
+  // with kVolumeRefinedTapsPerAxis^2 paths.
+  bool refineVolumePaths = RendererCreateInfo{}.refineVolumePaths;
   // Levels added to every filtered lookup's (sampleLatLong with a footprint), on top of
   // kEnvironmentLevelBias: 0 mirrors the engine's shaders; the CPU references choose their own
   // (bake::ReferenceOptions::environmentLevelBias).
@@ -202,7 +205,10 @@ Vec3 shadeField(const DistortionImage& distortion, const LatLongImage& environme
 // while the other's does not, then min(kVolumeTracedTapsPerAxis, environment.tapsPerAxis)^2 paths
 // traced at the centres of the pixel's cells (position and normal moved along positionDx, Dy and
 // normalDx, Dy), each read over its cell with the remaining taps per axis (one path: the centre's,
-// sampleLatLongOverPixel). exitWorld (optional): the centre path's exit, in world space.
+// sampleLatLongOverPixel); where one of them leaves beyond acos(kVolumeRefineCosine) from the centre
+// path's exit and the transmitted term weighs at least kVolumeRefineWeight ((1 - F) times the
+// transmittance), kVolumeRefinedTapsPerAxis^2 paths instead (environment.refineVolumePaths).
+// exitWorld (optional): the centre path's exit, in world space.
 // Precondition: a Volume field.
 Vec3 shadeVolume(const Field& volume, const LatLongImage& environment, const SurfacePoint& point, const Vec3& eye,
                  const ObjectShading& shading, float exposure = 1.0f, const Transform& worldFromObject = Transform{},

@@ -75,9 +75,10 @@ constexpr std::array<VkVertexInputAttributeDescription, 5> kObjectVertexAttribut
     {4, 0, VK_FORMAT_R32_UINT, kVertexTriangleWord * sizeof(float)},
 }};
 // Where the fragment shaders' specialization values lie: the tap count, then the coverage switch.
-constexpr std::array<VkSpecializationMapEntry, 2> kFragmentSpecEntries{
+constexpr std::array<VkSpecializationMapEntry, 3> kFragmentSpecEntries{
     {{gpu::kSpecEnvironmentTaps, 0, sizeof(uint32_t)},
-     {gpu::kSpecSilhouetteCoverage, sizeof(uint32_t), sizeof(VkBool32)}}};
+     {gpu::kSpecSilhouetteCoverage, sizeof(uint32_t), sizeof(VkBool32)},
+     {gpu::kSpecRefineVolumePaths, 2 * sizeof(uint32_t), sizeof(VkBool32)}}};
 constexpr std::array<VkDynamicState, 2> kDynamicStates{VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
 
 struct ShaderModules {
@@ -162,9 +163,10 @@ Result<VkPipeline> createGraphicsPipeline(ContextImpl& c, const RendererCreateIn
                                           const ShaderPair& shaders, bool objectPass, bool coverage) {
   auto modules = createShaderModules(c, shaders);
   if (!modules) return modules.error();
-  // Every fragment shader gets the tap count and the coverage switch; those without the constants
-  // (the background, the single interface) ignore them.
-  const std::array<uint32_t, 2> specValues{info.environmentTapsPerAxis, coverage ? VK_TRUE : VK_FALSE};
+  // Every fragment shader gets the tap count, the coverage switch and the volume's refinement; those
+  // without the constants (the background, the single interface) ignore them.
+  const std::array<uint32_t, 3> specValues{info.environmentTapsPerAxis, coverage ? VK_TRUE : VK_FALSE,
+                                           info.refineVolumePaths ? VK_TRUE : VK_FALSE};
   const VkSpecializationInfo specialization{uint32_t(kFragmentSpecEntries.size()), kFragmentSpecEntries.data(),
                                             sizeof(specValues), specValues.data()};
   const std::array<VkPipelineShaderStageCreateInfo, 2> stages = shaderStages(modules.value(), specialization);

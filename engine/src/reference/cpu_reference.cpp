@@ -536,31 +536,50 @@ glm::vec3 lookupOverCell(const LatLongImage& env, uint32_t cells, const glm::vec
   return sum / (n * n);
 }
 
-// object_volume_body.glsl transmittedOverPixel: the jump rule on the exit's derivatives, then
-// kVolumeTracedTapsPerAxis^2 paths traced at the pixel's cells, each looked up over its cell.
-glm::vec3 volumeOverPixel(const Field& volume, const LatLongImage& env, const SurfacePoint& point, const Vec3& eye,
-                          const Transform& worldFromObject, const glm::vec3& exitWorld, const LookupDerivatives& d) {
-  glm::vec3 dx = toGlm(d.exitDx), dy = toGlm(d.exitDy);
-  const float jump = 2.0f * (1.0f - gpu::kSpatialSplitCosine);
-  const bool jumpX = glm::dot(dx, dx) > jump, jumpY = glm::dot(dy, dy) > jump;
-  if (jumpX != jumpY) (jumpX ? dx : dy) = glm::vec3(0.0f);
-  const uint32_t taps = std::clamp(env.tapsPerAxis, 1u, kMaxEnvironmentTapsPerAxis);
-  const uint32_t traced = std::min(gpu::kVolumeTracedTapsPerAxis, taps), cells = taps / traced;
-  if (traced == 1) return toGlm(sampleLatLongOverPixel(env, fromGlm(exitWorld), fromGlm(dx), fromGlm(dy)));
-  const float n = float(traced);
+// object_volume_body.glsl pathsOverPixel: taps x taps paths at the centres of the pixel's cells,
+// each looked up over its cell; `apart` when one leaves beyond acos(kVolumeRefineCosine) from the
+// centre path's exit.
+glm::vec3 pathsOverPixel(const Field& volume, const LatLongImage& env, uint32_t taps, const SurfacePoint& point,
+                         const Vec3& eye, const Transform& worldFromObject, const glm::vec3& exitWorld,
+                         const LookupDerivatives& d, const glm::vec3& dx, const glm::vec3& dy, bool& apart) {
+  const float n = float(taps);
+  const uint32_t cells = std::max(std::clamp(env.tapsPerAxis, 1u, kMaxEnvironmentTapsPerAxis) / taps, 1u);
   const glm::vec3 p0 = toGlm(point.position), n0 = toGlm(point.normal);
   glm::vec3 sum(0.0f);
-  for (uint32_t j = 0; j < traced; ++j)
-    for (uint32_t i = 0; i < traced; ++i) {
+  apart = false;
+  for (uint32_t j = 0; j < taps; ++j)
+    for (uint32_t i = 0; i < taps; ++i) {
       const float a = tapOffset(i, n), b = tapOffset(j, n);
       SurfacePoint tap = point;
       tap.position = fromGlm(p0 + a * toGlm(d.positionDx) + b * toGlm(d.positionDy));
       tap.normal = fromGlm(n0 + a * toGlm(d.normalDx) + b * toGlm(d.normalDy));
       const FieldFragment f = fragmentGeometry(tap, eye, worldFromObject);
       const VolumePath path = traceVolumePath(volume, tap.position, fromGlm(f.n), fromGlm(f.v));
-      sum += lookupOverCell(env, cells, toGlm(rotateDirection(worldFromObject, path.exit)), dx / n, dy / n);
+      const glm::vec3 exit = toGlm(rotateDirection(worldFromObject, path.exit));
+      apart = apart || glm::dot(exit, exitWorld) < gpu::kVolumeRefineCosine;
+      sum += lookupOverCell(env, cells, exit, dx / n, dy / n);
     }
   return sum / (n * n);
+}
+
+// object_volume_body.glsl transmittedOverPixel: the jump rule on the exit's derivatives, then
+// kVolumeTracedTapsPerAxis^2 paths traced at the pixel's cells, each looked up over its cell, or
+// kVolumeRefinedTapsPerAxis^2 where they disagree and the transmitted term weighs enough.
+glm::vec3 volumeOverPixel(const Field& volume, const LatLongImage& env, const SurfacePoint& point, const Vec3& eye,
+                          const Transform& worldFromObject, const glm::vec3& exitWorld, const LookupDerivatives& d,
+                          float weight) {
+  glm::vec3 dx = toGlm(d.exitDx), dy = toGlm(d.exitDy);
+  const float jump = 2.0f * (1.0f - gpu::kSpatialSplitCosine);
+  const bool jumpX = glm::dot(dx, dx) > jump, jumpY = glm::dot(dy, dy) > jump;
+  if (jumpX != jumpY) (jumpX ? dx : dy) = glm::vec3(0.0f);
+  const uint32_t taps = std::clamp(env.tapsPerAxis, 1u, kMaxEnvironmentTapsPerAxis);
+  const uint32_t traced = std::min(gpu::kVolumeTracedTapsPerAxis, taps);
+  if (traced == 1) return toGlm(sampleLatLongOverPixel(env, fromGlm(exitWorld), fromGlm(dx), fromGlm(dy)));
+  bool apart = false;
+  const glm::vec3 mean = pathsOverPixel(volume, env, traced, point, eye, worldFromObject, exitWorld, d, dx, dy, apart);
+  if (!apart || !env.refineVolumePaths || weight < gpu::kVolumeRefineWeight) return mean;
+  return pathsOverPixel(volume, env, gpu::kVolumeRefinedTapsPerAxis, point, eye, worldFromObject, exitWorld, d, dx, dy,
+                        apart);
 }
 
 }  // namespace
@@ -576,7 +595,8 @@ Vec3 shadeVolume(const Field& volume, const LatLongImage& environment, const Sur
   float transmittance = std::exp(-std::max(f.d[3], 0.0f) * (shading.absorptionScale * worldFromObject.scale));
   if (volume.throughput) transmittance *= std::clamp(path.throughput, 0.0f, 1.0f);
   glm::vec3 color = (1.0f - fresnel) * transmittance * toGlm(shading.tint) *
-                    volumeOverPixel(volume, environment, point, eyeArray, worldFromObject, f.exitWorld, d);
+                    volumeOverPixel(volume, environment, point, eyeArray, worldFromObject, f.exitWorld, d,
+                                    (1.0f - fresnel) * transmittance);
   if (shading.reflection)
     color += fresnel * toGlm(sampleLatLongOverPixel(environment, fromGlm(f.reflectedWorld), d.reflectedDx, d.reflectedDy));
   return fromGlm(color * exposure);

@@ -72,6 +72,7 @@ struct FrameSettings {
   bool skipWork = false;
   uint32_t environmentTapsPerAxis = RendererCreateInfo{}.environmentTapsPerAxis;
   bool silhouetteCoverage = RendererCreateInfo{}.silhouetteCoverage;  // at msaaSamples 1 only
+  bool refineVolumePaths = RendererCreateInfo{}.refineVolumePaths;
   // The host's multisampling (RendererCreateInfo::sampleCount): colour and depth attachments of
   // this many samples, resolved (averaged) into the image that is read back. It covers the
   // silhouettes that one shading sample per pixel steps on (docs/antialiasing.md, "MSAA"), at
