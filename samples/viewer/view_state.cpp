@@ -17,6 +17,7 @@ std::optional<Action> actionForCharacter(char c) {
     case 'f': return Action::ToggleField;
     case 'i': return Action::ToggleInstances;
     case 't': return Action::NextEnvironmentTaps;
+    case 'p': return Action::ToggleVolumeRefinement;
     case 'r': return Action::ResetCamera;
     case 'h': return Action::Help;
     case 'q': return Action::Quit;
@@ -32,7 +33,8 @@ const char* keyHelp() {
          "       M    mode: field <-> single-interface (fields only)\n"
          "       F    show the other field (split <-> charts; with two fields)\n"
          "       I    one instance of the field <-> three, placed side by side (fields only)\n"
-         "       T    taps per axis of each environment lookup: 1 (one trilinear lookup), 2 (default), 3, 4\n"
+         "       T    taps per axis of each environment lookup: 1 (one trilinear lookup), 2, 3, 4 (default)\n"
+         "       P    volume fields: 4x4 paths where a pixel's 2x2 paths part (default) <-> 2x2 everywhere\n"
          "       R    reset the camera    H  this help    Esc Q  quit\n";
 }
 
@@ -74,6 +76,9 @@ bool apply(ViewState& s, Action action) {
       return true;
     case Action::NextEnvironmentTaps:
       s.environmentTaps = s.environmentTaps % kMaxEnvironmentTapsPerAxis + 1;
+      return true;
+    case Action::ToggleVolumeRefinement:
+      s.refineVolumePaths = !s.refineVolumePaths;
       return true;
     case Action::ResetCamera:
       s.resetCamera = true;
@@ -119,7 +124,8 @@ std::string title(const ViewState& s, const std::vector<std::string>& environmen
       std::snprintf(buffer, sizeof(buffer), " | GPU raster %.3f ms", rasterMs);
     timings += buffer;
   }
-  return "shrefract view | " + what + " | env " + env + " | taps " + std::to_string(s.environmentTaps) + timings;
+  return "shrefract view | " + what + " | env " + env + " | taps " + std::to_string(s.environmentTaps) +
+         (s.refineVolumePaths ? "" : " | volume 2x2") + timings;
 }
 
 }  // namespace shrefract::viewer

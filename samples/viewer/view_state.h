@@ -23,6 +23,7 @@ enum class Action {
   ToggleField,      // F      show the other field (split <-> charts) when two are loaded
   ToggleInstances,  // I      one instance of the shown field <-> kInstances, placed side by side
   NextEnvironmentTaps,  // T  taps per axis of the filtered environment lookups, 1 -> 2 -> ... -> max -> 1
+  ToggleVolumeRefinement,  // P  volume fields traced per fragment: 4x4 paths where the 2x2 part, on <-> off
   ResetCamera,      // R
   Help,             // H      print the key list on stdout
   Quit,             // Esc Q
@@ -53,6 +54,8 @@ struct ViewState {
   uint32_t instances = 1;         // instances of the shown field drawn (Object::createInstance)
   // RendererCreateInfo::environmentTapsPerAxis: the frame loop rebuilds the renderer when it changes.
   uint32_t environmentTaps = RendererCreateInfo{}.environmentTapsPerAxis;
+  // RendererCreateInfo::refineVolumePaths: likewise a new renderer when it changes.
+  bool refineVolumePaths = RendererCreateInfo{}.refineVolumePaths;
 
   static constexpr uint32_t kInstances = 3;
   static constexpr float kMinAbsorption = 1.0f / 64.0f;  // smallest non-zero step

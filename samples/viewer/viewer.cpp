@@ -641,12 +641,13 @@ Result<void> FrameLoop::applyCameraAndTaps() {
     orbit.reset();
     state.resetCamera = false;
   }
-  // T: the tap count is a specialization constant of the renderer's pipelines, so a new count is
-  // a new renderer; the frames in flight may still use the old one's pipelines (a key press is
-  // rare enough to wait for them).
-  if (state.environmentTaps != rci.environmentTapsPerAxis) {
+  // T, P: the tap count and the volume's refinement are specialization constants of the renderer's
+  // pipelines, so a new setting is a new renderer; the frames in flight may still use the old
+  // one's pipelines (a key press is rare enough to wait for them).
+  if (state.environmentTaps != rci.environmentTapsPerAxis || state.refineVolumePaths != rci.refineVolumePaths) {
     vkDeviceWaitIdle(h.device());
     rci.environmentTapsPerAxis = state.environmentTaps;
+    rci.refineVolumePaths = state.refineVolumePaths;
     auto rebuilt = Renderer::create(*h.session->context, rci);
     if (!rebuilt) return rebuilt.error();
     h.renderer = std::move(rebuilt).value();

@@ -189,6 +189,19 @@ TEST(ViewState, TapsCycleThroughTheRendererRange) {
   EXPECT_NE(title(s, {"builtin"}, -1.0, -1.0, -1.0).find("taps 4"), std::string::npos);
 }
 
+// P switches RendererCreateInfo::refineVolumePaths; the title says when it is off.
+TEST(ViewState, PTogglesTheVolumeRefinement) {
+  ViewState s;
+  EXPECT_EQ(s.refineVolumePaths, RendererCreateInfo{}.refineVolumePaths);
+  EXPECT_EQ(actionForCharacter('p'), Action::ToggleVolumeRefinement);
+  EXPECT_TRUE(apply(s, Action::ToggleVolumeRefinement));
+  EXPECT_FALSE(s.refineVolumePaths);
+  EXPECT_NE(title(s, {"builtin"}, -1.0, -1.0, -1.0).find("volume 2x2"), std::string::npos);
+  EXPECT_TRUE(apply(s, Action::ToggleVolumeRefinement));
+  EXPECT_TRUE(s.refineVolumePaths);
+  EXPECT_EQ(title(s, {"builtin"}, -1.0, -1.0, -1.0).find("volume 2x2"), std::string::npos);
+}
+
 TEST(ViewState, KeysMapToActionsAndTitleShowsTimings) {
   EXPECT_EQ(actionForCharacter('['), Action::OrderDown);
   EXPECT_EQ(actionForCharacter(']'), Action::OrderUp);
