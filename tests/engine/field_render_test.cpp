@@ -319,6 +319,20 @@ TEST_F(FieldRender, FilteredLookupsMatchCpuMirror) {
   }
 }
 
+// A built-in scene's volume field at 64^3 (tessellation 3, 3000 samples), as the volume tests draw it.
+Result<Field> bakeVolume64(const char* sceneName) {
+  bake::BuiltinSceneOptions so;
+  so.tessellation = 3;
+  auto scene = bake::makeBuiltinScene(sceneName, so);
+  if (!scene) return scene.error();
+  bake::BakeOptions o;
+  o.settings.encoding = Encoding::Volume;
+  o.settings.volumeSize = 64;
+  o.settings.sampleBudget = 3000;
+  o.settings.threads = 2;
+  return bake::bakeField(scene.value(), o);
+}
+
 // Texels whose exits scatter (a chaotic field: each texel's direction moved at random in every
 // other block of 4 columns) read their colour blend's lookups at a footprint widened by the
 // scatter beyond kSpatialScatterThreshold, and taps between texels that point apart read theirs
@@ -335,16 +349,7 @@ void FieldRender::expectVolumeMirror(const char* sceneName, std::array<float, 3>
   const bake::Image env = smoothEnvironment(256);
   auto gpuEnv = offscreen::uploadEnvironment(*session, env);
   ASSERT_TRUE(gpuEnv.ok()) << gpuEnv.error().message;
-  bake::BuiltinSceneOptions so;
-  so.tessellation = 3;
-  auto scene = bake::makeBuiltinScene(sceneName, so);
-  ASSERT_TRUE(scene.ok());
-  bake::BakeOptions o;
-  o.settings.encoding = Encoding::Volume;
-  o.settings.volumeSize = 64;
-  o.settings.sampleBudget = 3000;
-  o.settings.threads = 2;
-  auto baked = bake::bakeField(scene.value(), o);
+  auto baked = bakeVolume64(sceneName);
   ASSERT_TRUE(baked.ok()) << baked.error().message;
   EXPECT_EQ(baked.value().volume.convex, convex) << sceneName;
   Field field = baked.value();
@@ -424,16 +429,7 @@ TEST_F(FieldRender, VolumePathsThatPartAreRefined) {
   const bake::Image env = stripesEnvironment();
   auto gpuEnv = offscreen::uploadEnvironment(*session, env);
   ASSERT_TRUE(gpuEnv.ok()) << gpuEnv.error().message;
-  bake::BuiltinSceneOptions so;
-  so.tessellation = 3;
-  auto scene = bake::makeBuiltinScene("torus", so);
-  ASSERT_TRUE(scene.ok());
-  bake::BakeOptions o;
-  o.settings.encoding = Encoding::Volume;
-  o.settings.volumeSize = 64;
-  o.settings.sampleBudget = 3000;
-  o.settings.threads = 2;
-  auto baked = bake::bakeField(scene.value(), o);
+  auto baked = bakeVolume64("torus");
   ASSERT_TRUE(baked.ok()) << baked.error().message;
   const Field& field = baked.value();
   auto object = offscreen::uploadField(*session, field);
