@@ -402,11 +402,12 @@ void printGpuSummary(const Args& args, const Request& r, const Inputs& in, const
     return;
   }
   std::printf("{\"output\": %s, \"scene\": %s, \"mode\": %s, \"environment\": %s, \"width\": %u, "
-              "\"height\": %u, \"spp\": %u, \"msaa\": %u, \"env_taps\": %u, \"device\": %s, \"frames\": %zu, ",
+              "\"height\": %u, \"spp\": %u, \"msaa\": %u, \"env_taps\": %u, \"volume_refine\": %s, \"device\": %s, "
+              "\"frames\": %zu, ",
               jsonString(r.output).c_str(), jsonString(r.input).c_str(), jsonString(r.mode).c_str(),
               jsonString(args.has("cube-env") ? "cube" : "lat-long").c_str(), frame.width, frame.height,
-              r.samplesPerAxis * r.samplesPerAxis, r.msaa, frame.environmentTapsPerAxis, jsonString(deviceName).c_str(),
-              timings.wallMs.size());
+              r.samplesPerAxis * r.samplesPerAxis, r.msaa, frame.environmentTapsPerAxis,
+              frame.refineVolumePaths ? "true" : "false", jsonString(deviceName).c_str(), timings.wallMs.size());
   if (in.field)
     std::printf("\"field\": {\"encoding\": %s, \"order\": %u, \"table_size\": %u, \"components\": %u, "
                 "\"width\": %u, \"height\": %u, \"quantization\": %s, \"triangles\": %zu}, ",
