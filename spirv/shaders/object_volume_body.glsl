@@ -74,9 +74,10 @@ vec3 pathsOverPixel(uint taps, vec3 exitWorld, vec3 exitDx, vec3 exitDy, PixelSu
   for (uint j = 0u; j < taps; ++j)
     for (uint i = 0u; i < taps; ++i) {
       float a = tapOffset(i, n), b = tapOffset(j, n);
+      vec3 p = inPosition + a * s.dPdx + b * s.dPdy;
       vec3 v, nn;
-      viewAndBentNormal(inPosition + a * s.dPdx + b * s.dPdy, inNormal + a * s.dNdx + b * s.dNdy, v, nn);
-      VolumePath path = traceVolumePath(inPosition + a * s.dPdx + b * s.dPdy, nn, v);
+      viewAndBentNormal(p, inNormal + a * s.dNdx + b * s.dNdy, v, nn);
+      VolumePath path = traceVolumePath(p, nn, v);
       vec3 exit = rotateByQuaternion(pc.worldFromObjectRotation, path.exit);
       apart = apart || dot(exit, exitWorld) < kVolumeRefineCosine;
       sum += lookupOverCell(exit, exitDx / n, exitDy / n, cellTaps);
@@ -105,12 +106,13 @@ vec3 transmittedOverPixel(vec3 exitWorld, vec3 exitDx, vec3 exitDy, vec3 dPdx, v
   PixelSurface s = PixelSurface(dPdx, dPdy, dFdxFine(inNormal), dFdyFine(inNormal));
   // A second turn of a loop, which a SIMD rasterizer leaves as soon as no lane needs it (lavapipe
   // with the angle set so that no pixel refines: 1.03x the 2x2 frame on the sphere).
+  bool mayRefine = REFINE_VOLUME_PATHS && weight >= kVolumeRefineWeight;
   uint taps = TRACED_TAPS;
   vec3 traced;
   while (true) {
     bool apart;
     traced = pathsOverPixel(taps, exitWorld, exitDx, exitDy, s, apart);
-    if (!apart || !REFINE_VOLUME_PATHS || taps == REFINED_TAPS || weight < kVolumeRefineWeight) break;
+    if (!apart || !mayRefine || taps == REFINED_TAPS) break;
     taps = REFINED_TAPS;
   }
   return traced;

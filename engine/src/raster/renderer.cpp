@@ -74,7 +74,8 @@ constexpr std::array<VkVertexInputAttributeDescription, 5> kObjectVertexAttribut
     {3, 0, VK_FORMAT_R32_SFLOAT, 8 * sizeof(float)},
     {4, 0, VK_FORMAT_R32_UINT, kVertexTriangleWord * sizeof(float)},
 }};
-// Where the fragment shaders' specialization values lie: the tap count, then the coverage switch.
+// Where the fragment shaders' specialization values lie: the tap count, the coverage switch, then
+// the volume's refinement.
 constexpr std::array<VkSpecializationMapEntry, 3> kFragmentSpecEntries{
     {{gpu::kSpecEnvironmentTaps, 0, sizeof(uint32_t)},
      {gpu::kSpecSilhouetteCoverage, sizeof(uint32_t), sizeof(VkBool32)},
