@@ -725,11 +725,17 @@ double cpuMsPerFrame(const SceneContext& c, double seconds) {
   return seconds * 1000.0 / double(c.profile.samplesPerAxis * c.profile.samplesPerAxis);
 }
 
-// The physical reference and the same tree at twice the samples per axis, kept in `c` for
-// everything after them, and the reference's row. The denser one shares no sample positions with
-// the S x S renders: an exact render shares the reference's, so against the reference it gains
-// what both alias alike (the bunny's exact first-refraction render 27.48 dB against its 4x4
-// reference, 24.46 against the 8x8, where the 4x4 reference itself reads 25.47).
+// The denser reference's samples per axis: 2S - 1. For an even S its cell centres (odd multiples of
+// 1 / (2 (2S - 1))) meet neither the S x S renders' (odd multiples of 1 / 2S) nor those of a volume
+// field's 2x2 paths at S x S (odd multiples of 1 / 4S); 2S, the report's before, met the latter
+// (docs/encodings.md, "The lines against a reference that shares no sub-samples").
+uint32_t denseSamplesPerAxis(uint32_t s) { return std::min(2 * s - 1, bake::kMaxSamplesPerAxis); }
+
+// The physical reference and the same tree at denseSamplesPerAxis, kept in `c` for everything
+// after them, and the reference's row. The denser one shares no sample positions with the S x S
+// renders: an exact render shares the reference's, so against the reference it gains what both
+// alias alike (the bunny's exact first-refraction render 27.48 dB against its 4x4 reference, 24.18
+// against the 7x7, where the 4x4 reference itself reads 25.07).
 Result<void> measurePhysical(SceneContext& c, FidelityScene& out) {
   bake::ReferenceOptions ro;
   ro.mode = bake::ReferenceMode::FullTree;
@@ -737,7 +743,7 @@ Result<void> measurePhysical(SceneContext& c, FidelityScene& out) {
   auto physical = cpuRender(c, ro, fmt("physical reference (full tree, depth %u)", c.profile.treeDepth));
   if (!physical) return physical.error();
   c.physical = std::move(physical).value();
-  const uint32_t dense = std::min(2 * c.profile.samplesPerAxis, bake::kMaxSamplesPerAxis);
+  const uint32_t dense = denseSamplesPerAxis(c.profile.samplesPerAxis);
   auto denser = cpuRender(c, ro, "denser physical reference", dense);
   if (!denser) return denser.error();
   c.dense = std::move(denser).value();
@@ -922,7 +928,7 @@ std::string introMarkdown(const Profile& p, uint32_t width, uint32_t height, dou
             "tree at %ux%u samples, which shares no sample positions with the %ux%u renders (an exact render shares "
             "the reference's, and gains against it what both alias alike; the reference's own row says how far it "
             "is from the denser one); ",
-            2 * s, 2 * s, 2 * s, 2 * s, s, s);
+            denseSamplesPerAxis(s), denseSamplesPerAxis(s), denseSamplesPerAxis(s), denseSamplesPerAxis(s), s, s);
   md += "*vs exact* against the exact single-path "
         "render this row approximates (same path rule and throughput; for the exact rows, the same rule without "
         "throughput; single interface: exact highest-energy). Each field setting is traced once and finished in "
