@@ -5,6 +5,10 @@ reads the FITS images scripts/linear-measure.sh converts the tool's EXR renders 
 
     linear_psnr.py MASK_A.fits MASK_B.fits REFERENCE.fits IMAGE.fits...
 
+oiiotool 2.4's FITS files hold the image's rows bottom-up and one off: FITS row r is the image's row
+H - r, and row 0 reads zeros (the image's top row, sky in every default view, is left out). Every
+image alike, so the PSNRs hold; a pixel's (x, y) counted in the FITS data is not the image's.
+
 Object pixels are where MASK_A and MASK_B differ: two single-interface renders of the same view at
 two IORs, which change every object pixel and no background pixel. Prints one PSNR (dB) per IMAGE.
 """
