@@ -25,14 +25,9 @@ tool=$1 scene=$2 out=$3 field=$4
 here=$(cd "$(dirname "$0")" && pwd)
 mkdir -p "$out"
 name=$(basename "$field" .shrf)
-# One render, once: the image's name, then what to render and how; kept as NAME.exr and NAME.fits.
-r() {
-  local image=$1
-  shift
-  [ -f "$out/$image.fits" ] && return
-  "$tool" render "$@" --size 320x240 -o "$out/$image.exr" > /dev/null 2>> "$out/render.log"
-  oiiotool "$out/$image.exr" --ch R,G,B -d float -o "$out/$image.fits"
-}
+# shellcheck source=scripts/render-once.sh
+source "$here/render-once.sh"
+r() { render_once "$out" "$1" "$tool" "${@:2}"; }  # r NAME ARGS...: the image NAME, rendered once
 r mask_a "$scene" --mode single-interface --ior 1.2
 r mask_b "$scene" --mode single-interface --ior 1.9
 r reference "$scene" --mode full-tree --spp 16

@@ -20,17 +20,12 @@ shift 2
 scenes=("$@")
 [ ${#scenes[@]} -gt 0 ] || scenes=(sphere cube torus glass-of-water)
 here=$(cd "$(dirname "$0")" && pwd)
+# shellcheck source=scripts/render-once.sh
+source "$here/render-once.sh"
 for s in "${scenes[@]}"; do
   d=$out/$s
   mkdir -p "$d"
-  # One render, once: NAME and the render's flags; kept as NAME.exr and NAME.fits.
-  r() {
-    local name=$1
-    shift
-    [ -f "$d/$name.fits" ] && return
-    "$tool" render "builtin:$s" --size 320x240 "$@" -o "$d/$name.exr" > /dev/null 2>> "$d/render.log"
-    oiiotool "$d/$name.exr" --ch R,G,B -d float -o "$d/$name.fits"
-  }
+  r() { render_once "$d" "$1" "$tool" "builtin:$s" "${@:2}"; }  # r NAME FLAGS...: the scene's image NAME, once
   # The object mask: two IORs change every object pixel and no background pixel.
   r mask_a --mode single-interface --ior 1.2
   r mask_b --mode single-interface --ior 1.9

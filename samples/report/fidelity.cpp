@@ -916,7 +916,7 @@ Result<FidelityScene> measureScene(SceneContext& c) {
 std::string number(double v) { return std::isfinite(v) ? fmt("%.2f", v) : "-"; }
 
 std::string introMarkdown(const Profile& p, uint32_t width, uint32_t height, double seconds) {
-  const uint32_t s = p.samplesPerAxis;
+  const uint32_t s = p.samplesPerAxis, d = denseSamplesPerAxis(s);
   std::string md = "## Fidelity against the physical reference\n\n";
   md += fmt("Physical reference: the full Fresnel tree (every branch at every interface) to depth %u, traced on the "
             "CPU. Every image is %ux%u with %ux%u stratified samples per pixel (sub-pixel cell centres, box filter); "
@@ -928,7 +928,7 @@ std::string introMarkdown(const Profile& p, uint32_t width, uint32_t height, dou
             "tree at %ux%u samples, which shares no sample positions with the %ux%u renders (an exact render shares "
             "the reference's, and gains against it what both alias alike; the reference's own row says how far it "
             "is from the denser one); ",
-            denseSamplesPerAxis(s), denseSamplesPerAxis(s), denseSamplesPerAxis(s), denseSamplesPerAxis(s), s, s);
+            d, d, d, d, s, s);
   md += "*vs exact* against the exact single-path "
         "render this row approximates (same path rule and throughput; for the exact rows, the same rule without "
         "throughput; single interface: exact highest-energy). Each field setting is traced once and finished in "
