@@ -53,6 +53,9 @@ std::vector<FlagSpec> renderFlags() {
       {"filtered", false, "exact and full-tree modes: read the environment at the level of each lookup's pixel "
                           "footprint, as the engine does, and blend across path discontinuities (docs/antialiasing.md; 5x "
                           "the rays, more at discontinuities)"},
+      {"no-refine", false, "full-tree with --filtered: keep one filtered sample a pixel where its probes see the "
+                           "colour change, instead of four of its quarters (cheaper; docs/antialiasing.md, \"Refined "
+                           "pixels in the full tree\")"},
       {"env-taps", true, "taps per axis of each filtered environment lookup (1 is one trilinear lookup, cheaper "
                          "and blurrier): GPU modes and exact and full-tree with --filtered (default 4) "
                          "(docs/antialiasing.md)", K::Integer, {1, kMaxEnvironmentTapsPerAxis}},
@@ -175,6 +178,8 @@ Result<void> checkApplicability(const Args& args, const Request& r) {
   if (args.has("no-volume-refine") && (r.scene || r.mode != "field" || args.has("volume-texels")))
     return usage("shrefract render: --no-volume-refine applies to --mode field of a volume field traced per fragment "
                  "only (not with --volume-texels)");
+  if (args.has("no-refine") && !(r.mode == "full-tree" && args.has("filtered")))
+    return usage("shrefract render: --no-refine applies to --mode full-tree with --filtered only");
   if (args.has("env-level-bias") && !(cpu && args.has("filtered")))
     return usage("shrefract render: --env-level-bias applies to --mode exact and full-tree with --filtered only");
   if (r.scene && r.mode == "field")
@@ -360,6 +365,7 @@ int renderCpu(const Args& args, const Request& r, const Inputs& in, const Camera
   ro.filtered = args.has("filtered");
   ro.environmentTapsPerAxis = r.environmentTaps.value_or(ro.environmentTapsPerAxis);
   ro.environmentLevelBias = r.environmentLevelBias.value_or(ro.environmentLevelBias);
+  ro.refine = !args.has("no-refine");
   ro.samplesPerAxis = r.samplesPerAxis;
   Progress progress("render " + r.mode, stderr);
   ro.progress = [&](const bake::ReferenceProgress& p) {
@@ -373,17 +379,19 @@ int renderCpu(const Args& args, const Request& r, const Inputs& in, const Camera
   if (args.has("json"))
     std::printf("{\"output\": %s, \"scene\": %s, \"mode\": %s, \"width\": %u, \"height\": %u, "
                 "\"spp\": %u, \"path_rule\": %s, \"throughput\": %s, \"filtered\": %s, \"env_taps\": %s, "
-                "\"env_level_bias\": %s, \"rays\": %llu, \"cpu_seconds\": %.4f}\n",
+                "\"env_level_bias\": %s, \"refined\": %llu, \"rays\": %llu, \"cpu_seconds\": %.4f}\n",
                 jsonString(r.output).c_str(), jsonString(r.input).c_str(), jsonString(r.mode).c_str(), ro.width,
                 ro.height, r.samplesPerAxis * r.samplesPerAxis, jsonString(toString(ro.pathRule)).c_str(),
                 ro.throughput ? "true" : "false", ro.filtered ? "true" : "false",
                 ro.filtered ? std::to_string(ro.environmentTapsPerAxis).c_str() : "null",  // unfiltered: no taps
                 ro.filtered ? jsonNumber(ro.environmentLevelBias).c_str() : "null",
-                static_cast<unsigned long long>(result.rays), result.seconds);
+                static_cast<unsigned long long>(result.refined), static_cast<unsigned long long>(result.rays),
+                result.seconds);
   else
-    std::printf("rendered %s (%ux%u, %u spp, %s, CPU) in %.2f s, %.3g rays (%.3g rays/s) -> %s\n", r.input.c_str(),
+    std::printf("rendered %s (%ux%u, %u spp, %s, CPU) in %.2f s, %.3g rays (%.3g rays/s)%s -> %s\n", r.input.c_str(),
                 ro.width, ro.height, r.samplesPerAxis * r.samplesPerAxis, r.mode.c_str(), result.seconds,
                 double(result.rays), result.seconds > 0 ? double(result.rays) / result.seconds : 0.0,
+                result.refined ? (", " + std::to_string(result.refined) + " sub-samples refined").c_str() : "",
                 r.output.c_str());
   return 0;
 }

@@ -369,6 +369,7 @@ TEST(ReferenceRender, FilteredReflectionsStopAtCreases) {
   o.mode = ReferenceMode::FullTree;
   o.treeDepth = 4;
   o.camera.eye = {4.0f, 1.5f, 4.0f};
+  o.refine = false;  // the blend alone (FilteredFullTreeRefinesWhereItsColourChanges: the refinement)
   const FilterRenders r = renderFilterTriple(s, o);
   ASSERT_FALSE(r.super.color.rgba.empty() || r.plain.color.rgba.empty() || r.filtered.color.rgba.empty());
   double plainError = 0.0, filteredError = 0.0;
@@ -413,6 +414,7 @@ TEST(ReferenceRender, FilteredSilhouettesBlendTowardTheirCoverage) {
   s.scene.media[s.scene.surfaces[0].innerMedium].color = glm::vec3(0.1f, 0.3f, 1.0f);
   ReferenceOptions o = sphereView(64, 48);
   o.mode = ReferenceMode::FullTree;
+  o.refine = false;  // the blend alone (FilteredFullTreeRefinesWhereItsColourChanges: the refinement)
   const FilterRenders r = renderFilterTriple(s, o);
   ASSERT_FALSE(r.super.color.rgba.empty() || r.plain.color.rgba.empty() || r.filtered.color.rgba.empty());
   // The silhouette's sides, seen from the covered pixels' centroid: 0 right, 1 left, 2 below, 3 above.
@@ -462,6 +464,53 @@ TEST(ReferenceRender, FilteredSilhouettesBlendTowardTheirCoverage) {
       EXPECT_LT(filteredError[b], 0.25 * plainError[b]) << "bucket " << b << ": the own side's mean, not the centre's";
     }
   }
+}
+
+// ReferenceOptions::refine: the full tree at one sample per pixel, filtered, of the sphere in the
+// procedural sky (its sun included), against the full tree at 8x8. Where the probes see the colour
+// change within the pixel (the rim, where Fresnel rises toward grazing; the places where the tree
+// changes shape), the pixel is the mean of four filtered samples of its quarters. It must refine
+// some object pixels and not all, trace more rays, and bring the image closer to the 8x8 render;
+// the exact mode is never refined and renders the same either way. Measured: see the printout.
+// Planted once: neither criterion ever refines (no jump, no bend): 0 refined, the same error, and
+// the test fails.
+TEST(ReferenceRender, FilteredFullTreeRefinesWhereItsColourChanges) {
+  const SphereSetup s = sphere(4);
+  ReferenceOptions o = sphereView(64, 48);
+  o.mode = ReferenceMode::FullTree;
+  o.treeDepth = 4;
+  o.samplesPerAxis = 8;
+  auto super = renderReference(*s.tracer, s.scene, s.env, o);
+  o.samplesPerAxis = 1;
+  o.filtered = true;
+  o.refine = false;
+  auto single = renderReference(*s.tracer, s.scene, s.env, o);
+  o.refine = true;
+  auto refined = renderReference(*s.tracer, s.scene, s.env, o);
+  ASSERT_TRUE(super.ok() && single.ok() && refined.ok());
+  for (float v : refined.value().color.rgba) ASSERT_TRUE(std::isfinite(v));
+  auto a = compareImages(single.value().color, super.value().color, super.value().mask, {}, {});
+  auto b = compareImages(refined.value().color, super.value().color, super.value().mask, {}, {});
+  ASSERT_TRUE(a.ok() && b.ok());
+  const uint64_t objectPixels = a.value().pixels;
+  std::printf("full tree 1 spp filtered against 8x8: %.2f dB, refined %.2f dB (%llu of %llu object pixels, "
+              "rays %.2fx)\n",
+              a.value().psnr, b.value().psnr, static_cast<unsigned long long>(refined.value().refined),
+              static_cast<unsigned long long>(objectPixels),
+              double(refined.value().rays) / double(single.value().rays));
+  EXPECT_EQ(single.value().refined, 0u);
+  EXPECT_GT(refined.value().refined, objectPixels / 20) << "the rim, at least, must be refined";
+  EXPECT_LT(refined.value().refined, objectPixels) << "a smooth interior must not be";
+  EXPECT_GT(refined.value().rays, single.value().rays);
+  EXPECT_GT(b.value().psnr, a.value().psnr + 1.0) << "refined pixels must approach the 8x8 render";
+  // The exact mode: never refined, the same image.
+  o.mode = ReferenceMode::Exact;
+  auto exact = renderReference(*s.tracer, s.scene, s.env, o);
+  o.refine = false;
+  auto exactSingle = renderReference(*s.tracer, s.scene, s.env, o);
+  ASSERT_TRUE(exact.ok() && exactSingle.ok());
+  EXPECT_EQ(exact.value().refined, 0u);
+  EXPECT_EQ(exact.value().color.rgba, exactSingle.value().color.rgba);
 }
 
 // ReferenceOptions::filtered at straight edges: a tinted glass cube seen along its axis (the

@@ -2,7 +2,8 @@
 # --path-rule and --throughput (exact mode), --filtered (exact and full-tree), --env-taps (GPU
 # modes, and CPU modes with --filtered), --env-level-bias (CPU modes with --filtered), --msaa (GPU
 # modes: 1, 2, 4 or 8, a count the device lacks refused naming the flag), --volume-texels and
-# --no-volume-refine (field mode of a volume field; the latter not with the former). Range and
+# --no-volume-refine (field mode of a volume field; the latter not with the former), --no-refine
+# (full-tree with --filtered; the JSON summary counts the refined sub-samples). Range and
 # usage errors exit 2 with one line naming the flag and write nothing; good values render (CPU
 # modes always; the GPU case skips without a device, printing "SKIPPED: no Vulkan device"). Inputs: SHREFRACT (the tool), WORK_DIR.
 file(REMOVE_RECURSE ${WORK_DIR})
@@ -50,6 +51,9 @@ expect_usage_error(--volume-texels 16x12 --volume-texels)
 expect_usage_error(--volume-texels 16x12 --mode exact --volume-texels)
 expect_usage_error(--no-volume-refine 16x12 --no-volume-refine)
 expect_usage_error(--no-volume-refine 16x12 --mode full-tree --no-volume-refine)
+expect_usage_error(--no-refine 16x12 --no-refine)
+expect_usage_error(--no-refine 16x12 --mode exact --filtered --no-refine)
+expect_usage_error(--no-refine 16x12 --mode full-tree --no-refine)
 expect_usage_error(--msaa 16x12 --msaa 3)
 expect_usage_error(--msaa 16x12 --msaa 0)
 expect_usage_error(--msaa 16x12 --msaa 16)
@@ -75,6 +79,20 @@ if(NOT rc EQUAL 0)
   message(FATAL_ERROR "full-tree render with --spp 9 failed (${rc}): ${err}")
 endif()
 file(REMOVE ${WORK_DIR}/out.png)
+# The full tree's refinement: on by default (the sphere's rim is refined), off with --no-refine.
+foreach(flag "" --no-refine)
+  execute_process(COMMAND ${SHREFRACT} ${base} --size 32x24 --mode full-tree --tree-depth 3 --filtered ${flag} --json
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(flag)
+    set(want "\"refined\": 0,")
+  else()
+    set(want "\"refined\": [1-9][0-9]*,")
+  endif()
+  if(NOT rc EQUAL 0 OR NOT out MATCHES "${want}")
+    message(FATAL_ERROR "full-tree --filtered ${flag}: expected ${want} (${rc}): ${err}${out}")
+  endif()
+  file(REMOVE ${WORK_DIR}/out.png)
+endforeach()
 
 # A field's exact render follows the rule the field was baked with (the tool's default bake:
 # first-refraction) unless --path-rule says otherwise. Planted once: render's default rule kept

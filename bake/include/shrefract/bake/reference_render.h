@@ -97,6 +97,15 @@ struct ReferenceOptions {
   // (the sun) turns into a halo of saturated pixels; one level finer keeps each tap to its cell and
   // the pixel to its box (docs/antialiasing.md, "Level bias of the references").
   float environmentLevelBias = -1.0f;
+  // filtered, FullTree: where a sub-sample's probes see its colour change within the cell (a probe
+  // across a discontinuity whose colour differs by more than 0.03 in any channel of the written
+  // image, or, with none, the probes' mean on an axis more than 0.01 from the sample's colour), the
+  // sub-sample is the mean of four filtered samples of its cell's quarters, each with its own probes:
+  // the rim of smooth glass, where Fresnel rises toward grazing in the last tenth of a pixel, and
+  // the flanks where the tree changes shape (docs/antialiasing.md, "Refined pixels in the full
+  // tree"). False: one filtered sample per cell. The exact mode is not refined: it meets its 2 dB
+  // without (the same section).
+  bool refine = true;
   // Called from the calling thread, between the rows it renders, at most every 100 ms, and once
   // at the end. May be empty.
   std::function<void(const ReferenceProgress&)> progress;
@@ -110,6 +119,7 @@ struct ReferenceImage {
   std::vector<uint8_t> mask;     // per pixel: 1 where coverage > 0.5 (see the top)
   std::vector<float> coverage;   // per pixel: fraction of the sub-samples that hit the object
   uint64_t rays = 0;
+  uint64_t refined = 0;  // sub-samples refined (ReferenceOptions::refine)
   double seconds = 0.0;
 };
 
