@@ -1029,11 +1029,13 @@ std::string antialiasingMarkdown(const Profile& p, const FidelityScene& sc) {
   const bake::ReferenceOptions cpu;  // the CPU modes' filtering, as measured
   std::string md;
   md += fmt("\nAnti-aliasing: each mode at 1 sample per pixel with filtered lookups (the CPU modes with "
-            "ReferenceOptions::filtered: 4 probes, %ux%u taps at level bias %g; the field also with the host's 4x MSAA: "
+            "ReferenceOptions::filtered: 4 probes, %ux%u taps at level bias %g; the full tree%s; the field also with the host's 4x MSAA: "
             "one shading sample per pixel, silhouettes covered at 4) and at %ux%u, against the physical "
             "reference (target: within 2 dB; the full tree at %ux%u is that reference itself) and against the full "
             "tree at %ux%u, which shares no sample positions with the %ux%u renders.\n\n",
             cpu.environmentTapsPerAxis, cpu.environmentTapsPerAxis, static_cast<double>(cpu.environmentLevelBias),
+            cpu.refine ? " refined to four quarters where its probes see the colour change (ReferenceOptions::refine)"
+                       : " not refined",
             s, s, s, s, dense, dense, s, s);
   md += fmt("| mode | 1 spp filtered dB | %ux%u dB | apart dB | vs %ux%u: 1 spp filtered dB | %ux%u dB | apart dB "
             "|\n|---|---|---|---|---|---|---|\n",
