@@ -296,7 +296,7 @@ constexpr int kCrossingBisections = 3;
 // (colourBends), in the written image's linear colour, any channel. Measured on the four built-in
 // scenes, full tree at 1 spp against the 7x7 full tree (docs/antialiasing.md, "Refined pixels in
 // the full tree"): every discontinuity refined (no jump threshold) cost the torus and the glass of
-// water 1.9x the time for 0.2 to 0.4 dB; jumps of 0.1 left the glass of water 1.4 dB short; bends of
+// water 1.5x and 1.8x the time for 0.19 and 0.37 dB; jumps of 0.1 left the glass of water 1.4 dB short; bends of
 // 0.03 left it 0.1 dB short and 0.01 meets it by 1.0 dB.
 constexpr float kRefineJump = 0.03f;
 constexpr float kRefineBend = 0.01f;
@@ -333,10 +333,8 @@ class SubSampler {
       filteredEnv_.levels = &levels_;
       filteredEnv_.tapsPerAxis = o.environmentTapsPerAxis;
       filteredEnv_.levelBias = o.environmentLevelBias;
-      for (uint32_t t = 1; t <= kMaxEnvironmentTapsPerAxis; ++t) {
-        tapEnvs_[t - 1] = filteredEnv_;
-        tapEnvs_[t - 1].tapsPerAxis = t;
-      }
+      oneTapEnv_ = filteredEnv_;
+      oneTapEnv_.tapsPerAxis = 1;
     }
   }
   SubSampler(const SubSampler&) = delete;  // filteredEnv_ points at levels_
@@ -351,11 +349,12 @@ class SubSampler {
   }
 
  private:
-  glm::vec3 lookup(glm::vec3 dir, const Derivatives& dd, uint32_t taps = 0) const;
+  glm::vec3 lookup(glm::vec3 dir, const Derivatives& dd, bool oneTap = false) const;
   void trace(glm::vec3 d, Traced& t, uint64_t& rays) const;
   void lookups(Probe& p) const;
-  Sample shade(const Probe& p, const std::vector<Derivatives>& derivatives, uint32_t taps = 0) const;
-  glm::vec3 transmitted(const Probe& p, const std::vector<Derivatives>& derivatives, Sample& sample, uint32_t taps) const;
+  Sample shade(const Probe& p, const std::vector<Derivatives>& derivatives, bool oneTap = false) const;
+  glm::vec3 transmitted(const Probe& p, const std::vector<Derivatives>& derivatives, Sample& sample,
+                        bool oneTap) const;
   void probeAt(float bx, float by, Probe& p, uint64_t& rays) const;
   static bool sameWay(const Probe& a, const Probe& b, bool keys = true);
   static glm::vec3 axisDerivative(const Probe& self, const Probe& after, const Probe& before, size_t i);
@@ -378,14 +377,16 @@ class SubSampler {
   TraceSettings settings_;
   std::vector<std::vector<float>> levels_;
   reference::LatLongImage filteredEnv_;
-  std::array<reference::LatLongImage, kMaxEnvironmentTapsPerAxis> tapEnvs_;  // [t - 1]: t taps per axis
+  reference::LatLongImage oneTapEnv_;  // filteredEnv_ at one tap per lookup (colourBends)
 };
 
-// Level 0 (bake::sampleLatLong) unless filtered: then averaged over the pixel as the engine does.
-glm::vec3 SubSampler::lookup(glm::vec3 dir, const Derivatives& dd, uint32_t taps) const {
+// Level 0 (bake::sampleLatLong) unless filtered: then averaged over the pixel as the engine does
+// (at one tap where oneTap).
+glm::vec3 SubSampler::lookup(glm::vec3 dir, const Derivatives& dd, bool oneTap) const {
   if (!o_.filtered) return sampleLatLong(env_, dir);
-  const reference::Vec3 c = reference::sampleLatLongOverPixel(taps ? tapEnvs_[taps - 1] : filteredEnv_, {dir.x, dir.y, dir.z},
-                                                               {dd.dx.x, dd.dx.y, dd.dx.z}, {dd.dy.x, dd.dy.y, dd.dy.z});
+  const reference::LatLongImage& env = oneTap ? oneTapEnv_ : filteredEnv_;
+  const reference::Vec3 c = reference::sampleLatLongOverPixel(env, {dir.x, dir.y, dir.z}, {dd.dx.x, dd.dx.y, dd.dx.z},
+                                                               {dd.dy.x, dd.dy.y, dd.dy.z});
   return glm::vec3(c[0], c[1], c[2]);
 }
 
@@ -431,7 +432,7 @@ void SubSampler::lookups(Probe& p) const {
 }
 
 // One sub-sample's colour: p traced and its lookups found; derivatives[i] (filtered) for lookup i.
-Sample SubSampler::shade(const Probe& p, const std::vector<Derivatives>& derivatives, uint32_t taps) const {
+Sample SubSampler::shade(const Probe& p, const std::vector<Derivatives>& derivatives, bool oneTap) const {
   Sample sample;
   const EyeRayResult& hit = p.t.hit;
   if (!hit.hit) {
@@ -447,33 +448,34 @@ Sample SubSampler::shade(const Probe& p, const std::vector<Derivatives>& derivat
   }
   // One colour model in every mode (docs/scenes.md): the colour of the medium behind the front
   // surface tints all the light transmitted through it.
-  glm::vec3 color = (1.0f - f) * transmitted(p, derivatives, sample, taps) * scene_.media[surface.innerMedium].color;
+  glm::vec3 color = (1.0f - f) * transmitted(p, derivatives, sample, oneTap) * scene_.media[surface.innerMedium].color;
   if (o_.reflection)
-    color += f * lookup(hit.reflectedDirection, derivatives.empty() ? Derivatives{} : derivatives[0], taps);
+    color += f * lookup(hit.reflectedDirection, derivatives.empty() ? Derivatives{} : derivatives[0], oneTap);
   sample.color = color * o_.exposure;
   return sample;
 }
 
 // The light transmitted through the front surface, by mode; sets sample.direction.
 glm::vec3 SubSampler::transmitted(const Probe& p, const std::vector<Derivatives>& derivatives, Sample& sample,
-                                  uint32_t taps) const {
+                                  bool oneTap) const {
   auto derivativesOf = [&](size_t i) { return i < derivatives.size() ? derivatives[i] : Derivatives{}; };
   const EyeRayResult& hit = p.t.hit;
   if (o_.mode == ReferenceMode::SingleInterface) {
     sample.direction = p.dirs[1];
-    return lookup(sample.direction, derivativesOf(1), taps);
+    return lookup(sample.direction, derivativesOf(1), oneTap);
   }
   if (o_.mode == ReferenceMode::Exact) {
     const PathResult& path = hit.transmitted;
     sample.direction = path.exitDirection;
-    glm::vec3 light = lookup(path.exitDirection, derivativesOf(1), taps) * std::exp(-path.opticalDepth * o_.absorptionScale);
+    glm::vec3 light =
+        lookup(path.exitDirection, derivativesOf(1), oneTap) * std::exp(-path.opticalDepth * o_.absorptionScale);
     if (o_.throughput) light *= path.energy;
     return light;
   }
   glm::vec3 sum(0.0f), dirSum(0.0f);
   for (size_t i = 0; i < p.t.leaves.size(); ++i) {
     const PathResult& leaf = p.t.leaves[i];
-    sum += leaf.energy * lookup(leaf.exitDirection, derivativesOf(i + 1), taps) *
+    sum += leaf.energy * lookup(leaf.exitDirection, derivativesOf(i + 1), oneTap) *
            std::exp(-leaf.opticalDepth * o_.absorptionScale);
     dirSum += leaf.energy * leaf.exitDirection;
   }
@@ -632,14 +634,14 @@ Sample SubSampler::filteredSample(float x, float y, float cell, Neighbourhood& n
 // The colour bends inside the cell: the mean of the probes on an axis differs from the sample's
 // colour by more than kRefineBend, where the filtered lookup, which spreads over a linear
 // footprint, misses a highlight or a fold of the directions (the sphere's rim, Fresnel rising toward
-// grazing, which no probe sees as a discontinuity). Shaded with one tap per lookup: a measure of the
-// change, four times cheaper than the sample's own shading.
+// grazing, which no probe sees as a discontinuity). Shaded with one tap per lookup, a sixteenth of
+// the sample's own: a measure of the change, not its colour.
 bool SubSampler::colourBends(const Neighbourhood& n) const {
   if (n.across || !n.self.t.hit.hit) return false;
-  const glm::vec3 centre = shade(n.self, n.derivatives, 1).color;
+  const glm::vec3 centre = shade(n.self, n.derivatives, true).color;
   for (size_t a = 0; a < 4; a += 2) {
     const glm::vec3 mean =
-        0.5f * (shade(n.around[a], n.derivatives, 1).color + shade(n.around[a + 1], n.derivatives, 1).color);
+        0.5f * (shade(n.around[a], n.derivatives, true).color + shade(n.around[a + 1], n.derivatives, true).color);
     if (maxAbs(mean - centre) > kRefineBend) return true;
   }
   return false;
