@@ -11,17 +11,22 @@
 
 namespace shrefract {
 
-// Writes the 4 channels at `direction` (any non-zero length) to out[0..3].
-// Preconditions: width, height > 0; rgba holds width * height * 4 floats.
-inline void sampleLatLongBilinear(const float* rgba, uint32_t width, uint32_t height, float dx, float dy, float dz,
-                                  float* out) {
+// Where `direction` (any non-zero length) falls in a lat-long image: u in [0, 1] around the
+// vertical axis, v in [0, 1] from +y down.
+inline void latLongUv(float dx, float dy, float dz, float& u, float& v) {
   const float len = std::sqrt(dx * dx + dy * dy + dz * dz);
   dx /= len;
   dy /= len;
   dz /= len;
   const float pi = std::numbers::pi_v<float>;
-  const float u = 0.5f + std::atan2(dx, -dz) * (0.5f / pi);
-  const float v = std::acos(std::clamp(dy, -1.0f, 1.0f)) * (1.0f / pi);
+  u = 0.5f + std::atan2(dx, -dz) * (0.5f / pi);
+  v = std::acos(std::clamp(dy, -1.0f, 1.0f)) * (1.0f / pi);
+}
+
+// Writes the 4 channels at (u, v) (latLongUv) to out[0..3]. Reading several levels of one chain
+// at one direction, the direction's (u, v) is found once.
+// Preconditions: width, height > 0; rgba holds width * height * 4 floats.
+inline void sampleLatLongBilinearUv(const float* rgba, uint32_t width, uint32_t height, float u, float v, float* out) {
   const float x = u * float(width) - 0.5f;
   const float y = v * float(height) - 0.5f;
   const float fx = std::floor(x), fy = std::floor(y);
@@ -37,6 +42,15 @@ inline void sampleLatLongBilinear(const float* rgba, uint32_t width, uint32_t he
     const float bottom = (1.0f - ax) * at(x0, y1, c) + ax * at(x1, y1, c);
     out[c] = (1.0f - ay) * top + ay * bottom;
   }
+}
+
+// Writes the 4 channels at `direction` (any non-zero length) to out[0..3].
+// Preconditions: width, height > 0; rgba holds width * height * 4 floats.
+inline void sampleLatLongBilinear(const float* rgba, uint32_t width, uint32_t height, float dx, float dy, float dz,
+                                  float* out) {
+  float u, v;
+  latLongUv(dx, dy, dz, u, v);
+  sampleLatLongBilinearUv(rgba, width, height, u, v, out);
 }
 
 }  // namespace shrefract

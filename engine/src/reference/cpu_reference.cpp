@@ -186,6 +186,28 @@ float environmentLevel(float footprint, float texelAngle, float maxLevel, float 
 float latLongTexelAngle(float width) { return 2.0f * std::numbers::pi_v<float> / width; }
 float cubeTexelAngle(float faceSize) { return 0.5f * std::numbers::pi_v<float> / faceSize; }
 
+namespace {
+// Where tap i of n sits along one of the pixel's axes, in (-1/2, 1/2) (environment_select.glsl).
+float tapOffset(uint32_t i, float n) { return (float(i) + 0.5f) / n - 0.5f; }
+
+// sampleLatLong at a level found already: bilinear in the two levels around it, linear between.
+Vec3 sampleLatLongAtLevel(const LatLongImage& env, const Vec3& direction, float level) {
+  float u, v;
+  latLongUv(direction[0], direction[1], direction[2], u, v);  // once for both levels
+  const uint32_t l0 = static_cast<uint32_t>(level);
+  const float frac = level - float(l0);
+  auto sampleLevel = [&](uint32_t l) {
+    float c[4];
+    const float* rgba = l == 0 ? env.rgba : (*env.levels)[l - 1].data();
+    sampleLatLongBilinearUv(rgba, std::max(1u, env.width >> l), std::max(1u, env.height >> l), u, v, c);
+    return glm::vec3(c[0], c[1], c[2]);
+  };
+  glm::vec3 c = sampleLevel(l0);
+  if (frac > 0.0f) c = (1.0f - frac) * c + frac * sampleLevel(l0 + 1);
+  return fromGlm(c);
+}
+}  // namespace
+
 Vec3 sampleLatLong(const LatLongImage& env, const Vec3& direction, float footprint) {
   float out[4];
   if (!env.levels || env.levels->empty() || footprint <= 0.0f) {
@@ -194,24 +216,8 @@ Vec3 sampleLatLong(const LatLongImage& env, const Vec3& direction, float footpri
   }
   const float level =
       environmentLevel(footprint, latLongTexelAngle(float(env.width)), float(env.levels->size()), env.levelBias);
-  const uint32_t l0 = static_cast<uint32_t>(level);
-  const float frac = level - float(l0);
-  auto sampleLevel = [&](uint32_t l) {
-    float c[4];
-    const float* rgba = l == 0 ? env.rgba : (*env.levels)[l - 1].data();
-    sampleLatLongBilinear(rgba, std::max(1u, env.width >> l), std::max(1u, env.height >> l), direction[0],
-                          direction[1], direction[2], c);
-    return glm::vec3(c[0], c[1], c[2]);
-  };
-  glm::vec3 c = sampleLevel(l0);
-  if (frac > 0.0f) c = (1.0f - frac) * c + frac * sampleLevel(l0 + 1);
-  return fromGlm(c);
+  return sampleLatLongAtLevel(env, direction, level);
 }
-
-namespace {
-// Where tap i of n sits along one of the pixel's axes, in (-1/2, 1/2) (environment_select.glsl).
-float tapOffset(uint32_t i, float n) { return (float(i) + 0.5f) / n - 0.5f; }
-}  // namespace
 
 Vec3 sampleLatLongOverPixel(const LatLongImage& env, const Vec3& direction, const Vec3& ddx, const Vec3& ddy) {
   const glm::vec3 dir = toGlm(direction), dx = toGlm(ddx), dy = toGlm(ddy);
@@ -220,12 +226,18 @@ Vec3 sampleLatLongOverPixel(const LatLongImage& env, const Vec3& direction, cons
   const float n = float(taps);
   const float footprint = directionFootprint(fromGlm(dx / n), fromGlm(dy / n));
   if (taps == 1) return sampleLatLong(env, direction, footprint * gpu::kOneTapFootprintScale);
+  // Every tap reads the same level (the footprint's): sampleLatLong's, found once.
+  const bool levels = env.levels && !env.levels->empty() && footprint > 0.0f;
+  const float level = levels ? environmentLevel(footprint, latLongTexelAngle(float(env.width)),
+                                                float(env.levels->size()), env.levelBias)
+                             : 0.0f;
   glm::vec3 sum(0.0f);
   for (uint32_t j = 0; j < taps; ++j)
     for (uint32_t i = 0; i < taps; ++i) {
       const float a = tapOffset(i, n), b = tapOffset(j, n);
       const glm::vec3 tap = dir + a * dx + b * dy;
-      sum += toGlm(sampleLatLong(env, fromGlm(glm::dot(tap, tap) > 1e-12f ? tap : dir), footprint));
+      const Vec3 at = fromGlm(glm::dot(tap, tap) > 1e-12f ? tap : dir);
+      sum += toGlm(levels ? sampleLatLongAtLevel(env, at, level) : sampleLatLong(env, at, footprint));
     }
   return fromGlm(sum / (n * n));
 }
