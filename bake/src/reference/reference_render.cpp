@@ -312,6 +312,7 @@ struct Neighbourhood {
   float cell = 1.0f;            // the sample's cell, in sub-pixels (probes lie half of it away)
   bool across = false;          // blendAcross: a probe went another way
   bool jumps = false;           // blendAcross: one of those shows another colour (see kRefineJump)
+  bool refinable = false;       // a jump refines this sample: blendAcross stops once it finds one
   std::vector<Derivatives> derivatives;
   std::vector<Derivatives> footprints;  // scratch: a probe's, in blendAcross
 };
@@ -578,8 +579,10 @@ glm::vec3 SubSampler::blendAcross(Neighbourhood& n, glm::vec3 own, uint64_t& ray
       if (p.dirs.size() == n.self.dirs.size() || p.keys[i] == n.self.keys[i]) n.footprints[i] = n.derivatives[i];
     colour[k] = shade(p, n.footprints).color;
     n.jumps = n.jumps || p.t.hit.hit != n.self.t.hit.hit || maxAbs(colour[k] - own) > kRefineJump;
-    crossing[k] = bisect ? crossingDistance(n, k, keys, rays) : kProbeOffset;
   }
+  if (n.refinable && n.jumps) return own;  // the sample is traced again: its blend would be thrown away
+  for (size_t k = 0; k < n.around.size(); ++k)
+    if (across[k]) crossing[k] = bisect ? crossingDistance(n, k, keys, rays) : kProbeOffset;
   const std::array<float, 4> share = shareBeyondCrossings(crossing);
   if (bisect && o_.mode == ReferenceMode::FullTree) own = ownSideMean(n, own, across, crossing);
   float keep = 1.0f;
@@ -653,7 +656,9 @@ bool SubSampler::colourBends(const Neighbourhood& n) const {
 Sample SubSampler::refinableSample(uint32_t bx, uint32_t by, Neighbourhood& n, uint64_t& rays,
                                    uint64_t& refined) const {
   const float x = float(bx), y = float(by);
+  n.refinable = o_.refine && o_.mode == ReferenceMode::FullTree;
   Sample sample = filteredSample(x, y, 1.0f, n, rays);
+  n.refinable = false;  // the quarters are not refined again
   if (!o_.refine || o_.mode != ReferenceMode::FullTree || !(n.jumps || colourBends(n))) return sample;
   ++refined;
   glm::vec3 color(0.0f), direction(0.0f);
