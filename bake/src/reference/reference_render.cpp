@@ -296,8 +296,8 @@ constexpr int kCrossingBisections = 3;
 // (colourBends), in the written image's linear colour, any channel. Measured on the four built-in
 // scenes, full tree at 1 spp against the 7x7 full tree (docs/antialiasing.md, "Refined pixels in
 // the full tree"): every discontinuity refined (no jump threshold) cost the torus and the glass of
-// water 1.5x and 1.8x the time for 0.19 and 0.37 dB; jumps of 0.1 left the glass of water 1.4 dB short; bends of
-// 0.03 left it 0.1 dB short and 0.01 meets it by 1.0 dB.
+// water 1.5x and 1.8x the time for 0.19 and 0.37 dB; jumps of 0.1 left the glass of water 1.4 dB
+// short; bends of 0.03 left it 0.1 dB short and 0.01 meets it by 1.0 dB.
 constexpr float kRefineJump = 0.03f;
 constexpr float kRefineBend = 0.01f;
 
@@ -656,10 +656,11 @@ bool SubSampler::colourBends(const Neighbourhood& n) const {
 Sample SubSampler::refinableSample(uint32_t bx, uint32_t by, Neighbourhood& n, uint64_t& rays,
                                    uint64_t& refined) const {
   const float x = float(bx), y = float(by);
-  n.refinable = o_.refine && o_.mode == ReferenceMode::FullTree;
+  const bool refinable = o_.refine && o_.mode == ReferenceMode::FullTree;
+  n.refinable = refinable;
   Sample sample = filteredSample(x, y, 1.0f, n, rays);
   n.refinable = false;  // the quarters are not refined again
-  if (!o_.refine || o_.mode != ReferenceMode::FullTree || !(n.jumps || colourBends(n))) return sample;
+  if (!refinable || !(n.jumps || colourBends(n))) return sample;
   ++refined;
   glm::vec3 color(0.0f), direction(0.0f);
   for (const float dy : {-0.25f, 0.25f})

@@ -190,6 +190,11 @@ namespace {
 // Where tap i of n sits along one of the pixel's axes, in (-1/2, 1/2) (environment_select.glsl).
 float tapOffset(uint32_t i, float n) { return (float(i) + 0.5f) / n - 0.5f; }
 
+// The level sampleLatLong reads for `footprint` (env has levels).
+float latLongLevel(const LatLongImage& env, float footprint) {
+  return environmentLevel(footprint, latLongTexelAngle(float(env.width)), float(env.levels->size()), env.levelBias);
+}
+
 // sampleLatLong at a level found already: bilinear in the two levels around it, linear between.
 Vec3 sampleLatLongAtLevel(const LatLongImage& env, const Vec3& direction, float level) {
   float u, v;
@@ -214,9 +219,7 @@ Vec3 sampleLatLong(const LatLongImage& env, const Vec3& direction, float footpri
     sampleLatLongBilinear(env.rgba, env.width, env.height, direction[0], direction[1], direction[2], out);
     return {out[0], out[1], out[2]};
   }
-  const float level =
-      environmentLevel(footprint, latLongTexelAngle(float(env.width)), float(env.levels->size()), env.levelBias);
-  return sampleLatLongAtLevel(env, direction, level);
+  return sampleLatLongAtLevel(env, direction, latLongLevel(env, footprint));
 }
 
 Vec3 sampleLatLongOverPixel(const LatLongImage& env, const Vec3& direction, const Vec3& ddx, const Vec3& ddy) {
@@ -228,9 +231,7 @@ Vec3 sampleLatLongOverPixel(const LatLongImage& env, const Vec3& direction, cons
   if (taps == 1) return sampleLatLong(env, direction, footprint * gpu::kOneTapFootprintScale);
   // Every tap reads the same level (the footprint's): sampleLatLong's, found once.
   const bool levels = env.levels && !env.levels->empty() && footprint > 0.0f;
-  const float level = levels ? environmentLevel(footprint, latLongTexelAngle(float(env.width)),
-                                                float(env.levels->size()), env.levelBias)
-                             : 0.0f;
+  const float level = levels ? latLongLevel(env, footprint) : 0.0f;
   glm::vec3 sum(0.0f);
   for (uint32_t j = 0; j < taps; ++j)
     for (uint32_t i = 0; i < taps; ++i) {
