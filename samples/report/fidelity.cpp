@@ -40,6 +40,10 @@ struct Variant {
   std::string label;   // point label: "L4", "N16", "K32"
   BakeSettings settings;
   bool isDefault = false;
+  // The default field's path rule decision: where the default bake kept a volume, this variant
+  // bakes that volume (its grid and samples) under its own rule rather than choosing again
+  // (followDefault), so that the rule is all its row changes.
+  bool followsDefault = false;
 };
 
 struct Profile {
@@ -181,7 +185,8 @@ void addDefaultVariants(Profile& p, const BakeSettings& base, ReportSize size) {
     BakeSettings rule = base;
     const bool firstRefraction = base.pathRule == PathRule::FirstRefraction;
     rule.pathRule = firstRefraction ? PathRule::HighestEnergy : PathRule::FirstRefraction;
-    p.variants.push_back({firstRefraction ? "default, highest-energy" : "default, first-refraction", baseLabel + dirs, rule});
+    p.variants.push_back(
+        {firstRefraction ? "default, highest-energy" : "default, first-refraction", baseLabel + dirs, rule, false, true});
   }
 }
 
@@ -272,32 +277,43 @@ std::string parametersOf(const BakeSettings& s) {
 }
 
 // The f16 field of a variant and its u8 twin from one trace (see Variant): the bake's part, finished
-// twice, as `bake --shard` and `merge` would (byte for byte the fields bakeField makes).
+// twice, as `bake --shard` and `merge` would (byte for byte the fields bakeField makes). The u8 twin
+// is finished first: it is the tool's default, so where the bake tries the volume (tryVolume) its
+// choice is the tool's. A volume stores nothing to quantize, so where the u8 bake kept one the f16
+// field is the same grid; where it kept its own encoding the f16 finish does not try the volume
+// again. Either way the second finish skips a choice that took 10 to 17 minutes of the default
+// bake (the Pca basis, the clusters and the volumes' images) and could only repeat the first.
 struct BakedPair {
   Field f16;
   Result<Field> u8;
 };
 Result<BakedPair> bakePair(const bake::Scene& scene, const bake::BakeOptions& options) {
+  const auto relabelled = [](Field volume, Quantization q) {
+    volume.quantization = volume.settings.quantization = q;
+    return volume;
+  };
   // A Volume field stores nothing per sample to quantize and has no parts: one bake is both.
   if (options.settings.encoding == Encoding::Volume) {
     auto field = bake::bakeField(scene, options);
     if (!field) return field.error();
-    Result<Field> u8 = field.value();
-    u8.value().quantization = u8.value().settings.quantization = Quantization::U8;
-    field.value().quantization = field.value().settings.quantization = Quantization::F16;
-    return BakedPair{std::move(field.value()), std::move(u8)};
+    Result<Field> u8 = relabelled(field.value(), Quantization::U8);
+    return BakedPair{relabelled(std::move(field.value()), Quantization::F16), std::move(u8)};
   }
   auto part = bake::bakePart(scene, options, bake::Shard{});
   if (!part) return part.error();
-  bake::BakePart u8Part = part.value();
-  u8Part.settings.quantization = Quantization::U8;
+  bake::BakePart f16Part = part.value();
+  part.value().settings.quantization = Quantization::U8;
   std::vector<bake::BakePart> parts;
   parts.push_back(std::move(part.value()));
+  Result<Field> u8 = bake::mergeParts(scene, std::move(parts));
+  if (u8 && u8.value().encoding == Encoding::Volume)
+    return BakedPair{relabelled(u8.value(), Quantization::F16), std::move(u8)};
+  if (u8) f16Part.settings.tryVolume = false;
+  parts.clear();
+  parts.push_back(std::move(f16Part));
   auto f16 = bake::mergeParts(scene, std::move(parts));
   if (!f16) return f16.error();
-  parts.clear();
-  parts.push_back(std::move(u8Part));
-  return BakedPair{std::move(f16.value()), bake::mergeParts(scene, std::move(parts))};
+  return BakedPair{std::move(f16.value()), std::move(u8)};
 }
 
 // A GPU render: the image at S x S samples per pixel (untimed), then `frames` timed frames at 1 spp
@@ -891,6 +907,16 @@ Result<void> writeFidelityPlots(SceneContext& c, const FidelityScene& out) {
   return {};
 }
 
+// Variant::followsDefault: the volume the default bake kept, under the variant's own rule.
+void followDefault(const DefaultField& def, Variant& v) {
+  if (!def.error.empty() || !def.f16 || def.f16->encoding != Encoding::Volume) return;
+  const PathRule rule = v.settings.pathRule;
+  v.settings = def.f16->settings;
+  v.settings.pathRule = rule;
+  v.settings.tryVolume = false;
+  v.label = fmt("volume %u^3", v.settings.volumeSize);
+}
+
 Result<FidelityScene> measureScene(SceneContext& c) {
   const auto start = Clock::now();
   FidelityScene out;
@@ -901,6 +927,7 @@ Result<FidelityScene> measureScene(SceneContext& c) {
   if (auto r = measureSingleInterface(c, out); !r) return r.error();
   DefaultField def;
   for (Variant v : c.profile.variants) {
+    if (v.followsDefault) followDefault(def, v);
     fitSplitBudget(c, v);
     if (auto r = measureVariant(c, v, out, v.isDefault ? &def : nullptr); !r) return r.error();
   }
