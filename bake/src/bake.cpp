@@ -1166,6 +1166,8 @@ uint64_t sceneFingerprint(const Scene& scene, const SampleAtlas& atlas) {
 
 // Checks and normalizes the settings, lays out the samples, builds the tracer and, with `choose`,
 // makes the --max-error and --max-bytes-per-sample choices (a merge takes them from its parts).
+Result<void> choosePathRule(const Scene& scene, BakePlan& plan);
+
 Result<BakePlan> planBake(const Scene& scene, const BakeOptions& options, bool choose) {
   BakePlan plan;
   BakeSettings& settings = plan.settings;
@@ -1197,6 +1199,11 @@ Result<BakePlan> planBake(const Scene& scene, const BakeOptions& options, bool c
   auto tracer = Tracer::create(scene);
   if (!tracer) return tracer.error();
   plan.tracer = std::move(tracer.value());
+  // Only where the field may be a volume (one medium in air): a field of another encoding stores its
+  // exits, and first-refraction's have fewer jumps to store.
+  if (choose && settings.choosePathRule && volumeSceneProblem(scene).empty())
+    if (auto chosen = choosePathRule(scene, plan); !chosen) return chosen.error();
+  settings.choosePathRule = false;  // chosen once: a part file carries the rule, and a merge keeps it
 
   if (choose && settings.maxErrorDegrees > 0.0f && settings.encoding == Encoding::Sh) {
     auto chosen = selectOrderAndDirections(plan.atlas, *plan.tracer, settings, settings.threads, options.note);
@@ -1719,6 +1726,51 @@ Result<ImageChoice> imagesAgainstExact(const Scene& scene, const BakePlan& plan,
   const double n = double(std::max<uint64_t>(1, out.pixels));
   for (double sum : sums) out.psnr.push_back(10.0 * std::log10(1.0 / std::max(sum / n, 1e-10)));
   return out;
+}
+
+// BakeSettings::choosePathRule: each rule's exact render and the full tree at the image choice's
+// views, pooled over their object pixels (the tree's); plan.settings.pathRule becomes the rule kept.
+Result<void> choosePathRule(const Scene& scene, BakePlan& plan) {
+  static const Image environment = proceduralEnvironment(kChoiceEnvironmentWidth);
+  plan.begin("choosing the path rule: exact renders of both rules against the full tree");
+  const PathRule rules[2] = {PathRule::FirstRefraction, PathRule::HighestEnergy};
+  double sums[2] = {0.0, 0.0};
+  uint64_t pixels = 0;
+  for (const Camera& camera : choiceCameras(scene)) {
+    ReferenceOptions ro;
+    ro.width = kChoiceImageWidth;
+    ro.height = kChoiceImageHeight;
+    ro.camera = camera;
+    ro.samplesPerAxis = 2;
+    ro.threads = plan.settings.threads;
+    ro.maxBounces = plan.settings.maxBounces;
+    ro.mode = ReferenceMode::FullTree;
+    auto tree = renderReference(*plan.tracer, scene, environment, ro);
+    if (!tree) return tree.error();
+    ro.mode = ReferenceMode::Exact;
+    for (int k = 0; k < 2; ++k) {
+      ro.pathRule = rules[k];
+      auto exact = renderReference(*plan.tracer, scene, environment, ro);
+      if (!exact) return exact.error();
+      auto e = pooledSquares(exact.value().color, tree.value(), k == 0 ? &pixels : nullptr);
+      if (!e) return e.error();
+      sums[k] += e.value();
+    }
+  }
+  double psnr[2];
+  for (int k = 0; k < 2; ++k)
+    psnr[k] = 10.0 * std::log10(1.0 / std::max(sums[k] / double(std::max<uint64_t>(1, pixels)), 1e-10));
+  const bool highest = psnr[1] >= psnr[0] + kHighestEnergyGainDb;
+  plan.settings.pathRule = highest ? PathRule::HighestEnergy : PathRule::FirstRefraction;
+  char figures[160];
+  std::snprintf(figures, sizeof figures, "%.2f dB first-refraction, %.2f dB highest-energy; %.2f", psnr[0], psnr[1],
+                kHighestEnergyGainDb);
+  if (plan.note)
+    plan.note(std::string("path rule: chose ") + (highest ? "highest-energy" : "first-refraction") +
+              " (exact renders against the full tree, " + std::to_string(kChoiceViews) + " views, " +
+              std::to_string(pixels) + " object pixels: " + figures +
+              " dB closer keeps highest-energy)");
+  return {};
 }
 
 // The Volume encoding's grid for `plan`'s scene at settings.volumeSize.

@@ -77,9 +77,11 @@ std::vector<FlagSpec> bakeFlags() {
       {"direction-sampling", true, "directions traced per sample: nodes (default for pca: the tables' own "
                                    "node directions, exact at every node; also for table) or grid (--directions, "
                                    "fitted; default for table, the only one for sh)"},
-      {"path-rule", true, "branch followed at every interface: first-refraction (default: refract unless totally "
+      {"path-rule", true, "branch followed at every interface: first-refraction (refract unless totally "
                           "reflected; its fields render closer to the physical reference, docs/encodings.md \"Path "
-                          "rule\") or highest-energy (the paper's)"},
+                          "rule\") or highest-energy (the paper's). Default: first-refraction, but where the bake "
+                          "may keep a volume (no --encoding, or --encoding volume; no --throughput) the rule whose "
+                          "exact renders come closer to the full tree (highest-energy where 0.25 dB closer)"},
       {"throughput", false, "store the path's Fresnel throughput as a channel"},
       {"no-jump-distance", false, "table and pca traced at their nodes (N >= 12): do not store each node's "
                                   "distance to the nearest jump (the decode then places jumps midway between "
@@ -299,6 +301,9 @@ Result<void> applyPathFlags(const Args& args, const NumericFlags& n, BakeSetting
   else if (rule == "first-refraction") s.pathRule = PathRule::FirstRefraction;
   else return usageError("shrefract bake: --path-rule must be highest-energy or first-refraction, got '" + rule + "'");
   s.throughput = args.has("throughput");
+  // No rule given, and a field that may be a volume, which follows its rule's exact render: the
+  // bake chooses the rule by the exact renders against the full tree (BakeSettings::choosePathRule).
+  s.choosePathRule = !args.get("path-rule") && !s.throughput && (s.tryVolume || s.encoding == Encoding::Volume);
   s.jumpDistance = !args.has("no-jump-distance");
   const std::string exitFrame = args.get("exit-frame").value_or("auto");
   if (exitFrame == "auto") s.exitFrame = ExitFrame::Auto;

@@ -85,6 +85,7 @@ BakeSettings defaultFieldSettings() {
   s.volumeSize = 0;  // chosen by images, as the tool's default (bake.h kFinerVolumeGainDb)
   s.volumeDensify = true;  // at the default budget, as the tool (bake.h kVolumeDensifyBelowDb)
   s.moreClusters = true;   // and the clusters it tries beside the components (BakeSettings::moreClusters)
+  s.choosePathRule = true;  // and the rule, by exact renders against the full tree (BakeSettings::choosePathRule)
   return s;
 }
 
@@ -183,6 +184,7 @@ void addDefaultVariants(Profile& p, const BakeSettings& base, ReportSize size) {
     // The path rule decision, measured on the default field itself: the same bake under the other
     // rule (the SH rows below compare the rules in the paper's encoding).
     BakeSettings rule = base;
+    rule.choosePathRule = false;  // the other rule than the default's: followDefault sets it
     const bool firstRefraction = base.pathRule == PathRule::FirstRefraction;
     rule.pathRule = firstRefraction ? PathRule::HighestEnergy : PathRule::FirstRefraction;
     p.variants.push_back(
@@ -423,20 +425,21 @@ FidelityRow baseRow(const SceneContext& c, const std::string& kind, const std::s
   return row;
 }
 
-// The default field's path rule: the decomposition and the side by side compare it with the exact
-// render of that rule.
-PathRule defaultRule(const Profile& p) {
-  for (const Variant& v : p.variants)
-    if (v.isDefault) return v.settings.pathRule;
-  return PathRule::HighestEnergy;
-}
-
 // The default field and its renders, kept for the decomposition.
 struct DefaultField {
   std::optional<Field> f16;
   std::optional<GpuRender> gpuF16, gpuU8;
   std::string error;
 };
+
+// The default field's path rule (the bake's choice: BakeSettings::choosePathRule): the
+// decomposition and the side by side compare it with the exact render of that rule.
+PathRule defaultRule(const Profile& p, const DefaultField& def) {
+  if (def.f16) return def.f16->settings.pathRule;
+  for (const Variant& v : p.variants)
+    if (v.isDefault) return v.settings.pathRule;
+  return PathRule::HighestEnergy;
+}
 
 // Both PSNRs of a row: against the physical reference and against the exact render it approximates.
 Result<void> scoreRow(const SceneContext& c, const bake::Image& image, const bake::Image& sameRule, FidelityRow& row) {
@@ -486,7 +489,8 @@ void addErrorRows(const SceneContext& c, const Variant& v, const FidelityRow& pr
 // kept: BakeSettings::tryVolume); otherwise what it returned instead.
 std::string bakeMismatch(const Field& f16, const BakeSettings& s) {
   const bool keptVolume = s.tryVolume && f16.encoding == Encoding::Volume;
-  if ((f16.encoding != s.encoding && !keptVolume) || f16.settings.pathRule != s.pathRule ||
+  const bool ruleMatches = s.choosePathRule || f16.settings.pathRule == s.pathRule;
+  if ((f16.encoding != s.encoding && !keptVolume) || !ruleMatches ||
       f16.throughput != s.throughput || f16.quantization != Quantization::F16)
     return fmt("the bake returned a %s field (%s, throughput %s, %s) for a %s request (%s, throughput %s)",
                toString(f16.encoding), ruleName(f16.settings.pathRule), f16.throughput ? "on" : "off",
@@ -538,14 +542,16 @@ Result<void> measureQuantization(SceneContext& c, const Variant& v, FidelityRow 
     out.rows.push_back(row);
     return {};
   }
-  if (auto r = scoreRow(c, gpu.value().image, c.exact.at({s.pathRule, s.throughput}).color, row); !r) return r;
+  // The rule the field was baked under: the bake may have chosen it (BakeSettings::choosePathRule).
+  row.pathRule = field.settings.pathRule;
+  if (auto r = scoreRow(c, gpu.value().image, c.exact.at({row.pathRule, s.throughput}).color, row); !r) return r;
   row.decompressionMs = gpu.value().decompressionMs;
   row.rasterMs = gpu.value().rasterMs;
   std::fprintf(stderr,
                "report: fidelity: %s: %s %s %s: %u B/sample, bake %.1f s, PSNR %.2f dB (physical), %.2f dB (exact "
                "%s), GPU %.2f + %.2f ms\n",
                c.spec.c_str(), v.series.c_str(), v.label.c_str(), toString(q), row.bytesPerSample, row.bakeSeconds,
-               row.psnrPhysical, row.psnrSameRule, ruleName(s.pathRule), row.decompressionMs, row.rasterMs);
+               row.psnrPhysical, row.psnrSameRule, ruleName(row.pathRule), row.decompressionMs, row.rasterMs);
   out.rows.push_back(row);
   if (keep) (isU8 ? keep->gpuU8 : keep->gpuF16) = std::move(gpu).value();
   return {};
@@ -667,7 +673,7 @@ Result<void> decomposeVolume(SceneContext& c, const DefaultField& def, const Fie
 // before (see addStep).
 Result<void> decompose(SceneContext& c, const DefaultField& def, FidelityScene& out,
                        std::optional<bake::Image>& texelsImage) {
-  const PathRule rule = defaultRule(c.profile);
+  const PathRule rule = defaultRule(c.profile, def);
   const bake::ReferenceImage& exactRule = c.exact.at({rule, false});
   if (auto r = addStep(c, out, "path rule", std::string("exact ") + ruleName(rule) + " path vs physical",
                        exactRule.color, c.physical.color);
@@ -851,7 +857,7 @@ void fitSplitBudget(const SceneContext& c, Variant& v) {
 // Side by side: physical | exact (the default's rule) | exact at the texels | u8 field | heat map.
 Result<void> writeCompare(SceneContext& c, const DefaultField& def, const std::optional<bake::Image>& texels) {
   const bake::Image& physical = c.physical.color;
-  const bake::Image& exact = c.exact.at({defaultRule(c.profile), false}).color;
+  const bake::Image& exact = c.exact.at({defaultRule(c.profile, def), false}).color;
   std::vector<const bake::Image*> images{&physical, &exact};
   if (texels) images.push_back(&*texels);
   bake::Image heat;
@@ -922,14 +928,20 @@ Result<void> writeFidelityPlots(SceneContext& c, const FidelityScene& out) {
   return {};
 }
 
-// Variant::followsDefault: the volume the default bake kept, under the variant's own rule.
+// Variant::followsDefault: the default bake under the other path rule than the one it chose
+// (BakeSettings::choosePathRule); where it kept a volume, that volume (its grid and samples).
 void followDefault(const DefaultField& def, Variant& v) {
-  if (!def.error.empty() || !def.f16 || def.f16->encoding != Encoding::Volume) return;
-  const PathRule rule = v.settings.pathRule;
-  v.settings = def.f16->settings;
+  if (!def.error.empty() || !def.f16) return;
+  const PathRule rule = def.f16->settings.pathRule == PathRule::FirstRefraction ? PathRule::HighestEnergy
+                                                                                 : PathRule::FirstRefraction;
+  v.series = std::string("default, ") + ruleName(rule);
+  if (def.f16->encoding == Encoding::Volume) {
+    v.settings = def.f16->settings;
+    v.settings.tryVolume = false;
+    v.label = fmt("volume %u^3", v.settings.volumeSize);
+  }
   v.settings.pathRule = rule;
-  v.settings.tryVolume = false;
-  v.label = fmt("volume %u^3", v.settings.volumeSize);
+  v.settings.choosePathRule = false;
 }
 
 Result<FidelityScene> measureScene(SceneContext& c) {
@@ -1048,6 +1060,9 @@ std::string targetsMarkdown(const FidelityScene& sc) {
 
 std::string decompositionMarkdown(const Profile& p, const FidelityScene& sc) {
   const BakeSettings& d = p.variants.front().settings;
+  PathRule rule = d.pathRule;  // as asked, or as the bake chose it (the default row's)
+  for (const FidelityRow& r : sc.rows)
+    if (r.kind == "field" && r.series == "default u8" && r.error.empty()) rule = r.pathRule;
   const std::string directions = d.directionSampling == DirectionSampling::Nodes
                                      ? fmt("traced at the %ux%u table nodes", d.tableSize, d.tableSize)
                                      : fmt("%ux%u directions", d.directionsTheta, d.directionsPhi);
@@ -1057,7 +1072,7 @@ std::string decompositionMarkdown(const Profile& p, const FidelityScene& sc) {
             "stages, *cumulative* the new stage against the physical reference.\n\n",
             toString(d.encoding), parametersOf(d).c_str(), directions.c_str(), toString(d.layout),
             d.sampleBudget ? fmt("%" PRIu64 " samples asked", d.sampleBudget).c_str() : "the default sample budget",
-            ruleName(d.pathRule));
+            ruleName(rule));
   md += "| step | compares | step PSNR dB | cumulative PSNR dB |\n|---|---|---|---|\n";
   for (const FidelityStep& st : sc.decomposition) {
     if (!st.error.empty())

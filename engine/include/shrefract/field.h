@@ -275,6 +275,12 @@ struct BakeSettings {
   // given: a cluster's table is stored once per field, so more of them cost memory, not bytes per
   // sample. Not stored in a field (its `components` says how many it kept); a part file carries it.
   bool moreClusters = false;
+  // The path rule chosen by measurement: the bake renders both rules' exact paths and the full
+  // Fresnel tree at the image choice's views and keeps highest-energy where its exact renders come
+  // at least kHighestEnergyGainDb closer to the tree (bake.h), first-refraction otherwise. The
+  // tool's default where no --path-rule is given and the bake may keep a volume, which follows its
+  // rule's exact render. Not stored in a field (its pathRule is the rule chosen).
+  bool choosePathRule = false;
 };
 
 // Timing fields (seconds, rays per second, memory) vary from run to run; everything else is

@@ -84,6 +84,15 @@ inline constexpr uint64_t kVolumeDensifyFactor = 4;
 // 4x4 full tree): cube 33.39 -> 34.15, bunny 24.07 -> 24.90, for 8x the grid's memory (8 -> 64 MiB)
 // (docs/encodings.md, "The grid's size, chosen by images").
 inline constexpr double kFinerVolumeGainDb = 0.25;
+// BakeSettings::choosePathRule: the bake keeps highest-energy where its exact renders at the image
+// choice's views (4 views, 320x240 at 2x2, against the full tree at depth 8 at the same positions)
+// come at least this much closer than first-refraction's, the tool's rule otherwise (first-
+// refraction fields have fewer jumps: docs/encodings.md, "Path rule and throughput, chosen by
+// measurement"). A volume traced per fragment follows its rule's exact render: the torus's 128^3
+// read 29.02 dB under highest-energy against 28.61 under first-refraction (the report, 4x4
+// against the 4x4 tree), the bunny's 256^3 25.34 against 25.04 (docs/encodings.md, "The path rule
+// chosen per scene").
+inline constexpr double kHighestEnergyGainDb = 0.25;
 // The budget the default bake's grids are held to: the paper's 324 encoded bytes per sample (81 SH
 // coefficients x 4 channels x 1 byte), a grid's stored bytes (volumeGridBytes: its brick entries
 // and the words of the bricks the band reaches) counted over the field's samples (its frames and
