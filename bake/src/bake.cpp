@@ -1533,11 +1533,14 @@ struct ViewsError {
 // The built-in environment at the width its lookups here need (the report's is 1024 wide; a sun
 // of a few texels survives at 512).
 constexpr uint32_t kChoiceEnvironmentWidth = 512;
+const Image& choiceEnvironment() {
+  static const Image environment = proceduralEnvironment(kChoiceEnvironmentWidth);
+  return environment;
+}
 
 // The colour an exit sees in the choices' built-in environment, clamped to [0, 1].
 glm::vec3 choiceColour(glm::vec3 d) {
-  static const Image environment = proceduralEnvironment(kChoiceEnvironmentWidth);
-  return glm::clamp(sampleLatLong(environment, d), glm::vec3(0.0f), glm::vec3(1.0f));
+  return glm::clamp(sampleLatLong(choiceEnvironment(), d), glm::vec3(0.0f), glm::vec3(1.0f));
 }
 
 ViewsError fieldViewsError(const Field& field, const SampleAtlas& atlas, const FrameChoiceViews& v, uint32_t threads) {
@@ -1687,22 +1690,36 @@ Result<double> pooledSquares(const Image& image, const ReferenceImage& exact, ui
   return double(e.value().pixels) * std::pow(10.0, -e.value().psnr / 10.0);
 }
 
+// pooledSquares' sum over `pixels` pixels as a PSNR again.
+double pooledPsnr(double sum, uint64_t pixels) {
+  return 10.0 * std::log10(1.0 / std::max(sum / double(std::max<uint64_t>(1, pixels)), 1e-10));
+}
+
+// The CPU reference render of one of the image choices' views (exact, the plan's rule and bounce
+// cap; callers change what they measure).
+ReferenceOptions choiceView(const BakePlan& plan, const Camera& camera) {
+  ReferenceOptions ro;
+  ro.width = kChoiceImageWidth;
+  ro.height = kChoiceImageHeight;
+  ro.camera = camera;
+  ro.pathRule = plan.settings.pathRule;
+  ro.maxBounces = plan.settings.maxBounces;
+  ro.samplesPerAxis = 2;
+  ro.threads = plan.settings.threads;
+  return ro;
+}
+
 // The image choice's figures of `fields` (drawn as the engine draws each by default: a Volume field
 // traced per fragment, the others by their decoded sample texels), rendered against the same
 // exact renders; the path rule and bounce cap are the first field's.
 Result<ImageChoice> imagesAgainstExact(const Scene& scene, const BakePlan& plan, std::span<const Field* const> fields) {
-  static const Image environment = proceduralEnvironment(kChoiceEnvironmentWidth);
+  const Image& environment = choiceEnvironment();
   std::vector<double> sums(fields.size(), 0.0);
   ImageChoice out;
   for (const Camera& camera : choiceCameras(scene)) {
-    ReferenceOptions ro;
-    ro.width = kChoiceImageWidth;
-    ro.height = kChoiceImageHeight;
-    ro.camera = camera;
+    ReferenceOptions ro = choiceView(plan, camera);
     ro.pathRule = fields.front()->settings.pathRule;
     ro.maxBounces = fields.front()->settings.maxBounces;
-    ro.samplesPerAxis = 2;
-    ro.threads = plan.settings.threads;
     auto exact = renderReference(*plan.tracer, scene, environment, ro);
     if (!exact) return exact.error();
     DistortionRenderOptions d;
@@ -1723,27 +1740,20 @@ Result<ImageChoice> imagesAgainstExact(const Scene& scene, const BakePlan& plan,
       sums[k] += e.value();
     }
   }
-  const double n = double(std::max<uint64_t>(1, out.pixels));
-  for (double sum : sums) out.psnr.push_back(10.0 * std::log10(1.0 / std::max(sum / n, 1e-10)));
+  for (double sum : sums) out.psnr.push_back(pooledPsnr(sum, out.pixels));
   return out;
 }
 
 // BakeSettings::choosePathRule: each rule's exact render and the full tree at the image choice's
 // views, pooled over their object pixels (the tree's); plan.settings.pathRule becomes the rule kept.
 Result<void> choosePathRule(const Scene& scene, BakePlan& plan) {
-  static const Image environment = proceduralEnvironment(kChoiceEnvironmentWidth);
+  const Image& environment = choiceEnvironment();
   plan.begin("choosing the path rule: exact renders of both rules against the full tree");
   const PathRule rules[2] = {PathRule::FirstRefraction, PathRule::HighestEnergy};
   double sums[2] = {0.0, 0.0};
   uint64_t pixels = 0;
   for (const Camera& camera : choiceCameras(scene)) {
-    ReferenceOptions ro;
-    ro.width = kChoiceImageWidth;
-    ro.height = kChoiceImageHeight;
-    ro.camera = camera;
-    ro.samplesPerAxis = 2;
-    ro.threads = plan.settings.threads;
-    ro.maxBounces = plan.settings.maxBounces;
+    ReferenceOptions ro = choiceView(plan, camera);
     ro.mode = ReferenceMode::FullTree;
     auto tree = renderReference(*plan.tracer, scene, environment, ro);
     if (!tree) return tree.error();
@@ -1757,9 +1767,7 @@ Result<void> choosePathRule(const Scene& scene, BakePlan& plan) {
       sums[k] += e.value();
     }
   }
-  double psnr[2];
-  for (int k = 0; k < 2; ++k)
-    psnr[k] = 10.0 * std::log10(1.0 / std::max(sums[k] / double(std::max<uint64_t>(1, pixels)), 1e-10));
+  const double psnr[2] = {pooledPsnr(sums[0], pixels), pooledPsnr(sums[1], pixels)};
   const bool highest = psnr[1] >= psnr[0] + kHighestEnergyGainDb;
   plan.settings.pathRule = highest ? PathRule::HighestEnergy : PathRule::FirstRefraction;
   char figures[160];

@@ -40,9 +40,9 @@ struct Variant {
   std::string label;   // point label: "L4", "N16", "K32"
   BakeSettings settings;
   bool isDefault = false;
-  // The default field's path rule decision: where the default bake kept a volume, this variant
-  // bakes that volume (its grid and samples) under its own rule rather than choosing again
-  // (followDefault), so that the rule is all its row changes.
+  // The default field's path rule decision: this variant bakes the default under the other rule
+  // than the one the bake chose, and where the default kept a volume, that volume (its grid and
+  // samples) rather than choosing again (followDefault), so that the rule is all its row changes.
   bool followsDefault = false;
 };
 
