@@ -1,14 +1,16 @@
 #!/usr/bin/env bash
-# Temporal stability (docs/antialiasing.md): an orbit of FRAMES frames around each built-in scene
-# (the eye turning about the vertical axis, 3 degrees a frame, at the tool's default distance),
-# rendered with the field at 1 sample per pixel and with the supersampled physical reference (full
-# tree, 4x4); scripts/flicker.py prints each one's flicker (mean absolute frame-to-frame change
-# over object pixels) and the field's relative to the reference's.
+# Temporal stability (docs/technique.md, "Temporal stability"): an orbit of FRAMES frames around
+# each built-in scene (the eye turning about the vertical axis, 3 degrees a frame, at the tool's
+# default distance), rendered with the field at 1 sample per pixel and with the supersampled
+# physical reference (full tree, 4x4); flicker.py (beside this script) prints each one's flicker
+# (mean absolute frame-to-frame change over object pixels) and the field's relative to the
+# reference's.
 #
-#   scripts/flicker-measure.sh SHREFRACT OUTDIR [SCENE...]    (FRAMES=16 SIZE=160x120 by default)
+#   scripts/measure/flicker-measure.sh SHREFRACT OUTDIR [SCENE...]    (FRAMES=16 SIZE=160x120 by default)
 #
-# The frames stay in OUTDIR/SCENE/ (PNG sequences: field_T.png, reference_T.png) for people to
-# flip through. Fields are baked with --samples 4000, as in scripts/aa-measure.sh.
+# The frames stay in OUTDIR/SCENE/ (PNG sequences: field_T.png, reference_T.png) for people to flip
+# through. Fields are baked with --samples 4000, as in aa-measure.sh; a field already at
+# OUTDIR/SCENE/field.shrf is used as it is (place the field you want to measure there).
 set -euo pipefail
 tool=$1
 out=$2

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Temporal flicker of an orbit (docs/antialiasing.md, "Temporal stability"), standard library only.
+"""Temporal flicker of an orbit (docs/technique.md, "Temporal stability"), standard library only.
 
     flicker.py DIR FRAMES MODE...
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""PSNR over object pixels of float renders, as docs/encodings.md's "linear measure" (colours
+"""PSNR over object pixels of float renders, the linear measure of docs/performance.md (colours
 clamped to [0, 1], the float images compared before any 8-bit rounding). Standard library only;
-reads the FITS images scripts/linear-measure.sh converts the tool's EXR renders to (oiiotool).
+reads the FITS images scripts/measure/linear-measure.sh converts the tool's EXR renders to (oiiotool).
 
     linear_psnr.py MASK_A.fits MASK_B.fits REFERENCE.fits IMAGE.fits...
 

@@ -1,20 +1,18 @@
 #!/usr/bin/env bash
-# Issue 11's lines for one field, against a physical reference that shares no sub-sample position
-# with the renders it judges (docs/encodings.md, "The lines against a reference that shares no
-# sub-samples"): the full tree at 7x7 (`--spp 49`). The 4x4 reference (`--spp 16`) traces the
-# exact render's own 4x4 positions, and the 8x8 (`--spp 64`) the positions of a volume field's 2x2
-# paths at 4x4; what both sides alias alike reads there as agreement. Renders, 320x240, the tool's
-# default view and the built-in environment, object pixels, colours clamped, linear
-# (scripts/linear_psnr.py):
+# The fidelity targets for one field, against a physical reference that shares no sub-sample
+# position with the renders it judges (docs/performance.md, "Fidelity"): the full tree at 7x7
+# (`--spp 49`). The 4x4 reference (`--spp 16`) traces the exact render's own 4x4 positions, and the
+# 8x8 (`--spp 64`) the positions of a volume field's 2x2 paths at 4x4; what both sides alias alike
+# reads there as agreement. Renders, 320x240, the tool's default view and the built-in environment,
+# object pixels, colours clamped, linear (linear_psnr.py, beside this script):
 # - the field at 4x4 and at 1 spp;
 # - the exact render of the field's own path rule (`render FIELD --mode exact`) at 4x4 and 5x5, and
-#   the highest-energy rule's (issue 11's floor: "never below today's exact highest-energy figure
-#   minus 3 dB"), the better of each pair standing for the exact render;
+#   the highest-energy rule's (the floor: the exact highest-energy render less 3 dB), the better
+#   of each pair standing for the exact render;
 # - the single-interface shader at 4x4.
-# Each is printed against the 4x4 tree and the 7x7 tree, then issue 11's three lines against the
-# 7x7.
+# Each is printed against the 4x4 tree and the 7x7 tree, then the three targets against the 7x7.
 #
-#   scripts/line-measure.sh SHREFRACT SCENE OUTDIR FIELD.shrf    (SCENE: builtin:NAME or a glTF)
+#   scripts/measure/line-measure.sh SHREFRACT SCENE OUTDIR FIELD.shrf    (SCENE: builtin:NAME or a glTF)
 #
 # The scene's renders are kept in OUTDIR and reused; the field's are named after it. Needs oiiotool
 # (openimageio-tools, which scripts/setup-debian.sh installs).
@@ -25,7 +23,7 @@ tool=$1 scene=$2 out=$3 field=$4
 here=$(cd "$(dirname "$0")" && pwd)
 mkdir -p "$out"
 name=$(basename "$field" .shrf)
-# shellcheck source=scripts/render-once.sh
+# shellcheck source=scripts/measure/render-once.sh
 source "$here/render-once.sh"
 r() { render_once "$out" "$1" "$tool" "${@:2}"; }  # r NAME ARGS...: the image NAME, rendered once
 r mask_a "$scene" --mode single-interface --ior 1.2

@@ -1,13 +1,13 @@
 #!/usr/bin/env bash
-# On a GPU machine, with DEST from scripts/gpu-pack.sh: unpacks the Vulkan loader and validation
-# layer, runs the engine-only GPU tests (validation on inside each; any message fails the test),
-# the frame and decompression benchmarks with --validation (exit 1 on any message), then times:
-# the synthetic field filling the view (BEFORE's build against this one, alternated), each packed
-# field in a row of 4 at 1, 2 and 4 taps per axis, the single-interface shading, the host's 4x
-# MSAA and 4K, each field's decompression, and the encodings table (54289 and 1M samples).
-# Writes ${OUT:-.}/gpu.log. As root (dpkg -x to /).
+# On a GPU machine, with DEST from scripts/gpu-pack.sh (docs/performance.md, "On a GPU"): unpacks
+# the Vulkan loader and validation layer, runs the engine-only GPU tests (validation on inside each;
+# any message fails the test), the frame and decompression benchmarks with --validation (exit 1 on
+# any message), then times: the synthetic field filling the view (BEFORE's build against this one,
+# alternated), each packed field in a row of 4 at 1, 2 and 4 taps per axis, the single-interface
+# shading, the host's 4x MSAA and 4K, each field's decompression, and the encodings table (54289 and
+# 1M samples). Writes ${OUT:-.}/gpu.log. As root (dpkg -x to /).
 #
-#   bash scripts/gpu-measure.sh DEST
+#   bash scripts/measure/gpu-measure.sh DEST
 set -uo pipefail
 G=$1 B=$1/bin F=$1/fields
 log=${OUT:-.}/gpu.log

@@ -1,9 +1,9 @@
-# Sourced by the measurement scripts (scripts/line-measure.sh, scripts/reference-gap.sh).
+# Sourced by the measurement scripts beside it (line-measure.sh, reference-gap.sh).
 #
 #   render_once DIR NAME SHREFRACT RENDER_ARGS...
 #
 # `SHREFRACT render RENDER_ARGS --size 320x240` into DIR/NAME.exr and its float FITS twin DIR/NAME.fits
-# (oiiotool, which scripts/linear_psnr.py reads), unless DIR/NAME.fits is there already: renders are
+# (oiiotool, which linear_psnr.py reads), unless DIR/NAME.fits is there already: renders are
 # kept and reused. The tool's progress lines go to DIR/render.log; a failing render prints its last
 # line on stderr and returns 1, which stops a script run under `set -e`.
 render_once() {

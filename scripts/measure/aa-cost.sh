@@ -1,14 +1,14 @@
 #!/usr/bin/env bash
-# The added GPU time of the filtered lookups (docs/antialiasing.md): the raster pass's GPU time
-# (render --json, gpu_ms.raster, a median over the frames) of a build without them (BEFORE) and
-# with them (AFTER), alternated in one run on the same machine, for a field and a single-interface
-# render (FRAMES frames each, default 20). Prints each run and the after / before ratio of the medians.
+# The raster pass's GPU time of two builds or two settings (docs/performance.md, "Frame"): the
+# raster pass's GPU time (render --json, gpu_ms.raster, a median over the frames) of BEFORE and
+# AFTER, alternated in one run on the same machine, for a field and a single-interface render
+# (FRAMES frames each, default 20). Prints each run and the after / before ratio of the medians.
 #
-#   scripts/aa-cost.sh BEFORE_SHREFRACT AFTER_SHREFRACT FIELD.shrf SCENE [ROUNDS]
+#   scripts/measure/aa-cost.sh BEFORE_SHREFRACT AFTER_SHREFRACT FIELD.shrf SCENE [ROUNDS]
 #
 # BEFORE_ARGS and AFTER_ARGS (words) are added to each side's render commands, so that one build
 # compares two settings, e.g. the tap count of the filtered lookups:
-#   BEFORE_ARGS="--env-taps 1" AFTER_ARGS="--env-taps 2" scripts/aa-cost.sh T T FIELD SCENE
+#   BEFORE_ARGS="--env-taps 1" AFTER_ARGS="--env-taps 2" scripts/measure/aa-cost.sh T T FIELD SCENE
 set -euo pipefail
 before=$1 after=$2 field=$3 scene=$4 rounds=${5:-3}
 read -r -a beforeArgs <<< "${BEFORE_ARGS:-}"

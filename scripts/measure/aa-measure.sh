@@ -1,18 +1,17 @@
 #!/usr/bin/env bash
-# Anti-aliasing measurement (docs/antialiasing.md): every mode at 1 sample per pixel and at 4x4
-# against the physical reference (full tree, depth 8, 4x4), PSNR over the object pixels with colours
-# clamped (8-bit PNGs), on the built-in scenes with the built-in environment, the tool's default
-# views, 320x240.
+# Anti-aliasing measurement (docs/technique.md, "Anti-aliasing"): every mode at 1 sample per pixel
+# and at 4x4 against the physical reference (full tree, depth 8, 4x4), PSNR over the object pixels
+# with colours clamped (8-bit PNGs), on the built-in scenes with the built-in environment, the
+# tool's default views, 320x240.
 #
-#   scripts/aa-measure.sh SHREFRACT OUTDIR [SCENE...]     (SCENE: sphere cube torus glass-of-water)
+#   scripts/measure/aa-measure.sh SHREFRACT OUTDIR [SCENE...]     (SCENE: sphere cube torus glass-of-water)
 #
 # MASK_FROM=DIR (another run's OUTDIR) measures against that run's mask and reference instead, so
 # that two builds are compared on the same pixels (the mask comes from single-interface renders,
 # whose filtering moves a few silhouette pixels in or out).
 #
-# Fields are baked with --samples 4000 (the README's example; a few minutes on 2 cores instead of
-# the default bake's): the comparison is each mode at 1 spp against the same mode at 4x4, so the
-# field's own angular error is common to both.
+# Fields are baked with --samples 4000 (a few minutes on 2 cores): the comparison is each mode at 1
+# spp against the same mode at 4x4, so the field's own angular error is common to both.
 set -euo pipefail
 tool=$1
 out=$2

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """PSNR over object pixels of 8-bit PNG renders (colours clamped to [0, 1] by the PNG), standard
-library only. Used by scripts/aa-measure.sh (docs/antialiasing.md).
+library only. Used by scripts/measure/aa-measure.sh and flicker.py.
 
     aa_psnr.py MASK_A.png MASK_B.png REFERENCE.png IMAGE.png...
 

@@ -1,18 +1,18 @@
 #!/usr/bin/env bash
-# Issue 13's "at one sample per pixel with filtering, within 2 dB of the same mode 4x4" for the CPU
-# references (docs/antialiasing.md, "The CPU references at one sample per pixel, measured again"):
-# the exact mode and the full tree at 1 spp (`render --filtered`) and at 4x4 (`--spp 16`), each
-# against the full tree at 4x4 (the report's reference) and at 7x7 (`--spp 49`, which shares no
-# sub-sample with the 4x4 renders, nor with the 1-spp probes and bisections, at sixteenths of the
-# pixel; the report's denser reference), object pixels, colours clamped, linear (scripts/linear_psnr.py),
-# 320x240, the tool's default views, built-in environment.
+# The anti-aliasing target (at one sample per pixel with filtering, within 2 dB of the same mode at
+# 4x4) for the CPU references (docs/technique.md, "The CPU references"): the exact mode and the full
+# tree at 1 spp (`render --filtered`) and at 4x4 (`--spp 16`), each against the full tree at 4x4
+# (the report's reference) and at 7x7 (`--spp 49`, which shares no sub-sample with the 4x4 renders,
+# nor with the 1-spp probes and bisections, at sixteenths of the pixel; the report's denser
+# reference), object pixels, colours clamped, linear (linear_psnr.py), 320x240, the tool's default
+# views, built-in environment.
 #
-#   scripts/reference-gap.sh SHREFRACT OUTDIR [SCENE...]    (SCENE: sphere cube torus glass-of-water)
+#   scripts/measure/reference-gap.sh SHREFRACT OUTDIR [SCENE...]    (SCENE: sphere cube torus glass-of-water)
 #
-# Renders are kept in OUTDIR/SCENE/ and reused. Prints one line per scene and reference: each
-# mode's 1 spp and 4x4 figures and the gap (4x4 less 1 spp; the target is at most 2). The full
-# tree's 4x4 is the 4x4 reference itself, so its gap is printed against the 7x7 only. Needs
-# oiiotool (openimageio-tools, which scripts/setup-debian.sh installs).
+# Renders are kept in OUTDIR/SCENE/ and reused. Prints one line per scene and reference: each mode's
+# 1 spp and 4x4 figures and the gap (4x4 less 1 spp; the target is at most 2). The full tree's 4x4
+# is the 4x4 reference itself, so its gap is printed against the 7x7 only. Needs oiiotool
+# (openimageio-tools, which scripts/setup-debian.sh installs).
 set -euo pipefail
 [ $# -ge 2 ] || { echo "usage: $0 SHREFRACT OUTDIR [SCENE...]" >&2; exit 2; }
 tool=$1 out=$2
@@ -20,7 +20,7 @@ shift 2
 scenes=("$@")
 [ ${#scenes[@]} -gt 0 ] || scenes=(sphere cube torus glass-of-water)
 here=$(cd "$(dirname "$0")" && pwd)
-# shellcheck source=scripts/render-once.sh
+# shellcheck source=scripts/measure/render-once.sh
 source "$here/render-once.sh"
 for s in "${scenes[@]}"; do
   d=$out/$s

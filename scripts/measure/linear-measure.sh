@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# docs/encodings.md's "linear measure": each FIELD rendered 4x4 supersampled and at 1 spp
-# (`render FIELD --spp 16|1 --size 320x240`, the GPU; EXR) against the full tree at 4x4 (`render
-# SCENE --mode full-tree --spp 16`), object pixels, colours clamped (scripts/linear_psnr.py).
+# The linear measure (docs/performance.md, "Fidelity"): each FIELD rendered 4x4 supersampled and at
+# 1 spp (`render FIELD --spp 16|1 --size 320x240`, the GPU; EXR) against the full tree at 4x4
+# (`render SCENE --mode full-tree --spp 16`), object pixels, colours clamped (linear_psnr.py, beside
+# this script).
 #
-#   scripts/linear-measure.sh SHREFRACT SCENE OUTDIR FIELD.shrf [RENDER_FLAGS...]
+#   scripts/measure/linear-measure.sh SHREFRACT SCENE OUTDIR FIELD.shrf [RENDER_FLAGS...]
 #
 # The reference and the masks are rendered once into OUTDIR and kept. Needs oiiotool (Debian's
 # openimageio-tools, which scripts/setup-debian.sh installs). Prints "IMAGE PSNR" per render.
