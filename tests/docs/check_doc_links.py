@@ -27,7 +27,8 @@ FENCE = re.compile(r"^ {0,3}(```|~~~)")
 
 
 def blank_code(text):
-    """The text with fenced code blocks and inline code spans replaced by spaces (offsets kept)."""
+    """The text with fenced code blocks and inline code spans (which may wrap across the lines of a
+    paragraph) replaced by spaces, line breaks and offsets kept."""
     out, fenced = [], None
     for line in text.split("\n"):
         m = FENCE.match(line)
@@ -40,8 +41,9 @@ def blank_code(text):
             fenced = m.group(1)
             out.append(" " * len(line))
             continue
-        out.append(re.sub(r"(`+)(.+?)\1", lambda s: " " * len(s.group(0)), line))
-    return "\n".join(out)
+        out.append(line)
+    blank = lambda s: re.sub(r"[^\n]", " ", s.group(0))
+    return re.sub(r"(`+)(?:(?!\n[ \t]*\n).)+?\1", blank, "\n".join(out), flags=re.S)
 
 
 def heading_texts(text):
