@@ -329,7 +329,8 @@ Result<SeriesResult> runSeries(Frames& f, Context& context, const Pass& pass, co
   std::chrono::steady_clock::time_point start;
   double cpuStart = 0.0;
   for (uint32_t i = 0; i < kWarmUp + frames; ++i) {
-    if (i == kWarmUp) {
+    if (i == kWarmUp) {  // the warm-up frames finish first: their work is not the series'
+      vkWaitForFences(f.h.device(), kInFlight, f.fence.data(), VK_TRUE, UINT64_MAX);
       start = std::chrono::steady_clock::now();
       cpuStart = processCpuMs();
     }
@@ -505,6 +506,33 @@ Result<std::vector<std::vector<Named>>> benchmarkScene(Gpu& gpu, Frames& frames,
   return byCount;
 }
 
+// A Volume field's paths for the still eye of the middle instance, through the CPU mirror of the
+// decode (traceVolumeSample, which decompress_volume.comp follows): the samples left untraced
+// (facing away) and the distance reads a traced sample's path takes (march steps and bisections).
+void printVolumePathWork(const Scene& scene) {
+  if (scene.field.encoding != Encoding::Volume || scene.objects.empty()) return;
+  const Object& middle = *scene.objects[scene.objects.size() / 2];
+  const auto& t = middle.worldFromObject.translation;
+  const std::array<float, 3> eye{scene.camera.eye[0] - t[0], scene.camera.eye[1] - t[1], scene.camera.eye[2] - t[2]};
+  uint64_t samples = 0, traced = 0, reads = 0;
+  const Field& f = scene.field;
+  for (uint64_t texel = 0; texel < f.texelCount(); ++texel) {
+    if (f.texelKinds[texel] != kTexelSample) continue;
+    const float* m = &f.frames[texel * 12];
+    std::array<float, 3> w{};
+    for (int k = 0; k < 3; ++k) w[k] = m[4 * k] * eye[0] + m[4 * k + 1] * eye[1] + m[4 * k + 2] * eye[2] + m[4 * k + 3];
+    ++samples;
+    float out[5];
+    const VolumePath path = traceVolumeSample(f, m, w, out);
+    traced += path.traced ? 1 : 0;
+    reads += path.steps;
+  }
+  std::printf("  volume paths (CPU mirror, still eye): %llu of %llu samples traced (the others face away), "
+              "%.1f distance reads per traced path (march steps and bisections)\n",
+              static_cast<unsigned long long>(traced), static_cast<unsigned long long>(samples),
+              traced ? double(reads) / double(traced) : 0.0);
+}
+
 // The scenes in order: each FIELD.shrf, or the synthetic field.
 Result<Scene> loadScene(const Options& o, size_t index) {
   Scene scene;
@@ -559,25 +587,27 @@ int run(const Options& o) {
       if (!placed) return fail(scene.value().name + ": " + placed.error().message);
       auto single = benchmarkScene(*gpu, frames, *environment.value(), scene.value(), o);
       if (!single) return fail(single.error().message);
-      if (scene.value().objects[0]->tracesVolumePerFragment()) {
-        // The same volume field by its sample texels, measured in this run.
-        for (auto& object : scene.value().objects)
-          if (auto set = object->setTracesVolumePerFragment(false); !set) return fail(set.error().message);
-        auto texels = benchmarkScene(*gpu, frames, *environment.value(), scene.value(), o);
-        if (!texels) return fail(texels.error().message);
+      printVolumePathWork(scene.value());
+      // A volume field (decoded at its sample texels by default) again traced per fragment, where
+      // the device can read its grid in the raster pass, measured in this run.
+      bool perFragment = true;
+      for (auto& object : scene.value().objects) perFragment = perFragment && object->setTracesVolumePerFragment(true);
+      if (perFragment) {
+        auto fragments = benchmarkScene(*gpu, frames, *environment.value(), scene.value(), o);
+        if (!fragments) return fail(fragments.error().message);
         const bool timestamps = frames.timers[0]->available();
         printPairRatios(o, "volume traced per fragment against its sample texels", "texels", "per fragment",
-                        texels.value(), single.value(), timestamps);
-        for (auto& object : scene.value().objects) (void)object->setTracesVolumePerFragment(true);
+                        single.value(), fragments.value(), timestamps);
         // And per fragment without the refined pixels (RendererCreateInfo::refineVolumePaths).
         Options unrefined = o;
         unrefined.refineVolumePaths = !o.refineVolumePaths;
         auto other = benchmarkScene(*gpu, frames, *environment.value(), scene.value(), unrefined);
         if (!other) return fail(other.error().message);
         printPairRatios(o, "volume paths refined where they part against 2x2 paths everywhere", "2x2", "refined",
-                        o.refineVolumePaths ? other.value() : single.value(),
-                        o.refineVolumePaths ? single.value() : other.value(), timestamps);
+                        o.refineVolumePaths ? other.value() : fragments.value(),
+                        o.refineVolumePaths ? fragments.value() : other.value(), timestamps);
       }
+      for (auto& object : scene.value().objects) (void)object->setTracesVolumePerFragment(false);
       if (o.msaa == VK_SAMPLE_COUNT_1_BIT) continue;
       auto multi = benchmarkScene(*gpu, multisampled, *environment.value(), scene.value(), o);
       if (!multi) return fail("--msaa " + std::to_string(uint32_t(o.msaa)) + ": " + multi.error().message);

@@ -68,12 +68,9 @@ std::vector<FlagSpec> renderFlags() {
                      "per pixel, silhouettes covered at N samples and resolved (docs/antialiasing.md, \"MSAA and "
                      "the sphere's rim\")",
        K::Integer, {1, 8}},
-      {"volume-texels", false, "field mode, a volume field: trace the sample texels in texture space and interpolate "
-                               "between them, as the other encodings (default: each fragment traces its own path; "
-                               "docs/encodings.md, \"Volume traced per fragment\")"},
-      {"no-volume-refine", false, "field mode, a volume field traced per fragment: keep its 2x2 paths a pixel where "
-                                  "they disagree, instead of tracing 4x4 there (cheaper; docs/antialiasing.md, "
-                                  "\"Refined paths where the volume's exits part\")"},
+      {"volume-per-fragment", false, "field mode, a volume field: trace each fragment's own paths in the raster pass "
+                                     "instead of the sample texels in texture space (sharper, costs per pixel)"},
+      {"no-volume-refine", false, "with --volume-per-fragment: keep 2x2 paths a pixel where they disagree"},
       {"threads", true, "CPU modes: worker threads (default: all cores)", K::Integer, {1, 1024}},
       {"absorption", true, "absorption scale k in exp(-tau * k) (default 1: the media as defined)", K::Real, {0, kUnbounded}},
       {"exposure", true, "linear scale applied before writing (default 1)", K::Real, {0, kUnbounded, true}},
@@ -128,7 +125,7 @@ struct Request {
   std::optional<float> exposure, absorption;
   uint32_t samplesPerAxis = 1, frames = 1;
   uint32_t msaa = 1;  // --msaa: a power of two in 1..8
-  bool volumeTexels = false;  // --volume-texels
+  bool volumePerFragment = false;  // --volume-per-fragment
   bool refineVolumePaths = true;  // not --no-volume-refine
   std::optional<uint32_t> environmentTaps;  // --env-taps; each mode has its own default
   std::optional<float> environmentLevelBias;  // --env-level-bias (CPU references only)
@@ -173,11 +170,10 @@ Result<void> checkApplicability(const Args& args, const Request& r) {
   if (cpu && args.has("msaa"))
     return usage("shrefract render: --msaa applies to the GPU modes (field, single-interface) only; the CPU modes "
                  "supersample with --spp");
-  if (args.has("volume-texels") && (r.scene || r.mode != "field"))
-    return usage("shrefract render: --volume-texels applies to --mode field of a volume field only");
-  if (args.has("no-volume-refine") && (r.scene || r.mode != "field" || args.has("volume-texels")))
-    return usage("shrefract render: --no-volume-refine applies to --mode field of a volume field traced per fragment "
-                 "only (not with --volume-texels)");
+  if (args.has("volume-per-fragment") && (r.scene || r.mode != "field"))
+    return usage("shrefract render: --volume-per-fragment applies to --mode field of a volume field only");
+  if (args.has("no-volume-refine") && (r.scene || r.mode != "field" || !args.has("volume-per-fragment")))
+    return usage("shrefract render: --no-volume-refine applies with --volume-per-fragment only");
   if (args.has("no-refine") && !(r.mode == "full-tree" && args.has("filtered")))
     return usage("shrefract render: --no-refine applies to --mode full-tree with --filtered only");
   if (args.has("env-level-bias") && !(cpu && args.has("filtered")))
@@ -231,7 +227,7 @@ Result<Request> readRequest(const Args& args) {
   r.device = narrow<int>(args.integer("device").value()).value_or(-1);
   r.environmentTaps = narrow<uint32_t>(args.integer("env-taps").value());
   r.msaa = narrow<uint32_t>(args.integer("msaa").value()).value_or(1u);
-  r.volumeTexels = args.has("volume-texels");
+  r.volumePerFragment = args.has("volume-per-fragment");
   r.refineVolumePaths = !args.has("no-volume-refine");
   if (r.msaa & (r.msaa - 1))
     return usage("shrefract render: --msaa must be 1, 2, 4 or 8, got " + std::to_string(r.msaa));
@@ -447,8 +443,8 @@ Result<std::vector<std::unique_ptr<Object>>> uploadObjects(offscreen::Session& s
     auto uploaded = offscreen::uploadField(s, *in.field);
     if (!uploaded) return makeError(uploaded.error().code, r.input + ": " + uploaded.error().message);
     objects.push_back(std::move(uploaded).value());
-    if (r.volumeTexels)
-      if (auto set = objects.back()->setTracesVolumePerFragment(false); !set) return set.error();
+    if (r.volumePerFragment)
+      if (auto set = objects.back()->setTracesVolumePerFragment(true); !set) return set.error();
   } else {
     auto uploaded = offscreen::uploadScene(s, *in.scene);
     if (!uploaded) return uploaded.error();
@@ -542,7 +538,7 @@ int renderCommand(int argc, char** argv) {
   if (auto writable = checkOutputPath(r.output); !writable) return fail(writable.error());
   auto inputs = loadInputs(r);
   if (!inputs) return fail(inputs.error());
-  for (const auto& [given, flag] : {std::pair{r.volumeTexels, "--volume-texels"},
+  for (const auto& [given, flag] : {std::pair{r.volumePerFragment, "--volume-per-fragment"},
                                     std::pair{!r.refineVolumePaths, "--no-volume-refine"}})
     if (given && inputs.value().field->encoding != Encoding::Volume)
       return fail(usage(std::string("shrefract render: ") + flag + " applies to a volume field; " + r.input + " is " +

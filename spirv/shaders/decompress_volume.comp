@@ -21,7 +21,13 @@ layout(std430, set = 0, binding = kBindingBasis) readonly buffer Volume {
   VolumeHeader head;
   uint words[];  // the brick entries, then the stored bricks
 };
-uint volumeWord(uint index) { return words[index]; }
+// The grid's words through the R32_UINT texel view of the same buffer (coefficientWords, the header's
+// 12 words first) where the device's texel buffer limit allows: on lavapipe a texel fetch is one
+// gather, a storage read at a per-lane address a loop over the lanes. The storage binding otherwise.
+const int kVolumeHeaderWords = 12;
+uint volumeWord(uint index) {
+  return COEFFICIENTS_STORAGE ? words[index] : texelFetch(coefficientWords, kVolumeHeaderWords + int(index)).x;
+}
 
 #include "volume_trace.glsl"
 
@@ -31,8 +37,13 @@ void main() {
   vec4 r0 = frames[3u * s], r1 = frames[3u * s + 1u], r2 = frames[3u * s + 2u];
   vec3 ax = r0.xyz, ay = r1.xyz, az = r2.xyz;
   vec3 p = -1.0 * (r0.w * ax + r1.w * ay + r2.w * az);
-  vec3 local = unitOr(eyeInFrame(s, vec4(pc.eyeObject.xyz, 1.0)));
+  vec4 e = vec4(pc.eyeObject.xyz, 1.0);
+  vec3 eye = vec3(dot(r0, e), dot(r1, e), dot(r2, e));
+  // A sample facing away (kVolumeSkipBelowHorizon) is not traced: the view passes by.
+  bool facesAway = eye.z < -kVolumeSkipBelowHorizon * sqrt(dot(eye, eye));
+  vec3 local = unitOr(vec3(eye.xy, facesAway ? eye.z : max(eye.z, 0.0)));
   vec3 d = -1.0 * (local.x * ax + local.y * ay + local.z * az);
-  VolumePath path = traceVolumePath(p, unitOr(az), d);
+  VolumePath path = VolumePath(d, 0.0, 1.0);
+  if (!facesAway) path = traceVolumePath(p, unitOr(az), d);
   storeSample(s, distortionTexel(path.exit, HAS_TAU ? path.tau : path.energy, path.energy));
 }

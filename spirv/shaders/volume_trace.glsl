@@ -91,7 +91,7 @@ vec3 normalAt(vec3 g) {
 float crossing(vec3 g, vec3 d, bool outside) {
   float m = outside ? -1.0 : 1.0;
   float limit = 2.0 * float(head.grid.x), hi = float(head.grid.x - 1u);
-  float t = kVolumeStartStep, previous = 0.0;
+  float t = kVolumeStartStep, previous = 0.0, before = 0.0;
   bool seen = false;
   for (uint step = 0u; step < kVolumeMaxSteps && t < limit; ++step) {
     vec3 q = g + t * d;
@@ -100,15 +100,23 @@ float crossing(vec3 g, vec3 d, bool outside) {
     if (s < 0.0) {
       seen = true;
     } else if (seen) {
-      float lo = previous, up = t;
+      float lo = previous, up = t, below = before, above = s;
       for (uint k = 0u; k < kVolumeBisections; ++k) {
         float mid = 0.5 * (lo + up);
-        if (m * distanceAt(g + mid * d) > 0.0) up = mid;
-        else lo = mid;
+        float at = m * distanceAt(g + mid * d);
+        if (at > 0.0) {
+          up = mid;
+          above = at;
+        } else {
+          lo = mid;
+          below = at;
+        }
       }
-      return 0.5 * (lo + up);
+      float span = below - above;
+      return span < 0.0 ? lo + (up - lo) * (below / span) : 0.5 * (lo + up);
     }
     previous = t;
+    before = s;
     t += max(kVolumeStepScale * abs(s), kVolumeMinStep);
   }
   return -1.0;

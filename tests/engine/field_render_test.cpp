@@ -356,7 +356,8 @@ void FieldRender::expectVolumeMirror(const char* sceneName, std::array<float, 3>
   field.volume.convex = convex || forceConvex;
   auto object = offscreen::uploadField(*session, field);
   ASSERT_TRUE(object.ok()) << object.error().message;
-  ASSERT_TRUE(object.value()->tracesVolumePerFragment());
+  EXPECT_FALSE(object.value()->tracesVolumePerFragment()) << "texture space is the default";
+  ASSERT_TRUE(object.value()->setTracesVolumePerFragment(true).ok());
   object.value()->shading.reflection = true;
   offscreen::FrameSettings frame;
   frame.width = 160;
@@ -434,6 +435,7 @@ TEST_F(FieldRender, VolumePathsThatPartAreRefined) {
   const Field& field = baked.value();
   auto object = offscreen::uploadField(*session, field);
   ASSERT_TRUE(object.ok()) << object.error().message;
+  ASSERT_TRUE(object.value()->setTracesVolumePerFragment(true).ok());
   offscreen::FrameSettings frame;
   frame.width = 160;
   frame.height = 120;

@@ -127,8 +127,8 @@ TEST_F(SkipWork, SameEyeIsNotDecompressedAgain) {
               double(noSkipDiff));
 }
 
-// A Volume field traced per fragment (the default for Volume fields) has no image to write: the
-// Decompressor leaves it out and says so; switched to its texture-space path, it is decoded again
+// A Volume field is decoded in texture space by default; traced per fragment it has no image to
+// write: the Decompressor leaves it out and says so; switched to its texture-space path, it is decoded again
 // (the image was not kept up while unread), then skipped for an unchanged eye as any field.
 TEST_F(SkipWork, VolumeTracedPerFragmentIsNotDecompressed) {
   testing::SyntheticFieldOptions options;
@@ -137,7 +137,8 @@ TEST_F(SkipWork, VolumeTracedPerFragmentIsNotDecompressed) {
   const Field field = testing::makeSyntheticField(options);
   auto object = upload(field);
   ASSERT_TRUE(object);
-  ASSERT_TRUE(object->tracesVolumePerFragment());
+  EXPECT_FALSE(object->tracesVolumePerFragment()) << "texture space is the default";
+  ASSERT_TRUE(object->setTracesVolumePerFragment(true).ok());
   auto decompressor = Decompressor::create(*session->context);
   ASSERT_TRUE(decompressor.ok());
   Decompressor& d = *decompressor.value();

@@ -1,8 +1,8 @@
 # `shrefract render` supersampling and path flags: --spp (a perfect square 1..64, every mode),
 # --path-rule and --throughput (exact mode), --filtered (exact and full-tree), --env-taps (GPU
 # modes, and CPU modes with --filtered), --env-level-bias (CPU modes with --filtered), --msaa (GPU
-# modes: 1, 2, 4 or 8, a count the device lacks refused naming the flag), --volume-texels and
-# --no-volume-refine (field mode of a volume field; the latter not with the former), --no-refine
+# modes: 1, 2, 4 or 8, a count the device lacks refused naming the flag), --volume-per-fragment and
+# --no-volume-refine (field mode of a volume field; the latter only with the former), --no-refine
 # (full-tree with --filtered; the JSON summary counts the refined sub-samples). Range and
 # usage errors exit 2 with one line naming the flag and write nothing; good values render (CPU
 # modes always; the GPU case skips without a device, printing "SKIPPED: no Vulkan device"). Inputs: SHREFRACT (the tool), WORK_DIR.
@@ -47,8 +47,8 @@ expect_usage_error(--env-level-bias 16x12 --mode exact --filtered --env-level-bi
 expect_usage_error(--env-level-bias 16x12 --mode exact --filtered --env-level-bias nan)
 expect_usage_error(--env-level-bias 16x12 --mode exact --env-level-bias -1)
 expect_usage_error(--env-level-bias 16x12 --env-level-bias -1)
-expect_usage_error(--volume-texels 16x12 --volume-texels)
-expect_usage_error(--volume-texels 16x12 --mode exact --volume-texels)
+expect_usage_error(--volume-per-fragment 16x12 --volume-per-fragment)
+expect_usage_error(--volume-per-fragment 16x12 --mode exact --volume-per-fragment)
 expect_usage_error(--no-volume-refine 16x12 --no-volume-refine)
 expect_usage_error(--no-volume-refine 16x12 --mode full-tree --no-volume-refine)
 expect_usage_error(--no-refine 16x12 --no-refine)
@@ -119,11 +119,12 @@ foreach(rule "" highest-energy)
   file(REMOVE ${WORK_DIR}/out.png)
 endforeach()
 # The volume flags on a field of another encoding (found once the field is read): exit 2 naming
-# the flag, nothing written; with --volume-texels, --no-volume-refine is refused before reading.
-foreach(flags "--volume-texels" "--no-volume-refine" "--volume-texels;--no-volume-refine")
+# the flag, nothing written; without --volume-per-fragment, --no-volume-refine is refused before
+# reading.
+foreach(flags "--volume-per-fragment" "--no-volume-refine" "--volume-per-fragment;--no-volume-refine")
   execute_process(COMMAND ${SHREFRACT} render ${WORK_DIR}/tiny.shrf --size 16x12 ${flags} -o ${WORK_DIR}/out.png
                   RESULT_VARIABLE rc ERROR_VARIABLE err)
-  list(GET flags -1 named)
+  list(GET flags 0 named)
   if(NOT rc EQUAL 2 OR NOT err MATCHES "${named}" OR EXISTS ${WORK_DIR}/out.png)
     message(FATAL_ERROR "render of an SH field with '${flags}': expected exit 2 naming ${named} (${rc}): ${err}")
   endif()

@@ -472,7 +472,7 @@ bool meshIsConvex(const FieldMesh& mesh);
 float volumeDistance(const FieldVolume& volume, const std::array<float, 3>& objectPoint);
 
 // A Volume field's path for one sample (the decode of the Volume encoding): the view direction w in
-// the sample's frame (as evaluateSample takes it; z clamped to >= 0) arrives at the sample's point
+// the sample's frame (as evaluateSample takes it; z below 0 read as 0 where traced) arrives at the sample's point
 // and normal (from its frame's rows `frameRows`), refracts into media[1] and is traced through the
 // grid under the field's path rule and bounce cap: marched along the trilinear distance until it
 // changes sign, the crossing bisected, the interface's normal the trilinear normal there; a way
@@ -482,8 +482,12 @@ float volumeDistance(const FieldVolume& volume, const std::array<float, 3>& obje
 // still inside after maxBounces interfaces, or that leaves the grid without a crossing, leaves
 // along its direction of travel), then the optical depth (path length inside times media[1]'s absorption)
 // where the field has one, then the throughput (the Fresnel factors after the entry) where it has
-// one. Mirrored by decompress_volume.comp. Preconditions: validateField(field), a Volume field.
-void traceVolumeSample(const Field& field, const float* frameRows, const std::array<float, 3>& w, float* out);
+// one. A sample whose eye lies further below its tangent plane than gpu_layout.h
+// kVolumeSkipBelowHorizon is not traced (no fragment reads it): the view passes by, optical depth
+// 0, throughput 1. Mirrored by decompress_volume.comp. Preconditions: validateField(field), a
+// Volume field. Returns the path it stored.
+struct VolumePath;
+VolumePath traceVolumeSample(const Field& field, const float* frameRows, const std::array<float, 3>& w, float* out);
 
 // One path through a Volume field's grid, as traceVolumeSample follows it from a sample and the
 // raster pass from a fragment (Object::tracesVolumePerFragment; volume_trace.glsl): the unit view
@@ -494,6 +498,8 @@ struct VolumePath {
   std::array<float, 3> exit{};  // unit, object space
   float opticalDepth = 0.0f;    // path length inside times media[1]'s absorption
   float throughput = 1.0f;      // the Fresnel factors after the entry
+  uint32_t steps = 0;           // distance reads along the way: march steps and bisections
+  bool traced = true;           // false: traceVolumeSample left a sample facing away untraced
 };
 VolumePath traceVolumePath(const Field& field, const std::array<float, 3>& point, const std::array<float, 3>& normal,
                            const std::array<float, 3>& view);

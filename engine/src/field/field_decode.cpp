@@ -277,7 +277,8 @@ void evaluateSample(const Field& field, uint64_t texel, const std::array<float, 
                     float* eyeJump) {
   if (field.encoding == Encoding::Volume) {
     if (eyeJump) *eyeJump = gpu::kJumpDistanceMaxCells;  // exact paths: no table jump to place
-    return traceVolumeSample(field, &field.frames[texel * 12], w, out);
+    traceVolumeSample(field, &field.frames[texel * 12], w, out);
+    return;
   }
   EncodingShape shape = field.shape();
   // A lower SH order reads only the first (order + 1)^2 layers, which lead the array: only those

@@ -93,27 +93,39 @@ V3 normalAt(const FieldVolume& v, V3 g) {
 // which a straight ray does not enter again. The march must have seen its own side before a
 // crossing counts, so that the interpolation's slack around the start point is not taken for the
 // next interface. (Outside, the distance is negated: exactly, so the inside march is unchanged.)
-float crossing(const FieldVolume& v, V3 g, V3 d, bool outside) {
+float crossing(const FieldVolume& v, V3 g, V3 d, bool outside, uint32_t& steps) {
   const float m = outside ? -1.0f : 1.0f;
   const float limit = 2.0f * float(v.size), hi = float(v.size - 1);
-  float t = gpu::kVolumeStartStep, previous = 0.0f;
+  float t = gpu::kVolumeStartStep, previous = 0.0f, before = 0.0f;
   bool seen = false;
   for (uint32_t step = 0; step < gpu::kVolumeMaxSteps && t < limit; ++step) {
     const V3 q = g + t * d;
     if (outside && (std::min({q.x, q.y, q.z}) < 0.0f || std::max({q.x, q.y, q.z}) > hi)) return -1.0f;
     const float s = m * distanceAt(v, q);
+    ++steps;
     if (s < 0.0f) {
       seen = true;
     } else if (seen) {
-      float lo = previous, up = t;
+      // Bisected a few times, then the zero of the line through the last interval's ends: the
+      // trilinear distance is nearly linear over a fraction of a voxel.
+      float lo = previous, up = t, below = before, above = s;
       for (uint32_t k = 0; k < gpu::kVolumeBisections; ++k) {
         const float mid = 0.5f * (lo + up);
-        if (m * distanceAt(v, g + mid * d) > 0.0f) up = mid;
-        else lo = mid;
+        const float at = m * distanceAt(v, g + mid * d);
+        if (at > 0.0f) {
+          up = mid;
+          above = at;
+        } else {
+          lo = mid;
+          below = at;
+        }
       }
-      return 0.5f * (lo + up);
+      steps += gpu::kVolumeBisections;
+      const float span = below - above;
+      return span < 0.0f ? lo + (up - lo) * (below / span) : 0.5f * (lo + up);
     }
     previous = t;
+    before = s;
     t += std::max(gpu::kVolumeStepScale * std::fabs(s), gpu::kVolumeMinStep);
   }
   return -1.0f;
@@ -255,6 +267,7 @@ VolumePath traceVolumePath(const Field& field, const std::array<float, 3>& point
   const float absorption = field.media[1].absorption;
   const bool highestEnergy = field.settings.pathRule == PathRule::HighestEnergy;
   float tau = 0.0f, energy = 1.0f;
+  uint32_t steps = 0;
   V3 exit = reflected(d, normal);  // total internal reflection at the entry: the path never enters
   V3 into(0.0f);
   if (refracted(d, normal, outside / inside, into)) {
@@ -264,7 +277,7 @@ VolumePath traceVolumePath(const Field& field, const std::array<float, 3>& point
     V3 g = inv * (p - V3{v.origin[0], v.origin[1], v.origin[2]});
     bool outsideNow = false;  // between leaving the object and meeting it again
     for (uint32_t bounce = 0; bounce < field.settings.maxBounces; ++bounce) {
-      const float t = crossing(v, g, d, outsideNow);
+      const float t = crossing(v, g, d, outsideNow, steps);
       if (t < 0.0f) break;  // out of the grid without a crossing: leaves as it travels
       g = g + t * d;
       if (!outsideNow) tau += t * v.spacing * absorption;
@@ -287,22 +300,27 @@ VolumePath traceVolumePath(const Field& field, const std::array<float, 3>& point
       if (outsideNow && v.convex) break;  // no way out of a convex object meets it again
     }
   }
-  return VolumePath{{exit.x, exit.y, exit.z}, tau, energy};
+  return VolumePath{{exit.x, exit.y, exit.z}, tau, energy, steps};
 }
 
-void traceVolumeSample(const Field& field, const float* m, const std::array<float, 3>& w, float* out) {
+VolumePath traceVolumeSample(const Field& field, const float* m, const std::array<float, 3>& w, float* out) {
   // The sample's point and normal from its frame's rows (M_s = [R | -R p]).
   const V3 ax{m[0], m[1], m[2]}, ay{m[4], m[5], m[6]}, az{m[8], m[9], m[10]};
   const V3 p = -1.0f * (m[3] * ax + m[7] * ay + m[11] * az);
   const V3 normal = normalized(az);
-  const V3 local = normalized(V3{w[0], w[1], std::max(w[2], 0.0f)});
+  const V3 eye{w[0], w[1], w[2]};
+  const bool facesAway = eye.z < -gpu::kVolumeSkipBelowHorizon * std::sqrt(dot(eye, eye));
+  const V3 local = normalized(V3{w[0], w[1], facesAway ? w[2] : std::max(w[2], 0.0f)});
   const V3 d = -1.0f * (local.x * ax + local.y * ay + local.z * az);
-  const VolumePath path = traceVolumePath(field, {p.x, p.y, p.z}, {normal.x, normal.y, normal.z}, {d.x, d.y, d.z});
+  const VolumePath path = facesAway ? VolumePath{{d.x, d.y, d.z}, 0.0f, 1.0f, 0, false}
+                                    : traceVolumePath(field, {p.x, p.y, p.z}, {normal.x, normal.y, normal.z},
+                                                      {d.x, d.y, d.z});
   out[0] = path.exit[0];
   out[1] = path.exit[1];
   out[2] = path.exit[2];
   if (field.hasOpticalDepth()) out[3] = path.opticalDepth;
   if (field.throughput) out[field.throughputChannel()] = path.throughput;
+  return path;
 }
 
 }  // namespace shrefract

@@ -280,8 +280,9 @@ Result<void> createDescriptorSets(ContextImpl& c, FieldResources& f, VkBuffer tr
   writes.reserve(14);
   write(f.decompressSet, gpu::kBindingDistortionOut, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE).pImageInfo = &storageInfo;
   write(f.decompressSet, gpu::kBindingJumpOut, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE).pImageInfo = &jumpStorageInfo;
+  // A Volume field's decode reads its grid through the grid's texel view where there is one.
   write(f.decompressSet, gpu::kBindingCoefficients, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER).pTexelBufferView =
-      &f.coefficientWords;
+      f.volumeWords ? &f.volumeWords : &f.coefficientWords;
   for (size_t i = 0; i < bufferBindings.size(); ++i)
     write(f.decompressSet, bufferBindings[i], VK_DESCRIPTOR_TYPE_STORAGE_BUFFER).pBufferInfo = &bufferInfos[i];
   write(f.decompressSet, gpu::kBindingScaleBias, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER).pBufferInfo = &scaleBiasUniform;
@@ -407,7 +408,7 @@ void describeField(const Field& field, uint32_t sampleCount, const FieldBufferSi
   // Sh: a uniform buffer when the table fits (gpu_layout.h, kSpecScaleBiasStorage); the Table and
   // Pca shader always reads the storage binding.
   f.scaleBiasStorage = field.encoding == Encoding::Sh && shScaleBiasStorage(field.order, field.channels);
-  f.coefficientsStorage = sizes.coefficientsStorage;
+  f.coefficientsStorage = field.encoding == Encoding::Volume || sizes.coefficientsStorage;  // Volume: createVolumeView
   f.gutterCount = static_cast<uint32_t>(field.gutters.size());
 }
 
@@ -470,7 +471,7 @@ Result<void> createVolumeView(ContextImpl& c, const FieldBufferSizes& sizes, Fie
   bvci.range = words * sizeof(uint32_t);
   const VkResult vr = c.vk.vkCreateBufferView(c.device(), &bvci, c.alloc(), &f.volumeWords);
   if (vr != VK_SUCCESS) return vulkanError("vkCreateBufferView", vr);
-  f.volumePerFragment = true;  // the default where the grid can be read per fragment
+  f.coefficientsStorage = false;  // decompress_volume.comp reads the grid through this view
   return {};
 }
 

@@ -47,7 +47,8 @@ Vec4 decodeTexel(const Field& field, uint64_t texel, const Vec3& eye, uint32_t o
   const float* m = &field.frames[texel * 12];
   std::array<float, 3> w{};
   for (int k = 0; k < 3; ++k) w[k] = m[4 * k] * eye[0] + m[4 * k + 1] * eye[1] + m[4 * k + 2] * eye[2] + m[4 * k + 3];
-  w[2] = std::max(w[2], 0.0f);
+  // A Volume field's decode reads how far below its tangent plane the eye is (traceVolumeSample).
+  if (field.encoding != Encoding::Volume) w[2] = std::max(w[2], 0.0f);
   float sum[5] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
   evaluateSample(field, texel, w, sum, order, eyeJump);
   // As decompress_common.glsl (distortionTexel).

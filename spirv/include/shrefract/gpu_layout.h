@@ -164,13 +164,19 @@ SHR_CONST(kEncodingVolume, 3u)   // field.h Encoding::Volume
 // VolumeHeader, then the grid's bricks (field.h FieldVolume): ceil(N / kVolumeBrickSide)^3 entries,
 // then the stored bricks' kVolumeBrickWords voxel words each. A path marches from its
 // start by kVolumeStartStep voxels, then by kVolumeStepScale times the grid's distance there, at
-// least kVolumeMinStep voxels, at most kVolumeMaxSteps steps a segment, and bisects the step that
-// turns the distance positive kVolumeBisections times (docs/encodings.md, "Volume").
+// least kVolumeMinStep voxels, at most kVolumeMaxSteps steps a segment, bisects the step that
+// turns the distance positive kVolumeBisections times and takes the zero of the line through the
+// last interval's ends (docs/encodings.md, "Volume").
 SHR_CONSTF(kVolumeStartStep, 0.05f)
 SHR_CONSTF(kVolumeMinStep, 0.1f)
 SHR_CONSTF(kVolumeStepScale, 0.9f)
 SHR_CONST(kVolumeMaxSteps, 4096u)
-SHR_CONST(kVolumeBisections, 16u)
+SHR_CONST(kVolumeBisections, 6u)
+// A sample whose eye is below its tangent plane by more than this fraction of the eye's distance
+// (the sine of the angle) faces away: the decode writes the view passing by instead of tracing it.
+// The margin keeps the texels that a front-facing fragment's bilinear lookup still reads at a
+// silhouette, where the shading normal leans away from the triangle's.
+SHR_CONSTF(kVolumeSkipBelowHorizon, 0.0f)
 // The normal at a crossing blends the 8 voxels' normals that lie within acos(kVolumeNormalBlendCos)
 // (45 deg) of the nearest voxel's, so that an edge of the surface stays sharp.
 SHR_CONSTF(kVolumeNormalBlendCos, 0.70710678f)
