@@ -1953,7 +1953,46 @@ Result<Field> finishWithVolumeChoice(const Scene& scene, const BakePlan& plan, s
 
 }  // namespace
 
-Result<Field> bakeField(const Scene& scene, const BakeOptions& options) {
+BakeSettings settingsForScene(const Scene& scene, BakeSettings s, std::string* why) {
+  if (!s.tryVolume || s.chooseByImages) return s;
+  s.tryVolume = s.moreClusters = s.choosePathRule = s.volumeDensify = false;
+  const std::string problem = volumeSceneProblem(scene);
+  const bool budgetGiven = s.sampleBudget > 0 || s.samplesPerUnitArea > 0.0f;
+  if (problem.empty()) {
+    s.encoding = Encoding::Volume;
+    if (!budgetGiven) s.sampleBudget = kDefaultSampleBudget;
+    if (s.volumeSize == 0) s.volumeSize = kDefaultVolumeSize;
+    if (why) *why = "one closed medium in air: its distance grid, traced per eye";
+    return s;
+  }
+  s.encoding = Encoding::Pca;
+  if (!budgetGiven) s.sampleBudget = kDefaultPerSampleBudget;
+  s.volumeSize = 0;
+  s.directionSampling = DirectionSampling::Nodes;
+  s.tableSize = kDefaultPerSampleTableSize;
+  s.components = s.clusters = kDefaultPcaComponents;
+  if (s.exitFrame == ExitFrame::Auto) s.exitFrame = ExitFrame::Sample;
+  if (why) *why = "not a volume (" + problem + "): paths traced per sample";
+  return s;
+}
+
+namespace {
+
+// The options with the scene's default settings decided (settingsForScene), said in a note.
+BakeOptions decidedOptions(const Scene& scene, const BakeOptions& options) {
+  BakeOptions decided = options;
+  if (!options.settings.tryVolume || options.settings.chooseByImages) return decided;
+  std::string why;
+  decided.settings = settingsForScene(scene, options.settings, &why);
+  if (options.note) options.note("encoding: " + candidateLabel(decided.settings) + ", " + why);
+  return decided;
+}
+
+}  // namespace
+
+Result<Field> bakeField(const Scene& scene, const BakeOptions& asked) {
+  const BakeOptions options = decidedOptions(scene, asked);
+
   const auto start = Clock::now();
   auto plan = planBake(scene, options, true);
   if (!plan) return plan.error();
@@ -1976,8 +2015,9 @@ uint64_t shardSampleCount(uint64_t sampleCount, Shard shard) {
   return shard.index < sampleCount ? (sampleCount - shard.index + shard.count - 1) / shard.count : 0;
 }
 
-Result<BakePart> bakePart(const Scene& scene, const BakeOptions& options, Shard shard) {
+Result<BakePart> bakePart(const Scene& scene, const BakeOptions& asked, Shard shard) {
   const auto start = Clock::now();
+  const BakeOptions options = decidedOptions(scene, asked);
   if (shard.count < 1 || shard.count > kMaxShards || shard.index >= shard.count)
     return makeError(ErrorCode::InvalidArgument, "shard " + std::to_string(shard.index) + "/" +
                                                      std::to_string(shard.count) + " is out of range");

@@ -7,7 +7,7 @@
 //   shrefract_frame_benchmark [FIELD.shrf ...] [--instances N] [--size WxH] [--frames N] [--cube-env]
 //                             [--shading field|exit-direction|single-interface]
 //                             [--format rgba16f|rgba8|rgba32f] [--env-taps N[,N...]] [--msaa N]
-//                             [--no-volume-refine] [--validation]
+//                             [--per-fragment [--no-volume-refine]] [--validation]
 //
 // Scenes: each FIELD.shrf (read with readField), or without one a synthetic field (bench_support:
 // order 8, u8, 4 channels, a 256x256 atlas of samples on a flat square). The environment is
@@ -31,13 +31,13 @@
 // filtering on this device (docs/antialiasing.md, "Cost"). --msaa N (2, 4 or 8) runs everything
 // twice, into single-sample attachments and into N-sample ones resolved at the end of rendering
 // (the host's MSAA, RendererCreateInfo::sampleCount), and prints the raster time at N samples
-// against one sample, series by series, measured in the same run. A volume field (traced per
-// fragment by default, Object::tracesVolumePerFragment) runs again by its sample texels, and each
-// series' frame time per fragment against by texels is printed, measured in the same run; then once
-// more with the other setting of RendererCreateInfo::refineVolumePaths (--no-volume-refine starts
-// with it off), and the refined pixels' cost is printed the same way. Exit code 0 with "SKIPPED:" when there
-// is no Vulkan device; 2 with one
-// line for bad arguments or a FIELD.shrf that does not exist.
+// against one sample, series by series, measured in the same run. A volume field prints the work of
+// its paths (CPU mirror: samples traced, distance reads a path); with --per-fragment it runs again
+// traced per fragment (Object::setTracesVolumePerFragment), each series' time against its texels'
+// printed, then with the other setting of RendererCreateInfo::refineVolumePaths (--no-volume-refine
+// starts with it off). With several fields, each one's series against the first's. Exit code 0 with
+// "SKIPPED:" when there is no Vulkan device; 2 with one line for bad arguments or a FIELD.shrf that
+// does not exist.
 #include <shrefract/decompressor.h>
 #include <shrefract/environment.h>
 #include <shrefract/renderer.h>
@@ -75,6 +75,7 @@ struct Options {
   VkSampleCountFlagBits msaa = VK_SAMPLE_COUNT_1_BIT;  // > 1: also run with this many samples
   bool validation = false;
   bool refineVolumePaths = RendererCreateInfo{}.refineVolumePaths;  // --no-volume-refine: false
+  bool perFragment = false;  // --per-fragment: a volume field also traced per fragment
 };
 
 // Bad arguments: one line naming the flag or file, exit 2. --help: the synopsis, exit 0.
@@ -87,7 +88,7 @@ int help() {
   std::printf("usage: shrefract_frame_benchmark [FIELD.shrf ...] [--instances N] [--size WxH] [--frames N]\n"
               "                                 [--cube-env] [--shading field|exit-direction|single-interface]\n"
               "                                 [--format rgba16f|rgba8|rgba32f] [--env-taps N[,N...]] [--msaa N]\n"
-              "                                 [--no-volume-refine] [--validation]\n");
+              "                                 [--per-fragment [--no-volume-refine]] [--validation]\n");
   return 0;
 }
 
@@ -506,6 +507,21 @@ Result<std::vector<std::vector<Named>>> benchmarkScene(Gpu& gpu, Frames& frames,
   return byCount;
 }
 
+// Each field's series against the first field's, measured in this run (process CPU time per frame,
+// the work on a software device, and wall): the default field's cost against an SH field's.
+void printAgainstFirst(const std::vector<std::string>& names, const std::vector<std::vector<Named>>& firstTaps) {
+  if (names.size() < 2) return;
+  std::printf("against the first field, %s (same run, first environment tap count):\n", names[0].c_str());
+  for (size_t i = 1; i < names.size(); ++i) {
+    const std::vector<Named>& a = firstTaps[0];
+    const std::vector<Named>& b = firstTaps[i];
+    for (size_t s = 0; s < a.size() && s < b.size(); ++s)
+      std::printf("  %-40s %-28s CPU %8.2f / %8.2f ms  %.2fx   wall %.2fx\n", names[i].c_str(), b[s].name.c_str(),
+                  b[s].result.cpuMs, a[s].result.cpuMs, b[s].result.cpuMs / a[s].result.cpuMs,
+                  b[s].result.wallMs / a[s].result.wallMs);
+  }
+}
+
 // A Volume field's paths for the still eye of the middle instance, through the CPU mirror of the
 // decode (traceVolumeSample, which decompress_volume.comp follows): the samples left untraced
 // (facing away) and the distance reads a traced sample's path takes (march steps and bisections).
@@ -580,6 +596,8 @@ int run(const Options& o) {
     if (o.msaa != VK_SAMPLE_COUNT_1_BIT)
       if (auto created = createFrames(multisampled, o, o.msaa); !created)
         return fail("--msaa " + std::to_string(uint32_t(o.msaa)) + ": " + created.error().message);
+    std::vector<std::string> names;
+    std::vector<std::vector<Named>> firstTaps;  // each field's series at the first tap count
     for (size_t i = 0; i < std::max<size_t>(1, o.fields.size()); ++i) {
       auto scene = loadScene(o, i);
       if (!scene) return fail(scene.error().message);
@@ -587,11 +605,14 @@ int run(const Options& o) {
       if (!placed) return fail(scene.value().name + ": " + placed.error().message);
       auto single = benchmarkScene(*gpu, frames, *environment.value(), scene.value(), o);
       if (!single) return fail(single.error().message);
+      names.push_back(scene.value().name);
+      firstTaps.push_back(single.value()[0]);
       printVolumePathWork(scene.value());
       // A volume field (decoded at its sample texels by default) again traced per fragment, where
       // the device can read its grid in the raster pass, measured in this run.
-      bool perFragment = true;
-      for (auto& object : scene.value().objects) perFragment = perFragment && object->setTracesVolumePerFragment(true);
+      bool perFragment = o.perFragment;
+      for (auto& object : scene.value().objects)
+        perFragment = perFragment && object->setTracesVolumePerFragment(true);
       if (perFragment) {
         auto fragments = benchmarkScene(*gpu, frames, *environment.value(), scene.value(), o);
         if (!fragments) return fail(fragments.error().message);
@@ -613,6 +634,7 @@ int run(const Options& o) {
       if (!multi) return fail("--msaa " + std::to_string(uint32_t(o.msaa)) + ": " + multi.error().message);
       printMsaaRatios(o, single.value(), multi.value(), frames.timers[0]->available());
     }
+    printAgainstFirst(names, firstTaps);
   }
   if (const uint32_t messages = gpu->harness->messageCount(); messages) {
     std::fprintf(stderr, "%u Vulkan validation message(s)\n", messages);
@@ -671,6 +693,8 @@ int parseArguments(int argc, char** argv, Options& o) {
       o.msaa = static_cast<VkSampleCountFlagBits>(n);  // 1, 2, 4, 8 are the flag bits
     } else if (a == "--cube-env") {
       o.cube = true;
+    } else if (a == "--per-fragment") {
+      o.perFragment = true;
     } else if (a == "--no-volume-refine") {
       o.refineVolumePaths = false;
     } else if (a == "--validation") {

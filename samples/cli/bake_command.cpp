@@ -49,15 +49,11 @@ std::vector<FlagSpec> bakeFlags() {
                        "(docs/fitting.md)"},
       {"spatial", true, "spatial smoothing with 0 (default), 3 or 5 neighbours"},
       {"quant", true, "coefficient storage: u8 (default) or f16"},
-      {"encoding", true, "hemisphere encoding: pca (learned basis; by default, where the scene is one medium in air "
-                         "and no flag of pca's is given, the volume is baked beside it and the field closer on traced "
-                         "views kept), table (hemi-octahedral map), sh (the paper's; implied by --order and --max-error) "
-                         "or volume (no bytes per sample: the object's distance grid, through which the decode traces "
-                         "each sample's path; one medium in air only; docs/encodings.md \"Volume\")"},
-      {"volume-size", true, "volume: voxels per side of the grid (default " + std::to_string(kDefaultVolumeSize) +
-                                "; the default bake's: " + std::to_string(kDefaultVolumeSize) + " or " +
-                                std::to_string(2 * kDefaultVolumeSize) + ", the finer where it fits 324 bytes a sample and " +
-                                "its images gain 0.25 dB; 4 bytes a voxel)", K::Integer,
+      {"encoding", true, "volume, pca, table or sh (default: volume for one closed medium in air, pca otherwise)"},
+      {"choose-by-images", false, "no --encoding: bake pca and the volume and keep the one whose images come closer "
+                                  "to exact renders (minutes and GiB)"},
+      {"volume-size", true, "volume: voxels per side of the distance grid (default " +
+                                std::to_string(kDefaultVolumeSize) + "; 4 bytes a voxel near the surface)", K::Integer,
        {double(kMinVolumeSize), double(kMaxVolumeSize)}},
       {"table-size", true,
        "table: nodes per side N (default 9); pca: N of the basis tables (default " +
@@ -77,11 +73,8 @@ std::vector<FlagSpec> bakeFlags() {
       {"direction-sampling", true, "directions traced per sample: nodes (default for pca: the tables' own "
                                    "node directions, exact at every node; also for table) or grid (--directions, "
                                    "fitted; default for table, the only one for sh)"},
-      {"path-rule", true, "branch followed at every interface: first-refraction (refract unless totally "
-                          "reflected; its fields render closer to the physical reference, docs/encodings.md \"Path "
-                          "rule\") or highest-energy (the paper's). Default: first-refraction, but where the bake "
-                          "may keep a volume (no --encoding, or --encoding volume; no --throughput) the rule whose "
-                          "exact renders come closer to the full tree (highest-energy where 0.25 dB closer)"},
+      {"path-rule", true, "branch followed at every interface: first-refraction (default) or highest-energy "
+                          "(the paper's)"},
       {"throughput", false, "store the path's Fresnel throughput as a channel"},
       {"no-jump-distance", false, "table and pca traced at their nodes (N >= 12): do not store each node's "
                                   "distance to the nearest jump (the decode then places jumps midway between "
@@ -249,6 +242,9 @@ Result<void> applyEncodingFlag(const Args& args, const NumericFlags& n, BakeSett
   const bool pcaAsked = n.components || n.clusters || n.tableSize || n.dirs || args.get("direction-sampling") ||
                         args.get("exit-frame") || args.has("no-jump-distance");
   s.tryVolume = !args.get("encoding") && !shImplied && !n.maxBytes && !pcaAsked;
+  s.chooseByImages = args.has("choose-by-images");
+  if (s.chooseByImages && !s.tryVolume)
+    return usageError("shrefract bake: --choose-by-images chooses the encoding: give no --encoding, nor a flag of one");
   if (n.volumeSize && s.encoding != Encoding::Volume && !s.tryVolume)
     return usageError("shrefract bake: --volume-size needs --encoding volume (or no --encoding)");
   // The default bake chooses its volume's size by images (bake.h kFinerVolumeGainDb): 0 asks for that.
@@ -301,9 +297,9 @@ Result<void> applyPathFlags(const Args& args, const NumericFlags& n, BakeSetting
   else if (rule == "first-refraction") s.pathRule = PathRule::FirstRefraction;
   else return usageError("shrefract bake: --path-rule must be highest-energy or first-refraction, got '" + rule + "'");
   s.throughput = args.has("throughput");
-  // No rule given, and a field that may be a volume, which follows its rule's exact render: the
-  // bake chooses the rule by the exact renders against the full tree (BakeSettings::choosePathRule).
-  s.choosePathRule = !args.get("path-rule") && !s.throughput && (s.tryVolume || s.encoding == Encoding::Volume);
+  // The image contest chooses the rule too, by the exact renders against the full tree, where no
+  // rule is given (BakeSettings::choosePathRule).
+  s.choosePathRule = !args.get("path-rule") && !s.throughput && s.chooseByImages;
   s.jumpDistance = !args.has("no-jump-distance");
   const std::string exitFrame = args.get("exit-frame").value_or("auto");
   if (exitFrame == "auto") s.exitFrame = ExitFrame::Auto;
@@ -319,14 +315,17 @@ Result<BakeSettings> bakeSettingsFrom(const Args& args, const NumericFlags& n) {
   BakeSettings s;
   s.source = args.positional()[0];
   s.sampleBudget = bake::kDefaultSampleBudget;
-  // With the default budget a Volume field takes more samples where its texels miss the paths
-  // between them (bake.h kVolumeDensifyBelowDb); a budget or density given is kept.
-  s.volumeDensify = !n.samples && !n.density;
   // Nor a basis size: the clusters tried may outnumber the components (BakeSettings::moreClusters).
   s.moreClusters = !n.components && !n.clusters && !n.maxBytes;
   if (auto applied = applyNumericFlags(n, s); !applied) return applied.error();
   if (auto applied = applyLayoutFlags(args, s); !applied) return applied.error();
   if (auto applied = applyEncodingFlag(args, n, s); !applied) return applied.error();
+  const bool budgetGiven = n.samples || n.density;
+  // The image contest, with the default budget, lays a Volume field out again at more samples where
+  // its texels miss the paths between them (bake.h kVolumeDensifyBelowDb); a budget given is kept.
+  s.volumeDensify = !budgetGiven && s.chooseByImages;
+  // The scene's own default takes the budget its encoding affords (bake.h settingsForScene).
+  if (!budgetGiven && s.tryVolume && !s.chooseByImages) s.sampleBudget = 0;
   if (auto applied = applySamplingFlags(args, n, s); !applied) return applied.error();
   if (auto applied = applyPathFlags(args, n, s); !applied) return applied.error();
   return s;

@@ -21,13 +21,12 @@ using K = ValueKind;
 std::vector<FlagSpec> reportFlags() {
   std::vector<FlagSpec> flags = {
       {"output", true, "output directory (replaced only once the report is complete); also -o"},
-      {"full", false, "the paper's workload (35k samples, 32x64 directions; long)"},
+      {"full", false, "also the settings sweeps, stability cases and flicker orbits, and every fidelity row (hours)"},
       {"smoke", false, "a tiny report in seconds (for tests)"},
-      {"fidelity-only", false, "only the fidelity section (physical reference, encodings, error decomposition)"},
-      {"size", true, "image size WxH (default 320x240; --full 640x480)", K::Size, {1, 16384}, {1, 16384}},
+      {"fidelity-only", false, "with --full or --smoke: only the fidelity section"},
+      {"size", true, "image size WxH (default 240x180; --full 320x240)", K::Size, {1, 16384}, {1, 16384}},
       {"frames", true, "GPU frames timed per setting", K::Integer, {1, 1000}},
-      {"samples", true, "surface sample budget of every bake (default by size: --smoke 300, 3000 or the "
-                        "bake's default, --full 35000); raise it for scenes with many vertices", K::Integer, {1, 1e8}},
+      {"samples", true, "surface sample budget of every bake (default: each encoding's own)", K::Integer, {1, 1e8}},
       {"threads", true, "bake and CPU reference threads (default: all cores)", K::Integer, {1, 1024}},
       {"device", true, "Vulkan device index", K::Integer, {0, 1024}},
   };
@@ -117,7 +116,8 @@ report::ReportOptions reportOptionsFrom(const Args& args, const SceneOverrides& 
   if (auto v = args.integer("threads").value()) options.threads = static_cast<uint32_t>(*v);
   if (auto v = args.integer("samples").value()) options.samples = static_cast<uint64_t>(*v);
   if (auto v = args.integer("device").value()) options.deviceIndex = static_cast<int>(*v);
-  options.fidelityOnly = args.has("fidelity-only");
+  // The default report is the fidelity section; --full adds the sweeps (ReportSize).
+  options.fidelityOnly = args.has("fidelity-only") || options.size == report::ReportSize::Default;
   return options;
 }
 

@@ -52,6 +52,7 @@ struct Profile {
   uint32_t treeDepth = 8;
   uint32_t frames = 5;
   uint32_t environmentWidth = 1024;  // as `shrefract render --env builtin`
+  bool antialiasing = true;          // the 1-spp section (CPU references filtered at 1 spp)
   std::vector<std::string> scenes;
   std::vector<Variant> variants;
 };
@@ -71,21 +72,12 @@ BakeSettings withEncoding(BakeSettings s, Encoding encoding, uint32_t order, uin
 
 BakeSettings defaultFieldSettings() {
   BakeSettings s;
-  s.encoding = Encoding::Pca;
+  s.encoding = Encoding::Pca;  // where the scene is not a volume (bake::settingsForScene)
   s.order = 0;
-  s.tableSize = bake::kDefaultPcaTableSize;
-  s.components = 324;
-  s.directionSampling = DirectionSampling::Nodes;
-  s.layout = SampleLayout::Charts;  // the tool's default (docs/sample-layouts.md, "Choosing a layout")
-  // The tool's default: its fields measure closer to the physical reference than the paper's rule's
-  // (docs/encodings.md, "Path rule and throughput, chosen by measurement").
+  s.layout = SampleLayout::Charts;  // the tool's default
   s.pathRule = PathRule::FirstRefraction;
-  // And, as the tool, the volume tried beside the Pca where the scene is one medium in air.
-  s.tryVolume = true;
-  s.volumeSize = 0;  // chosen by images, as the tool's default (bake.h kFinerVolumeGainDb)
-  s.volumeDensify = true;  // at the default budget, as the tool (bake.h kVolumeDensifyBelowDb)
-  s.moreClusters = true;   // and the clusters it tries beside the components (BakeSettings::moreClusters)
-  s.choosePathRule = true;  // and the rule, by exact renders against the full tree (BakeSettings::choosePathRule)
+  s.tryVolume = true;  // the scene decides the encoding, as `shrefract bake SCENE` with no flags
+  s.sampleBudget = 0;  // and the budget its encoding affords
   return s;
 }
 
@@ -125,19 +117,29 @@ SweepSettings sizeSettings(ReportSize size, Profile& p) {
       w.volumes = {16};
       break;
     case ReportSize::Default:
+      // Minutes on 2 cores: the default field beside the paper's SH order 8 (8000 samples, 32x64
+      // directions) and a 9x9 table on the same budget, 240x180 at 3x3 against the full tree.
+      p.width = 240;
+      p.height = 180;
+      p.samplesPerAxis = 3;
+      p.frames = 3;
+      p.antialiasing = false;
+      p.scenes = {"builtin:sphere", "builtin:cube", "builtin:torus", "builtin:glass-of-water", kBunny};
+      w.base = defaultFieldSettings();
+      w.sweep.sampleBudget = 8000;
+      w.orders = {8};
+      w.tables = {9};
+      break;
+    case ReportSize::Full:
       // The sweep traces 16x32 directions (SH rows: 32x64, below) at up to 5000 samples, a
-      // sixteenth of the default bake's paths, to keep the report within minutes on 2 cores; the
-      // default field itself is the default bake (its spatial sampling costs it little: see the
-      // decomposition).
+      // sixteenth of the default bake's paths; the default field itself is the default bake.
       p.scenes = {"builtin:sphere", "builtin:cube", "builtin:torus", "builtin:glass-of-water", kBunny};
       w.base = defaultFieldSettings();
       w.sweep.directionsTheta = 16;
       w.sweep.directionsPhi = 32;
       w.sweep.sampleBudget = 5000;
-      // SH keeps the default bake's 32x64 directions: 16x32 left order 12 (169 functions, fitted
-      // robustly, which discounts the directions across a jump) under-determined. Its PSNR fell
-      // from order 8 to 12 there (the sphere's f16, default view: 29.07 -> 28.95 dB) and rises on
-      // 32x64 (29.01 -> 29.07); docs/fitting.md, "The direction grid the fit needs".
+      // SH keeps the default bake's 32x64 directions: 16x32 leaves order 12 (169 functions, fitted
+      // robustly, which discounts the directions across a jump) under-determined.
       w.shDirectionsTheta = BakeSettings{}.directionsTheta;
       w.shDirectionsPhi = BakeSettings{}.directionsPhi;
       w.orders = {2, 4, 8, 12};
@@ -145,51 +147,22 @@ SweepSettings sizeSettings(ReportSize size, Profile& p) {
       w.components = {8, 32, 81, 324};        // K324 in u8: 324 bytes per sample
       w.volumes = {64, 128, 256};             // 1, 8 and 64 MiB
       break;
-    case ReportSize::Full:
-      p.width = 640;
-      p.height = 480;
-      p.frames = 10;
-      p.scenes = {"builtin:sphere", "builtin:cube", "builtin:torus", "builtin:glass-of-water", kBunny};
-      w.base = defaultFieldSettings();
-      w.orders = {2, 4, 8, 12, 16};
-      w.tables = {8, 16, 32};
-      w.components = {8, 32, 64};
-      w.volumes = {64, 128, 256};
-      break;
   }
   return w;
 }
 
-// The default field first, then (beyond smoke) its sampling and path rule decisions, measured.
+// The default field first (the encoding its scene decides: bake::settingsForScene), then with
+// --full its path rule decision, measured: the same field under the other rule.
 void addDefaultVariants(Profile& p, const BakeSettings& base, ReportSize size) {
-  const std::string dirs = base.directionSampling == DirectionSampling::Nodes
-                               ? std::string(" nodes")
-                               : fmt(" %ux%u", base.directionsTheta, base.directionsPhi);
-  const std::string baseLabel = base.encoding == Encoding::Sh ? fmt("sh L%u", base.order)
-                                                               : fmt("pca K%u N%u", base.components, base.tableSize);
-  // The default bake may keep the volume it tries (BakeSettings::tryVolume): the rows say which.
-  const std::string tried = !base.tryVolume   ? std::string()
-                            : base.volumeSize ? fmt(" or volume %u^3", base.volumeSize)
-                                              : fmt(" or volume %u^3 / %u^3", kDefaultVolumeSize, 2 * kDefaultVolumeSize);
-  p.variants.push_back({"default", baseLabel + dirs + tried, base, true});
-  if (base.directionSampling == DirectionSampling::Nodes && size != ReportSize::Smoke) {
-    // The sampling decision, measured: the default field fitted to the 32x64 grid instead.
-    // Its tables are those the tool fits to a grid (32x64 directions hold fewer values than 64x64 nodes).
-    BakeSettings grid = base;
-    grid.tryVolume = false;  // the Pca's sampling, measured
-    grid.directionSampling = DirectionSampling::Grid;
-    grid.tableSize = bake::kDefaultGridPcaTableSize;
-    p.variants.push_back({"default, grid sampling", fmt("pca K%u N%u %ux%u grid", grid.components, grid.tableSize,
-                                                        grid.directionsTheta, grid.directionsPhi), grid});
-    // The path rule decision, measured on the default field itself: the same bake under the other
-    // rule (the SH rows below compare the rules in the paper's encoding).
-    BakeSettings rule = base;
-    rule.choosePathRule = false;  // the other rule than the default's: followDefault sets it
-    const bool firstRefraction = base.pathRule == PathRule::FirstRefraction;
-    rule.pathRule = firstRefraction ? PathRule::HighestEnergy : PathRule::FirstRefraction;
-    p.variants.push_back(
-        {firstRefraction ? "default, highest-energy" : "default, first-refraction", baseLabel + dirs, rule, false, true});
-  }
+  const std::string label = fmt("volume %u^3 or pca K%u N%u", kDefaultVolumeSize, bake::kDefaultPcaComponents,
+                                bake::kDefaultPerSampleTableSize);
+  p.variants.push_back({"default", label, base, true});
+  if (size != ReportSize::Full) return;
+  BakeSettings rule = base;
+  const bool firstRefraction = base.pathRule == PathRule::FirstRefraction;
+  rule.pathRule = firstRefraction ? PathRule::HighestEnergy : PathRule::FirstRefraction;
+  p.variants.push_back(
+      {firstRefraction ? "default, highest-energy" : "default, first-refraction", label, rule, false, true});
 }
 
 // The encoding sweeps: SH (robust, windowed, least squares, under the other path rule and with
@@ -210,7 +183,7 @@ void addSweepVariants(Profile& p, const SweepSettings& w, ReportSize size) {
   // it loses (docs/fitting.md, "Robust fit"). The window is least squares' remedy: after the
   // robust fit it lost on the cube (u8, orders 2 to 12: 11.50, 11.50, 15.45, 16.87 dB against
   // 14.47, 15.59, 16.90, 18.12 unwindowed).
-  if (size != ReportSize::Smoke) {
+  if (size == ReportSize::Full) {
     const auto leastSquares = [&](uint32_t order, SmoothingWindow window) {
       BakeSettings s = withEncoding(shSweep, Encoding::Sh, order, 0, 0);
       s.shFit = ShFit::LeastSquares;
@@ -222,9 +195,8 @@ void addSweepVariants(Profile& p, const SweepSettings& w, ReportSize size) {
     for (uint32_t order : w.orders)
       p.variants.push_back({"sh least-squares", fmt("L%u", order), leastSquares(order, SmoothingWindow::None)});
   }
-  {
-    // The path rule and throughput fields are SH at the paper's order (or the smoke bake's): the
-    // default Pca bake has no order, and these rows were SH order 0 when it became the default.
+  if (size != ReportSize::Default) {
+    // The path rule and throughput fields are SH at the paper's order (or the smoke bake's).
     const uint32_t order = base.encoding == Encoding::Sh ? base.order : 8;
     BakeSettings s = withEncoding(shSweep, Encoding::Sh, order, 0, 0);
     s.pathRule = PathRule::FirstRefraction;
@@ -289,7 +261,9 @@ struct BakedPair {
   Field f16;
   Result<Field> u8;
 };
-Result<BakedPair> bakePair(const bake::Scene& scene, const bake::BakeOptions& options) {
+Result<BakedPair> bakePair(const bake::Scene& scene, const bake::BakeOptions& asked) {
+  bake::BakeOptions options = asked;
+  options.settings = bake::settingsForScene(scene, asked.settings);  // the tool's default decides first
   const auto relabelled = [](Field volume, Quantization q) {
     volume.quantization = volume.settings.quantization = q;
     return volume;
@@ -960,7 +934,8 @@ Result<FidelityScene> measureScene(SceneContext& c) {
   }
   std::optional<bake::Image> texels;
   if (auto r = decompose(c, def, out, texels); !r) return r.error();
-  if (auto r = measureAntialiasing(c, def, out); !r) return r.error();
+  if (c.profile.antialiasing)
+    if (auto r = measureAntialiasing(c, def, out); !r) return r.error();
   if (auto r = writeCompare(c, def, texels); !r) return r.error();
   if (auto r = writeFidelityPlots(c, out); !r) return r.error();
   out.seconds = since(start);
@@ -1088,6 +1063,7 @@ std::string decompositionMarkdown(const Profile& p, const FidelityScene& sc) {
 }
 
 std::string antialiasingMarkdown(const Profile& p, const FidelityScene& sc) {
+  if (!p.antialiasing) return {};
   const uint32_t s = p.samplesPerAxis;
   const uint32_t dense = sc.denseSamplesPerAxis;
   const bake::ReferenceOptions cpu;  // the CPU modes' filtering, as measured

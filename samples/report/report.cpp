@@ -64,7 +64,13 @@ SizeProfile profileFor(ReportSize size) {
       p.scenes = {"builtin:sphere?tessellation=1"};
       p.environmentWidth = 128;
       break;
-    case ReportSize::Default:
+    case ReportSize::Default:  // the fidelity section alone (report_command.cpp): no sweeps
+      p.width = 240;
+      p.height = 180;
+      p.frames = 3;
+      p.environmentWidth = 1024;
+      break;
+    case ReportSize::Full:
       p.base.directionsTheta = 16;
       p.base.directionsPhi = 32;
       p.base.sampleBudget = 3000;
@@ -75,18 +81,6 @@ SizeProfile profileFor(ReportSize size) {
       p.frames = 5;
       p.scenes = {"builtin:sphere?tessellation=3", "builtin:glass-of-water?tessellation=2"};
       p.environmentWidth = 512;
-      break;
-    case ReportSize::Full:
-      p.base.directionsTheta = 32;
-      p.base.directionsPhi = 64;
-      p.base.sampleBudget = 35000;
-      p.orders = {1, 2, 4, 8, 12, 16};
-      p.directions = {{8, 16}, {16, 32}, {32, 64}, {64, 128}};
-      p.width = 640;
-      p.height = 480;
-      p.frames = 10;
-      p.scenes = {"builtin:sphere?tessellation=4", "builtin:glass-of-water?tessellation=3", "builtin:torus"};
-      p.environmentWidth = 1024;
       break;
   }
   return p;

@@ -18,8 +18,8 @@ namespace shrefract::report {
 
 enum class ReportSize {
   Smoke,    // seconds: for the test suite
-  Default,  // a couple of minutes on 2 cores
-  Full,     // the paper's workload (35k samples, 32x64 directions, orders to 16)
+  Default,  // minutes on 2 cores: the fidelity section of the default fields
+  Full,     // hours: the settings sweeps, stability cases, flicker orbits and every fidelity row
 };
 
 struct ReportOptions {

@@ -259,11 +259,14 @@ struct BakeSettings {
   float maxErrorDegrees = 0.0f;      // > 0: order and directions were chosen to meet this error
   uint32_t threads = 0;              // informational: does not change the data
   uint32_t volumeSize = 0;           // Volume: voxels per side N; 0 otherwise
-  // Pca (the tool's default encoding): where the scene is one medium in air, the bake also builds
-  // the Volume encoding (volumeSize; when 0, kDefaultVolumeSize or twice it where that fits 324
-  // bytes a sample, by images: bake.h kFinerVolumeGainDb) and keeps whichever field's images come
-  // closer to exact renders; a field so chosen records it (a Pca or Volume field).
+  // The tool's default when no encoding is asked for: the bake decides the encoding from what the
+  // scene is (bake.h settingsForScene), or, with chooseByImages, bakes Pca and the Volume
+  // encoding (volumeSize; when 0, kDefaultVolumeSize or twice it, bake.h kFinerVolumeGainDb) and
+  // keeps whichever field's images come closer to exact renders. A field records what it became.
   bool tryVolume = false;
+  // With tryVolume: the image contest above instead of the scene's decision (minutes, gigabytes).
+  // Not stored in a field.
+  bool chooseByImages = false;
   // A Volume field (asked for, or kept by tryVolume) whose texels predict the paths between them
   // poorly is laid out again at more samples (bake.h kVolumeDensifyBelowDb): the tool's default
   // when no --samples or --density is given. Not stored in a field (its sampleBudget is the budget

@@ -168,8 +168,8 @@ SHR_CONST(kEncodingVolume, 3u)   // field.h Encoding::Volume
 // turns the distance positive kVolumeBisections times and takes the zero of the line through the
 // last interval's ends (docs/encodings.md, "Volume").
 SHR_CONSTF(kVolumeStartStep, 0.05f)
-SHR_CONSTF(kVolumeMinStep, 0.1f)
-SHR_CONSTF(kVolumeStepScale, 0.9f)
+SHR_CONSTF(kVolumeMinStep, 0.2f)
+SHR_CONSTF(kVolumeStepScale, 1.0f)
 SHR_CONST(kVolumeMaxSteps, 4096u)
 SHR_CONST(kVolumeBisections, 6u)
 // A sample whose eye is below its tangent plane by more than this fraction of the eye's distance

@@ -107,6 +107,19 @@ constexpr bool volumeFitsDefaultBudget(uint64_t gridBytes, uint64_t samples) {
 // The pairs of texels the check traces (kFrameChoiceViews views each).
 inline constexpr size_t kVolumeDensityPairs = 4000;
 
+// BakeSettings::tryVolume without chooseByImages: the encoding follows from what the scene is,
+// with no image rendered. One closed medium in air (volumeSceneProblem empty): the Volume encoding,
+// kDefaultVolumeSize per side unless volumeSize is given, traced in texture space by the engine;
+// seconds to bake, a grid of a few MiB. Otherwise (several media, open or overlapping volumes,
+// which the grid's one interface rule cannot hold): Pca over kDefaultPerSampleTableSize node
+// tables, 324 components or as many clusters, exits in the sample's frame. A sample budget of 0
+// (and no density) becomes kDefaultSampleBudget for the volume, whose samples trace nothing at the
+// bake, and kDefaultPerSampleBudget for Pca, which keeps its bake within half a minute on 2 cores.
+// The path rule and quantization are kept; `why` (optional) receives the reason, for the note.
+inline constexpr uint32_t kDefaultPerSampleTableSize = 16, kDefaultPcaComponents = 324;
+inline constexpr uint64_t kDefaultPerSampleBudget = 25000;
+BakeSettings settingsForScene(const Scene& scene, BakeSettings settings, std::string* why = nullptr);
+
 // Bakes `scene`. Errors: invalid settings (order 0..kMaxFitOrder, the direction grid and bounces
 // above, spatial 0/3/5),
 // an invalid scene, layout failures. The result passes validateField().
