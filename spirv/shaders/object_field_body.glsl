@@ -208,7 +208,7 @@ vec3 exitWorldAt(vec2 uv) {
 // pixel to tens of degrees, which lit the cube's face-change lines with the sky's sun; the side
 // away from the jump is the slope. On smooth glass the gentler side is the slower half of the
 // divergence, which measured better than the central difference everywhere but on the bunny
-// (docs/antialiasing.md, "The exit's derivative beside a jump"). Mirrored by cpu_reference.cpp
+// (docs/technique.md, "The exit's derivative beside a jump"). Mirrored by cpu_reference.cpp
 // exitDerivative.
 vec3 exitDerivative(vec3 exitWorld, vec3 fine, vec2 uv, vec2 uvD) {
   vec3 ahead = exitWorldAt(uv + uvD), behind = exitWorldAt(uv - uvD);

@@ -32,7 +32,7 @@ float silhouetteCoverage(float cosView) {
 // the pixel. The distance is the edge's in-plane distance over its change across the pixel
 // (|d/dx| + |d/dy|: the pixel's width along the edge's normal). The least over the edges; 1
 // without a silhouette edge. Flat faces give the cosine of silhouetteCoverage nothing to follow:
-// this covers faceted glass (docs/antialiasing.md, "Polygon silhouettes"). dPdx, dPdy: the
+// this covers faceted glass (docs/technique.md, "Polygon silhouettes"). dPdx, dPdy: the
 // position's fine derivatives. Mirrored by cpu_reference.cpp polygonCoverage.
 float polygonCoverage(vec3 dPdx, vec3 dPdy) {
   TriangleEdges t = triangleEdges[inTriangle];

@@ -20,26 +20,29 @@ uint volumeFarWord(bool inside) {
          (kVolumeNormalZero << kVolumeNormalShiftY);
 }
 
-// Voxel c of the grid through its brick's entry, as field.h volumeVoxel.
-uint volumeVoxel(uvec3 c) {
-  uint per = (head.grid.x + kVolumeBrickSide - 1u) / kVolumeBrickSide;
-  uvec3 b = c / kVolumeBrickSide, l = c % kVolumeBrickSide;
-  uint entry = volumeWord((b.z * per + b.y) * per + b.x);
-  if (entry >= kVolumeBrickInside) return volumeFarWord(entry == kVolumeBrickInside);
-  return volumeWord(per * per * per + entry * kVolumeBrickWords + (l.z * kVolumeBrickSide + l.y) * kVolumeBrickSide + l.x);
-}
-
 // The 8 voxels around grid point g (voxel units), clamped to the grid, as volume_trace.cpp cornersAt:
-// corner k is c0 + (k & 1, (k >> 1) & 1, k >> 2).
-void corners(vec3 g, out uvec3 c0, out float weight[8]) {
+// corner k is c0 + (k & 1, (k >> 1) & 1, k >> 2), read through c0's brick (gpu_layout.h: a stored
+// brick holds its cells' far corners too; a brick beyond the band reads its far word at all 8).
+void corners(vec3 g, out uint words[8], out float weight[8]) {
   uint n = head.grid.x;
   float hi = float(n - 1u);
   g = clamp(g, vec3(0.0), vec3(hi));
-  c0 = min(uvec3(g), uvec3(n - 2u));
+  uvec3 c0 = min(uvec3(g), uvec3(n - 2u));
   vec3 f = g - vec3(c0);
   for (uint k = 0u; k < 8u; ++k) {
     uvec3 dk = uvec3(k & 1u, (k >> 1u) & 1u, (k >> 2u) & 1u);
     weight[k] = (dk.x != 0u ? f.x : 1.0 - f.x) * (dk.y != 0u ? f.y : 1.0 - f.y) * (dk.z != 0u ? f.z : 1.0 - f.z);
+  }
+  uint per = (n + kVolumeBrickSide - 1u) / kVolumeBrickSide;
+  uvec3 b = c0 / kVolumeBrickSide, l = c0 % kVolumeBrickSide;
+  uint entry = volumeWord((b.z * per + b.y) * per + b.x);
+  uint far = volumeFarWord(entry == kVolumeBrickInside);
+  for (uint k = 0u; k < 8u; ++k) words[k] = far;
+  if (entry < kVolumeBrickInside) {
+    uint base = per * per * per + entry * kVolumeApronWords + (l.z * kVolumeApronSide + l.y) * kVolumeApronSide + l.x;
+    for (uint k = 0u; k < 8u; ++k)
+      words[k] = volumeWord(base + (k & 1u) + ((k >> 1u) & 1u) * kVolumeApronSide +
+                            (k >> 2u) * (kVolumeApronSide * kVolumeApronSide));
   }
 }
 
@@ -48,11 +51,11 @@ float voxelDistance(uint word) {
 }
 
 float distanceAt(vec3 g) {
-  uvec3 c0;
+  uint words[8];
   float weight[8];
-  corners(g, c0, weight);
+  corners(g, words, weight);
   float d = 0.0;
-  for (uint k = 0u; k < 8u; ++k) d += weight[k] * voxelDistance(volumeVoxel(c0 + uvec3(k & 1u, (k >> 1u) & 1u, k >> 2u)));
+  for (uint k = 0u; k < 8u; ++k) d += weight[k] * voxelDistance(words[k]);
   return d;
 }
 
@@ -71,13 +74,13 @@ vec3 unpackNormal(uint word) {
 
 // As volume_trace.cpp normalAt: the corners facing the nearest corner's way, blended.
 vec3 normalAt(vec3 g) {
-  uvec3 c0;
+  uint words[8];
   float weight[8];
-  corners(g, c0, weight);
+  corners(g, words, weight);
   vec3 u[8];
   uint nearest = 0u;
   for (uint k = 0u; k < 8u; ++k) {
-    u[k] = unpackNormal(volumeVoxel(c0 + uvec3(k & 1u, (k >> 1u) & 1u, k >> 2u)));
+    u[k] = unpackNormal(words[k]);
     if (weight[k] > weight[nearest]) nearest = k;
   }
   vec3 n = vec3(0.0);

@@ -2,8 +2,8 @@
 //
 // Two encodings, both RGBA16F with a level chain (environmentLevelCount levels, each the 2x2 box of
 // the one above, built on the GPU at upload with linear blits), sampled trilinearly at the level
-// that the angle a looked-up direction spans across the pixel calls for (docs/antialiasing.md):
-//  - lat-long (equirectangular, 2:1), +Y up, docs/environment-maps.md and spirv/include/shrefract/
+// that the angle a looked-up direction spans across the pixel calls for (docs/technique.md):
+//  - lat-long (equirectangular, 2:1), +Y up, docs/technique.md and spirv/include/shrefract/
 //    environment.glsl: u = 0.5 + atan2(x, -z) / (2 pi), v = acos(y) / pi, row 0 = zenith; wraps in
 //    u, clamps in v;
 //  - cube map: six square faces in Vulkan's order and orientation (+X, -X, +Y, -Y, +Z, -Z; see
@@ -22,7 +22,7 @@ namespace shrefract {
 struct EnvironmentImpl;
 
 struct LatLongEnvironmentDesc {
-  uint32_t width = 0;            // 2:1 lat-long (equirectangular); see docs/environment-maps.md
+  uint32_t width = 0;            // 2:1 lat-long (equirectangular); see docs/technique.md
   uint32_t height = 0;
   const float* rgba = nullptr;   // width*height*4 linear floats, row 0 = zenith; finite, >= 0
 };

@@ -80,7 +80,7 @@ enum class DirectionSampling : uint32_t {
 // and, for Pca, keep whichever frame leaves the smaller rank-K residual of the tables.
 enum class ExitFrame : uint32_t { Object = 0, Sample = 1, Auto = 2 };
 
-// How an SH bake fits each sample's expansion to its traced directions (docs/fitting.md, "Robust
+// How an SH bake fits each sample's expansion to its traced directions (docs/technique.md, "Robust
 // fit"). Fields of format version 6 and earlier were fitted by least squares.
 enum class ShFit : uint32_t {
   LeastSquares = 0,  // regularized least squares over the grid directions
@@ -90,7 +90,7 @@ enum class ShFit : uint32_t {
   Robust = 1,
 };
 
-// Which branch a single traced path follows at every interface (docs/tracing.md).
+// Which branch a single traced path follows at every interface (docs/technique.md).
 enum class PathRule : uint32_t {
   HighestEnergy = 0,    // the paper: the branch with the larger Fresnel factor
   FirstRefraction = 1,  // refract wherever refraction is possible, reflect only on total internal reflection
@@ -254,7 +254,7 @@ struct BakeSettings {
   SmoothingWindow window = SmoothingWindow::None;
   uint32_t spatialNeighbours = 0;    // 0, 3 or 5
   Quantization quantization = Quantization::U8;
-  float regularization = 0.0f;       // lambda of the hemisphere fit (docs/fitting.md)
+  float regularization = 0.0f;       // lambda of the hemisphere fit (docs/technique.md)
   ShFit shFit = ShFit::Robust;       // SH: how the expansion is fitted; other encodings store LeastSquares
   float maxErrorDegrees = 0.0f;      // > 0: order and directions were chosen to meet this error
   uint32_t threads = 0;              // informational: does not change the data
@@ -320,7 +320,7 @@ struct FieldMesh {
 
 // Split layout continuity correction: after decompression, texel `target` is set to
 // value(a) + value(b) - value(c), so bilinear filtering along a triangle's hypotenuse is linear
-// between the samples on it (docs/sample-layouts.md).
+// between the samples on it (docs/technique.md).
 struct GutterTexel {
   uint32_t target = 0, a = 0, b = 0, c = 0;  // texel indices y * width + x
 };

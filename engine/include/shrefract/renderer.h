@@ -91,7 +91,7 @@ struct RendererCreateInfo {
   // beside an edge of its triangle whose neighbour faces away (faceted glass; Object's
   // TriangleEdges), writes the share of its pixel it covers as alpha, and the object pass blends it
   // over what the attachment holds (the background, or the host's scene drawn before): a
-  // silhouette's pixels are no longer all glass or all background (docs/antialiasing.md,
+  // silhouette's pixels are no longer all glass or all background (docs/technique.md,
   // "Silhouette coverage", "Polygon silhouettes"). The
   // colour format must support blending (VK_FORMAT_FEATURE_COLOR_ATTACHMENT_BLEND_BIT, else
   // Renderer::create fails with Unsupported); such a fragment still writes depth. Ignored with
@@ -104,14 +104,14 @@ struct RendererCreateInfo {
   // a jump) and keeps a bright source's image to the pixel's box: with 64x64 tables it gained
   // 0.3 to 0.65 dB at one sample per pixel on the built-in scenes over 2, which costs about half
   // the object pass's time on lavapipe; 1 is one trilinear lookup with a wider blur
-  // (docs/antialiasing.md, "Choosing the tap count"). Outside 1..4 Renderer::create fails with
+  // (docs/technique.md, "Choosing the tap count"). Outside 1..4 Renderer::create fails with
   // InvalidArgument.
   uint32_t environmentTapsPerAxis = 4;
   // An object whose Volume field is traced per fragment traces min(2, environmentTapsPerAxis)^2
   // paths a pixel; where one of them leaves more than 10 degrees from the pixel's centre path (a
   // bounce that changes within the pixel) and the transmitted light weighs at least half the
   // pixel's, it traces 4x4 instead, so that one sample per pixel averages both sides of the
-  // discontinuity as supersampling does (docs/antialiasing.md, "Refined paths where the volume's
+  // discontinuity as supersampling does (docs/technique.md, "Refined paths where the volume's
   // exits part": on lavapipe the torus at one sample per pixel 26.29 -> 26.88 dB for 1.7x its
   // object pass, the bunny 22.38 -> 23.38 for about 3x). Off: the 2x2 paths everywhere, for a
   // host bound by its object pass. Ignored with one tap per axis.

@@ -1,6 +1,6 @@
 // Real orthonormal spherical harmonics (SH): evaluation of the basis and per-band windows.
 //
-// Convention (shared with spirv/include/shrefract/sh.glsl and docs/spherical-harmonics.md):
+// Convention (shared with spirv/include/shrefract/sh.glsl and docs/technique.md):
 // - Index: basis function (l, m), 0 <= l <= order, -l <= m <= l, lives at i = l*l + l + m.
 //   An expansion of order L has (L+1)^2 coefficients.
 // - Axes: z is the pole (theta is measured from +z); phi is measured from +x toward +y. In bake

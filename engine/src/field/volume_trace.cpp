@@ -33,25 +33,29 @@ V3 normalized(V3 a) {
 }
 
 // The 8 voxels around grid point g (voxel units, voxel centres at integers), clamped to the grid,
-// and their trilinear weights.
+// and their trilinear weights. As the engine reads them (gpu_layout.h kVolumeApronWords): through
+// the brick of the cell's first corner, whose far word stands for all 8 where that brick lies
+// beyond the band.
 struct Corners {
-  uint32_t x0, y0, z0;  // corner k is (x0, y0, z0) + (k & 1, (k >> 1) & 1, k >> 2)
+  uint32_t words[8];  // corner k is (x0, y0, z0) + (k & 1, (k >> 1) & 1, k >> 2)
   float weight[8];
-  uint32_t word(const FieldVolume& v, uint32_t k) const {
-    return volumeVoxel(v, x0 + (k & 1u), y0 + ((k >> 1) & 1u), z0 + (k >> 2));
-  }
 };
 
-Corners cornersAt(uint32_t n, V3 g) {
+Corners cornersAt(const FieldVolume& v, V3 g) {
+  const uint32_t n = v.size;
   const float hi = float(n - 1);
   g = {std::clamp(g.x, 0.0f, hi), std::clamp(g.y, 0.0f, hi), std::clamp(g.z, 0.0f, hi)};
   const uint32_t x0 = std::min(uint32_t(g.x), n - 2), y0 = std::min(uint32_t(g.y), n - 2),
                  z0 = std::min(uint32_t(g.z), n - 2);
   const float fx = g.x - float(x0), fy = g.y - float(y0), fz = g.z - float(z0);
-  Corners c{x0, y0, z0, {}};
+  Corners c{};
+  const uint32_t per = volumeBricksPerSide(n), s = kVolumeBrickSide;
+  const uint32_t entry = v.bricks[(size_t(z0 / s) * per + y0 / s) * per + x0 / s];
   for (uint32_t k = 0; k < 8; ++k) {
     const uint32_t dx = k & 1u, dy = (k >> 1) & 1u, dz = (k >> 2) & 1u;
     c.weight[k] = (dx ? fx : 1.0f - fx) * (dy ? fy : 1.0f - fy) * (dz ? fz : 1.0f - fz);
+    c.words[k] = entry >= kVolumeBrickInside ? volumeFarWord(entry == kVolumeBrickInside)
+                                             : volumeVoxel(v, x0 + dx, y0 + dy, z0 + dz);
   }
   return c;
 }
@@ -61,9 +65,9 @@ float voxelDistance(uint32_t word) {
 }
 
 float distanceAt(const FieldVolume& v, V3 g) {
-  const Corners c = cornersAt(v.size, g);
+  const Corners c = cornersAt(v, g);
   float d = 0.0f;
-  for (uint32_t k = 0; k < 8; ++k) d += c.weight[k] * voxelDistance(c.word(v, k));
+  for (uint32_t k = 0; k < 8; ++k) d += c.weight[k] * voxelDistance(c.words[k]);
   return d;
 }
 
@@ -71,11 +75,11 @@ float distanceAt(const FieldVolume& v, V3 g) {
 // the first of equals) faces: across an edge of the surface (a cube's) the voxels on either side
 // hold the normals of different faces, whose blend would round the edge off.
 V3 normalAt(const FieldVolume& v, V3 g) {
-  const Corners c = cornersAt(v.size, g);
+  const Corners c = cornersAt(v, g);
   V3 u[8];
   uint32_t nearest = 0;
   for (uint32_t k = 0; k < 8; ++k) {
-    const std::array<float, 3> a = unpackVolumeNormal(c.word(v, k));
+    const std::array<float, 3> a = unpackVolumeNormal(c.words[k]);
     u[k] = {a[0], a[1], a[2]};
     if (c.weight[k] > c.weight[nearest]) nearest = k;
   }

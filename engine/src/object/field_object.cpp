@@ -129,6 +129,13 @@ struct FieldBufferSizes {
   VkDeviceSize basis = 0;            // Pca: the basis (clustered: binary16); otherwise one placeholder vec4
 };
 
+// A Volume field's words on the device: the header, the brick entries and the stored bricks, each
+// with the first voxels of its neighbours along +x, +y and +z (gpu_layout.h kVolumeApronWords).
+uint64_t volumeDeviceWords(const FieldVolume& v) {
+  const uint64_t stored = v.brickVoxels.size() / kVolumeBrickWords;
+  return sizeof(gpu::VolumeHeader) / sizeof(uint32_t) + v.bricks.size() + stored * gpu::kVolumeApronWords;
+}
+
 // The sizes of the buffers whose size depends on the field, checked against the device's limits.
 Result<FieldBufferSizes> fieldBufferSizes(const Field& field, uint64_t samples, const VkPhysicalDeviceLimits& limits) {
   const uint64_t perSample = uint64_t(field.layerCount()) * field.valuesPerLayer();
@@ -149,7 +156,7 @@ Result<FieldBufferSizes> fieldBufferSizes(const Field& field, uint64_t samples, 
   sizes.frames = std::max<VkDeviceSize>(VkDeviceSize(samples) * 12 * sizeof(float), 16);
   sizes.basis = std::max<VkDeviceSize>((VkDeviceSize(field.basis.size()) * field.basisValueBytes() + 3) / 4 * 4, 16);
   if (field.encoding == Encoding::Volume)
-    sizes.basis = sizeof(gpu::VolumeHeader) + volumeGridBytes(field.volume);
+    sizes.basis = volumeDeviceWords(field.volume) * sizeof(uint32_t);
   if (sizes.coefficientsStorage && sizes.coefficients > limits.maxStorageBufferRange)
     return tooBig("coefficients", sizes.coefficients,
                   std::max<VkDeviceSize>(VkDeviceSize(limits.maxTexelBufferElements) * sizeof(uint32_t),
@@ -413,8 +420,23 @@ void describeField(const Field& field, uint32_t sampleCount, const FieldBufferSi
 }
 
 // The small buffers' contents on the host, kept until their uploads are recorded.
-// A Volume field's basis binding (gpu_layout.h VolumeHeader, then the bricks); empty for the
-// other encodings.
+// Writes v's stored bricks with their aprons from words[first] on, in entry order.
+void writeApronBricks(const FieldVolume& v, std::vector<uint32_t>& words, size_t first) {
+  const uint32_t n = v.size, per = volumeBricksPerSide(n), s = kVolumeBrickSide, a = gpu::kVolumeApronSide;
+  for (uint32_t c = 0; c < per; ++c)
+    for (uint32_t b = 0; b < per; ++b)
+      for (uint32_t x = 0; x < per; ++x) {
+        const uint32_t entry = v.bricks[(size_t(c) * per + b) * per + x];
+        if (entry >= kVolumeBrickInside) continue;
+        uint32_t* out = &words[first + size_t(entry) * gpu::kVolumeApronWords];
+        for (uint32_t k = 0; k < gpu::kVolumeApronWords; ++k)
+          out[k] = volumeVoxel(v, std::min(x * s + k % a, n - 1), std::min(b * s + (k / a) % a, n - 1),
+                               std::min(c * s + k / (a * a), n - 1));
+      }
+}
+
+// A Volume field's basis binding (gpu_layout.h VolumeHeader, the brick entries, then the stored
+// bricks with their aprons); empty for the other encodings.
 std::vector<uint32_t> volumeWords(const Field& field) {
   if (field.encoding != Encoding::Volume) return {};
   gpu::VolumeHeader head{};
@@ -425,10 +447,10 @@ std::vector<uint32_t> volumeWords(const Field& field) {
   const float outside = field.media[0].ior, inside = field.media[1].ior;
   head.media = {outside / inside, inside / outside, field.media[1].absorption, 0.0f};
   const size_t headWords = sizeof(head) / sizeof(uint32_t);
-  std::vector<uint32_t> words(headWords + v.bricks.size() + v.brickVoxels.size());
+  std::vector<uint32_t> words(size_t(volumeDeviceWords(v)));
   std::memcpy(words.data(), &head, sizeof(head));
   std::copy(v.bricks.begin(), v.bricks.end(), words.begin() + headWords);
-  std::copy(v.brickVoxels.begin(), v.brickVoxels.end(), words.begin() + headWords + v.bricks.size());
+  writeApronBricks(v, words, headWords + v.bricks.size());
   return words;
 }
 

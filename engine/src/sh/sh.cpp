@@ -2,7 +2,7 @@
 // (x + i y)^m are kept apart:
 //   Y_l^{+m} = Pbar_l^m(z) * C_m,  Y_l^{-m} = Pbar_l^m(z) * S_m,  C_m + i S_m = (x + i y)^m,
 // where Pbar_l^m carries the whole normalization (and sqrt(2) for m > 0), and sin^m(theta) lives
-// in C_m, S_m. docs/spherical-harmonics.md derives the recurrences:
+// in C_m, S_m. docs/technique.md derives the recurrences:
 //   Pbar_0^0 = 1/sqrt(4 pi)
 //   Pbar_m^m = d_m Pbar_{m-1}^{m-1},  d_m = sqrt((2m+1)/(2m)), times sqrt(2) at m = 1
 //   and for l > m, with s = sign(z) (+1 at z = 0), v = z - s = -s (x^2 + y^2) / (1 + |z|):

@@ -1,4 +1,4 @@
-// Environment lookup. Lat-long convention (docs/environment-maps.md): +Y up,
+// Environment lookup. Lat-long convention (docs/technique.md): +Y up,
 // u = 0.5 + atan(x, -z) / (2 pi), v = acos(y) / pi; v = 0 is the top row; (0.5, 0.5) looks toward -Z.
 #ifndef SHREFRACT_ENVIRONMENT_GLSL
 #define SHREFRACT_ENVIRONMENT_GLSL
@@ -14,7 +14,7 @@ vec2 latLongUv(vec3 dir) {
   return vec2(u, v);
 }
 
-// Filtered lookups (docs/antialiasing.md). The environment has a level chain (a 2x2 box per level,
+// Filtered lookups (docs/technique.md). The environment has a level chain (a 2x2 box per level,
 // built at upload); the level is chosen from the angle a lookup direction spans across the pixel,
 // not from the sampler's own uv derivatives: those jump by a whole turn at the lat-long seam and
 // know nothing of how the glass bends the rays. Mirrored by engine/src/reference/cpu_reference.cpp

@@ -162,9 +162,12 @@ SHR_CONST(kEncodingPca, 2u)      // field.h Encoding::Pca
 SHR_CONST(kEncodingVolume, 3u)   // field.h Encoding::Volume
 // decompress_volume.comp (and field.h traceVolumeSample): the basis binding (kBindingBasis) holds
 // VolumeHeader, then the grid's bricks (field.h FieldVolume): ceil(N / kVolumeBrickSide)^3 entries,
-// then the stored bricks' kVolumeBrickWords voxel words each. A path marches from its
-// start by kVolumeStartStep voxels, then by kVolumeStepScale times the grid's distance there, at
-// least kVolumeMinStep voxels, at most kVolumeMaxSteps steps a segment, bisects the step that
+// then the stored bricks' kVolumeApronWords voxel words each: a brick's kVolumeBrickSide^3 voxels
+// and one more along each axis (the next brick's first, the grid's last where none), x fastest, so
+// that the 8 voxels of the trilinear cell at any voxel of the brick are read through one entry.
+// A cell whose brick is an entry (beyond the band) reads its far word at all 8 corners. A path
+// marches from its start by kVolumeStartStep voxels, then by kVolumeStepScale times the grid's
+// distance there, at least kVolumeMinStep voxels, at most kVolumeMaxSteps steps a segment, bisects the step that
 // turns the distance positive kVolumeBisections times and takes the zero of the line through the
 // last interval's ends (docs/encodings.md, "Volume").
 SHR_CONSTF(kVolumeStartStep, 0.05f)
@@ -195,6 +198,8 @@ SHR_CONST(kVolumeNormalShiftY, 20u)
 // stored: its every voxel reads as the far word (field.h volumeFarWord).
 SHR_CONST(kVolumeBrickSide, 8u)
 SHR_CONST(kVolumeBrickWords, 512u)
+SHR_CONST(kVolumeApronSide, 9u)
+SHR_CONST(kVolumeApronWords, 729u)
 SHR_CONST(kVolumeBrickInside, 0xfffffffeu)
 SHR_CONST(kVolumeBrickOutside, 0xffffffffu)
 SHR_CONST(kVolumeNormalZero, 2047u)
@@ -295,24 +300,24 @@ SHR_CONSTF(kJumpSideSlopeRidge, 0.001f)
 // other side (three sides meeting) still decodes to their bilinear blend.
 SHR_CONSTF(kJumpDistanceFloor, 1e-4f)
 
-// Filtered environment lookups (environment.glsl environmentLevel, docs/antialiasing.md): the
+// Filtered environment lookups (environment.glsl environmentLevel, docs/technique.md): the
 // level is log2(footprint / texel angle) + this bias, for each tap's share of the footprint (below).
 // The level whose texels are as wide as the footprint, read bilinearly, blurs over a tent about
 // twice the footprint (its own box, then the bilinear tap). With one tap per lookup half a level
 // finer measured best; with 2x2 taps, each reading the level of its own cell, none (the field's
-// own noise on the cube and the glass of water wants the blur; docs/antialiasing.md, "Taps").
+// own noise on the cube and the glass of water wants the blur; docs/technique.md, "Taps").
 SHR_CONSTF(kEnvironmentLevelBias, 0.0f)
 // A filtered lookup averages this many taps per axis over the parallelogram its direction sweeps
 // across the pixel (environment_select.glsl lookupEnvironmentOverPixel), each at the level of its
 // own share of the footprint: closer to the pixel's box than one tap of the level chain, whose
 // support is about twice the footprint (bright, small sources spread over too many pixels), and
-// anisotropic where the direction sweeps along one axis (docs/antialiasing.md, "Taps").
+// anisotropic where the direction sweeps along one axis (docs/technique.md, "Taps").
 // The default; a host picks 1 to kMaxEnvironmentTapsPerAxis per renderer (RendererCreateInfo).
 SHR_CONST(kEnvironmentTapsPerAxis, 4u)
 SHR_CONST(kMaxEnvironmentTapsPerAxis, 4u)
 // One tap per axis reads the footprint scaled by this (a level bias of -0.5): one trilinear
 // lookup spreads over about twice the footprint, and half a level finer measured best for it
-// (docs/antialiasing.md, "Level bias"; with more taps each reads its own cell's level, unscaled).
+// (docs/technique.md, "Level bias"; with more taps each reads its own cell's level, unscaled).
 SHR_CONSTF(kOneTapFootprintScale, 0.70710678f)
 // The per-fragment volume shading (object_volume_body.glsl) traces this many paths per axis of
 // the pixel (at most the renderer's environment taps), each at its own sub-pixel place, and reads
@@ -329,7 +334,7 @@ SHR_CONST(kVolumeTracedTapsPerAxis, 2u)
 // grazing paths bounce many times, cost the most and show least (the sphere's rim refined at
 // 10 deg: 2.4x its frame on lavapipe for 0.03 dB; with the weight, 0.96x and the 2x2 image).
 // 10 deg against 3, both with the weight (the torus at one sample per pixel: 26.88 against 27.20 dB
-// for 1.73x against 2.03x the frame). docs/antialiasing.md, "Refined paths where the volume's exits part".
+// for 1.73x against 2.03x the frame). docs/technique.md, "Refined paths where the volume's exits part".
 SHR_CONSTF(kVolumeRefineCosine, 0.98480775f)  // cos 10 deg
 SHR_CONST(kVolumeRefinedTapsPerAxis, 4u)
 SHR_CONSTF(kVolumeRefineWeight, 0.5f)
@@ -387,7 +392,7 @@ SHR_CONSTF(kSpatialPlaceTrust, 0.75f)
 // reads a footprint widened by kFilteredExitSpreadBlur times the excess. The threshold stays above
 // what binary16 rounding of unit exits reads (without one every lookup blurred: the cube 29.09 ->
 // 17.85 dB); the factor makes a tap between texels far apart read the coarse levels. Measured
-// (64x64 fields, linear PSNR against the 4x4 full tree, 1 spp; docs/antialiasing.md "Taps
+// (64x64 fields, linear PSNR against the 4x4 full tree, 1 spp; docs/technique.md "Taps
 // between texels that point apart"): sphere 30.94 -> 31.24, cube 27.26 -> 27.33, glass of water
 // 22.71 -> 22.77, torus 24.30 -> 24.32; 4x4 within +0.02 dB; 0.05 lost 0.2 dB on the torus.
 SHR_CONSTF(kFilteredExitSpreadThreshold, 0.08f)

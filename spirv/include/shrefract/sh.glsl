@@ -1,5 +1,5 @@
 // Real orthonormal spherical harmonics in GLSL: the same basis, index and recurrences as
-// engine/include/shrefract/sh.h (see docs/spherical-harmonics.md for the convention:
+// engine/include/shrefract/sh.h (see docs/technique.md for the convention:
 // i = l*l + l + m, z is the pole, m > 0 ~ cos(m phi), m < 0 ~ sin(|m| phi), no Condon-Shortley
 // phase; order 2 is 0.282095, 0.488603 (y, z, x), 1.092548 (xy, yz, xz), 0.315392 (3z^2 - 1),
 // 0.546274 (x^2 - y^2)).
