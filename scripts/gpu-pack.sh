@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Packs what scripts/gpu-measure.sh needs on a GPU machine that has a Vulkan driver and nothing
+# Packs what scripts/measure/gpu-measure.sh needs on a GPU machine that has a Vulkan driver and nothing
 # else (docs/performance.md, "On a GPU"): the engine-only binaries of BUILD (they link only the
 # Vulkan loader and the C++ runtime), optionally a BEFORE build's frame benchmark, the Debian 12
 # loader, GL-vendor and validation-layer packages (the NVIDIA ICD needs libglvnd), and fields,
@@ -8,7 +8,7 @@
 #   scripts/gpu-pack.sh BUILD DEST [BEFORE_FRAME_BENCHMARK] [FIELD.shrf ...]
 #
 # DEST must be a folder git ignores (e.g. .gl, listed in .git/info/exclude); copy it to the
-# machine beside the checkout and run `bash scripts/gpu-measure.sh DEST` there.
+# machine beside the checkout and run `bash scripts/measure/gpu-measure.sh DEST` there.
 set -euo pipefail
 if [ $# -lt 2 ] || [ ! -x "${1}/samples/shrefract_frame_benchmark" ]; then
   echo "usage: scripts/gpu-pack.sh BUILD DEST [BEFORE_FRAME_BENCHMARK] [FIELD.shrf ...] (BUILD: a build folder with the benchmarks)" >&2

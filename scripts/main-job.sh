@@ -1,14 +1,9 @@
 #!/usr/bin/env bash
-# Fresh Debian 12 machine -> the main job: build the tool, bake the default built-in scene into a
-# refraction field with the tool's default settings, render it over the built-in environment
-# (field, exact, physical full-tree reference and the single-interface baseline), and write the
-# full report. Output goes to out/ (override with OUT_DIR).
-# Time on 2 cores: the bake about 5 min; the report is the long part: its fidelity section bakes
-# and renders the four built-in scenes and, when ../shared/assets holds it, the bunny (measured
-# with --fidelity-only: 1 h 09 min to 1 h 52 min for the four built-in scenes), then the settings
-# sweeps and the stability cases: expect several hours. REPORT_SCENES="builtin:sphere" limits the
-# report's sweeps and fidelity section to those scenes (its stability cases and its flicker orbits
-# of the four built-in scenes, about 3.5 min each, still run).
+# Fresh Debian 12 machine -> the main job, in minutes: set up, build the tool, bake every built-in
+# scene with the tool's defaults, render the sphere's field beside its references, and write the
+# report (out/report/report.md): fidelity against the physical reference, the error decomposition,
+# error against frame and bake time per encoding, images side by side. Output goes to out/
+# (override with OUT_DIR); `shrefract report --full` is the hours-long version.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
@@ -20,17 +15,14 @@ mkdir -p "$out"
 # Lavapipe by default, so the job runs the same on any machine; set VK_DRIVER_FILES to choose.
 export VK_DRIVER_FILES="${VK_DRIVER_FILES:-/usr/share/vulkan/icd.d/lvp_icd.x86_64.json}"
 tool="$build/samples/shrefract"
-# The default bake: Pca weights (324 bytes per sample, the paper's budget) of 64x64 tables traced
-# at their nodes (docs/encodings.md). No flags: what a user's `bake builtin:sphere` makes.
-"$tool" bake builtin:sphere -o "$out/sphere.shrf"
+# The default bakes: no flags, what a user's `bake SCENE` makes (each prints its time and memory).
+for scene in sphere cube torus glass-of-water; do
+  "$tool" bake "builtin:$scene" -o "$out/$scene.shrf"
+done
 "$tool" info "$out/sphere.shrf"
-"$tool" render "$out/sphere.shrf" --size 960x720 --spp 4 -o "$out/sphere_field.png"
-"$tool" render "$out/sphere.shrf" --mode exact --size 960x720 --spp 4 -o "$out/sphere_exact.png"
-"$tool" render "$out/sphere.shrf" --mode full-tree --size 960x720 --spp 4 -o "$out/sphere_physical.png"
-"$tool" render "$out/sphere.shrf" --mode single-interface --size 960x720 --spp 4 -o "$out/sphere_single_interface.png"
-# shellcheck disable=SC2086  # REPORT_SCENES is a list of scene arguments
-"$tool" report ${REPORT_SCENES:-} -o "$out/report"
-echo "main job done: look at $out/report/report.md (fidelity against the physical reference, error"
-echo "  decomposition, error against bytes and run time, plots, side-by-side images) and"
-echo "  $out/sphere_field.png (field), $out/sphere_exact.png (exact), $out/sphere_physical.png (full tree),"
-echo "  $out/sphere_single_interface.png (baseline)"
+for mode in field exact full-tree single-interface; do
+  "$tool" render "$out/sphere.shrf" --mode "$mode" --size 640x480 --spp 4 -o "$out/sphere_$mode.png"
+done
+"$tool" report -o "$out/report"
+echo "main job done: $out/report/report.md (fidelity, error decomposition, error against frame and bake"
+echo "  time, side-by-side images); $out/sphere_{field,exact,full-tree,single-interface}.png"

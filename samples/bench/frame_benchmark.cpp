@@ -28,7 +28,7 @@
 // medians over the frames. --env-taps runs every series once per tap count of the filtered
 // environment lookups (RendererCreateInfo::environmentTapsPerAxis, default the engine's) and prints
 // each count's raster time against the first count's, measured in the same run: the cost of the
-// filtering on this device (docs/antialiasing.md, "Cost"). --msaa N (2, 4 or 8) runs everything
+// filtering on this device (docs/technique.md, "Cost"). --msaa N (2, 4 or 8) runs everything
 // twice, into single-sample attachments and into N-sample ones resolved at the end of rendering
 // (the host's MSAA, RendererCreateInfo::sampleCount), and prints the raster time at N samples
 // against one sample, series by series, measured in the same run. A volume field prints the work of

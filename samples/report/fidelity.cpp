@@ -117,8 +117,8 @@ SweepSettings sizeSettings(ReportSize size, Profile& p) {
       w.volumes = {16};
       break;
     case ReportSize::Default:
-      // Minutes on 2 cores: the default field beside the paper's SH order 8 (8000 samples, 32x64
-      // directions) and a 9x9 table on the same budget, 240x180 at 3x3 against the full tree.
+      // Minutes on 2 cores: the default field beside the paper's SH order 8 and a 9x9 table, both
+      // at 8000 samples fitted to 16x32 directions, 240x180 at 3x3 against the full tree.
       p.width = 240;
       p.height = 180;
       p.samplesPerAxis = 3;
@@ -127,6 +127,8 @@ SweepSettings sizeSettings(ReportSize size, Profile& p) {
       p.scenes = {"builtin:sphere", "builtin:cube", "builtin:torus", "builtin:glass-of-water", kBunny};
       w.base = defaultFieldSettings();
       w.sweep.sampleBudget = 8000;
+      w.sweep.directionsTheta = 16;
+      w.sweep.directionsPhi = 32;
       w.orders = {8};
       w.tables = {9};
       break;
@@ -180,7 +182,7 @@ void addSweepVariants(Profile& p, const SweepSettings& w, ReportSize size) {
   // SH fitted by least squares (`bake --sh-fit least-squares`, the fit before the robust
   // default), plain and with the Lanczos window (`--window lanczos`), which damps the ringing that
   // least squares spreads from the jumps over the hemisphere: what the robust fit gains, and where
-  // it loses (docs/fitting.md, "Robust fit"). The window is least squares' remedy: after the
+  // it loses (docs/technique.md, "Robust fit"). The window is least squares' remedy: after the
   // robust fit it lost on the cube (u8, orders 2 to 12: 11.50, 11.50, 15.45, 16.87 dB against
   // 14.47, 15.59, 16.90, 18.12 unwindowed).
   if (size == ReportSize::Full) {
@@ -556,7 +558,9 @@ Result<void> measureVariant(SceneContext& c, const Variant& v, FidelityScene& ou
     addErrorRows(c, v, proto, "bake failed: " + baked.error().message, out, keep);
     return {};
   }
-  if (const std::string mismatch = bakeMismatch(baked.value().f16, v.settings); !mismatch.empty()) {
+  // Against what the scene's default decided (bake::settingsForScene), where the row asks for it.
+  if (const std::string mismatch = bakeMismatch(baked.value().f16, bake::settingsForScene(c.scene, v.settings));
+      !mismatch.empty()) {
     addErrorRows(c, v, proto, mismatch, out, keep);
     return {};
   }
@@ -618,31 +622,6 @@ Result<void> addGpuSteps(const SceneContext& c, const DefaultField& def, Fidelit
                  def.gpuU8->image1spp, def.gpuU8->image);
 }
 
-// The decomposition's steps after the path rule for a Volume default field, which the engine traces
-// per fragment (Object::tracesVolumePerFragment): no texels are interpolated, so the spatial
-// sampling step is nothing (the exact render against itself); the grid replaces the angular
-// encoding (the CPU raster's per-fragment trace against the exact path per pixel).
-Result<void> decomposeVolume(SceneContext& c, const DefaultField& def, const Field& field,
-                             bake::DistortionRenderOptions ro, const bake::ReferenceImage& exactRule,
-                             FidelityScene& out) {
-  if (auto r = addStep(c, out, "spatial sampling", "none: the volume is traced per fragment (exact per pixel vs itself)",
-                       exactRule.color, exactRule.color);
-      !r)
-    return r;
-  ro.volume = &field;
-  auto traced = bake::renderDistortion(field.mesh, {}, c.environment, ro);
-  if (!traced) return traced.error();
-  if (auto r = addStep(c, out, "angular encoding", "the grid: volume traced per fragment (CPU raster) vs exact per pixel",
-                       traced.value().color, exactRule.color);
-      !r)
-    return r;
-  if (auto r = addStep(c, out, "GPU arithmetic", "volume on the GPU vs the same on the CPU raster", def.gpuF16->image,
-                       traced.value().color);
-      !r)
-    return r;
-  return addGpuSteps(c, def, out);
-}
-
 // The error decomposition of the default field: each step adds one approximation to the one
 // before (see addStep).
 Result<void> decompose(SceneContext& c, const DefaultField& def, FidelityScene& out,
@@ -667,7 +646,6 @@ Result<void> decompose(SceneContext& c, const DefaultField& def, FidelityScene& 
   ro.samplesPerAxis = c.profile.samplesPerAxis;
   ro.threads = c.options.threads;
   ro.shading.tint = frontMediumColor(field);  // as Object::createFromField sets it
-  if (field.encoding == Encoding::Volume) return decomposeVolume(c, def, field, ro, exactRule, out);
   auto texelRender = renderExactTexels(c, field, eye, ro, out);
   if (!texelRender) return texelRender.error();
   texelsImage = texelRender.value().color;
@@ -1034,20 +1012,18 @@ std::string targetsMarkdown(const FidelityScene& sc) {
 }
 
 std::string decompositionMarkdown(const Profile& p, const FidelityScene& sc) {
-  const BakeSettings& d = p.variants.front().settings;
-  PathRule rule = d.pathRule;  // as asked, or as the bake chose it (the default row's)
+  (void)p;
+  // The default row says what the scene's bake made of the default settings.
+  const FidelityRow* def = nullptr;
   for (const FidelityRow& r : sc.rows)
-    if (r.kind == "field" && r.series == "default u8" && r.error.empty()) rule = r.pathRule;
-  const std::string directions = d.directionSampling == DirectionSampling::Nodes
-                                     ? fmt("traced at the %ux%u table nodes", d.tableSize, d.tableSize)
-                                     : fmt("%ux%u directions", d.directionsTheta, d.directionsPhi);
+    if (r.kind == "field" && r.series == "default u8" && r.error.empty()) def = &r;
   std::string md;
-  md += fmt("\nError decomposition of the default field (%s %s, %s, %s layout, %s, %s path "
-            "rule): each step adds one approximation to the stage above it; *step* is the PSNR between the two "
-            "stages, *cumulative* the new stage against the physical reference.\n\n",
-            toString(d.encoding), parametersOf(d).c_str(), directions.c_str(), toString(d.layout),
-            d.sampleBudget ? fmt("%" PRIu64 " samples asked", d.sampleBudget).c_str() : "the default sample budget",
-            ruleName(rule));
+  md += fmt("\nError decomposition of the default field (%s): each step adds one approximation to the stage "
+            "above it; *step* is the PSNR between the two stages, *cumulative* the new stage against the physical "
+            "reference.\n\n",
+            def ? fmt("%s %s, %s samples, %s path rule", def->encoding.c_str(), def->parameters.c_str(),
+                      std::to_string(def->samples).c_str(), ruleName(def->pathRule)).c_str()
+                : "not baked");
   md += "| step | compares | step PSNR dB | cumulative PSNR dB |\n|---|---|---|---|\n";
   for (const FidelityStep& st : sc.decomposition) {
     if (!st.error.empty())

@@ -21,7 +21,7 @@ namespace {
 
 struct OrbitProfile {
   uint32_t frames = 16, width = 160, height = 120;
-  uint64_t samples = 4000;  // sample budget of the default bake, as scripts/flicker-measure.sh
+  uint64_t samples = 4000;  // sample budget of the default bake, as scripts/measure/flicker-measure.sh
   std::vector<std::string> scenes{"builtin:sphere", "builtin:cube", "builtin:torus", "builtin:glass-of-water"};
 };
 
@@ -186,7 +186,7 @@ std::string flickerMarkdown(const std::vector<FlickerScene>& scenes) {
         "the GPU, with its filtered environment lookups, against the physical reference (full Fresnel tree, "
         "depth 8, 4x4 supersampled, CPU). Flicker: the mean absolute frame-to-frame change of the colour "
         "(clamped to [0, 1]) over the pixels that are the object's in either frame; the target is a field at most "
-        "1.5x the reference's (docs/antialiasing.md). The frames are in each scene's folder (field_TT.png, "
+        "1.5x the reference's (docs/technique.md). The frames are in each scene's folder (field_TT.png, "
         "reference_TT.png).\n\n";
   md += "| scene | frames | size | field samples | field flicker | reference flicker | field / reference |\n";
   md += "|---|---|---|---|---|---|---|\n";

@@ -1,4 +1,4 @@
-// The report's temporal stability section (docs/antialiasing.md, "Temporal stability"): an orbit
+// The report's temporal stability section (docs/technique.md, "Temporal stability"): an orbit
 // of frames around each built-in scene, rendered with the default field at one sample per pixel
 // on the GPU and with the physical reference (full Fresnel tree, 4x4 supersampled, CPU); the
 // flicker of each (mean absolute frame-to-frame change of the object's pixels) and the field's

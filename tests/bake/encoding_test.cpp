@@ -925,7 +925,7 @@ TEST(EncodingBudget, SphereErrorFallsAsTheBytesRise) { expectErrorFallsWithBytes
 // 4.224; cube 19.18, 13.14, 9.853 against 20.76, 12.84, 9.051. On the sphere the robust fit gives
 // up on the trapped paths near the rim, which least squares smears over the hemisphere, and its
 // order 2 is closer than least squares' order 8; from order 4 on it stays at that floor, so this
-// ladder does not fall (docs/fitting.md, "Robust fit"). On the cube the mean angle does not rank
+// ladder does not fall (docs/technique.md, "Robust fit"). On the cube the mean angle does not rank
 // the two fits as their images do (the images gain 1 to 3 dB), so the cube is not asserted here.
 // Bound: at each order 25 % under least squares on the sphere.
 TEST(EncodingShFit, RobustFitIsCloserOnTheSphere) {

@@ -1,4 +1,4 @@
-// The environment's level selection (docs/antialiasing.md) on the GPU against the CPU reference:
+// The environment's level selection (docs/technique.md) on the GPU against the CPU reference:
 // spirv/include/shrefract/environment.glsl (directionFootprint, environmentLevel) evaluated by a
 // compute shader for known and random screen derivatives, and cpu_reference's mirror of both. A
 // known derivative gives a known level: a direction turning through 8 texel angles across the

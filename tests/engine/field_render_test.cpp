@@ -203,7 +203,7 @@ TEST_F(FieldRender, TwoObjectsMatchCpuReference) {
   }
 }
 
-// Filtered environment lookups (docs/antialiasing.md): through glass whose exit directions diverge,
+// Filtered environment lookups (docs/technique.md): through glass whose exit directions diverge,
 // a fine stripe pattern must be read at the level the footprint calls for. The GPU matches the CPU
 // mirror (environmentLevels, pixelDerivatives) on every object pixel but a few at silhouettes, and
 // differs visibly from level 0 lookups (what it did before), so that a broken chain, level or

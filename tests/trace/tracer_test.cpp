@@ -551,7 +551,7 @@ TEST(TracerScale, ScaledAndTranslatedSpheresGiveTheSameExitDirections) {
 TEST(TracerScale, UnitSphereFarFromTheOriginStaysFinite) {
   // At 1e4 a float resolves 1e-3: the unit sphere's vertices move by up to 5e-4 of its radius and
   // no tracer can match the unit sphere to 1e-3 rad there. Only sanity is required; the
-  // difference is printed (docs/tracing.md).
+  // difference is printed (docs/technique.md).
   const glm::vec3 offset(1e4f, 0.0f, -1e4f);
   const Scene unitScene = builtin("sphere", 5);
   const std::unique_ptr<Tracer> unit = makeTracer(unitScene);

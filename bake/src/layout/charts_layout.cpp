@@ -2,7 +2,7 @@
 // scene's TEXCOORD_0 is used when it is a valid atlas; otherwise triangles are grouped by dominant
 // normal axis and connectivity, each chart is projected on its axis plane, and the charts are
 // shelf-packed with a gutter. Filtering is continuous inside a chart and breaks at chart borders
-// (docs/sample-layouts.md).
+// (docs/technique.md).
 #include <shrefract/bake/layout.h>
 
 #include "layout/layout_common.h"

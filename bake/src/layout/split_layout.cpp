@@ -3,7 +3,7 @@
 // j/n) on corners (0, 1, 2). Points on welded vertices and edges are one sample shared by every
 // triangle that shows them, and the texels just past each hypotenuse (i + j = n + 1) are gutters
 // rebuilt at run time so that bilinear filtering on the hypotenuse is linear between its samples.
-// docs/sample-layouts.md derives the gutter rule.
+// docs/technique.md derives the gutter rule.
 #include <shrefract/bake/layout.h>
 
 #include "layout/layout_common.h"

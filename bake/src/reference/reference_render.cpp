@@ -286,7 +286,7 @@ struct Probe {
 // that share (shareBeyondCrossings: where crossings on one x and one y half-axis fix a straight
 // edge, the box's area beyond it; with probes across on both sides of an axis, the expected
 // share 1/4 each). Without the bisection every probe across took the expected share, 1/4,
-// blending a pixel the edge barely touches as much as one it halves (docs/antialiasing.md,
+// blending a pixel the edge barely touches as much as one it halves (docs/technique.md,
 // "Where the discontinuity lies").
 constexpr float kProbeOffset = 0.5f;
 constexpr int kCrossingBisections = 3;
@@ -294,7 +294,7 @@ constexpr int kCrossingBisections = 3;
 // Refined sub-samples (ReferenceOptions::refine): a probe across whose colour differs from the
 // sample's by more than kRefineJump, or probes whose mean differs from it by more than kRefineBend
 // (colourBends), in the written image's linear colour, any channel. Measured on the four built-in
-// scenes, full tree at 1 spp against the 7x7 full tree (docs/antialiasing.md, "Refined pixels in
+// scenes, full tree at 1 spp against the 7x7 full tree (docs/technique.md, "Refined pixels in
 // the full tree"): every discontinuity refined (no jump threshold) cost the torus and the glass of
 // water 1.5x and 1.8x the time for 0.19 and 0.37 dB; jumps of 0.1 left the glass of water 1.4 dB
 // short; bends of 0.03 left it 0.1 dB short and 0.01 meets it by 1.0 dB.
@@ -328,7 +328,7 @@ class SubSampler {
         eye_(toVec(o.camera.eye)), filteredEnv_{env.width, env.height, env.rgba.data()} {
     settings_.maxBounces = o.mode == ReferenceMode::FullTree ? o.treeDepth : o.maxBounces;
     settings_.pathRule = o.pathRule;
-    // Filtered lookups (o.filtered, docs/antialiasing.md): the engine's level chain, built once.
+    // Filtered lookups (o.filtered, docs/technique.md): the engine's level chain, built once.
     if (o.filtered) {
       levels_ = reference::environmentLevels(filteredEnv_);
       filteredEnv_.levels = &levels_;
@@ -514,7 +514,7 @@ bool SubSampler::sameWay(const Probe& a, const Probe& b, bool keys) {
 //   shape left it at level 0, where it sparkled; a difference across a crease spread it over both
 //   faces' reflections.
 // - Any other lookup: p's lookup i where p's lookups correspond (as many) and it has the same key.
-// (docs/antialiasing.md, "Creases and the front reflection".)
+// (docs/technique.md, "Creases and the front reflection".)
 const glm::vec3* SubSampler::counterpart(const Probe& self, const Probe& p, size_t i) {
   if (!p.t.hit.hit) return nullptr;
   if (i == 0) return sameFace(p.t.hit, self.t.hit) ? &p.dirs[0] : nullptr;
@@ -559,7 +559,7 @@ glm::vec3 SubSampler::blendAcross(Neighbourhood& n, glm::vec3 own, uint64_t& ray
   // discontinuities they put every probe across, each at the expected share whatever the
   // coverage (the sphere's rim read as glass at half coverage). The exact mode keeps the keys:
   // one path's colour jumps with its key there (sphere -0.57 dB without them;
-  // docs/antialiasing.md, "Silhouettes before keys").
+  // docs/technique.md, "Silhouettes before keys").
   bool silhouette = false;
   for (const Probe& p : n.around) silhouette = silhouette || !p.t.hit.hit;
   const bool keys = !(o_.mode == ReferenceMode::FullTree && n.self.t.hit.hit && silhouette);
@@ -600,7 +600,7 @@ glm::vec3 SubSampler::blendAcross(Neighbourhood& n, glm::vec3 own, uint64_t& ray
 // through the sample and the opposite probe (half a cell the other way, on the own side), that is
 // the sample's colour moved toward the opposite probe's by 1/2 - t. Near a glass rim the colour
 // changes fastest where the pixel is cut (Fresnel rises toward grazing), and the sample at the
-// centre stands least for its side (docs/antialiasing.md, "The own side's colour"). FullTree
+// centre stands least for its side (docs/technique.md, "The own side's colour"). FullTree
 // only: its colour, a sum over every branch, is smooth on either side of a discontinuity; one
 // exact path's is not (the torus's flanks speckle), and a ramp through one probe there
 // extrapolates the speckle (exact mode at 1 spp: torus -0.22 dB).

@@ -1,4 +1,4 @@
-// Path tracing through the media of a scene with Embree 3. Rules and their reasons: docs/tracing.md.
+// Path tracing through the media of a scene with Embree 3. Rules and their reasons: docs/technique.md.
 #include <shrefract/bake/tracer.h>
 
 #include <embree3/rtcore.h>

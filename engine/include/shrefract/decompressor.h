@@ -1,6 +1,6 @@
 // Decompression in data space: a compute pass that turns each field object's coefficients (SH,
 // hemi-octahedral table or PCA, field.h) into its distortion image for the current eye
-// (TECHNIQUE.md, "How it is replayed", step 1).
+// (docs/technique.md, "Replay in the engine").
 //
 // Per texel t of an object's atlas that holds a sample (only samples are stored on the GPU; an SH
 // invocation decodes 4 of them, a Table or Pca invocation one):

@@ -141,9 +141,8 @@ struct JumpCosines {
 };
 JumpCosines jumpCosines(uint32_t n);
 
-// Voxels per side of a Volume field's grid: 8 to 512 (in bricks the bunny's 512^3 is 43 MiB; a grid
-// over the device's buffer limits is refused at upload), and the default of the tool (the bunny's exits at 128^3 render within
-// 0.8 dB of exact paths at its sample texels, docs/encodings.md "Volume").
+// Voxels per side of a Volume field's grid: 8 to 512 (a grid over the device's buffer limits is
+// refused at upload), and the tool's default (docs/encodings.md, "Volume").
 inline constexpr uint32_t kMinVolumeSize = 8;
 inline constexpr uint32_t kMaxVolumeSize = 512;
 inline constexpr uint32_t kDefaultVolumeSize = 128;
@@ -153,16 +152,13 @@ inline constexpr uint32_t kDefaultVolumeSize = 128;
 // from its centre to the object's surface in voxels (negative inside the medium; 255 levels over
 // +-kVolumeBandVoxels, 0 exact; beyond the band the band's end with its sign), bits 8..19 and
 // 20..31 the unit normal of the nearest surface point, octahedral (4095 levels over [-1, 1] a
-// coordinate, 0 and +-1 exact; gpu_layout.h kVolumeDistanceZero and kVolumeNormalZero). The
-// normal has the bits: version 8's 12 distance bits and 10 a coordinate read the bunny's 256^3
-// traced views 17.08 dB, 8 and 12 read 17.41, 12 and 9 read 16.30 (docs/encodings.md, "Bricks"). Decoded
+// coordinate, 0 and +-1 exact; gpu_layout.h kVolumeDistanceZero and kVolumeNormalZero). Decoded
 // by trilinear interpolation of the 8 voxels around a point (the distance; the normals of the
 // corners that face the nearest one's way, then normalized). Mirrored by decompress_volume.comp.
 //
 // Stored in bricks of kVolumeBrickSide^3 voxels: only the bricks the band reaches hold words.
 // Beyond the band a voxel holds nothing but its side (volumeFarWord), so a brick wholly beyond it
-// is an entry, not 512 words; a dense grid of the bunny at 256^3 would be 64 MiB, over the paper's
-// budget (docs/encodings.md, "Bricks").
+// is an entry, not 512 words (docs/encodings.md, "Bricks").
 inline constexpr float kVolumeBandVoxels = 4.0f;  // gpu_layout.h kVolumeBandVoxels
 inline constexpr uint32_t kVolumeBrickSide = 8;   // gpu_layout.h kVolumeBrickSide
 inline constexpr uint32_t kVolumeBrickWords = kVolumeBrickSide * kVolumeBrickSide * kVolumeBrickSide;
@@ -180,9 +176,7 @@ struct FieldVolume {
   std::vector<uint32_t> bricks;
   std::vector<uint32_t> brickVoxels;
   // No straight way out meets the object again (meshIsConvex of the field's mesh): the trace stops
-  // at the first way out instead of marching it to the grid's box, which cost convex objects 1.2x
-  // the frame for nothing (docs/encodings.md, "Convex objects stop at the first way out"). Not
-  // stored: parseField and the bake set it from the mesh; a grid built by hand leaves it false,
+  // at the first way out instead of marching it to the grid's box. Not stored: parseField and the bake set it from the mesh; a grid built by hand leaves it false,
   // which costs time, never a path.
   bool convex = false;
 };
@@ -274,15 +268,14 @@ struct BakeSettings {
   bool volumeDensify = false;
   // Pca without `clusters`: also tries 3 times as many clusters as components (bake.cpp
   // kDefaultClustersPerComponent; where the samples hold 8 a cluster and the tables fit 64 MiB) and
-  // keeps the closest on the traced views. The tool's default when no --components or --clusters is
-  // given: a cluster's table is stored once per field, so more of them cost memory, not bytes per
+  // keeps the closest on the traced views. With --choose-by-images and no --components or
+  // --clusters: a cluster's table is stored once per field, so more of them cost memory, not bytes per
   // sample. Not stored in a field (its `components` says how many it kept); a part file carries it.
   bool moreClusters = false;
   // The path rule chosen by measurement: the bake renders both rules' exact paths and the full
   // Fresnel tree at the image choice's views and keeps highest-energy where its exact renders come
-  // at least kHighestEnergyGainDb closer to the tree (bake.h), first-refraction otherwise. The
-  // tool's default where no --path-rule is given and the bake may keep a volume, which follows its
-  // rule's exact render. Not stored in a field (its pathRule is the rule chosen).
+  // at least kHighestEnergyGainDb closer to the tree (bake.h), first-refraction otherwise. With
+  // --choose-by-images where no --path-rule is given. Not stored in a field (its pathRule is the rule chosen).
   bool choosePathRule = false;
 };
 

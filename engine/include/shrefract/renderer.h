@@ -101,20 +101,16 @@ struct RendererCreateInfo {
   // Taps per axis of each filtered environment lookup in the object pass, 1 to 4: n x n taps
   // over the parallelogram the looked-up direction sweeps across the pixel, each at the exit the
   // distortion image holds there. 4 (the default) follows exits that turn within a pixel (a rim,
-  // a jump) and keeps a bright source's image to the pixel's box: with 64x64 tables it gained
-  // 0.3 to 0.65 dB at one sample per pixel on the built-in scenes over 2, which costs about half
-  // the object pass's time on lavapipe; 1 is one trilinear lookup with a wider blur
-  // (docs/technique.md, "Choosing the tap count"). Outside 1..4 Renderer::create fails with
+  // a jump) and keeps a bright source's image to the pixel's box; 1 is one trilinear lookup with
+  // a wider blur (docs/technique.md, "Taps"; costs in docs/performance.md). Outside 1..4 Renderer::create fails with
   // InvalidArgument.
   uint32_t environmentTapsPerAxis = 4;
   // An object whose Volume field is traced per fragment traces min(2, environmentTapsPerAxis)^2
   // paths a pixel; where one of them leaves more than 10 degrees from the pixel's centre path (a
   // bounce that changes within the pixel) and the transmitted light weighs at least half the
   // pixel's, it traces 4x4 instead, so that one sample per pixel averages both sides of the
-  // discontinuity as supersampling does (docs/technique.md, "Refined paths where the volume's
-  // exits part": on lavapipe the torus at one sample per pixel 26.29 -> 26.88 dB for 1.7x its
-  // object pass, the bunny 22.38 -> 23.38 for about 3x). Off: the 2x2 paths everywhere, for a
-  // host bound by its object pass. Ignored with one tap per axis.
+  // discontinuity as supersampling does (docs/technique.md, "A volume traced per fragment"). Off:
+  // the 2x2 paths everywhere, for a host bound by its object pass. Ignored with one tap per axis.
   bool refineVolumePaths = true;
 };
 
@@ -137,7 +133,8 @@ class Renderer {
   // Lat-long and cube-map environments are both accepted (each has its own pipeline variant).
   void recordBackground(VkCommandBuffer cmd, const Environment& environment, const Camera& camera,
                         VkExtent2D extent);
-  // Field mode: each field object's distortion image must have been written for this camera's
+  // Field mode (the default; an object without a field is drawn with the single interface): each
+  // field object's distortion image must have been written for this camera's
   // eye by Decompressor::record() earlier on the same queue (outside the render pass); the
   // Decompressor leaves it in SHADER_READ_ONLY_OPTIMAL, visible to fragment shaders. An object
   // whose Volume field is traced per fragment (Object::tracesVolumePerFragment) reads no image:
@@ -146,9 +143,9 @@ class Renderer {
   // bounds lie outside the view frustum of (camera, extent) are not drawn (frustumCulling); the
   // Decompressor's camera overload leaves out the same objects.
   void recordObjects(VkCommandBuffer cmd, const Environment& environment, const Camera& camera, VkExtent2D extent,
-                     std::span<Object* const> objects, ShadingMode mode = ShadingMode::SingleInterface);
+                     std::span<Object* const> objects, ShadingMode mode = ShadingMode::Field);
   void recordObjects(VkCommandBuffer cmd, const Environment& environment, const Camera& camera, VkExtent2D extent,
-                     std::initializer_list<Object*> objects, ShadingMode mode = ShadingMode::SingleInterface) {
+                     std::initializer_list<Object*> objects, ShadingMode mode = ShadingMode::Field) {
     recordObjects(cmd, environment, camera, extent, std::span<Object* const>(objects.begin(), objects.size()), mode);
   }
   // Counts of the last recordObjects() call.

@@ -6,7 +6,7 @@
 // Tikhonov penalty on the surface Laplacian of the expansion, lambda * sum_i (l_i (l_i + 1))^2 c_i^2:
 // the data decide the upper hemisphere, the penalty picks the smoothest extension below it, and
 // the ill-conditioning of SH restricted to a hemisphere (near-dependent pairs at high order) is
-// bounded. docs/fitting.md gives the measurements behind the default lambda.
+// bounded. docs/technique.md gives the measurements behind the default lambda.
 #pragma once
 
 #include <shrefract/field.h>
@@ -31,7 +31,7 @@ struct DirectionGrid {
 };
 DirectionGrid makeHemisphereGrid(uint32_t rows, uint32_t columns);
 
-// Default Tikhonov weight, relative to the total solid angle (see docs/fitting.md).
+// Default Tikhonov weight, relative to the total solid angle (see docs/technique.md).
 inline constexpr double kDefaultRegularization = 1e-5;
 
 enum class FitMethod {
@@ -46,7 +46,7 @@ enum class FitMethod {
 };
 
 // The robust fit's scale and passes, chosen by the images of the built-in scenes with the default
-// lambda (docs/fitting.md, "Robust fit": 5, 10 and 20 deg, a scale from each sample's residuals
+// lambda (docs/technique.md, "Robust fit": 5, 10 and 20 deg, a scale from each sample's residuals
 // and lambda 1e-4 measured worse).
 inline constexpr double kRobustScaleDegrees = 3.0;
 inline constexpr int kRobustIterations = 8;

@@ -1,7 +1,7 @@
 // Images for the baker and the tools: loading and writing (OpenImageIO behind this header), the
 // lat-long environment convention, and a procedural environment for tests and demos.
 //
-// Lat-long convention (shared with the GPU shaders; docs/environment-maps.md):
+// Lat-long convention (shared with the GPU shaders; docs/technique.md):
 //   +Y is up. For a direction d,
 //     u = 0.5 + atan2(d.x, -d.z) / (2 pi)      v = acos(clamp(d.y, -1, 1)) / pi
 //   v = 0 is the top row (zenith, +Y), v = 1 the bottom row (nadir). The image centre

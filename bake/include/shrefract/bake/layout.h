@@ -1,5 +1,5 @@
 // Sample layouts: where the baker puts its surface samples in the field atlas, and the render mesh
-// that reads them back with bilinear filtering. Two layouts (docs/sample-layouts.md):
+// that reads them back with bilinear filtering. Two layouts (docs/technique.md):
 //
 //   split   the revised technique: every triangle gets its own (n+1) x (n+1) texel block; samples on
 //           shared vertices and edges are one surface point, and gutter texels rebuilt at run time
@@ -42,7 +42,7 @@ struct LayoutOptions {
   float samplesPerUnitArea = 0.0f;
   // Largest atlas width and height, in texels.
   uint32_t maxAtlasSize = 8192;
-  // charts: the gutter texels beside a smooth seam hold the surface beyond it (docs/sample-layouts.md,
+  // charts: the gutter texels beside a smooth seam hold the surface beyond it (docs/technique.md,
   // "Gutters beside smooth seams"); false: they copy the nearest sample of their chart, as every
   // gutter texel did before 2026-11-27 (kept to measure the difference).
   bool extendSmoothSeams = true;

@@ -10,7 +10,7 @@
 // Shading matches the engine: F * env(reflected) + (1 - F) * env(exit) * exp(-tau * k) * c, with c
 // the colour of the medium behind the front surface (in every mode, as the engine's tint).
 //
-// For the error decomposition of a field (report, docs/fitting.md), two more pieces:
+// For the error decomposition of a field (report, docs/technique.md), two more pieces:
 //  - exactDistortion: the field's distortion image with the exact path at every sample texel,
 //    in place of the decoded encoding (no angular fit, no quantization; the spatial sampling of
 //    the atlas stays);
@@ -74,7 +74,7 @@ struct ReferenceOptions {
   uint32_t treeDepth = 8;          // FullTree: interfaces after the front one
   uint32_t samplesPerAxis = 1;     // S: S x S stratified samples per pixel (see the top), 1..kMaxSamplesPerAxis
   uint32_t threads = 0;            // 0: all hardware threads
-  // Look the environment up as the engine does (docs/antialiasing.md): its level chain
+  // Look the environment up as the engine does (docs/technique.md): its level chain
   // (reference::environmentLevels), averaged over the pixel (reference::sampleLatLongOverPixel)
   // with each lookup direction's derivatives taken from four probes half a sub-sample cell away
   // (+-x, +-y), traced as well (5x the rays). A probe that hits another surface, misses, or went
@@ -88,21 +88,21 @@ struct ReferenceOptions {
   // filtered: taps per axis of each lookup, as RendererCreateInfo::environmentTapsPerAxis (1..4).
   // 4, not the engine's default 2: offline the 16 lookups per direction cost little (the torus's
   // exact render 1.25x the time) and read the footprint of a fast-turning path closer to the
-  // pixel's box (exact 1 spp torus 29.60 -> 30.41 dB; docs/antialiasing.md). 2, with
+  // pixel's box (exact 1 spp torus 29.60 -> 30.41 dB; docs/technique.md). 2, with
   // environmentLevelBias 0, mirrors the engine.
   uint32_t environmentTapsPerAxis = 4;
   // filtered: levels added to each tap's (reference::LatLongImage::levelBias), in [-4, 4]. -1, not
   // the engine's 0: a trilinear tap blurs over about twice its cell's footprint, so at bias 0 the
   // 4x4 taps spread a pixel over about 1.5 pixels' worth of directions, which a small bright source
   // (the sun) turns into a halo of saturated pixels; one level finer keeps each tap to its cell and
-  // the pixel to its box (docs/antialiasing.md, "Level bias of the references").
+  // the pixel to its box (docs/technique.md, "Level bias of the references").
   float environmentLevelBias = -1.0f;
   // filtered, FullTree: where a sub-sample's probes see its colour change within the cell (a probe
   // across a discontinuity whose colour differs by more than 0.03 in any channel of the written
   // image, or, with none, the probes' mean on an axis more than 0.01 from the sample's colour), the
   // sub-sample is the mean of four filtered samples of its cell's quarters, each with its own probes:
   // the rim of smooth glass, where Fresnel rises toward grazing in the last tenth of a pixel, and
-  // the flanks where the tree changes shape (docs/antialiasing.md, "Refined pixels in the full
+  // the flanks where the tree changes shape (docs/technique.md, "Refined pixels in the full
   // tree"). False: one filtered sample per cell. The exact mode is not refined: it meets its 2 dB
   // without (the same section).
   bool refine = true;

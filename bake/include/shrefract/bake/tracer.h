@@ -1,7 +1,7 @@
 // Light paths through the media of a Scene: the pruned Fresnel tree of the technique (at every
 // interface, follow the branch of higher energy), the exact per-pixel eye ray for the reference
 // renderer, and the full Fresnel tree for measuring what the pruning costs. The rules (media
-// labels, the cap, self-intersection offsets, determinism) are in docs/tracing.md.
+// labels, the cap, self-intersection offsets, determinism) are in docs/technique.md.
 //
 // Thread safety: a Tracer is immutable after create(); every const method may be called from any
 // number of threads at once. Results depend only on the arguments (bit-identical from any thread),
@@ -28,7 +28,7 @@ struct TraceSettings {
   // Interfaces a path may meet after its first refraction. A path that would meet one more is
   // stopped and marked trapped (see PathResult).
   uint32_t maxBounces = 16;
-  // Which branch a single path follows at every interface (field.h PathRule; docs/tracing.md).
+  // Which branch a single path follows at every interface (field.h PathRule; docs/technique.md).
   PathRule pathRule = PathRule::HighestEnergy;
 };
 
@@ -53,7 +53,7 @@ struct EyeRayResult {
   bool hit = false;  // false: the eye ray misses everything; the other fields keep their defaults
   glm::vec3 position{0.0f};
   // Unit normal used at the front interface for Snell and Fresnel, facing the eye: the shading
-  // normal, or the geometric one where the shading normal is not trusted (docs/tracing.md).
+  // normal, or the geometric one where the shading normal is not trusted (docs/technique.md).
   glm::vec3 shadingNormal{0.0f, 0.0f, 1.0f};
   uint32_t surface = 0;
   uint32_t triangle = 0;
