@@ -117,7 +117,7 @@ inline constexpr size_t kVolumeDensityPairs = 4000;
 // bake, and kDefaultPerSampleBudget for Pca, which keeps its bake within half a minute on 2 cores.
 // The path rule and quantization are kept; `why` (optional) receives the reason, for the note.
 inline constexpr uint32_t kDefaultPerSampleTableSize = 16, kDefaultPcaComponents = 324;
-inline constexpr uint64_t kDefaultPerSampleBudget = 25000;
+inline constexpr uint64_t kDefaultPerSampleBudget = 20000;
 BakeSettings settingsForScene(const Scene& scene, BakeSettings settings, std::string* why = nullptr);
 
 // Bakes `scene`. Errors: invalid settings (order 0..kMaxFitOrder, the direction grid and bounces
