@@ -1,4 +1,11 @@
 // Strict command line parsing: every flag a command accepts is declared; anything else is an error.
+//
+// A command's flags are of two kinds. User flags are listed by --help. Developer options
+// (FlagSpec::developer: experiment switches and the knobs tests and measurements turn) are given
+// as `--dev KEY=VALUE` (`--dev KEY` for a switch), repeatable, and listed by --help-dev only; their
+// values are checked exactly as a user flag's, and the command reads both the same way
+// (Args::has, get, integer ... by name). docs/developer-options.md lists them. Their former
+// spellings (`--held-out 0`) still parse, unlisted, for the scripts and tests written before.
 #pragma once
 
 #include <shrefract/result.h>
@@ -38,6 +45,7 @@ struct FlagSpec {
   ValueKind kind = ValueKind::Text;
   Bounds range{};     // Integer, Real; Size: the first number (width, rows)
   Bounds range2{};    // Size: the second number (height, columns)
+  bool developer = false;  // given as --dev NAME[=VALUE]; listed by --help-dev, not by --help
 
   // The range as help prints it ("0..24", "WxH: 1..16384 x 1..16384"); empty for Text.
   std::string rangeText() const;
@@ -45,7 +53,8 @@ struct FlagSpec {
 
 class Args {
  public:
-  // Parses argv[first..argc) against `flags`. Positional arguments are kept in order.
+  // Parses argv[first..argc) against `flags`. Positional arguments are kept in order. Where
+  // `flags` has developer options, --dev KEY[=VALUE] sets them (and --help-dev is a switch).
   static Result<Args> parse(const std::string& command, int argc, char** argv, int first,
                             const std::vector<FlagSpec>& flags);
 
@@ -60,9 +69,13 @@ class Args {
   Result<std::optional<std::array<uint32_t, 2>>> size(const std::string& name) const;  // "WxH"
 
  private:
-  // A value against its declaration (kind and range); errors name the flag and the range.
-  Result<void> check(const FlagSpec& spec, const std::string& value) const;
+  // A value against its declaration (kind and range); errors name the flag as given (`shown`)
+  // and the range.
+  Result<void> check(const FlagSpec& spec, const std::string& shown, const std::string& value) const;
+  // `--dev KEY[=VALUE]`: the option recorded under KEY, or the error naming it.
+  Result<void> setDeveloperOption(const std::string& text);
   const FlagSpec* spec(const std::string& name) const;
+  std::string shownName(const std::string& name) const;  // flagName of its declaration
 
   std::string command_;
   std::vector<FlagSpec> flags_;
@@ -70,8 +83,17 @@ class Args {
   std::map<std::string, std::string> values_;
 };
 
-// One line per flag: "--name VALUE  help [range: R]". Tests read the ranges back from here.
+// `f` as a developer option.
+FlagSpec developerOption(FlagSpec f);
+
+// How messages name a flag: "--name", or "--dev name" for a developer option.
+std::string flagName(const FlagSpec& f);
+
+// One line per user flag: "--name VALUE  help [range: R]". Tests read the ranges back from here.
 std::string usageLines(const std::vector<FlagSpec>& flags);
+
+// One line per developer option: "--dev name=VALUE  help [range: R]" (--help-dev).
+std::string developerUsageLines(const std::vector<FlagSpec>& flags);
 
 // True when `path` ends in `extension` (e.g. ".png"), ignoring case.
 bool hasExtension(const std::string& path, const std::string& extension);

@@ -27,71 +27,54 @@ namespace {
 using K = ValueKind;
 
 // Every flag once: its kind and range are what the parser checks and what --help prints; the
-// ranges come from the bake library's own limits where it has them.
+// ranges come from the bake library's own limits where it has them. --help lists the flags a user
+// bakes with, one short line each (docs/encodings.md has the details); the experiment switches
+// and the knobs tests turn are developer options (--dev KEY=VALUE, listed by --help-dev).
 std::vector<FlagSpec> bakeFlags() {
+  const auto dev = developerOption;
   std::vector<FlagSpec> flags = {
-      {"output", true, "output field file (.shrf); also -o"},
-      {"order", true, "SH order L (default 8; implies --encoding sh)", K::Integer, {0, double(bake::kMaxFitOrder)}},
-      {"directions", true, "hemisphere grid ROWSxCOLUMNS (default 32x64; implies --direction-sampling grid)", K::Size,
-       {double(bake::kMinDirectionRows), double(bake::kMaxDirectionRows)},
-       {double(bake::kMinDirectionColumns), double(bake::kMaxDirectionColumns)}},
-      {"layout", true, "charts (default: a chart atlas, the measured best at the default budget) or split (every triangle its own patch, continuous across edges)"},
-      {"samples", true, "total surface sample budget (default " + std::to_string(bake::kDefaultSampleBudget) +
-                      "; a volume field whose texels miss the paths between them is laid out at " +
-                      std::to_string(bake::kVolumeDensifyFactor) + "x that, its samples storing nothing)",
+      {"output", true, "the field file to write, .shrf (also -o)"},
+      {"encoding", true, "volume, pca, table or sh (default: chosen from the scene)"},
+      {"choose-by-images", false, "choose between pca and volume by rendering both (minutes and GiB)"},
+      {"max-bytes-per-sample", true, "keep the encoding with the lowest error in this many bytes a sample",
+       K::Real, {1, 65536}},
+      {"samples", true,
+       "total surface samples (default " + std::to_string(bake::kDefaultSampleBudget) + ", or the scene's choice)",
        K::Integer, {1, 1e8}},
-      {"density", true, "samples per unit area instead of a budget", K::Real, {0, kUnbounded, true}},
-      {"threads", true, "worker threads (default: all cores); never changes the result", K::Integer, {1, 1024}},
-      {"max-bounces", true, "cap on interactions inside the object (default 16)", K::Integer,
-       {1, double(bake::kMaxBakeBounces)}},
-      {"window", true, "frequency smoothing: none (default), hann, lanczos"},
-      {"sh-fit", true, "how SH is fitted: robust (default: directions missed by far count less) or least-squares "
-                       "(docs/fitting.md)"},
-      {"spatial", true, "spatial smoothing with 0 (default), 3 or 5 neighbours"},
-      {"quant", true, "coefficient storage: u8 (default) or f16"},
-      {"encoding", true, "volume, pca, table or sh (default: volume for one closed medium in air, pca otherwise)"},
-      {"choose-by-images", false, "no --encoding: bake pca and the volume and keep the one whose images come closer "
-                                  "to exact renders (minutes and GiB)"},
+      {"layout", true, "sample layout: charts (default) or split"},
       {"volume-size", true, "volume: voxels per side of the distance grid (default " +
-                                std::to_string(kDefaultVolumeSize) + "; 4 bytes a voxel near the surface)", K::Integer,
+                                std::to_string(kDefaultVolumeSize) + ")", K::Integer,
        {double(kMinVolumeSize), double(kMaxVolumeSize)}},
-      {"table-size", true,
-       "table: nodes per side N (default 9); pca: N of the basis tables (default " +
-           std::to_string(bake::kDefaultPcaTableSize) + " traced at the nodes, " +
-           std::to_string(bake::kDefaultGridPcaTableSize) + " fitted to a grid)",
-       K::Integer,
+      {"order", true, "SH order L (default 8; implies --encoding sh)", K::Integer, {0, double(bake::kMaxFitOrder)}},
+      {"table-size", true, "table and pca: nodes per side of each table (default by encoding)", K::Integer,
        {2, double(bake::kMaxBakeTableSize)}},
-      {"components", true, "pca: basis functions K = bytes per sample in u8 (default 324): K components, or the mean "
-                          "tables of K clusters of the samples where those decode closer (the bake prints which)", K::Integer,
+      {"components", true, "pca: basis functions, the bytes a sample in u8 (default 324)", K::Integer,
        {1, double(kMaxComponents)}},
-      {"clusters", true, "pca: the number of clusters tried against the K components (default K, and without "
-                        "--components also 3K where the samples hold 8 a cluster and its tables fit 64 MiB, the "
-                        "closer on the views kept); where they decode closer each sample stores its cluster's index (2 bytes) and the "
-                        "field their mean tables, each 40 KiB at 64x64 with 5 channels (docs/encodings.md \"More "
-                        "clusters\")", K::Integer,
-       {1, double(kMaxClusters)}},
-      {"direction-sampling", true, "directions traced per sample: nodes (default for pca: the tables' own "
-                                   "node directions, exact at every node; also for table) or grid (--directions, "
-                                   "fitted; default for table, the only one for sh)"},
-      {"path-rule", true, "branch followed at every interface: first-refraction (default) or highest-energy "
-                          "(the paper's)"},
-      {"throughput", false, "store the path's Fresnel throughput as a channel"},
-      {"no-jump-distance", false, "table and pca traced at their nodes (N >= 12): do not store each node's "
-                                  "distance to the nearest jump (the decode then places jumps midway between "
-                                  "nodes; the channel costs pca nothing per sample, table one value per node)"},
-      {"exit-frame", true, "frame the exit directions are stored in: auto (default: pca keeps whichever of the "
-                         "two decodes closer to traced check paths, the others store sample), sample (each sample's own "
-                         "frame: glass alike up to a rotation about +Y stores alike functions) or object (object "
-                         "space, as fields before format version 5)"},
-      {"max-bytes-per-sample", true, "choose the encoding and its parameters with the lowest error within this "
-                                     "many encoded bytes per sample", K::Real, {1, 65536}},
-      {"regularization", true, "Tikhonov weight of the hemisphere fit (default 1e-5)", K::Real, {0, kUnbounded}},
-      {"max-error", true, "choose the smallest order (<= --order) and direction grid (<= --directions) "
-                          "meeting this mean angular error in degrees", K::Real, {0, 180, true}},
-      {"held-out", true, "random held-out directions per sample for the error estimate (default 4)", K::Integer,
-       {0, 1024}},
-      {"shard", true, "I/N: bake only shard I of N of the samples into a part (-o FILE.shrfpart) for "
-                      "`shrefract merge`; under `mpirun -np N` the ranks shard the samples by themselves"},
+      {"quant", true, "coefficient storage: u8 (default) or f16"},
+      {"path-rule", true, "branch followed at every interface: first-refraction (default) or highest-energy"},
+      {"threads", true, "worker threads (default: all cores), never changing the result", K::Integer, {1, 1024}},
+      {"shard", true, "I/N: bake shard I of N of the samples into a part for `shrefract merge`"},
+      // Developer options: experiments and test knobs, each with its default the measured best.
+      dev({"directions", true, "SH and grid tables: hemisphere grid ROWSxCOLUMNS (default 32x64)", K::Size,
+           {double(bake::kMinDirectionRows), double(bake::kMaxDirectionRows)},
+           {double(bake::kMinDirectionColumns), double(bake::kMaxDirectionColumns)}}),
+      dev({"direction-sampling", true, "directions traced per sample: nodes or grid (default: by encoding)"}),
+      dev({"density", true, "samples per unit area instead of a budget", K::Real, {0, kUnbounded, true}}),
+      dev({"max-bounces", true, "cap on interactions inside the object (default 16)", K::Integer,
+           {1, double(bake::kMaxBakeBounces)}}),
+      dev({"clusters", true, "pca: clusters tried against the components (default: K and 3K)", K::Integer,
+           {1, double(kMaxClusters)}}),
+      dev({"exit-frame", true, "frame the exits are stored in: auto (default), sample or object"}),
+      dev({"no-jump-distance", false, "tables traced at their nodes: store no jump distance"}),
+      dev({"throughput", false, "store the path's Fresnel throughput as a channel"}),
+      dev({"sh-fit", true, "SH fit: robust (default) or least-squares"}),
+      dev({"window", true, "SH frequency smoothing: none (default), hann or lanczos"}),
+      dev({"spatial", true, "smoothing over 0 (default), 3 or 5 neighbouring samples"}),
+      dev({"regularization", true, "Tikhonov weight of the SH fit (default 1e-5)", K::Real, {0, kUnbounded}}),
+      dev({"max-error", true, "smallest SH order and grid meeting this mean error in degrees", K::Real,
+           {0, 180, true}}),
+      dev({"held-out", true, "held-out directions a sample for the error estimate (default 4)", K::Integer,
+           {0, 1024}}),
   };
   for (auto& f : sceneFlags(true)) flags.push_back(f);
   flags.push_back({"json", false, "print the summary as JSON on stdout"});
@@ -177,10 +160,10 @@ Result<NumericFlags> readNumericFlags(const Args& args) {
 // The numeric flags that combine with no text flag: their conflicts, then the settings.
 Result<void> applyNumericFlags(const NumericFlags& n, BakeSettings& s) {
   if (n.spatial && *n.spatial != 0 && *n.spatial != 3 && *n.spatial != 5)
-    return usageError("shrefract bake: --spatial must be 0, 3 or 5");
-  if (n.density && n.samples) return usageError("shrefract bake: give --samples or --density, not both");
+    return usageError("shrefract bake: --dev spatial must be 0, 3 or 5, got '" + std::to_string(*n.spatial) + "'");
+  if (n.density && n.samples) return usageError("shrefract bake: give --samples or --dev density, not both");
   if (n.maxBytes && n.maxError)
-    return usageError("shrefract bake: give --max-bytes-per-sample or --max-error, not both");
+    return usageError("shrefract bake: give --max-bytes-per-sample or --dev max-error, not both");
   if (n.maxError) {
     s.maxErrorDegrees = static_cast<float>(*n.maxError);
     s.order = 16;  // the ceiling of the search unless --order lowers it
@@ -202,7 +185,7 @@ Result<void> applyNumericFlags(const NumericFlags& n, BakeSettings& s) {
   return {};
 }
 
-// --layout, --window, --sh-fit and --quant.
+// --layout, --quant and the options --dev window and --dev sh-fit.
 Result<void> applyLayoutFlags(const Args& args, BakeSettings& s) {
   // Charts by default: at the default budget the split layout's per-triangle lattices are coarse
   // (n = 1 to 7 on the built-in scenes and the bunny) and flicker more (docs/sample-layouts.md).
@@ -214,11 +197,11 @@ Result<void> applyLayoutFlags(const Args& args, BakeSettings& s) {
   if (window == "none") s.window = SmoothingWindow::None;
   else if (window == "hann") s.window = SmoothingWindow::Hann;
   else if (window == "lanczos") s.window = SmoothingWindow::Lanczos;
-  else return usageError("shrefract bake: --window must be none, hann or lanczos, got '" + window + "'");
+  else return usageError("shrefract bake: --dev window must be none, hann or lanczos, got '" + window + "'");
   const std::string fit = args.get("sh-fit").value_or("robust");
   if (fit == "robust") s.shFit = ShFit::Robust;
   else if (fit == "least-squares") s.shFit = ShFit::LeastSquares;
-  else return usageError("shrefract bake: --sh-fit must be robust or least-squares, got '" + fit + "'");
+  else return usageError("shrefract bake: --dev sh-fit must be robust or least-squares, got '" + fit + "'");
   const std::string quant = args.get("quant").value_or("u8");
   if (quant == "u8") s.quantization = Quantization::U8;
   else if (quant == "f16") s.quantization = Quantization::F16;
@@ -226,10 +209,10 @@ Result<void> applyLayoutFlags(const Args& args, BakeSettings& s) {
   return {};
 }
 
-// --encoding with the flags that belong to one encoding: --components, --order, --max-error.
+// --encoding with the flags that belong to one encoding: --components, --order, --dev max-error.
 Result<void> applyEncodingFlag(const Args& args, const NumericFlags& n, BakeSettings& s) {
   // The default is the measured best at the paper's 324 bytes per sample (docs/encodings.md): Pca
-  // with 324 weights over 64x64 tables traced at their nodes. --order or --max-error ask for SH.
+  // with 324 weights over 64x64 tables traced at their nodes. --order or --dev max-error ask for SH.
   const bool shImplied = n.order || n.maxError;
   const std::string encoding = args.get("encoding").value_or(shImplied ? "sh" : "pca");
   if (encoding == "sh") s.encoding = Encoding::Sh;
@@ -255,18 +238,18 @@ Result<void> applyEncodingFlag(const Args& args, const NumericFlags& n, BakeSett
   if ((n.tableSize || n.components) && s.encoding == Encoding::Sh && !n.maxBytes)
     return usageError("shrefract bake: --table-size and --components need --encoding table or pca");
   if (n.clusters && s.encoding != Encoding::Pca)
-    return usageError("shrefract bake: --clusters needs --encoding pca");
+    return usageError("shrefract bake: --dev clusters needs --encoding pca");
   s.components = n.components ? static_cast<uint32_t>(*n.components) : 324u;
   s.clusters = n.clusters ? static_cast<uint32_t>(*n.clusters) : 0u;
   if ((n.order || n.maxError) && s.encoding != Encoding::Sh)
-    return usageError("shrefract bake: --order and --max-error apply to --encoding sh only");
+    return usageError("shrefract bake: --order and --dev max-error apply to --encoding sh only");
   // With a byte budget the chosen encoding may be SH, so its fit may be asked for.
   if (args.get("sh-fit") && s.encoding != Encoding::Sh && !n.maxBytes)
-    return usageError("shrefract bake: --sh-fit applies to --encoding sh only");
+    return usageError("shrefract bake: --dev sh-fit applies to --encoding sh only");
   return {};
 }
 
-// --direction-sampling and --table-size, whose defaults follow the encoding.
+// --dev direction-sampling and --table-size, whose defaults follow the encoding.
 Result<void> applySamplingFlags(const Args& args, const NumericFlags& n, BakeSettings& s) {
   // Node sampling is the measured better one for Pca's tables, the grid fit for the coarser
   // tables of `table` (docs/encodings.md, "Sampling"); asking for a grid size asks for the grid.
@@ -277,11 +260,12 @@ Result<void> applySamplingFlags(const Args& args, const NumericFlags& n, BakeSet
   const std::string sampling = args.get("direction-sampling").value_or(nodesByDefault ? "nodes" : "grid");
   if (sampling == "nodes") s.directionSampling = DirectionSampling::Nodes;
   else if (sampling == "grid") s.directionSampling = DirectionSampling::Grid;
-  else return usageError("shrefract bake: --direction-sampling must be nodes or grid, got '" + sampling + "'");
+  else return usageError("shrefract bake: --dev direction-sampling must be nodes or grid, got '" + sampling + "'");
   if (s.directionSampling == DirectionSampling::Nodes && !tabulated && !n.maxBytes)
-    return usageError("shrefract bake: --direction-sampling nodes needs --encoding table or pca");
+    return usageError("shrefract bake: --dev direction-sampling=nodes needs --encoding table or pca");
   if (s.directionSampling == DirectionSampling::Nodes && n.dirs)
-    return usageError("shrefract bake: --directions sets the grid, which --direction-sampling nodes does not trace");
+    return usageError("shrefract bake: --dev directions sets the grid, which --dev direction-sampling=nodes does not "
+                      "trace");
   // A Pca fitted to a grid keeps its former tables: the default 32x64 grid has half as many
   // directions as 64x64 tables have nodes.
   const uint32_t pcaTableSize = s.directionSampling == DirectionSampling::Nodes ? bake::kDefaultPcaTableSize
@@ -290,7 +274,7 @@ Result<void> applySamplingFlags(const Args& args, const NumericFlags& n, BakeSet
   return {};
 }
 
-// --path-rule, --throughput, --no-jump-distance, --exit-frame and --max-bytes-per-sample.
+// --path-rule, --max-bytes-per-sample and the options --dev throughput, no-jump-distance and exit-frame.
 Result<void> applyPathFlags(const Args& args, const NumericFlags& n, BakeSettings& s) {
   const std::string rule = args.get("path-rule").value_or("first-refraction");
   if (rule == "highest-energy") s.pathRule = PathRule::HighestEnergy;
@@ -305,7 +289,7 @@ Result<void> applyPathFlags(const Args& args, const NumericFlags& n, BakeSetting
   if (exitFrame == "auto") s.exitFrame = ExitFrame::Auto;
   else if (exitFrame == "sample") s.exitFrame = ExitFrame::Sample;
   else if (exitFrame == "object") s.exitFrame = ExitFrame::Object;
-  else return usageError("shrefract bake: --exit-frame must be auto, sample or object, got '" + exitFrame + "'");
+  else return usageError("shrefract bake: --dev exit-frame must be auto, sample or object, got '" + exitFrame + "'");
   if (n.maxBytes) s.maxBytesPerSample = static_cast<float>(*n.maxBytes);
   return {};
 }
@@ -378,8 +362,15 @@ int bakeCommand(int argc, char** argv) {
   if (!parsed) return fail(parsed.error().message, 2);
   const Args& args = parsed.value();
   if (args.has("help")) {
-    std::printf("usage: shrefract bake SCENE -o FILE.shrf [flags]\n  SCENE: builtin:NAME or a .gltf/.glb file\n%s",
+    std::printf("usage: shrefract bake SCENE -o FILE.shrf [flags]\n  SCENE: builtin:NAME or a .gltf/.glb file\n%s"
+                "developer options (--dev KEY=VALUE): shrefract bake --help-dev\n",
                 usageLines(kFlags).c_str());
+    return 0;
+  }
+  if (args.has("help-dev")) {
+    std::printf("usage: shrefract bake SCENE -o FILE.shrf [flags] [--dev KEY[=VALUE]]...\n"
+                "developer options: experiments and test knobs, each with a measured default; they may change\n%s",
+                developerUsageLines(kFlags).c_str());
     return 0;
   }
   if (args.positional().size() != 1) return fail("shrefract bake: expected exactly one SCENE argument", 2);

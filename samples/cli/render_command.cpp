@@ -28,59 +28,48 @@ namespace {
 
 using K = ValueKind;
 
-// Every flag once: its kind and range are what the parser checks and what --help prints.
+// Every flag once: its kind and range are what the parser checks and what --help prints. --help
+// lists the flags a user renders with, one short line each (docs/technique.md has the details);
+// the reference renders' switches, timings and device choices are developer options (--dev
+// KEY=VALUE, listed by --help-dev).
 std::vector<FlagSpec> renderFlags() {
+  const auto dev = developerOption;
   std::vector<FlagSpec> flags = {
-      {"output", true, "output image (.png or .exr); also -o"},
-      {"env", true, "environment: 'builtin' (default) or a lat-long image file"},
-      {"cube-env", false, "look the environment up through a cube map converted from the lat-long"},
-      {"eye", true, "camera position x,y,z (default: frames the scene); not the target"},
+      {"output", true, "the image to write, .png or .exr (also -o)"},
+      {"mode", true, "field (default for a .shrf), single-interface (default for a scene), exact or full-tree"},
+      {"env", true, "environment: builtin (default) or a lat-long image file"},
+      {"eye", true, "camera position x,y,z (default: framing the scene)"},
       {"target", true, "point looked at x,y,z (default: the scene's centre)"},
-      {"up", true, "up vector x,y,z (default 0,1,0); not parallel to the view"},
+      {"up", true, "up vector x,y,z (default 0,1,0)"},
       {"fov", true, "vertical field of view in degrees (default 40)", K::Real, {0, 180, true, true}},
       {"size", true, "image size WxH (default 640x480)", K::Size, {1, 16384}, {1, 16384}},
-      {"mode", true, "field (default for .shrf, whatever its encoding; also 'sh', its name before fields had other "
-                     "encodings), single-interface (default for scenes), exact or full-tree (CPU references traced "
-                     "with Embree; fields and scenes)"},
-      {"scene", true, "exact and full-tree modes of a field: the baked scene file, where it was moved to"},
-      {"max-bounces", true, "exact mode: cap on interactions (default 16)", K::Integer,
-       {1, double(bake::kMaxBakeBounces)}},
-      {"path-rule", true, "exact mode: branch a path follows at every interface: highest-energy or "
-                          "first-refraction (refract unless totally reflected); default: a field's own rule, "
-                          "highest-energy for a scene"},
-      {"throughput", false, "exact mode: weight the transmitted light by the path's Fresnel throughput"},
-      {"tree-depth", true, "full-tree mode: depth of the Fresnel tree (default 8)", K::Integer, {1, 16}},
-      {"filtered", false, "exact and full-tree modes: read the environment at the level of each lookup's pixel "
-                          "footprint, as the engine does, and blend across path discontinuities (docs/antialiasing.md; 5x "
-                          "the rays, more at discontinuities)"},
-      {"no-refine", false, "full-tree with --filtered: keep one filtered sample a pixel where its probes see the "
-                           "colour change, instead of four of its quarters (cheaper; docs/antialiasing.md, \"Refined "
-                           "pixels in the full tree\")"},
-      {"env-taps", true, "taps per axis of each filtered environment lookup (1 is one trilinear lookup, cheaper "
-                         "and blurrier): GPU modes and exact and full-tree with --filtered (default 4) "
-                         "(docs/antialiasing.md)", K::Integer, {1, kMaxEnvironmentTapsPerAxis}},
-      {"env-level-bias", true, "exact and full-tree with --filtered: levels added to each tap's (default -1: each "
-                               "tap blurs over its own cell; 0 mirrors the engine)", K::Real,
-       {-double(bake::kMaxEnvironmentLevelBias), double(bake::kMaxEnvironmentLevelBias)}},
-      {"spp", true, "samples per pixel N, a perfect square: sqrt(N) x sqrt(N) stratified samples, averaged "
-                    "(default 1; every mode)", K::Integer, {1, 64}},
-      {"msaa", true, "GPU modes: the host's multisample count, 1, 2, 4 or 8 (default 1): one shading sample "
-                     "per pixel, silhouettes covered at N samples and resolved (docs/antialiasing.md, \"MSAA and "
-                     "the sphere's rim\")",
-       K::Integer, {1, 8}},
-      {"volume-per-fragment", false, "field mode, a volume field: trace each fragment's own paths in the raster pass "
-                                     "instead of the sample texels in texture space (sharper, costs per pixel)"},
-      {"no-volume-refine", false, "with --volume-per-fragment: keep 2x2 paths a pixel where they disagree"},
-      {"threads", true, "CPU modes: worker threads (default: all cores)", K::Integer, {1, 1024}},
-      {"absorption", true, "absorption scale k in exp(-tau * k) (default 1: the media as defined)", K::Real, {0, kUnbounded}},
+      {"spp", true, "samples per pixel, a perfect square (default 1)", K::Integer, {1, 64}},
+      {"msaa", true, "GPU modes: the multisample count, 1, 2, 4 or 8 (default 1)", K::Integer, {1, 8}},
       {"exposure", true, "linear scale applied before writing (default 1)", K::Real, {0, kUnbounded, true}},
-      {"frames", true, "frames rendered, for timings (default 1; the image is the last frame)", K::Integer,
-       {1, 100000}},
-      {"device", true, "Vulkan device index (default: first; ctest uses lavapipe)", K::Integer, {0, 1024}},
-      {"no-validation", false, "do not enable the Vulkan validation layer"},
+      {"absorption", true, "absorption scale k in exp(-tau * k) (default 1)", K::Real, {0, kUnbounded}},
+      {"volume-per-fragment", false, "volume fields: trace each fragment's own paths (sharper, slower)"},
+      {"path-rule", true, "exact mode: highest-energy or first-refraction (default: the field's own)"},
+      {"threads", true, "CPU modes: worker threads (default: all cores)", K::Integer, {1, 1024}},
+      // Developer options: the reference renders' switches, timings, device choices.
+      dev({"scene", true, "exact and full-tree of a field: the baked scene file where it moved to"}),
+      dev({"max-bounces", true, "exact mode: cap on interactions (default 16)", K::Integer,
+           {1, double(bake::kMaxBakeBounces)}}),
+      dev({"throughput", false, "exact mode: weight the light by the path's Fresnel throughput"}),
+      dev({"tree-depth", true, "full-tree mode: depth of the Fresnel tree (default 8)", K::Integer, {1, 16}}),
+      dev({"filtered", false, "exact and full-tree: filter the environment lookups as the engine does"}),
+      dev({"no-refine", false, "full-tree with --dev filtered: keep one filtered sample a pixel"}),
+      dev({"env-taps", true, "taps per axis of each filtered environment lookup (default 4)", K::Integer,
+           {1, kMaxEnvironmentTapsPerAxis}}),
+      dev({"env-level-bias", true, "CPU modes with --dev filtered: levels added to each tap's (default -1)", K::Real,
+           {-double(bake::kMaxEnvironmentLevelBias), double(bake::kMaxEnvironmentLevelBias)}}),
+      dev({"no-volume-refine", false, "with --volume-per-fragment: keep 2x2 paths a pixel where they disagree"}),
+      dev({"cube-env", false, "look the environment up through a cube map made from the lat-long"}),
+      dev({"frames", true, "frames rendered, for timings (default 1)", K::Integer, {1, 100000}}),
+      dev({"device", true, "Vulkan device index (default: the first)", K::Integer, {0, 1024}}),
+      dev({"no-validation", false, "do not enable the Vulkan validation layer"}),
   };
   for (auto& f : sceneFlags(false)) flags.push_back(f);
-  flags.push_back({"json", false, "print a JSON summary with GPU and wall timings on stdout"});
+  flags.push_back({"json", false, "print a JSON summary with timings on stdout"});
   flags.push_back({"help", false, "this text"});
   return flags;
 }
@@ -126,14 +115,14 @@ struct Request {
   uint32_t samplesPerAxis = 1, frames = 1;
   uint32_t msaa = 1;  // --msaa: a power of two in 1..8
   bool volumePerFragment = false;  // --volume-per-fragment
-  bool refineVolumePaths = true;  // not --no-volume-refine
-  std::optional<uint32_t> environmentTaps;  // --env-taps; each mode has its own default
-  std::optional<float> environmentLevelBias;  // --env-level-bias (CPU references only)
+  bool refineVolumePaths = true;  // not --dev no-volume-refine
+  std::optional<uint32_t> environmentTaps;  // --dev env-taps; each mode has its own default
+  std::optional<float> environmentLevelBias;  // --dev env-level-bias (CPU references only)
   std::optional<uint32_t> maxBounces, treeDepth, threads;
   int device = -1;
   PathRule pathRule = PathRule::HighestEnergy;
   SceneOverrides overrides;
-  std::optional<std::string> scenePath;  // --scene
+  std::optional<std::string> scenePath;  // --dev scene
 };
 
 Error usage(const std::string& message) { return makeError(ErrorCode::InvalidArgument, message); }
@@ -161,23 +150,25 @@ Result<uint32_t> samplesPerAxisOf(const Args& args) {
 Result<void> checkApplicability(const Args& args, const Request& r) {
   const bool cpu = r.mode == "exact" || r.mode == "full-tree";
   if (r.mode != "exact" && (args.has("path-rule") || args.has("throughput")))
-    return usage(std::string("shrefract render: ") + (args.has("path-rule") ? "--path-rule" : "--throughput") +
+    return usage(std::string("shrefract render: ") + (args.has("path-rule") ? "--path-rule" : "--dev throughput") +
                  " applies to --mode exact only");
   if (!cpu && args.has("filtered"))
-    return usage("shrefract render: --filtered applies to --mode exact and full-tree only (the GPU modes always filter)");
+    return usage("shrefract render: --dev filtered applies to --mode exact and full-tree only (the GPU modes "
+                 "always filter)");
   if (cpu && !args.has("filtered") && args.has("env-taps"))
-    return usage("shrefract render: --env-taps applies to --mode exact and full-tree with --filtered only");
+    return usage("shrefract render: --dev env-taps applies to --mode exact and full-tree with --dev filtered only");
   if (cpu && args.has("msaa"))
     return usage("shrefract render: --msaa applies to the GPU modes (field, single-interface) only; the CPU modes "
                  "supersample with --spp");
   if (args.has("volume-per-fragment") && (r.scene || r.mode != "field"))
     return usage("shrefract render: --volume-per-fragment applies to --mode field of a volume field only");
   if (args.has("no-volume-refine") && (r.scene || r.mode != "field" || !args.has("volume-per-fragment")))
-    return usage("shrefract render: --no-volume-refine applies with --volume-per-fragment only");
+    return usage("shrefract render: --dev no-volume-refine applies with --volume-per-fragment only");
   if (args.has("no-refine") && !(r.mode == "full-tree" && args.has("filtered")))
-    return usage("shrefract render: --no-refine applies to --mode full-tree with --filtered only");
+    return usage("shrefract render: --dev no-refine applies to --mode full-tree with --dev filtered only");
   if (args.has("env-level-bias") && !(cpu && args.has("filtered")))
-    return usage("shrefract render: --env-level-bias applies to --mode exact and full-tree with --filtered only");
+    return usage("shrefract render: --dev env-level-bias applies to --mode exact and full-tree with --dev filtered "
+                 "only");
   if (r.scene && r.mode == "field")
     return usage("shrefract render: " + r.input + " is a scene and --mode " + args.get("mode").value_or("field") +
                  " needs a refraction field; bake one "
@@ -189,7 +180,7 @@ Result<void> checkApplicability(const Args& args, const Request& r) {
   if (r.scene && args.has("tessellation") && r.input.rfind("builtin:", 0) != 0)
     return usage("shrefract render: --tessellation applies to built-in scenes only, not " + r.input);
   if (args.has("scene") && (r.scene || !cpu))
-    return usage("shrefract render: --scene applies to --mode exact or full-tree of a field");
+    return usage("shrefract render: --dev scene applies to --mode exact or full-tree of a field");
   if (r.size && (uint64_t((*r.size)[0]) * r.samplesPerAxis > 16384 || uint64_t((*r.size)[1]) * r.samplesPerAxis > 16384))
     return usage("shrefract render: --size " + std::to_string((*r.size)[0]) + "x" + std::to_string((*r.size)[1]) +
                  " with --spp " + std::to_string(r.samplesPerAxis * r.samplesPerAxis) +
@@ -428,11 +419,11 @@ void printGpuSummary(const Args& args, const Request& r, const Inputs& in, const
               wallMean, wallMedian, wall.empty() ? 0.0 : wall.front(), wall.empty() ? 0.0 : wall.back(), seconds);
 }
 
-// A session that could not be created; exits 2 when the --device flag is to blame.
+// A session that could not be created; exits 2 when the --dev device option is to blame.
 int sessionFailure(const Request& r, const Error& error) {
-  // A device index the machine does not have is a usage error naming the flag.
+  // A device index the machine does not have is a usage error naming the option.
   if (r.device >= 0 && error.code == ErrorCode::InvalidArgument)
-    return fail(usage("shrefract render: --device " + std::to_string(r.device) + ": " + error.message), 2);
+    return fail(usage("shrefract render: --dev device=" + std::to_string(r.device) + ": " + error.message), 2);
   return fail(error);
 }
 
@@ -527,8 +518,15 @@ int renderCommand(int argc, char** argv) {
     std::printf("usage: shrefract render FIELD.shrf|SCENE -o OUT.png|exr [flags]\n"
                 "  FIELD.shrf: a baked refraction field (shrefract bake): every mode\n"
                 "  SCENE: builtin:NAME (sphere, cube, torus, glass-of-water) or a .gltf/.glb file: the modes that\n"
-                "         need no field (single-interface, exact, full-tree)\n%s",
+                "         need no field (single-interface, exact, full-tree)\n%s"
+                "developer options (--dev KEY=VALUE): shrefract render --help-dev\n",
                 usageLines(flags).c_str());
+    return 0;
+  }
+  if (args.has("help-dev")) {
+    std::printf("usage: shrefract render FIELD.shrf|SCENE -o OUT.png|exr [flags] [--dev KEY[=VALUE]]...\n"
+                "developer options: reference-render switches, timings and devices; they may change\n%s",
+                developerUsageLines(flags).c_str());
     return 0;
   }
   auto request = readRequest(args);
@@ -539,7 +537,7 @@ int renderCommand(int argc, char** argv) {
   auto inputs = loadInputs(r);
   if (!inputs) return fail(inputs.error());
   for (const auto& [given, flag] : {std::pair{r.volumePerFragment, "--volume-per-fragment"},
-                                    std::pair{!r.refineVolumePaths, "--no-volume-refine"}})
+                                    std::pair{!r.refineVolumePaths, "--dev no-volume-refine"}})
     if (given && inputs.value().field->encoding != Encoding::Volume)
       return fail(usage(std::string("shrefract render: ") + flag + " applies to a volume field; " + r.input + " is " +
                         toString(inputs.value().field->encoding)),

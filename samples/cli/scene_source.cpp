@@ -185,7 +185,7 @@ Result<std::string> bakedSceneSpec(const std::string& fieldPath, const std::stri
     looked += (looked.empty() ? "" : ", ") + candidate.string();
   }
   return makeError(ErrorCode::Io, fieldPath + ": the baked scene " + parsed->scene + " is not at " + looked +
-                                      "; give its new place with --scene PATH");
+                                      "; give its new place with --dev scene=PATH");
 }
 
 Result<bake::Scene> loadScene(const std::string& spec, const SceneOverrides& explicitOverrides,

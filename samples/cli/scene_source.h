@@ -48,11 +48,11 @@ std::string canonicalSceneSpec(const std::string& scene, const SceneOverrides& o
 std::string recordedSceneSpec(const std::string& scene, const SceneOverrides& overrides,
                               const std::string& fieldPath);
 
-// The spec that rebuilds the scene a field was baked from. `sceneFlag` (render --scene PATH)
+// The spec that rebuilds the scene a field was baked from. `sceneFlag` (render --dev scene=PATH)
 // replaces the recorded file and keeps the recorded options. Otherwise a recorded glTF path is
 // looked up relative to the field file, then at its absolute path, then (fields baked before
 // paths were recorded this way) relative to the working directory. Errors name the field, the
-// places looked at and --scene.
+// places looked at and --dev scene.
 Result<std::string> bakedSceneSpec(const std::string& fieldPath, const std::string& recorded,
                                    const std::optional<std::string>& sceneFlag);
 

@@ -225,7 +225,7 @@ struct Case {
 };
 
 std::vector<std::string> quickBake(const std::string& scene, const std::string& out) {
-  std::vector<std::string> a{"bake", scene, "-o", out, "--samples", "50", "--directions", "8x16", "--order", "2"};
+  std::vector<std::string> a{"bake", scene, "-o", out, "--samples", "50", "--dev", "directions=8x16", "--order", "2"};
   return a;
 }
 
@@ -395,8 +395,8 @@ std::vector<Case> cases() {
                "out.shrf"});
   c.push_back({"integer out of range", {"bake", "builtin:sphere", "-o", "out.shrf", "--order", "99"}, none,
                {"--order"}, "out.shrf"});
-  c.push_back({"malformed size", {"bake", "builtin:sphere", "-o", "out.shrf", "--directions", "8by16"}, none,
-               {"--directions", "8by16"}, "out.shrf"});
+  c.push_back({"malformed size", {"render", "builtin:sphere", "-o", "out.png", "--size", "8by16"}, none,
+               {"--size", "8by16"}, "out.png"});
   c.push_back({"malformed vector", {"render", "builtin:sphere", "-o", "out.png", "--eye", "1,2"}, none, {"--eye", "1,2"},
                "out.png"});
   c.push_back({"non-finite number", {"render", "builtin:sphere", "-o", "out.png", "--fov", "nan"}, none, {"--fov"},
@@ -406,6 +406,19 @@ std::vector<Case> cases() {
   c.push_back({"switch given a value", {"info", "x.shrf", "--json=yes"}, none, {"--json"}, ""});
   c.push_back({"unknown enumeration value", {"bake", "builtin:sphere", "-o", "out.shrf", "--layout", "spiral"}, none,
                {"--layout", "spiral"}, "out.shrf"});
+  // Developer options (--dev KEY=VALUE, docs/developer-options.md): checked as the flags are.
+  c.push_back({"unknown developer option", {"bake", "builtin:sphere", "-o", "out.shrf", "--dev", "bogus=1"}, none,
+               {"--dev bogus", "--help-dev"}, "out.shrf", false, 2});
+  c.push_back({"developer option without its value", {"bake", "builtin:sphere", "-o", "out.shrf", "--dev", "held-out"},
+               none, {"--dev held-out"}, "out.shrf", false, 2});
+  c.push_back({"developer option out of range", {"bake", "builtin:sphere", "-o", "out.shrf", "--dev", "held-out=-1"},
+               none, {"--dev held-out", "0..1024"}, "out.shrf", false, 2});
+  c.push_back({"user flag given as a developer option",
+               {"bake", "builtin:sphere", "-o", "out.shrf", "--dev", "samples=50"}, none, {"--dev samples", "--samples"},
+               "out.shrf", false, 2});
+  c.push_back({"developer option given twice",
+               {"render", "builtin:sphere", "-o", "out.png", "--dev", "frames=2", "--dev", "frames=3"}, none,
+               {"--dev frames"}, "out.png", false, 2});
   c.push_back({"two scenes", {"bake", "builtin:sphere", "builtin:cube", "-o", "out.shrf"}, none, {"SCENE"}, "out.shrf"});
   // Encodings and path rules (docs/encodings.md).
   const std::vector<std::string> bake{"bake", "builtin:sphere", "-o", "out.shrf"};
@@ -419,26 +432,28 @@ std::vector<Case> cases() {
                "out.shrf"});
   c.push_back({"pca components out of range", with({"--encoding", "pca", "--components", "0"}), none, {"--components"},
                "out.shrf"});
-  c.push_back({"clusters out of range", with({"--clusters", "5000"}), none, {"--clusters"}, "out.shrf"});
-  c.push_back({"clusters with another encoding", with({"--encoding", "sh", "--clusters", "64"}), none,
-               {"--clusters", "--encoding pca"}, "out.shrf"});
+  c.push_back({"clusters out of range", with({"--dev", "clusters=5000"}), none, {"--dev clusters"}, "out.shrf"});
+  c.push_back({"clusters with another encoding", with({"--encoding", "sh", "--dev", "clusters=64"}), none,
+               {"--dev clusters", "--encoding pca"}, "out.shrf"});
   c.push_back({"byte budget out of range", with({"--max-bytes-per-sample", "0"}), none, {"--max-bytes-per-sample"},
                "out.shrf"});
-  c.push_back({"byte budget and error target together", with({"--max-bytes-per-sample", "324", "--max-error", "2"}), none,
-               {"--max-bytes-per-sample", "--max-error"}, "out.shrf"});
-  c.push_back({"unknown direction sampling", with({"--direction-sampling", "random"}), none,
-               {"--direction-sampling", "random"}, "out.shrf"});
-  c.push_back({"node sampling of SH", with({"--order", "4", "--direction-sampling", "nodes"}), none,
-               {"--direction-sampling", "table or pca"}, "out.shrf"});
-  c.push_back({"node sampling with a grid size", with({"--direction-sampling", "nodes", "--directions", "8x16"}),
-               none, {"--directions", "--direction-sampling"}, "out.shrf"});
+  c.push_back({"byte budget and error target together",
+               with({"--max-bytes-per-sample", "324", "--dev", "max-error=2"}), none,
+               {"--max-bytes-per-sample", "--dev max-error"}, "out.shrf"});
+  c.push_back({"unknown direction sampling", with({"--dev", "direction-sampling=random"}), none,
+               {"--dev direction-sampling", "random"}, "out.shrf"});
+  c.push_back({"node sampling of SH", with({"--order", "4", "--dev", "direction-sampling=nodes"}), none,
+               {"--dev direction-sampling", "table or pca"}, "out.shrf"});
+  c.push_back({"node sampling with a grid size",
+               with({"--dev", "direction-sampling=nodes", "--dev", "directions=8x16"}), none,
+               {"--dev directions", "--dev direction-sampling"}, "out.shrf"});
   c.push_back({"SH order with another encoding", with({"--encoding", "pca", "--order", "4"}), none, {"--order"},
                "out.shrf"});
   c.push_back({"unknown path rule", with({"--path-rule", "widest"}), none, {"--path-rule", "widest"}, "out.shrf"});
-  c.push_back({"unknown SH fit", with({"--order", "4", "--sh-fit", "huber"}), none, {"--sh-fit", "huber"},
+  c.push_back({"unknown SH fit", with({"--order", "4", "--dev", "sh-fit=huber"}), none, {"--dev sh-fit", "huber"},
                "out.shrf"});
-  c.push_back({"SH fit with another encoding", with({"--encoding", "pca", "--sh-fit", "robust"}), none,
-               {"--sh-fit", "--encoding sh"}, "out.shrf"});
+  c.push_back({"SH fit with another encoding", with({"--encoding", "pca", "--dev", "sh-fit=robust"}), none,
+               {"--dev sh-fit", "--encoding sh"}, "out.shrf"});
   c.push_back({"volume size out of range", with({"--encoding", "volume", "--volume-size", "4"}), none,
                {"--volume-size"}, "out.shrf", false, 2});
   c.push_back({"volume size with another encoding", with({"--encoding", "pca", "--volume-size", "64"}), none,
@@ -475,15 +490,15 @@ std::vector<Case> cases() {
                "out.png", false, 2});
   c.push_back({"eye too large for a float", camera({"--eye", "1e39,0,0"}), none, {"--eye"}, "out.png", false, 2});
   c.push_back({"exposure not positive", camera({"--exposure", "-1"}), none, {"--exposure"}, "out.png", false, 2});
-  c.push_back({"direction grid out of range", with({"--directions", "1000x16"}), none, {"--directions", "1000x16"},
-               "out.shrf", false, 2});
+  c.push_back({"direction grid out of range", with({"--dev", "directions=1000x16"}), none,
+               {"--dev directions", "1000x16"}, "out.shrf", false, 2});
   c.push_back({"field scene that moved", {"render", "moved.shrf", "--mode", "exact", "-o", "out.png"},
                [](const fs::path& dir) {
                  Field f = testing::makeSyntheticField({});
                  f.settings.source = "gone.gltf?absolute=/nonexistent/gone.gltf";
                  writeBytes(dir / "moved.shrf", bytesOf(serializeField(f)));
                },
-               {"moved.shrf", "--scene"}, "out.png", false, 1});
+               {"moved.shrf", "--dev scene"}, "out.png", false, 1});
   c.push_back({"report of a missing scene", {"report", "missing.gltf", "--smoke", "-o", "rep"}, none,
                {"missing.gltf"}, "rep", false, 1});
   c.push_back({"view screenshot in a missing directory",

@@ -1,8 +1,9 @@
 // The tool on scenes as users hand them over (issue 14), through the real binary ($SHREFRACT_TOOL,
 // set by ctest): a Blender-style glTF written here bakes with a warning per repair and renders in
-// every mode; a field finds its scene from any working directory (and through --scene once the
+// every mode; a field finds its scene from any working directory (and through --dev scene once the
 // scene moved); camera errors exit 2 with one line before any work and never touch an existing
-// output; every range --help prints is the range the parser enforces (and the bake library's).
+// output; every range --help and --help-dev print is the range the parser enforces (and the bake
+// library's); bake's and render's --help stay short (at most 20 flags, one short line each).
 // GPU modes run on lavapipe like the GPU tests and are skipped, with a line, without a device.
 #include <gtest/gtest.h>
 #include <shrefract/bake/bake.h>
@@ -105,8 +106,8 @@ void expectFiniteAndNotFlat(const fs::path& image) {
 TEST_F(SceneCli, BlenderStyleGltfBakesWithRepairWarningsAndRendersInEveryMode) {
   writeBoxes("boxes.gltf");
   const gltf_test::BlenderBoxesCounts counts;
-  const ToolRun bake = run(".", {"bake", "boxes.gltf", "-o", "boxes.shrf", "--samples", "800", "--directions", "8x16",
-                             "--order", "2", "--threads", "2", "--held-out", "0"});
+  const ToolRun bake = run(".", {"bake", "boxes.gltf", "-o", "boxes.shrf", "--samples", "800", "--dev",
+                             "directions=8x16", "--order", "2", "--threads", "2", "--dev", "held-out=0"});
   ASSERT_EQ(bake.exit, 0) << bake.err;
   const std::string a = "warning: boxes.gltf: mesh 0 ('boxA') in node 0 ('A'): ";
   const std::string b = "warning: boxes.gltf: mesh 1 ('boxB') in node 1 ('B'): ";
@@ -122,7 +123,7 @@ TEST_F(SceneCli, BlenderStyleGltfBakesWithRepairWarningsAndRendersInEveryMode) {
   for (const auto& [input, mode] : std::vector<std::pair<std::string, std::string>>{
            {"boxes.gltf", "exact"}, {"boxes.gltf", "full-tree"}, {"boxes.shrf", "exact"}, {"boxes.shrf", "full-tree"}}) {
     const std::string out = fs::path(input).stem().string() + "_" + mode + ".exr";
-    const ToolRun r = run(".", {"render", input, "--mode", mode, "--tree-depth", "3", "--size", "48x36", "-o", out});
+    const ToolRun r = run(".", {"render", input, "--mode", mode, "--dev", "tree-depth=3", "--size", "48x36", "-o", out});
     ASSERT_EQ(r.exit, 0) << input << " " << mode << ": " << r.err;
     EXPECT_NE(r.err.find("render " + mode + ": 100%"), std::string::npos) << "no progress: " << r.err;
     expectFiniteAndNotFlat(dir_ / out);
@@ -149,8 +150,8 @@ TEST_F(SceneCli, ExactModeOfAFieldWorksFromAnotherDirectoryAndWithScene) {
   writeBoxes("a/models/boxes.gltf");
   fs::create_directories(dir_ / "a/fields");
   fs::create_directories(dir_ / "b");
-  const ToolRun bake = run("a", {"bake", "models/boxes.gltf", "-o", "fields/f.shrf", "--samples", "800", "--directions",
-                             "8x16", "--order", "2", "--threads", "2", "--held-out", "0"});
+  const ToolRun bake = run("a", {"bake", "models/boxes.gltf", "-o", "fields/f.shrf", "--samples", "800", "--dev",
+                             "directions=8x16", "--order", "2", "--threads", "2", "--dev", "held-out=0"});
   ASSERT_EQ(bake.exit, 0) << bake.err;
   const std::vector<std::string> exact = {"render", "../a/fields/f.shrf", "--mode", "exact", "--size", "32x24"};
   auto with = [&exact](std::vector<std::string> extra) {
@@ -166,10 +167,10 @@ TEST_F(SceneCli, ExactModeOfAFieldWorksFromAnotherDirectoryAndWithScene) {
   const ToolRun lost = run("b", with({"-o", "y.png"}));
   EXPECT_EQ(lost.exit, 1);
   EXPECT_EQ(lineCount(lost.err), 1u) << lost.err;
-  EXPECT_NE(lost.err.find("--scene"), std::string::npos) << lost.err;
+  EXPECT_NE(lost.err.find("--dev scene=PATH"), std::string::npos) << lost.err;
   EXPECT_NE(lost.err.find("f.shrf"), std::string::npos) << lost.err;
   EXPECT_FALSE(fs::exists(dir_ / "b/y.png"));
-  const ToolRun found = run("b", with({"--scene", "../moved.gltf", "-o", "z.png"}));
+  const ToolRun found = run("b", with({"--dev", "scene=../moved.gltf", "-o", "z.png"}));
   EXPECT_EQ(found.exit, 0) << found.err;
   EXPECT_TRUE(fs::exists(dir_ / "b/z.png"));
 }
@@ -201,7 +202,7 @@ TEST_F(SceneCli, DefaultBakeTracesTheTableNodesAndAGridSizeAsksForTheGrid) {
   EXPECT_NE(nodes.out.find("\"direction_sampling\": \"nodes\""), std::string::npos) << nodes.out;
   EXPECT_NE(nodes.out.find("\"layout\": \"charts\""), std::string::npos) << nodes.out;
   std::vector<std::string> gridArgs = base;
-  gridArgs.insert(gridArgs.end(), {"--directions", "8x16"});
+  gridArgs.insert(gridArgs.end(), {"--dev", "directions=8x16"});
   const ToolRun grid = bakeAndInfo(gridArgs, "grid.shrf");
   ASSERT_EQ(grid.exit, 0) << grid.err;
   EXPECT_NE(grid.out.find("\"direction_sampling\": \"grid\""), std::string::npos) << grid.out;
@@ -209,44 +210,46 @@ TEST_F(SceneCli, DefaultBakeTracesTheTableNodesAndAGridSizeAsksForTheGrid) {
   const std::string n = std::to_string(bake::kDefaultPcaTableSize);
   EXPECT_NE(text.out.find("directions the " + n + "x" + n + " table nodes"), std::string::npos) << text.out;
   // The node-sampled field stores the jump distance (docs/encodings.md, "Placing the jump"); the
-  // grid-fitted one cannot, and --no-jump-distance leaves it out.
+  // grid-fitted one cannot, and --dev no-jump-distance leaves it out.
   EXPECT_NE(nodes.out.find("\"jump_distance\": true"), std::string::npos) << nodes.out;
   EXPECT_NE(text.out.find("(with jump distance)"), std::string::npos) << text.out;
   EXPECT_NE(grid.out.find("\"jump_distance\": false"), std::string::npos) << grid.out;
   std::vector<std::string> without = base;
-  without.push_back("--no-jump-distance");
+  without.insert(without.end(), {"--dev", "no-jump-distance"});
   const ToolRun plain = bakeAndInfo(without, "plain.shrf");
   ASSERT_EQ(plain.exit, 0) << plain.err;
   EXPECT_NE(plain.out.find("\"jump_distance\": false"), std::string::npos) << plain.out;
   EXPECT_NE(nodes.out.find("\"channels\": 5"), std::string::npos) << nodes.out;  // x, y, z, tau, distance
   EXPECT_NE(plain.out.find("\"channels\": 4"), std::string::npos) << plain.out;
   // The default bake chooses the frame of the exits (docs/encodings.md, "Exits in the sample's
-  // frame"; on this sphere, the sample's); --exit-frame object stores them in object space; any
+  // frame"; on this sphere, the sample's); --dev exit-frame=object stores them in object space; any
   // other value is a usage error that leaves an existing output alone.
   EXPECT_NE(nodes.out.find("\"exit_frame\": \"sample\""), std::string::npos) << nodes.out;
   EXPECT_NE(text.out.find("exits stored in each sample's frame"), std::string::npos) << text.out;
   std::vector<std::string> objectArgs = base;
-  objectArgs.insert(objectArgs.end(), {"--exit-frame", "object"});
+  objectArgs.insert(objectArgs.end(), {"--dev", "exit-frame=object"});
   const ToolRun object = bakeAndInfo(objectArgs, "object.shrf");
   ASSERT_EQ(object.exit, 0) << object.err;
   EXPECT_NE(object.out.find("\"exit_frame\": \"object\""), std::string::npos) << object.out;
   const auto before = fs::file_size(dir_ / "object.shrf");
   std::vector<std::string> badArgs = base;
-  badArgs.insert(badArgs.end(), {"--exit-frame", "world", "-o", "object.shrf"});
+  badArgs.insert(badArgs.end(), {"--dev", "exit-frame=world", "-o", "object.shrf"});
   const ToolRun bad = run(".", badArgs);
   EXPECT_EQ(bad.exit, 2);
-  EXPECT_NE(bad.err.find("--exit-frame must be auto, sample or object, got 'world'"), std::string::npos) << bad.err;
+  EXPECT_NE(bad.err.find("--dev exit-frame must be auto, sample or object, got 'world'"), std::string::npos) << bad.err;
   EXPECT_EQ(fs::file_size(dir_ / "object.shrf"), before);
 }
 
-// The default bake (no --encoding nor a flag of Pca's) makes the Pca field and, where the scene is
-// one medium in air, the volume beside it at 128^3 (and 256^3 where that grid fits 324 bytes a
-// sample: not these 100), and keeps the one whose images come closer to exact renders (the Pca by
-// its texels, the volume traced per fragment): one line says which, with every figure, and the
-// file is that field, recording that it tried. --encoding pca keeps the Pca without trying; nested
-// media (the glass of water) have no volume to try.
-TEST_F(SceneCli, DefaultBakeTriesTheVolumeAndKeepsTheCloser) {
-  const ToolRun tried = run(".", {"bake", "builtin:sphere?tessellation=1", "--samples", "100", "-o", "tried.shrf"});
+// --choose-by-images (no --encoding nor a flag of Pca's) makes the Pca field and, where the scene
+// is one medium in air, the volume beside it at 128^3 (and 256^3 where that grid fits 324 bytes a
+// sample: not these), and keeps the one whose images come closer to exact renders (the Pca by its
+// texels, the volume traced per fragment): one line says which, with every figure, and the file is
+// that field, recording that it tried. The default bake decides from the scene without images (one
+// closed medium in air: the volume; docs/encodings.md, "The default encoding"); --encoding pca
+// keeps the Pca without trying; nested media (the glass of water) have no volume to try.
+TEST_F(SceneCli, ChooseByImagesTriesTheVolumeAndKeepsTheCloser) {
+  const ToolRun tried = run(".", {"bake", "builtin:sphere?tessellation=1", "--samples", "100", "--choose-by-images",
+                                  "-o", "tried.shrf"});
   ASSERT_EQ(tried.exit, 0) << tried.err;
   const size_t note = tried.err.find("encoding: chose ");
   ASSERT_NE(note, std::string::npos) << tried.err;
@@ -259,8 +262,8 @@ TEST_F(SceneCli, DefaultBakeTriesTheVolumeAndKeepsTheCloser) {
     const size_t start = tried.err.rfind(' ', at - 2) + 1;
     return std::stod(tried.err.substr(start, at - 1 - start));
   };
-  // The sphere's 256^3 grid in bricks (about 14 MiB) is over 324 bytes a sample of these 100
-  // samples: built, then left out, the coarser grid alone drawn.
+  // The sphere's 256^3 grid in bricks (about 14 MiB) is over 324 bytes a sample of this small
+  // budget: built, then left out, the coarser grid alone drawn.
   const double pcaDb = figureBefore("dB with pca by its texels, "),
                volumeDb = figureBefore("dB with volume 128^3 traced per fragment");
   ASSERT_TRUE(std::isfinite(pcaDb) && std::isfinite(volumeDb)) << tried.err;
@@ -281,6 +284,10 @@ TEST_F(SceneCli, DefaultBakeTriesTheVolumeAndKeepsTheCloser) {
   if (chosen == "volume") {
     EXPECT_EQ(field.value().volume.size, 128u);
   }
+  const ToolRun decided = run(".", {"bake", "builtin:sphere?tessellation=1", "--samples", "100", "-o", "decided.shrf"});
+  ASSERT_EQ(decided.exit, 0) << decided.err;
+  EXPECT_EQ(decided.err.find("encoding: chose"), std::string::npos) << decided.err;
+  EXPECT_NE(decided.err.find("encoding: volume 128^3, one closed medium in air"), std::string::npos) << decided.err;
   const ToolRun pca = run(".", {"bake", "builtin:sphere?tessellation=1", "--samples", "100", "--encoding", "pca",
                                 "-o", "pca.shrf"});
   ASSERT_EQ(pca.exit, 0) << pca.err;
@@ -415,18 +422,28 @@ std::vector<Probe> sizeProbesOf(const std::string& range) {
 }
 
 TEST_F(SceneCli, EveryRangeInHelpIsTheParsersRange) {
-  const std::regex line("^  --([a-z0-9-]+) VALUE .*\\[range: (.*)\\]$");
+  // A user flag as --help prints it, and a developer option as --help-dev prints it; each is
+  // probed the way it is given (--name=VALUE, --dev name=VALUE) and named so in the errors.
+  const std::regex userLine("^  --([a-z0-9-]+) VALUE .*\\[range: (.*)\\]$");
+  const std::regex devLine("^  --dev ([a-z0-9-]+)=VALUE .*\\[range: (.*)\\]$");
   std::map<std::string, std::string> bakeRanges;
-  for (const std::string command : {"bake", "render", "view", "report"}) {
-    const ToolRun help = run(".", {command, "--help"});
-    ASSERT_EQ(help.exit, 0) << command;
+  struct Listing {
+    std::string command, helpFlag;
+  };
+  const std::vector<Listing> listings = {{"bake", "--help"},   {"bake", "--help-dev"}, {"render", "--help"},
+                                         {"render", "--help-dev"}, {"view", "--help"},   {"report", "--help"}};
+  for (const Listing& listing : listings) {
+    const std::string& command = listing.command;
+    const bool dev = listing.helpFlag == "--help-dev";
+    const ToolRun help = run(".", {command, listing.helpFlag});
+    ASSERT_EQ(help.exit, 0) << command << " " << listing.helpFlag;
     std::istringstream lines(help.out);
     size_t ranges = 0;
     for (std::string l; std::getline(lines, l);) {
       std::smatch m;
-      if (!std::regex_match(l, m, line)) continue;
-      const std::string flag = "--" + m[1].str(), range = m[2];
-      if (command == std::string("bake")) bakeRanges[flag] = range;
+      if (!std::regex_match(l, m, dev ? devLine : userLine)) continue;
+      const std::string flag = (dev ? "--dev " : "--") + m[1].str(), range = m[2];
+      if (command == "bake") bakeRanges[flag] = range;
       const bool size = range.find(" x ") != std::string::npos;
       const std::vector<Probe> probes = size ? sizeProbesOf(range) : probesOf(range);
       ASSERT_GE(probes.size(), 2u) << command << " " << flag << ": cannot read the range '" << range << "'";
@@ -434,7 +451,8 @@ TEST_F(SceneCli, EveryRangeInHelpIsTheParsersRange) {
       for (const Probe& p : probes) {
         // No input and no output: a value the parser accepts gets the missing-argument error,
         // which names no flag; a rejected value gets the range error naming the flag and range.
-        const ToolRun r = run(".", {command, flag + "=" + p.value});
+        const ToolRun r = dev ? run(".", {command, "--dev", m[1].str() + "=" + p.value})
+                              : run(".", {command, flag + "=" + p.value});
         EXPECT_EQ(r.exit, 2) << command << " " << flag << "=" << p.value << ": " << r.err;
         EXPECT_EQ(lineCount(r.err), 1u) << r.err;
         const bool rangeError = r.err.find(flag) != std::string::npos;
@@ -444,15 +462,66 @@ TEST_F(SceneCli, EveryRangeInHelpIsTheParsersRange) {
         }
       }
     }
-    EXPECT_GE(ranges, 4u) << command << " --help prints too few ranges:\n" << help.out;
+    EXPECT_GE(ranges, 4u) << command << " " << listing.helpFlag << " prints too few ranges:\n" << help.out;
   }
   // The bake library's own limits are the ones printed.
-  EXPECT_EQ(bakeRanges["--directions"], std::to_string(bake::kMinDirectionRows) + ".." +
-                                            std::to_string(bake::kMaxDirectionRows) + " x " +
-                                            std::to_string(bake::kMinDirectionColumns) + ".." +
-                                            std::to_string(bake::kMaxDirectionColumns));
-  EXPECT_EQ(bakeRanges["--max-bounces"], "1.." + std::to_string(bake::kMaxBakeBounces));
+  EXPECT_EQ(bakeRanges["--dev directions"], std::to_string(bake::kMinDirectionRows) + ".." +
+                                                std::to_string(bake::kMaxDirectionRows) + " x " +
+                                                std::to_string(bake::kMinDirectionColumns) + ".." +
+                                                std::to_string(bake::kMaxDirectionColumns));
+  EXPECT_EQ(bakeRanges["--dev max-bounces"], "1.." + std::to_string(bake::kMaxBakeBounces));
   EXPECT_EQ(bakeRanges["--table-size"], "2.." + std::to_string(bake::kMaxBakeTableSize));
+}
+
+// The product's limit on the user surface: `bake --help` and `render --help` list at most
+// kMaxListedFlags flags (a line starting "  --" each), each flag's help one short sentence that
+// cites no documentation page; the experiment switches are developer options, which --help-dev
+// lists, and each of those is given as --dev KEY[=VALUE] and refused under its own name as a
+// user flag nowhere in --help.
+TEST_F(SceneCli, BakeAndRenderHelpListAtMostTwentyFlags) {
+  constexpr size_t kMaxListedFlags = 20;
+  for (const std::string command : {"bake", "render"}) {
+    const ToolRun help = run(".", {command, "--help"});
+    ASSERT_EQ(help.exit, 0) << command << ": " << help.err;
+    std::istringstream lines(help.out);
+    std::vector<std::string> flags;
+    for (std::string l; std::getline(lines, l);) {
+      if (l.rfind("  --", 0) != 0) continue;
+      flags.push_back(l);
+      // One short sentence: the help text (the range printed after it aside) in one clause of
+      // at most 90 characters, no page cited.
+      std::smatch m;
+      ASSERT_TRUE(std::regex_match(l, m, std::regex("^  --[a-z0-9-]+( VALUE)? +(.*)$"))) << command << ": " << l;
+      std::string text = m[2];
+      if (const size_t range = text.find(" [range: "); range != std::string::npos) text.resize(range);
+      EXPECT_LE(text.size(), 90u) << command << ": " << l;
+      EXPECT_EQ(text.find(". "), std::string::npos) << command << ": more than one sentence: " << l;
+      EXPECT_EQ(l.find(".md"), std::string::npos) << command << ": cites a page: " << l;
+      EXPECT_EQ(l.find("docs/"), std::string::npos) << command << ": cites a page: " << l;
+    }
+    EXPECT_LE(flags.size(), kMaxListedFlags) << command << " --help lists " << flags.size() << " flags:\n" << help.out;
+    EXPECT_GE(flags.size(), 10u) << command << " --help: the flags were not found:\n" << help.out;
+    EXPECT_NE(help.out.find(command + " --help-dev"), std::string::npos) << help.out;
+
+    const ToolRun dev = run(".", {command, "--help-dev"});
+    ASSERT_EQ(dev.exit, 0) << command << ": " << dev.err;
+    std::istringstream devLines(dev.out);
+    size_t options = 0;
+    for (std::string l; std::getline(devLines, l);) {
+      if (l.rfind("  --dev ", 0) != 0) continue;
+      ++options;
+      const std::string key = l.substr(8, l.find_first_of("= ", 8) - 8);
+      EXPECT_EQ(help.out.find("  --" + key + " "), std::string::npos) << command << " --help lists --" << key;
+      EXPECT_EQ(l.find("docs/"), std::string::npos) << command << ": cites a page: " << l;
+      // Given by its key, it is a developer option: "--dev KEY" is how the errors name it (here
+      // without the value it takes, or with a value where it takes none).
+      const bool takesValue = l.find(key + "=VALUE") != std::string::npos;
+      const ToolRun given = run(".", {command, "--dev", takesValue ? key : key + "=1"});
+      EXPECT_EQ(given.exit, 2) << given.err;
+      EXPECT_NE(given.err.find("--dev " + key), std::string::npos) << given.err;
+    }
+    EXPECT_GE(options, 10u) << command << " --help-dev:\n" << dev.out;
+  }
 }
 
 }  // namespace
