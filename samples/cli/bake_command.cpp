@@ -188,7 +188,7 @@ Result<void> applyNumericFlags(const NumericFlags& n, BakeSettings& s) {
 // --layout, --quant and the options --dev window and --dev sh-fit.
 Result<void> applyLayoutFlags(const Args& args, BakeSettings& s) {
   // Charts by default: at the default budget the split layout's per-triangle lattices are coarse
-  // (n = 1 to 7 on the built-in scenes and the bunny) and flicker more (docs/sample-layouts.md).
+  // (n = 1 to 7 on the built-in scenes and the bunny) and flicker more (docs/technique.md).
   const std::string layout = args.get("layout").value_or("charts");
   if (layout == "split") s.layout = SampleLayout::Split;
   else if (layout == "charts") s.layout = SampleLayout::Charts;

@@ -177,7 +177,7 @@ TEST_F(SceneCli, ExactModeOfAFieldWorksFromAnotherDirectoryAndWithScene) {
 
 // The default bake (Pca, charts layout) traces the table's nodes; asking for a grid size asks for
 // grid sampling; the field file and `info` say which (docs/encodings.md, "Sampling";
-// docs/sample-layouts.md, "Choosing a layout").
+// docs/technique.md, "Choosing a layout").
 TEST_F(SceneCli, DefaultBakeTracesTheTableNodesAndAGridSizeAsksForTheGrid) {
   const std::vector<std::string> base{"bake", "builtin:sphere?tessellation=1", "--samples", "100", "--components", "8"};
   std::string bakeErr;
