@@ -8,12 +8,12 @@
 #
 # BEFORE_ARGS and AFTER_ARGS (words) are added to each side's render commands, so that one build
 # compares two settings, e.g. the tap count of the filtered lookups:
-#   BEFORE_ARGS="--env-taps 1" AFTER_ARGS="--env-taps 2" scripts/measure/aa-cost.sh T T FIELD SCENE
+#   BEFORE_ARGS="--dev env-taps=1" AFTER_ARGS="--dev env-taps=2" scripts/measure/aa-cost.sh T T FIELD SCENE
 set -euo pipefail
 before=$1 after=$2 field=$3 scene=$4 rounds=${5:-3}
 read -r -a beforeArgs <<< "${BEFORE_ARGS:-}"
 read -r -a afterArgs <<< "${AFTER_ARGS:-}"
-ms() { "$1" render "${@:2}" --size 640x480 --frames ${FRAMES:-20} --json -o /tmp/aa-cost.png 2>/dev/null |
+ms() { "$1" render "${@:2}" --size 640x480 --dev frames=${FRAMES:-20} --json -o /tmp/aa-cost.png 2>/dev/null |
   python3 -c 'import json,sys; print(json.load(sys.stdin)["gpu_ms"]["raster"])'; }
 for what in field single-interface; do
   if [ $what = field ]; then args=("$field"); else args=("$scene" --mode single-interface); fi

@@ -32,13 +32,13 @@ for s in "${scenes[@]}"; do
   [ -f "$d/reference.png" ] || r "$scene" --mode full-tree --spp 16 -o "$d/reference.png"
   r "$scene" --mode full-tree -o "$d/full-tree_1.png"  # at 4x4 it is the reference itself
   filtered=()
-  if "$tool" render --help 2>&1 | grep -- --filtered > /dev/null; then  # builds before the filtered lookups lack it
-    r "$scene" --mode full-tree --filtered -o "$d/full-tree_filtered_1.png"
+  if "$tool" render --help-dev 2>&1 | grep -- filtered > /dev/null; then  # builds before the filtered lookups lack it
+    r "$scene" --mode full-tree --dev filtered -o "$d/full-tree_filtered_1.png"
     filtered=("$d/full-tree_filtered_1.png" "$d/exact_filtered_1.png" "$d/exact_filtered_16.png")
   fi
   for spp in 1 16; do
     r "$scene" --mode exact --spp $spp -o "$d/exact_$spp.png"
-    [ ${#filtered[@]} = 0 ] || r "$scene" --mode exact --filtered --spp $spp -o "$d/exact_filtered_$spp.png"
+    [ ${#filtered[@]} = 0 ] || r "$scene" --mode exact --dev filtered --spp $spp -o "$d/exact_filtered_$spp.png"
     r "$d/field.shrf" --spp $spp -o "$d/field_$spp.png"
     r "$scene" --mode single-interface --spp $spp -o "$d/single-interface_$spp.png"
   done

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The anti-aliasing target (at one sample per pixel with filtering, within 2 dB of the same mode at
 # 4x4) for the CPU references (docs/technique.md, "The CPU references"): the exact mode and the full
-# tree at 1 spp (`render --filtered`) and at 4x4 (`--spp 16`), each against the full tree at 4x4
+# tree at 1 spp (`render --dev filtered`) and at 4x4 (`--spp 16`), each against the full tree at 4x4
 # (the report's reference) and at 7x7 (`--spp 49`, which shares no sub-sample with the 4x4 renders,
 # nor with the 1-spp probes and bisections, at sixteenths of the pixel; the report's denser
 # reference), object pixels, colours clamped, linear (linear_psnr.py), 320x240, the tool's default
@@ -32,8 +32,8 @@ for s in "${scenes[@]}"; do
   r ref4 --mode full-tree --spp 16
   r ref7 --mode full-tree --spp 49
   r exact16 --mode exact --spp 16
-  r exact1 --mode exact --filtered
-  r tree1 --mode full-tree --filtered
+  r exact1 --mode exact --dev filtered
+  r tree1 --mode full-tree --dev filtered
   for ref in ref4 ref7; do
     psnr() { python3 "$here/linear_psnr.py" "$d/mask_a.fits" "$d/mask_b.fits" "$d/$ref.fits" "$@" | awk '{print $2}'; }
     read -r e16 e1 t1 t16 < <(psnr "$d/exact16.fits" "$d/exact1.fits" "$d/tree1.fits" "$d/ref4.fits" | xargs)
