@@ -76,7 +76,7 @@ std::array<float, 12> sampleRows(const SurfacePoint& p) {
 }
 
 // The float (unquantized) encoding at local direction w of the sample at `point`: the engine's
-// own sums (field.h), jump-aware as the decoder is, so the bake measures exactly what the
+// own sums (field_decode.h), jump-aware as the decoder is, so the bake measures exactly what the
 // decoder will compute before quantization.
 void decodeFloat(const EncodingShape& shape, const std::vector<float>& basis, const float* coeffs,
                  const SurfacePoint& point, glm::vec3 w, float* out) {

@@ -38,6 +38,7 @@
 // starts with it off). With several fields, each one's series against the first's. Exit code 0 with
 // "SKIPPED:" when there is no Vulkan device; 2 with one line for bad arguments or a FIELD.shrf that
 // does not exist.
+#include <shrefract/field_decode.h>
 #include <shrefract/decompressor.h>
 #include <shrefract/environment.h>
 #include <shrefract/renderer.h>

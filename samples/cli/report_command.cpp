@@ -65,8 +65,9 @@ Result<void> publish(const fs::path& staging, const fs::path& dir) {
 }
 
 void printSummary(const report::ReportResult& result, const std::string& out) {
-  std::printf("report: %zu settings measured in %.1f s; wrote %zu files to %s (start with %s/report.md)\n",
-              result.rows.size(), result.seconds, result.files.size(), out.c_str(), out.c_str());
+  std::printf("report: %zu scenes' fidelity and %zu sweep settings measured in %.1f s; wrote %zu files to %s (start "
+              "with %s/report.md)\n",
+              result.fidelity.size(), result.rows.size(), result.seconds, result.files.size(), out.c_str(), out.c_str());
   for (const auto& row : result.rows)
     if (row.group == "order" || row.group == "baseline")
       std::printf("  %-40s %-24s mean angle %6.2f deg  PSNR %6.2f dB  frame %8.2f ms%s\n",

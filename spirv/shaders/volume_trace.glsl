@@ -1,4 +1,4 @@
-// The Volume encoding's path trace (shrefract/field.h traceVolumePath): a path refracted into the
+// The Volume encoding's path trace (shrefract/field_decode.h traceVolumePath): a path refracted into the
 // object at a surface point and followed through its signed distance grid, marched along the
 // trilinear distance until it changes sign (out of the object, or back into it where the way out
 // meets it again), the crossing bisected, the interface's normal the

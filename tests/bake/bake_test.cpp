@@ -2,6 +2,7 @@
 // counts, the attenuation channel dropped when nothing absorbs, error falling with the SH order;
 // and the batch tracing the bake uses for every sample's directions, against single paths.
 #include <gtest/gtest.h>
+#include <shrefract/field_decode.h>
 #include <shrefract/bake/bake.h>
 #include <shrefract/bake/fit.h>
 #include <shrefract/bake/layout.h>

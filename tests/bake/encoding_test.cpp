@@ -6,6 +6,7 @@
 //
 // Every bound below is a measurement (GCC 12, x86-64, Embree 3 of Debian 12) times a stated margin.
 // The bakes are deterministic, so the margins cover other compilers and CPUs, not run-to-run noise.
+#include <shrefract/field_decode.h>
 #include <shrefract/bake/bake.h>
 #include <shrefract/bake/layout.h>
 #include <shrefract/bake/table_fit.h>

@@ -2,6 +2,7 @@
 // corrupted bytes and of newer versions, structural validation, coefficient quantization, and the
 // atomic file write.
 #include <shrefract/field.h>
+#include <shrefract/field_decode.h>
 
 #include <gtest/gtest.h>
 

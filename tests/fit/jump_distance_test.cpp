@@ -2,6 +2,7 @@
 // with straight jumps at known places, whose distance to each node is known exactly.
 #include <shrefract/bake/jump_distance.h>
 #include <shrefract/field.h>
+#include <shrefract/field_decode.h>
 #include <shrefract/gpu_layout.h>
 
 #include <gtest/gtest.h>

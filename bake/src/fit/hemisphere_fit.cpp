@@ -1,4 +1,5 @@
 #include <shrefract/bake/fit.h>
+#include <shrefract/field_decode.h>
 #include <shrefract/sh.h>
 
 #include <algorithm>
@@ -203,7 +204,7 @@ void HemisphereFit::reconstructAtGrid(const float* coeffs, uint32_t channels, ui
 }
 
 void evaluateExpansion(int order, const float* coeffs, uint32_t channels, glm::vec3 w, float* out) {
-  // The engine's sum (field.h); a zero direction is read as the normal rather than as NaN.
+  // The engine's sum (field_decode.h); a zero direction is read as the normal rather than as NaN.
   if (!(w.x * w.x + w.y * w.y + std::max(w.z, 0.0f) * std::max(w.z, 0.0f) > 0.0f)) w = glm::vec3(0.0f, 0.0f, 1.0f);
   const EncodingShape shape{Encoding::Sh, static_cast<uint32_t>(order), 0, 0, channels};
   evaluateCoefficients(shape, coeffs, nullptr, {w.x, w.y, w.z}, out);

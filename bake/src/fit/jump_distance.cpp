@@ -1,5 +1,6 @@
 #include <shrefract/bake/jump_distance.h>
 #include <shrefract/field.h>
+#include <shrefract/field_decode.h>
 #include <shrefract/gpu_layout.h>
 
 #include <algorithm>

@@ -1,5 +1,6 @@
 #include <shrefract/bake/table_fit.h>
 #include <shrefract/field.h>
+#include <shrefract/field_decode.h>
 
 #include "parallel.h"
 #include "splitmix.h"

@@ -160,7 +160,7 @@ SHR_CONST(kEncodingSh, 0u)       // field.h Encoding::Sh
 SHR_CONST(kEncodingTable, 1u)    // field.h Encoding::Table
 SHR_CONST(kEncodingPca, 2u)      // field.h Encoding::Pca
 SHR_CONST(kEncodingVolume, 3u)   // field.h Encoding::Volume
-// decompress_volume.comp (and field.h traceVolumeSample): the basis binding (kBindingBasis) holds
+// decompress_volume.comp (and field_decode.h traceVolumeSample): the basis binding (kBindingBasis) holds
 // VolumeHeader, then the grid's bricks (field.h FieldVolume): ceil(N / kVolumeBrickSide)^3 entries,
 // then the stored bricks' kVolumeApronWords voxel words each: a brick's kVolumeBrickSide^3 voxels
 // and one more along each axis (the next brick's first, the grid's last where none), x fastest, so

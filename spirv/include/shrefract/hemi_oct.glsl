@@ -44,7 +44,7 @@ vec3 octahedronPoint(uint i, uint j, uint n) {
 
 float pointLength(vec3 p) { return sqrt(p.x * p.x + p.y * p.y + p.z * p.z); }
 
-// The unit direction of node (i, j) of an n x n grid (field.h hemiOctDirection).
+// The unit direction of node (i, j) of an n x n grid (field_decode.h hemiOctDirection).
 vec3 hemiOctDirection(uint i, uint j, uint n) {
   vec3 p = octahedronPoint(i, j, n);
   float len = pointLength(p);

@@ -1,7 +1,8 @@
 // Decoding one sample of a field on the CPU: the hemi-octahedral grid of the Table and Pca
-// encodings and the linear sum every encoding reduces to (field.h). The compute shaders mirror
+// encodings and the linear sum every encoding reduces to (field_decode.h). The compute shaders mirror
 // these operations (spirv/shaders), the bake measures its fits with them and the CPU reference
 // (cpu_reference.cpp) builds on evaluateSample.
+#include <shrefract/field_decode.h>
 #include <shrefract/field.h>
 #include <shrefract/gpu_layout.h>
 #include <shrefract/sh.h>

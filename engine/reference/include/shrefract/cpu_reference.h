@@ -14,6 +14,7 @@
 #pragma once
 
 #include <shrefract/field.h>
+#include <shrefract/field_decode.h>
 #include <shrefract/object.h>
 #include <shrefract/renderer.h>
 
