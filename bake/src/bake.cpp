@@ -1848,7 +1848,7 @@ Result<Field> densifiedVolume(const Scene& scene, const BakePlan& plan, Field fi
                       : "kept at " + std::to_string(budget) + " samples"));
   if (!denser) return field;
   BakeOptions options;
-  options.settings = field.settings;
+  options.settings = bakeSettingsOf(field.settings);
   options.settings.sampleBudget = budget * kVolumeDensifyFactor;
   options.settings.volumeDensify = false;
   options.note = plan.note;

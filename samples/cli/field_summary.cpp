@@ -73,7 +73,7 @@ static std::string encodingText(const Field& f) {
 }
 
 std::string fieldSummaryText(const Field& f, uint64_t fileBytes) {
-  const BakeSettings& s = f.settings;
+  const BakeRecord& s = f.settings;
   const BakeStatistics& st = f.statistics;
   std::string out;
   out += format("field: %ux%u texels, %s, %u channels%s%s%s, %s, layout %s, %u bytes per sample\n", f.width,
@@ -110,7 +110,7 @@ std::string fieldSummaryText(const Field& f, uint64_t fileBytes) {
 }
 
 std::string fieldSummaryJson(const Field& f, uint64_t fileBytes) {
-  const BakeSettings& s = f.settings;
+  const BakeRecord& s = f.settings;
   const BakeStatistics& st = f.statistics;
   std::string media = "[";
   for (size_t i = 0; i < f.media.size(); ++i) {

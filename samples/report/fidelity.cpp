@@ -242,7 +242,7 @@ std::string sceneTitle(const std::string& spec) {
   return slash == std::string::npos ? t : t.substr(slash + 1);
 }
 
-std::string parametersOf(const BakeSettings& s) {
+std::string parametersOf(const BakeRecord& s) {
   switch (s.encoding) {
     case Encoding::Sh: return fmt(s.window == SmoothingWindow::None ? "L%u" : "L%u %s", s.order, toString(s.window));
     case Encoding::Table: return fmt("N%u", s.tableSize);
@@ -888,7 +888,7 @@ void followDefault(const DefaultField& def, Variant& v) {
                                                                                  : PathRule::FirstRefraction;
   v.series = std::string("default, ") + ruleName(rule);
   if (def.f16->encoding == Encoding::Volume) {
-    v.settings = def.f16->settings;
+    v.settings = bakeSettingsOf(def.f16->settings);
     v.settings.tryVolume = false;
     v.label = fmt("volume %u^3", v.settings.volumeSize);
   }

@@ -13,6 +13,7 @@
 //   -> f16 field (angular encoding) -> u8 field (quantization) -> u8 field at 1 spp (pixel sampling).
 #pragma once
 
+#include <shrefract/bake/bake_settings.h>
 #include <shrefract/result.h>
 
 #include <cstdint>

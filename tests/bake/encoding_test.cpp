@@ -158,7 +158,7 @@ BakeSettings atNodes(BakeSettings s) {
   return s;
 }
 
-std::string label(const BakeSettings& s) {
+std::string label(const BakeRecord& s) {
   const bool nodes = s.directionSampling == DirectionSampling::Nodes;
   const std::string q = std::string(s.quantization == Quantization::U8 ? " u8" : " f16") + (nodes ? " nodes" : "") +
                         (nodes && !s.jumpDistance ? " no jump distance" : "") +

@@ -124,7 +124,7 @@ Field makeField(Variant variant) {
   f.media.push_back({"air", 1.0f, 0.0f, {1.0f, 1.0f, 1.0f}});
   f.media.push_back({"glass \xC3\xA9", 1.5f, variant.channels == 4 ? 0.3f : 0.0f, {0.9f, 0.95f, 1.0f}});
 
-  BakeSettings& s = f.settings;
+  BakeRecord& s = f.settings;
   s.source = "builtin:test";
   s.order = kOrder;
   s.directionsTheta = 8;
@@ -203,7 +203,7 @@ void expectSameField(const Field& a, const Field& b) {
     EXPECT_EQ(bits(a.media[i].absorption), bits(b.media[i].absorption));
     for (size_t k = 0; k < 3; ++k) EXPECT_EQ(bits(a.media[i].color[k]), bits(b.media[i].color[k]));
   }
-  const BakeSettings &s = a.settings, &u = b.settings;
+  const BakeRecord &s = a.settings, &u = b.settings;
   EXPECT_EQ(s.source, u.source);
   EXPECT_EQ(s.order, u.order);
   EXPECT_EQ(s.directionsTheta, u.directionsTheta);

@@ -137,7 +137,7 @@ inline constexpr uint32_t kVolumeBrickSide = 8;   // gpu_layout.h kVolumeBrickSi
 inline constexpr uint32_t kVolumeBrickWords = kVolumeBrickSide * kVolumeBrickSide * kVolumeBrickSide;
 inline constexpr uint32_t kVolumeBrickInside = 0xfffffffeu;   // gpu_layout.h: a brick beyond the band, inside
 inline constexpr uint32_t kVolumeBrickOutside = 0xffffffffu;  // and outside
-// The bounce cap (BakeSettings::maxBounces) a Volume field may ask its decode to trace.
+// The bounce cap (BakeRecord::maxBounces) a Volume field may ask its decode to trace.
 inline constexpr uint32_t kMaxVolumeBounces = 1024;
 struct FieldVolume {
   uint32_t size = 0;  // N; 0 for the other encodings
@@ -187,8 +187,10 @@ struct FieldMedium {
   std::array<float, 3> color{1.0f, 1.0f, 1.0f};
 };
 
-// How the field was baked. Stored in the file so that a field documents itself.
-struct BakeSettings {
+// How the field was baked: the settings its file records, so that a field documents itself. The
+// bake's own settings (shrefract/bake/bake_settings.h BakeSettings) add the switches of its driver
+// that leave nothing in a field.
+struct BakeRecord {
   std::string source;                // scene: "builtin:NAME" or the glTF path as given
   uint32_t order = 8;                // SH order L
   uint32_t directionsTheta = 32;     // hemisphere grid: rows in polar angle
@@ -227,29 +229,10 @@ struct BakeSettings {
   uint32_t threads = 0;              // informational: does not change the data
   uint32_t volumeSize = 0;           // Volume: voxels per side N; 0 otherwise
   // The tool's default when no encoding is asked for: the bake decides the encoding from what the
-  // scene is (bake.h settingsForScene), or, with chooseByImages, bakes Pca and the Volume
+  // scene is (bake.h settingsForScene), or, with BakeSettings::chooseByImages, bakes Pca and the Volume
   // encoding (volumeSize; when 0, kDefaultVolumeSize or twice it, bake.h kFinerVolumeGainDb) and
   // keeps whichever field's images come closer to exact renders. A field records what it became.
   bool tryVolume = false;
-  // With tryVolume: the image contest above instead of the scene's decision (minutes, gigabytes).
-  // Not stored in a field.
-  bool chooseByImages = false;
-  // A Volume field (asked for, or kept by tryVolume) whose texels predict the paths between them
-  // poorly is laid out again at more samples (bake.h kVolumeDensifyBelowDb): the tool's default
-  // when no --samples or --density is given. Not stored in a field (its sampleBudget is the budget
-  // it was laid out at); a part file carries it, so that a merge does what the bake would.
-  bool volumeDensify = false;
-  // Pca without `clusters`: also tries 3 times as many clusters as components (bake.cpp
-  // kDefaultClustersPerComponent; where the samples hold 8 a cluster and the tables fit 64 MiB) and
-  // keeps the closest on the traced views. With --choose-by-images and no --components or
-  // --clusters: a cluster's table is stored once per field, so more of them cost memory, not bytes per
-  // sample. Not stored in a field (its `components` says how many it kept); a part file carries it.
-  bool moreClusters = false;
-  // The path rule chosen by measurement: the bake renders both rules' exact paths and the full
-  // Fresnel tree at the image choice's views and keeps highest-energy where its exact renders come
-  // at least kHighestEnergyGainDb closer to the tree (bake.h), first-refraction otherwise. With
-  // --choose-by-images where no --path-rule is given. Not stored in a field (its pathRule is the rule chosen).
-  bool choosePathRule = false;
 };
 
 // Timing fields (seconds, rays per second, memory) vary from run to run; everything else is
@@ -310,7 +293,7 @@ struct EncodingShape {
   // The last channel is the distance from each node to the nearest jump (jump-aware fields only):
   // the decode uses it to place a jump inside a cell and does not output it.
   bool jumpDistance = false;
-  // Channels 0..2 are the exit in the sample's frame (BakeSettings::exitFrame): the decode
+  // Channels 0..2 are the exit in the sample's frame (BakeRecord::exitFrame): the decode
   // rotates its sum to object space by the frame's rows, and the straight-through exit that the
   // jump-aware blend compares with is simply -w.
   bool sampleFrameExits = false;
@@ -373,7 +356,7 @@ struct Field {
 
   FieldMesh mesh;
   std::vector<FieldMedium> media;  // media[0] surrounds the object
-  BakeSettings settings;
+  BakeRecord settings;
   BakeStatistics statistics;
 
   EncodingShape shape() const {

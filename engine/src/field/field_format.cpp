@@ -356,7 +356,7 @@ class SectionReader {
   std::string message_;
 };
 
-void readSettings(SectionReader& r, BakeSettings& s, BakeStatistics& t) {
+void readSettings(SectionReader& r, BakeRecord& s, BakeStatistics& t) {
   s.order = r.u32("settings.order");
   s.directionsTheta = r.u32("settings.directionsTheta");
   s.directionsPhi = r.u32("settings.directionsPhi");
@@ -390,7 +390,7 @@ void readSettings(SectionReader& r, BakeSettings& s, BakeStatistics& t) {
   s.maxErrorDegrees = r.f32("settings.maxErrorDegrees");
 }
 
-void writeSettings(ByteWriter& w, const BakeSettings& s, const BakeStatistics& t) {
+void writeSettings(ByteWriter& w, const BakeRecord& s, const BakeStatistics& t) {
   w.u32(s.order);
   w.u32(s.directionsTheta);
   w.u32(s.directionsPhi);
@@ -516,7 +516,7 @@ void readEncoding(SectionReader& r, Field& field, uint32_t version) {
   field.tableSize = r.u32("encoding.tableSize");
   field.components = r.u32("encoding.components");
   field.throughput = r.u32("encoding.throughput") != 0;
-  BakeSettings& s = field.settings;
+  BakeRecord& s = field.settings;
   s.encoding = static_cast<Encoding>(r.u32("settings.encoding"));
   s.tableSize = r.u32("settings.tableSize");
   s.components = r.u32("settings.components");
@@ -551,7 +551,7 @@ void writeEncoding(ByteWriter& w, const Field& field) {
   w.u32(field.tableSize);
   w.u32(field.components);
   w.u32(field.throughput ? 1u : 0u);
-  const BakeSettings& s = field.settings;
+  const BakeRecord& s = field.settings;
   w.u32(static_cast<uint32_t>(s.encoding));
   w.u32(s.tableSize);
   w.u32(s.components);
@@ -711,7 +711,7 @@ Result<void> validateEncoding(const Field& field) {
 }
 
 Result<void> validateSettings(const Field& field) {
-  const BakeSettings& s = field.settings;
+  const BakeRecord& s = field.settings;
   if (s.source.size() > kMaxStringBytes)
     return invalid("settings.source is " + std::to_string(s.source.size()) + " bytes, over the cap of " +
                    std::to_string(kMaxStringBytes));

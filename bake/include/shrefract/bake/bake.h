@@ -3,6 +3,7 @@
 #pragma once
 
 #include <shrefract/bake/scene.h>
+#include <shrefract/bake/bake_settings.h>
 #include <shrefract/field.h>
 #include <shrefract/result.h>
 

@@ -2,7 +2,7 @@
 // y a tangent basis. The tangent follows the latitude around the object's up axis (+Y, glTF's up),
 // so that samples a rotation about that axis maps onto each other (a torus's ring, a glass's wall,
 // a sphere's parallels) get the same frame relative to their geometry and, with exits stored in the
-// frame (field.h BakeSettings::sampleFrameExits), the same functions: a Pca basis then spends no
+// frame (field.h BakeRecord::exitFrame), the same functions: a Pca basis then spends no
 // functions on rotated copies. A frame depends on the sample's point alone, so every triangle that
 // shares a traced point gets the same, bit-identical frame.
 #pragma once

@@ -10,6 +10,7 @@
 
 #include <shrefract/bake/bake.h>
 #include <shrefract/bake/scene.h>
+#include <shrefract/bake/bake_settings.h>
 #include <shrefract/field.h>
 #include <shrefract/result.h>
 
