@@ -10,6 +10,8 @@
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 
+#include "field/unit_or_z.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -20,10 +22,6 @@ namespace {
 using V3 = glm::vec3;
 using glm::dot;
 
-V3 normalized(V3 a) {
-  const float len2 = dot(a, a);
-  return len2 > 0.0f ? (1.0f / std::sqrt(len2)) * a : V3{0.0f, 0.0f, 1.0f};
-}
 
 // The 8 voxels around grid point g (voxel units, voxel centres at integers), clamped to the grid,
 // and their trilinear weights. As the engine reads them (gpu_layout.h kVolumeApronWords): through
@@ -79,7 +77,7 @@ V3 normalAt(const FieldVolume& v, V3 g) {
   V3 n(0.0f);
   for (uint32_t k = 0; k < 8; ++k)
     if (dot(u[k], u[nearest]) >= gpu::kVolumeNormalBlendCos) n = n + c.weight[k] * u[k];
-  return normalized(n);
+  return unitOrZ(n);
 }
 
 // The distance along d (unit) from g to where the grid's distance changes sign: turns positive
@@ -134,7 +132,7 @@ bool refracted(V3 d, V3 n, float eta, V3& out) {
   const float cosI = std::clamp(-dot(d, n), 0.0f, 1.0f);
   const float k = 1.0f - eta * eta * (1.0f - cosI * cosI);
   if (k < 0.0f) return false;
-  out = normalized(eta * d + (eta * cosI - std::sqrt(k)) * n);
+  out = unitOrZ(eta * d + (eta * cosI - std::sqrt(k)) * n);
   return true;
 }
 
@@ -185,7 +183,7 @@ VolumePath traceVolumePath(const Field& field, const std::array<float, 3>& point
         outsideNow = !outsideNow;
       } else {
         energy *= canRefract ? R : 1.0f;
-        d = normalized(reflected(d, n));
+        d = unitOrZ(reflected(d, n));
       }
       exit = d;
       if (outsideNow && v.convex) break;  // no way out of a convex object meets it again
@@ -198,10 +196,10 @@ VolumePath traceVolumeSample(const Field& field, const float* m, const std::arra
   // The sample's point and normal from its frame's rows (M_s = [R | -R p]).
   const V3 ax{m[0], m[1], m[2]}, ay{m[4], m[5], m[6]}, az{m[8], m[9], m[10]};
   const V3 p = -1.0f * (m[3] * ax + m[7] * ay + m[11] * az);
-  const V3 normal = normalized(az);
+  const V3 normal = unitOrZ(az);
   const V3 eye{w[0], w[1], w[2]};
   const bool facesAway = eye.z < -gpu::kVolumeSkipBelowHorizon * std::sqrt(dot(eye, eye));
-  const V3 local = normalized(V3{w[0], w[1], facesAway ? w[2] : std::max(w[2], 0.0f)});
+  const V3 local = unitOrZ(V3{w[0], w[1], facesAway ? w[2] : std::max(w[2], 0.0f)});
   const V3 d = -1.0f * (local.x * ax + local.y * ay + local.z * az);
   const VolumePath path = facesAway ? VolumePath{{d.x, d.y, d.z}, 0.0f, 1.0f, 0, false}
                                     : traceVolumePath(field, {p.x, p.y, p.z}, {normal.x, normal.y, normal.z},

@@ -7,6 +7,8 @@
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 
+#include "field/unit_or_z.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -25,10 +27,6 @@ namespace {
 using V3 = glm::vec3;
 using glm::dot;
 
-V3 normalized(V3 a) {
-  const float len2 = dot(a, a);
-  return len2 > 0.0f ? (1.0f / std::sqrt(len2)) * a : V3{0.0f, 0.0f, 1.0f};
-}
 
 }  // namespace
 
@@ -61,7 +59,7 @@ V3 unfoldOctahedral(float px, float py) {
     n.x = (1.0f - std::fabs(n.y)) * (x >= 0.0f ? 1.0f : -1.0f);
     n.y = (1.0f - std::fabs(x)) * (n.y >= 0.0f ? 1.0f : -1.0f);
   }
-  return normalized(n);
+  return unitOrZ(n);
 }
 
 }  // namespace
