@@ -1,6 +1,6 @@
 // Decompression benchmark: bytes of SH coefficients read per second by the engine's decompression
 // pass, against plain copies of the same number of bytes on the same device in the same run (GPU
-// timestamps, several repetitions, medians). Target (issue 8): at least half of the copy's rate.
+// timestamps, several repetitions, medians). Target: at least half of the copy's rate.
 //
 //   shrefract_decompression_benchmark [FIELD.shrf] [--size WxH] [--order L] [--quant u8|f16]
 //                                     [--channels 3|4] [--reps N] [--validation] [--profile]

@@ -1,6 +1,6 @@
 // Reference benchmark: the SH path (decompression + raster) at 1280x720 against the exact CPU
 // reference (Embree, the baked scene rebuilt from the field's recorded source) at the same size and
-// camera, in the same run. Target (issue 8), on lavapipe with 2 cores: the bunny at order 8 at 30
+// camera, in the same run. Target, on lavapipe with 2 cores: the bunny at order 8 at 30
 // frames per second or more, and at least 10x faster than the exact reference. It links the bake
 // library (Embree, OpenImageIO) to rebuild the scene, so it runs only where those are installed;
 // shrefract_frame_benchmark is the engine-only frame benchmark that runs on any Vulkan machine.

@@ -980,7 +980,7 @@ std::string rowsMarkdown(const FidelityScene& sc) {
   return md;
 }
 
-// Issue 11's three lines for the default u8 field, against both references: within 3 dB of the
+// The three fidelity lines for the default u8 field, against both references: within 3 dB of the
 // exact render of its path rule, no lower than the highest-energy exact render (the paper's rule)
 // less 3 dB, so that a weaker rule cannot pass, and at least 10 dB above the single interface.
 // "" without those rows.

@@ -1,4 +1,4 @@
-// The report's fidelity section (issue 11): how far the field and the usual shortcuts are from the
+// The report's fidelity section: how far the field and the usual shortcuts are from the
 // physical answer, and where the error comes from.
 //
 // Physical reference: the full Fresnel tree (every branch at every interface) to depth 8, 4x4

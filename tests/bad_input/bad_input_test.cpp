@@ -466,7 +466,7 @@ std::vector<Case> cases() {
                {"bake", "builtin:sphere", "-o", "out.shrfpart", "--encoding", "volume", "--shard", "0/2"}, none,
                {"volume encoding", "one process"}, "out.shrfpart", false, 1});
 
-  // Scenes given to render, cameras (issue 14).
+  // Scenes given to render, cameras.
   const std::vector<std::string> sphere{"render", "builtin:sphere", "--tessellation", "1", "--size", "16x12",
                                         "--mode", "exact", "-o", "out.png"};
   auto camera = [&](std::vector<std::string> extra) {

@@ -1,5 +1,5 @@
 # The engine benchmarks must run on a GPU machine that has a Vulkan driver and nothing of the bake
-# (issue 12): fails when ldd lists an OpenImageIO or Embree library for any of BINARIES (a
+#: fails when ldd lists an OpenImageIO or Embree library for any of BINARIES (a
 # ;-separated list), or when ldd cannot read one. Run as
 #   cmake -DBINARIES="a;b;c" -P portable_link_test.cmake
 if(NOT BINARIES)

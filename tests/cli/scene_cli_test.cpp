@@ -1,4 +1,4 @@
-// The tool on scenes as users hand them over (issue 14), through the real binary ($SHREFRACT_TOOL,
+// The tool on scenes as users hand them over, through the real binary ($SHREFRACT_TOOL,
 // set by ctest): a Blender-style glTF written here bakes with a warning per repair and renders in
 // every mode; a field finds its scene from any working directory (and through --dev scene once the
 // scene moved); camera errors exit 2 with one line before any work and never touch an existing

@@ -1,4 +1,4 @@
-// Skipping work in the engine (issue 8): decompression is left out for an object whose eye has not
+// Skipping work in the engine: decompression is left out for an object whose eye has not
 // moved since its last decompression, and objects outside the view frustum are neither decompressed
 // nor drawn. Each case checks the counts the engine reports (Decompressor::lastStats,
 // Renderer::lastDrawStats) and that the pixels match the path that skips nothing.

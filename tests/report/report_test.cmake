@@ -82,7 +82,7 @@ if(nfield LESS 10)
   message(FATAL_ERROR "expected at least 10 field rows in the fidelity table, got ${nfield}")
 endif()
 # Every row also against the denser full tree, which shares no sample positions with the renders;
-# the reference's own row has a finite figure there, and issue 11's lines are spelled out.
+# the reference's own row has a finite figure there, and the fidelity lines are spelled out.
 if(NOT text MATCHES "PSNR vs physical dB \\| PSNR vs physical [0-9]+x[0-9]+ dB \\|")
   message(FATAL_ERROR "the fidelity table has no column against the denser reference")
 endif()
@@ -90,7 +90,7 @@ if(NOT text MATCHES "\\| full tree depth [0-9]+ \\(CPU\\) \\| - \\| - \\| - \\| 
   message(FATAL_ERROR "the physical row has no measured figure against the denser reference")
 endif()
 if(NOT text MATCHES "The default u8 field, against the [0-9]+x[0-9]+ reference: the field -?[0-9]+\\.[0-9]+ dB, the exact render of its rule -?[0-9]+\\.[0-9]+ \\(-?[0-9]+\\.[0-9]+ apart: (within|beyond) 3\\), the highest-energy exact render -?[0-9]+\\.[0-9]+ \\(floor -?[0-9]+\\.[0-9]+: (above|under)\\), the single interface -?[0-9]+\\.[0-9]+ \\(-?[0-9]+\\.[0-9]+ above it: (at least|under) 10\\); against the [0-9]+x[0-9]+ one: ")
-  message(FATAL_ERROR "the fidelity section does not spell out issue 11's lines for the default field")
+  message(FATAL_ERROR "the fidelity section does not spell out the fidelity lines for the default field")
 endif()
 foreach(step "path rule" "spatial sampling" "angular encoding" "quantization" "pixel sampling")
   if(NOT text MATCHES "\\| ${step} \\| [^|]+ \\| -?[0-9]+\\.[0-9]+ \\| -?[0-9]+\\.[0-9]+ \\|")

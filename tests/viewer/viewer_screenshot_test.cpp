@@ -402,7 +402,7 @@ TEST_F(ViewerTest, ErrorsAreOneLineWithNonZeroExit) {
   EXPECT_EQ(r.exitCode, 2) << r.output;
   r = runCommand(tool() + " view " + shellQuote(at("tiny.shrf")) + " --screenshot out.jpg");
   EXPECT_EQ(r.exitCode, 2) << r.output;
-  // A device the machine does not have names the flag (issue 14), as render does.
+  // A device the machine does not have names the flag, as render does.
   r = view("builtin:sphere --tessellation 1 --frames 1 --device 1024");
   EXPECT_EQ(r.exitCode, 2) << r.output;
   EXPECT_EQ(nonEmptyLines(r.output), 1) << r.output;

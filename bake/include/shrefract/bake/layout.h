@@ -25,7 +25,7 @@ namespace shrefract::bake {
 // Sample budget used when LayoutOptions names neither a budget nor a density. 40000 since clustered
 // Pca fields: a cluster's table is the mean of alike samples, so twice the samples sharpen the
 // spatial term without the loss they brought when 324 shared components had to span them all (the
-// torus +0.47 dB in the report, inside issue 11's 3 dB; docs/encodings.md, "More samples with
+// torus +0.47 dB in the report, inside the 3 dB line; docs/encodings.md, "More samples with
 // clusters"). Fields that keep components lose a little (cube -0.11, bunny -0.20 dB). The price:
 // about 2.2x the bake time, 1.9x its peak memory, 1.4x the file.
 inline constexpr uint64_t kDefaultSampleBudget = 40000;
