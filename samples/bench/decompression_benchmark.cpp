@@ -21,7 +21,7 @@
 // --encodings compares the encodings (field.h) at the paper's budget of 324 coefficient bytes per
 // sample instead: synthetic fields of the same atlas (--size, default 233x233 = 54289 samples,
 // about the bunny's 54123; every texel a sample) in each encoding the bake's
-// --max-bytes-per-sample picks from at 324 bytes (bake.cpp budgetCandidates), plus Pca K = 64 and
+// --max-bytes-per-sample picks from at 324 bytes (bake/src/driver/budget.cpp budgetCandidates), plus Pca K = 64 and
 // the same order or table over the budget with the throughput channel, each uploaded as its own
 // object and decompressed by the engine (Decompressor::record) in turns within every repetition.
 // It prints the median GPU milliseconds of a decompression, the median over repetitions of its
@@ -276,7 +276,7 @@ struct EncodingCase {
   bool jumpDistance = false;  // channels count it
   bool clustered = false;     // Pca: one index per sample (2 bytes), K tables
 };
-// At 324 bytes per sample the bake's budget candidates (bake.cpp budgetCandidates) are, with 4
+// At 324 bytes per sample the bake's budget candidates (bake/src/driver/budget.cpp budgetCandidates) are, with 4
 // channels: SH order 8, Table 9x9 and Pca K = 324 in u8, SH order 5 and Table 6x6 in f16 (288
 // bytes); with the throughput as a fifth channel: SH order 7 and Table 8x8 in u8 (320 bytes).
 // Pca K = 64 shows how the Pca cost scales with K; SH order 8 and Table 9x9 with 5 channels show

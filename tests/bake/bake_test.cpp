@@ -247,7 +247,7 @@ BakeOptions autoFramePcaOptions(uint32_t tableSize, uint32_t components, uint64_
 }
 
 // ExitFrame::Auto (the default) compares the two frames on bases learned from a subset of the
-// samples, not from all of them (bake.cpp keepSampleFrame: two full fits made the 64x64 default
+// samples, not from all of them (bake/src/driver/basis.cpp keepSampleFrame: two full fits made the 64x64 default
 // bake twice as slow), and then learns the field's basis once, in the frame kept: the field is the
 // one an explicit --exit-frame of that frame bakes, byte for byte.
 TEST(Bake, AutoExitFrameChoosesOnASubsetAndLearnsTheFieldOnce) {
@@ -272,7 +272,7 @@ TEST(Bake, AutoExitFrameChoosesOnASubsetAndLearnsTheFieldOnce) {
 }
 
 // Under 2 x 2048 samples the choice learns both candidate bases from every sample, so the kept one
-// is the field's basis: the bake keeps it rather than learning it again (bake.cpp keepSampleFrame),
+// is the field's basis: the bake keeps it rather than learning it again (bake/src/driver/basis.cpp keepSampleFrame),
 // and the field is still the one an explicit --exit-frame of that frame bakes, byte for byte.
 TEST(Bake, SmallAutoExitFrameKeepsTheChoicesBasis) {
   auto scene = makeBuiltinScene("torus", {.tessellation = 1});
@@ -292,7 +292,7 @@ TEST(Bake, SmallAutoExitFrameKeepsTheChoicesBasis) {
 }
 
 // A Pca bake keeps the mean tables of K clusters of its samples where they decode closer than K
-// components to the views it traces for the choice (bake.cpp keepClusters; docs/encodings.md,
+// components to the views it traces for the choice (bake/src/driver/basis.cpp keepClusters; docs/encodings.md,
 // "Clusters"). Its note gives both figures and the field follows the smaller. A clustered field
 // stores each sample's cluster index (2 bytes), not K weights.
 struct BasisChoice {
@@ -373,7 +373,7 @@ TEST(Bake, PcaTriesTheClustersAskedFor) {
   EXPECT_EQ(more.field.basis.size(), size_t(96) * 8 * 8 * more.field.channels);
   EXPECT_EQ(more.components, few.components);  // the same 24 components are measured against them
   EXPECT_NE(more.clusters, few.clusters);
-  // 1500 samples hold at most 187 clusters of 8 (bake.cpp kMinSamplesPerCluster): beyond, the
+  // 1500 samples hold at most 187 clusters of 8 (bake/src/driver/basis.cpp kMinSamplesPerCluster): beyond, the
   // components stay without a try.
   const BasisChoice tooMany = bakeAndChooseBasis("sphere", 24, 200, false);
   EXPECT_FALSE(tooMany.field.clustered);
@@ -381,7 +381,7 @@ TEST(Bake, PcaTriesTheClustersAskedFor) {
 }
 
 // BakeSettings::moreClusters (the tool's default): without `clusters` the bake tries as many
-// clusters as components and three times as many (bake.cpp kDefaultClustersPerComponent), where the
+// clusters as components and three times as many (bake/src/driver/basis.cpp kDefaultClustersPerComponent), where the
 // samples hold 8 a cluster, and keeps the closest on the views: its note names both tries, and the
 // field holds the closer one's tables. Without the flag only as many are tried (the tests above).
 TEST(Bake, PcaTriesThreeTimesTheClustersByDefault) {
@@ -518,7 +518,7 @@ TEST(Bake, NodeTablesFitTheirOwnNodesExactly) {
 
 // The same for a Pca field with as many components as the table has values: its weights span
 // every sample's table, so its fit at the nodes is exact but for the decomposition's rounding. The
-// check decodes each checked sample's weights summed into its table (bake.cpp,
+// check decodes each checked sample's weights summed into its table (bake/src/driver/bake_driver.h,
 // ManyDirectionDecoder); a sum that dropped or misplaced a component would read degrees here.
 TEST(Bake, FullRankPcaFitsItsOwnNodesExactly) {
   BakeSettings s = tracedAtTheNodes(Encoding::Pca, 12, 800);

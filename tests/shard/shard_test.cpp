@@ -142,7 +142,7 @@ std::vector<std::string> bakeParts(const fs::path& dir, const std::vector<std::s
   return names;
 }
 
-// The lines of a bake's stderr that say a choice made after the tracing (bake.cpp keepSampleFrame
+// The lines of a bake's stderr that say a choice made after the tracing (bake/src/driver/basis.cpp keepSampleFrame
 // and keepClusters).
 std::vector<std::string> choiceLines(const std::string& err) {
   std::vector<std::string> out;

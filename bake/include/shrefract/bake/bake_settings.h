@@ -15,7 +15,7 @@ struct BakeSettings : BakeRecord {
   // when no --samples or --density is given. Not stored in a field (its sampleBudget is the budget it was laid out at);
   // a part file carries it, so that a merge does what the bake would.
   bool volumeDensify = false;
-  // Pca without `clusters`: also tries 3 times as many clusters as components (bake.cpp
+  // Pca without `clusters`: also tries 3 times as many clusters as components (bake/src/driver/basis.cpp
   // kDefaultClustersPerComponent; where the samples hold 8 a cluster and the tables fit 64 MiB) and
   // keeps the closest on the traced views. With --choose-by-images and no --components or
   // --clusters: a cluster's table is stored once per field, so more of them cost memory, not bytes per
