@@ -628,8 +628,8 @@ int run(const Options& o) {
         printPairRatios(o, "volume paths refined where they part against 2x2 paths everywhere", "2x2", "refined",
                         o.refineVolumePaths ? other.value() : fragments.value(),
                         o.refineVolumePaths ? fragments.value() : other.value(), timestamps);
+        for (auto& object : scene.value().objects) (void)object->setTracesVolumePerFragment(false);
       }
-      for (auto& object : scene.value().objects) (void)object->setTracesVolumePerFragment(false);
       if (o.msaa == VK_SAMPLE_COUNT_1_BIT) continue;
       auto multi = benchmarkScene(*gpu, multisampled, *environment.value(), scene.value(), o);
       if (!multi) return fail("--msaa " + std::to_string(uint32_t(o.msaa)) + ": " + multi.error().message);

@@ -43,11 +43,16 @@ uint invocationIndex() {
   return gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * kDecompressLocalSize;
 }
 
+// M_s (eye, 1) of sample s, below its tangent plane too (decompress_volume.comp skips those).
+vec3 eyeInFrameUnclamped(uint s, vec4 eye) {
+  return vec3(dot(frames[3u * s], eye), dot(frames[3u * s + 1u], eye), dot(frames[3u * s + 2u], eye));
+}
+
 // w = M_s (eye, 1) of sample s. Below the sample's tangent plane the field has no data: w.z is
 // clamped to the horizon. Not normalized: the SH evaluator and the hemi-octahedral map both are
 // invariant to the length (and both take the zero vector as +z).
 vec3 eyeInFrame(uint s, vec4 eye) {
-  vec3 w = vec3(dot(frames[3u * s], eye), dot(frames[3u * s + 1u], eye), dot(frames[3u * s + 2u], eye));
+  vec3 w = eyeInFrameUnclamped(s, eye);
   w.z = max(w.z, 0.0);
   return w;
 }

@@ -37,13 +37,11 @@ void main() {
   vec4 r0 = frames[3u * s], r1 = frames[3u * s + 1u], r2 = frames[3u * s + 2u];
   vec3 ax = r0.xyz, ay = r1.xyz, az = r2.xyz;
   vec3 p = -1.0 * (r0.w * ax + r1.w * ay + r2.w * az);
-  vec4 e = vec4(pc.eyeObject.xyz, 1.0);
-  vec3 eye = vec3(dot(r0, e), dot(r1, e), dot(r2, e));
-  // A sample facing away (kVolumeSkipBelowHorizon) is not traced: the view passes by.
-  bool facesAway = eye.z < -kVolumeSkipBelowHorizon * sqrt(dot(eye, eye));
-  vec3 local = unitOr(vec3(eye.xy, facesAway ? eye.z : max(eye.z, 0.0)));
+  vec3 eye = eyeInFrameUnclamped(s, vec4(pc.eyeObject.xyz, 1.0));
+  vec3 local = unitOr(eye);
   vec3 d = -1.0 * (local.x * ax + local.y * ay + local.z * az);
+  // A sample facing away (the eye below its tangent plane) is not traced: the view passes by.
   VolumePath path = VolumePath(d, 0.0, 1.0);
-  if (!facesAway) path = traceVolumePath(p, unitOr(az), d);
+  if (eye.z >= 0.0) path = traceVolumePath(p, unitOr(az), d);
   storeSample(s, distortionTexel(path.exit, HAS_TAU ? path.tau : path.energy, path.energy));
 }

@@ -197,9 +197,8 @@ VolumePath traceVolumeSample(const Field& field, const float* m, const std::arra
   const V3 ax{m[0], m[1], m[2]}, ay{m[4], m[5], m[6]}, az{m[8], m[9], m[10]};
   const V3 p = -1.0f * (m[3] * ax + m[7] * ay + m[11] * az);
   const V3 normal = unitOrZ(az);
-  const V3 eye{w[0], w[1], w[2]};
-  const bool facesAway = eye.z < -gpu::kVolumeSkipBelowHorizon * std::sqrt(dot(eye, eye));
-  const V3 local = unitOrZ(V3{w[0], w[1], facesAway ? w[2] : std::max(w[2], 0.0f)});
+  const bool facesAway = w[2] < 0.0f;  // no fragment reads it
+  const V3 local = unitOrZ(V3{w[0], w[1], w[2]});
   const V3 d = -1.0f * (local.x * ax + local.y * ay + local.z * az);
   const VolumePath path = facesAway ? VolumePath{{d.x, d.y, d.z}, 0.0f, 1.0f, 0, false}
                                     : traceVolumePath(field, {p.x, p.y, p.z}, {normal.x, normal.y, normal.z},

@@ -175,11 +175,6 @@ SHR_CONSTF(kVolumeMinStep, 0.2f)
 SHR_CONSTF(kVolumeStepScale, 1.0f)
 SHR_CONST(kVolumeMaxSteps, 4096u)
 SHR_CONST(kVolumeBisections, 6u)
-// A sample whose eye is below its tangent plane by more than this fraction of the eye's distance
-// (the sine of the angle) faces away: the decode writes the view passing by instead of tracing it.
-// The margin keeps the texels that a front-facing fragment's bilinear lookup still reads at a
-// silhouette, where the shading normal leans away from the triangle's.
-SHR_CONSTF(kVolumeSkipBelowHorizon, 0.0f)
 // The normal at a crossing blends the 8 voxels' normals that lie within acos(kVolumeNormalBlendCos)
 // (45 deg) of the nearest voxel's, so that an edge of the surface stays sharp.
 SHR_CONSTF(kVolumeNormalBlendCos, 0.70710678f)

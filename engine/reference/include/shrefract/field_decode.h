@@ -59,7 +59,7 @@ void evaluateCoefficients(const EncodingShape& shape, const float* coefficients,
 float volumeDistance(const FieldVolume& volume, const std::array<float, 3>& objectPoint);
 
 // A Volume field's path for one sample (the decode of the Volume encoding): the view direction w in
-// the sample's frame (as evaluateSample takes it; z below 0 read as 0 where traced) arrives at the sample's point
+// the sample's frame (as evaluateSample takes it, not clamped to the horizon) arrives at the sample's point
 // and normal (from its frame's rows `frameRows`), refracts into media[1] and is traced through the
 // grid under the field's path rule and bounce cap: marched along the trilinear distance until it
 // changes sign, the crossing bisected, the interface's normal the trilinear normal there; a way
@@ -69,9 +69,8 @@ float volumeDistance(const FieldVolume& volume, const std::array<float, 3>& obje
 // still inside after maxBounces interfaces, or that leaves the grid without a crossing, leaves
 // along its direction of travel), then the optical depth (path length inside times media[1]'s absorption)
 // where the field has one, then the throughput (the Fresnel factors after the entry) where it has
-// one. A sample whose eye lies further below its tangent plane than gpu_layout.h
-// kVolumeSkipBelowHorizon is not traced (no fragment reads it): the view passes by, optical depth
-// 0, throughput 1. Mirrored by decompress_volume.comp. Preconditions: validateField(field), a
+// one. A sample whose eye lies below its tangent plane is not traced (no fragment reads it): the
+// view passes by, optical depth 0, throughput 1. Mirrored by decompress_volume.comp. Preconditions: validateField(field), a
 // Volume field. Returns the path it stored.
 struct VolumePath;
 VolumePath traceVolumeSample(const Field& field, const float* frameRows, const std::array<float, 3>& w, float* out);
