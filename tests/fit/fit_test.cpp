@@ -6,6 +6,9 @@
 
 #include <cmath>
 #include <random>
+#include <utility>
+
+#include <Eigen/Dense>
 
 #include <algorithm>
 #include <glm/glm.hpp>
@@ -200,6 +203,79 @@ TEST(HemisphereFit, RobustFitIsExactInTheSpan) {
     for (int c = 0; c < 3; ++c) worst = std::max(worst, double(std::fabs(out[c] - values[d * 3 + c])));
   }
   EXPECT_LT(worst, 1e-4);
+}
+
+// The dense iteratively reweighted least squares the robust fit computes, written out: each pass
+// forms Y^T U Y over every direction (U: solid angle / (1 + (angle / 3 deg)^2)) and solves it.
+std::vector<double> denseRobustFit(const DirectionGrid& g, int order, double lambda, const std::vector<float>& values,
+                                   int channels, const std::vector<float>& start) {
+  const int nb = sh::basisCount(order);
+  const Eigen::Index nd = Eigen::Index(g.directions.size());
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> y(nd, nb);
+  Eigen::MatrixXd f(nd, channels), c(nb, channels);
+  for (Eigen::Index d = 0; d < nd; ++d) {
+    sh::evaluate(order, g.directions[d].x, g.directions[d].y, g.directions[d].z, &y(d, 0));
+    for (int k = 0; k < channels; ++k) f(d, k) = values[size_t(d) * channels + k];
+  }
+  for (int i = 0; i < nb; ++i)
+    for (int k = 0; k < channels; ++k) c(i, k) = start[size_t(i) * channels + k];
+  Eigen::VectorXd penalty(nb);
+  for (int l = 0; l <= order; ++l)
+    for (int m = -l; m <= l; ++m) penalty(sh::index(l, m)) = lambda * std::pow(double(l) * (l + 1), 2);
+  for (int pass = 0; pass < kRobustIterations; ++pass) {
+    const Eigen::MatrixXd g3 = y * c;
+    Eigen::VectorXd u(nd);
+    for (Eigen::Index d = 0; d < nd; ++d) {
+      const Eigen::Vector3d a = g3.row(d).head<3>(), b = f.row(d).head<3>();
+      const double angle = std::atan2(a.cross(b).norm(), a.dot(b)) / (kRobustScaleDegrees * M_PI / 180.0);
+      u(d) = g.weights[size_t(d)] / (1.0 + angle * angle);
+    }
+    Eigen::MatrixXd normal = y.transpose() * u.asDiagonal() * y;
+    normal.diagonal() += penalty;
+    c = normal.llt().solve(y.transpose() * u.asDiagonal() * f);
+  }
+  return std::vector<double>(c.data(), c.data() + c.size());  // column-major: [k * nb + i]
+}
+
+// The robust fit sums each row's phi through Fourier sums of its weights; the dense system written
+// out above must give the same expansion, on a jump (the slab's side wall) at orders 4 and 8.
+TEST(HemisphereFit, RobustFitMatchesTheDenseReweighting) {
+  for (const auto& [order, rows] : {std::pair{4, 16}, std::pair{8, 32}}) {
+    const DirectionGrid g = makeHemisphereGrid(uint32_t(rows), uint32_t(2 * rows));
+    auto lsq = HemisphereFit::create(g, order, kDefaultRegularization);
+    auto robust = HemisphereFit::create(g, order, kDefaultRegularization, FitMethod::RobustLeastSquares);
+    ASSERT_TRUE(lsq.ok() && robust.ok());
+    const float edge = std::sin(glm::radians(50.0f));
+    std::vector<float> values(g.directions.size() * 4);
+    for (size_t d = 0; d < g.directions.size(); ++d) {
+      const glm::vec3 w(g.directions[d]);
+      const glm::vec4 e = w.x > edge ? glm::vec4(-w.x, w.y, w.z, 2.0f) : glm::vec4(w.y * 0.3f, w.x, w.z, 1.0f + w.y);
+      for (int c = 0; c < 4; ++c) values[d * 4 + c] = e[c];
+    }
+    const int nb = sh::basisCount(order);
+    std::vector<float> start(size_t(nb) * 4), ours(start.size());
+    lsq->fit(values.data(), 4, start.data());
+    robust->fit(values.data(), 4, ours.data());
+    const std::vector<double> dense = denseRobustFit(g, order, kDefaultRegularization, values, 4, start);
+    double worst = 0.0, largest = 0.0;
+    for (int i = 0; i < nb; ++i)
+      for (int k = 0; k < 4; ++k) {
+        worst = std::max(worst, std::fabs(double(ours[size_t(i) * 4 + k]) - dense[size_t(k) * nb + i]));
+        largest = std::max(largest, std::fabs(dense[size_t(k) * nb + i]));
+      }
+    // Float coefficients in and out, and 8 passes that can amplify a rounding: 1e-4 of the largest.
+    EXPECT_LT(worst, 1e-4 * largest) << "order " << order << ": worst " << worst << " of " << largest;
+  }
+}
+
+// A grid that is not makeHemisphereGrid's has no phi rows to sum over: refused, not mis-fitted.
+TEST(HemisphereFit, RobustFitRefusesAnotherGrid) {
+  DirectionGrid g = makeHemisphereGrid(16, 32);
+  std::swap(g.directions[3], g.directions[40]);
+  auto robust = HemisphereFit::create(g, 4, kDefaultRegularization, FitMethod::RobustLeastSquares);
+  ASSERT_FALSE(robust.ok());
+  EXPECT_NE(robust.error().message.find("grid"), std::string::npos) << robust.error().message;
+  EXPECT_TRUE(HemisphereFit::create(g, 4, kDefaultRegularization).ok());
 }
 
 TEST(HemisphereFit, RejectsBadArguments) {

@@ -10,6 +10,8 @@
 
 #include <Eigen/Dense>
 
+#include "robust_fit.h"
+
 namespace shrefract::bake {
 
 DirectionGrid makeHemisphereGrid(uint32_t rows, uint32_t columns) {
@@ -108,15 +110,10 @@ Result<HemisphereFit> HemisphereFit::create(const DirectionGrid& grid, int order
   fit.basisAtGrid_.assign(y.size(), 0.0f);
   std::transform(y.begin(), y.end(), fit.basisAtGrid_.begin(), [](double v) { return static_cast<float>(v); });
   if (method == FitMethod::RobustLeastSquares) {
-    // The float basis, as the reweighting has always read it.
-    fit.robustBasis_.resize(y.size());
-    Eigen::Map<Eigen::MatrixXd>(fit.robustBasis_.data(), Eigen::Index(nd), nb) =
-        Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
-            fit.basisAtGrid_.data(), Eigen::Index(nd), nb)
-            .cast<double>();
-    fit.gridWeights_ = grid.weights;
+    if (!isProductGrid(grid))
+      return makeError(ErrorCode::InvalidArgument, "the robust SH fit needs a (theta, phi) grid of makeHemisphereGrid");
     const Eigen::VectorXd p = penaltyDiagonal(order, lambda);
-    fit.penalty_.assign(p.data(), p.data() + p.size());
+    fit.robust_ = std::make_shared<const RobustReweighting>(grid, order, std::vector<double>(p.data(), p.data() + p.size()));
   }
   const RowMajor weighted = weightedBasis(grid, y, nb);
   std::optional<RowMajor> projection = method == FitMethod::PlainProjection
@@ -151,47 +148,7 @@ void HemisphereFit::fit(const float* values, uint32_t channels, float* coeffs) c
   }
   for (int i = 0; i < basis_; ++i)
     for (uint32_t c = 0; c < channels; ++c) coeffs[size_t(i) * channels + c] = acc[size_t(c) * basis_ + size_t(i)];
-  if (!robustBasis_.empty() && channels >= 3) reweight(values, channels, coeffs);
-}
-
-namespace {
-
-// The angle between the expansion's exit and the traced one; a zero expansion is as far as can be.
-double exitAngle(const Eigen::Vector3d& fitted, const Eigen::Vector3d& traced) {
-  if (!(fitted.squaredNorm() > 0.0)) return std::numbers::pi;
-  return std::atan2(fitted.cross(traced).norm(), fitted.dot(traced));
-}
-
-}  // namespace
-
-// FitMethod::RobustLeastSquares, from the least-squares fit in `coeffs`: iteratively reweighted
-// least squares, in double, each pass solving (Y^T U Y + lambda R) c = Y^T U f with U the solid
-// angles scaled by Cauchy's weight of the previous pass's angles.
-void HemisphereFit::reweight(const float* values, uint32_t channels, float* coeffs) const {
-  using FloatRows = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-  const Eigen::Index nd = directions_, nb = basis_, nc = channels;
-  const Eigen::Map<const Eigen::MatrixXd> y(robustBasis_.data(), nd, nb);
-  thread_local Eigen::MatrixXd f, c, rootWeighted, normal;  // each worker keeps its allocations
-  f = Eigen::Map<const FloatRows>(values, nd, nc).cast<double>();
-  c = Eigen::Map<const FloatRows>(coeffs, nb, nc).cast<double>();
-  const double scale = kRobustScaleDegrees * std::numbers::pi / 180.0;
-  const Eigen::Map<const Eigen::VectorXd> penalty(penalty_.data(), nb);
-  Eigen::VectorXd u(nd);
-  for (int pass = 0; pass < kRobustIterations; ++pass) {
-    const Eigen::MatrixXd g = y * c;
-    for (Eigen::Index d = 0; d < nd; ++d) {
-      const double a = exitAngle(g.row(d).head<3>().transpose(), f.row(d).head<3>().transpose()) / scale;
-      u(d) = gridWeights_[size_t(d)] / (1.0 + a * a);
-    }
-    rootWeighted = y.array().colwise() * u.array().sqrt();
-    normal.setZero(nb, nb);
-    normal.selfadjointView<Eigen::Lower>().rankUpdate(rootWeighted.transpose());
-    normal.diagonal() += penalty;
-    const Eigen::LLT<Eigen::MatrixXd, Eigen::Lower> llt(normal);
-    if (llt.info() != Eigen::Success) break;  // keeps the last pass's fit
-    c = llt.solve(y.transpose() * (u.asDiagonal() * f));
-  }
-  Eigen::Map<FloatRows>(coeffs, nb, nc) = c.cast<float>();
+  if (robust_ && channels >= 3) robust_->apply(values, channels, coeffs);
 }
 
 void HemisphereFit::reconstructAtGrid(const float* coeffs, uint32_t channels, uint32_t d, float* out) const {

@@ -16,6 +16,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace shrefract::bake {
@@ -51,11 +52,14 @@ enum class FitMethod {
 inline constexpr double kRobustScaleDegrees = 3.0;
 inline constexpr int kRobustIterations = 8;
 
+class RobustReweighting;
+
 class HemisphereFit {
  public:
   // Precomputes the projection P (basis x directions) so that fitting one sample is a matrix
   // product. Errors: order outside 0..kMaxFitOrder, empty grid, fewer directions than basis
-  // functions (least squares would be underdetermined), a singular system.
+  // functions (least squares would be underdetermined), a singular system, RobustLeastSquares on
+  // a grid that is not makeHemisphereGrid's.
   static Result<HemisphereFit> create(const DirectionGrid& grid, int order, double lambda,
                                       FitMethod method = FitMethod::RegularizedLeastSquares);
 
@@ -75,11 +79,7 @@ class HemisphereFit {
   uint32_t directions_ = 0;
   std::vector<float> projectionT_;  // directions_ x basis_, row-major (P transposed)
   std::vector<float> basisAtGrid_; // directions_ x basis_, row-major
-  // RobustLeastSquares only (empty otherwise): basisAtGrid_ in double, column-major, converted once
-  // rather than per sample; the grid's solid angles; the penalty's diagonal, lambda (l (l+1))^2.
-  std::vector<double> robustBasis_, gridWeights_, penalty_;
-
-  void reweight(const float* values, uint32_t channels, float* coeffs) const;
+  std::shared_ptr<const RobustReweighting> robust_;  // RobustLeastSquares only
 };
 
 inline constexpr int kMaxFitOrder = 24;
