@@ -1,5 +1,5 @@
 // The .shrf format (docs/field-format.md): exact round trips, rejection of every truncation, of
-// corrupted bytes and of newer versions, structural validation, coefficient quantization, and the
+// corrupted bytes and of newer and older versions, structural validation, coefficient quantization, and the
 // atomic file write.
 #include <shrefract/field.h>
 #include <shrefract/field_decode.h>
@@ -842,6 +842,24 @@ TEST_F(FieldFiles, ReadOfDirectoryFails) {
   EXPECT_TRUE(contains(r.error().message, dir_.string())) << r.error().message;
 }
 
+// An older version read from disk: one line naming the path, and nothing else happens.
+TEST_F(FieldFiles, ReadOfAnOlderVersionSaysToBakeAgain) {
+  std::vector<uint8_t> bytes = serializeField(makeField({4, Quantization::U8}));
+  putU32(bytes, 4, kOldestReadFieldFormatVersion - 1);
+  resign(bytes);
+  const std::string path = (dir_ / "old.shrf").string();
+  {
+    std::ofstream out(path, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  }
+  const Result<Field> r = readField(path);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::Unsupported);
+  EXPECT_EQ(r.error().message, path + ": field format version " + std::to_string(kOldestReadFieldFormatVersion - 1) +
+                                   " is no longer read; bake the field again with this version of shrefract");
+  EXPECT_EQ(listing(), std::vector<std::string>{"old.shrf"});
+}
+
 TEST_F(FieldFiles, ReadOfTruncatedFileNamesIt) {
   const std::vector<uint8_t> bytes = serializeField(makeField({4, Quantization::U8}));
   const std::string path = (dir_ / "short.shrf").string();
@@ -856,7 +874,7 @@ TEST_F(FieldFiles, ReadOfTruncatedFileNamesIt) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Version 2: the Table and Pca encodings, the throughput channel, version 1 files.
+// The Table and Pca encodings and the throughput channel.
 
 // makeField's atlas with a Table (N = 3) or Pca (N = 3, K = 5) encoding, optionally with throughput.
 // jumpDistance: a 12x12 table (the smallest decoded jump-aware) with the jump distance channel.
@@ -996,7 +1014,7 @@ INSTANTIATE_TEST_SUITE_P(Encodings, FieldEncodings,
                          });
 
 // ---------------------------------------------------------------------------------------------
-// Version 8: the Volume encoding (a grid at the end of ENCD, no coefficients).
+// The Volume encoding (a grid at the end of ENCD, no coefficients).
 
 // makeField's atlas as a Volume field over an 8^3 grid of varied distance levels and normals.
 // A 12^3 grid, 2^3 bricks of which the last ones lie partly beyond it: voxels with x >= 8 beyond
@@ -1199,28 +1217,6 @@ TEST(FieldEncodingValidation, BrokenEncodingsAreRejected) {
   EXPECT_TRUE(contains(r.error().message, "directionSampling")) << r.error().message;
 }
 
-TEST(FieldVersion1, StillReadAsAnShFieldWithoutThroughput) {
-  // A version 1 file is version 2 without the ENCD section, fitted by least squares.
-  Field f = makeField({4, Quantization::U8});
-  f.settings.shFit = ShFit::LeastSquares;
-  std::vector<uint8_t> b = serializeField(f);
-  const size_t encd = sectionPayload(b, "ENCD") - 12;
-  b.erase(b.begin() + static_cast<std::ptrdiff_t>(encd), b.end() - 4);
-  putU32(b, 4, 1);
-  putU32(b, 36, 6);
-  putU64(b, 8, b.size());
-  resign(b);
-  const Result<Field> r = parse(b, "v1.shrf");
-  ASSERT_TRUE(r.ok()) << r.error().message;
-  expectSameField(f, r.value());
-  EXPECT_EQ(r.value().encoding, Encoding::Sh);
-  EXPECT_FALSE(r.value().throughput);
-  // Version 1 with the version 2 section count is corrupt.
-  putU32(b, 36, 7);
-  resign(b);
-  EXPECT_FALSE(parse(b, "v1.shrf").ok());
-}
-
 // The file without the last `bytes` of ENCD, labelled `version`.
 std::vector<uint8_t> withShorterEncoding(const Field& f, uint64_t bytes, uint32_t version) {
   std::vector<uint8_t> b = serializeField(f);
@@ -1268,189 +1264,6 @@ TEST(FieldClustered, TablesAreBinary16AtTheEndOfTheEncoding) {
   EXPECT_TRUE(contains(r.error().message, "has an f32 basis")) << r.error().message;
 }
 
-// A version 6 file is version 7 without the SH fit at the end of ENCD; it reads as least squares,
-// the only fit before version 7.
-TEST(FieldVersion6, StillReadAsLeastSquares) {
-  Field f = makeField({4, Quantization::U8});
-  ASSERT_EQ(f.encoding, Encoding::Sh);
-  f.settings.shFit = ShFit::Robust;
-  std::vector<uint8_t> b = withShorterEncoding(f, kShFitBytes + kVolumeBytes, 6);
-  const Result<Field> r = parse(b, "v6.shrf");
-  ASSERT_TRUE(r.ok()) << r.error().message;
-  EXPECT_EQ(r.value().settings.shFit, ShFit::LeastSquares);
-  f.settings.shFit = ShFit::LeastSquares;
-  expectSameField(f, r.value());
-  // The same bytes labelled version 7 are short by the missing value.
-  putU32(b, 4, 7);
-  resign(b);
-  EXPECT_FALSE(parse(b, "v6.shrf").ok());
-  // And version 7 keeps the fit, but only a known one.
-  f.settings.shFit = ShFit::Robust;
-  const Result<Field> robust = parse(serializeField(f), "v7.shrf");
-  ASSERT_TRUE(robust.ok()) << robust.error().message;
-  EXPECT_EQ(robust.value().settings.shFit, ShFit::Robust);
-  f.settings.shFit = static_cast<ShFit>(2);
-  const Result<void> unknown = validateField(f);
-  ASSERT_FALSE(unknown.ok());
-  EXPECT_TRUE(contains(unknown.error().message, "settings.shFit 2")) << unknown.error().message;
-}
-
-// A version 7 file is version 8 without the volume at the end of ENCD; it reads as a field without
-// one, and the same bytes labelled version 8 are short by it.
-TEST(FieldVersion7, StillReadWithoutAVolume) {
-  const Field f = makeField({4, Quantization::U8});
-  std::vector<uint8_t> b = withShorterEncoding(f, kVolumeBytes, 7);
-  const Result<Field> r = parse(b, "v7.shrf");
-  ASSERT_TRUE(r.ok()) << r.error().message;
-  expectSameField(f, r.value());
-  EXPECT_EQ(r.value().volume.size, 0u);
-  putU32(b, 4, 8);
-  resign(b);
-  EXPECT_FALSE(parse(b, "v7.shrf").ok());
-}
-
-// The bytes of a version 8 file of `f`: ENCD's volume dense (`dense`, N^3 words or none) in place
-// of version 9's empty array, without the bricks after it.
-std::vector<uint8_t> asVersion8(const Field& f, const std::vector<uint32_t>& dense) {
-  std::vector<uint8_t> b = serializeField(f);
-  const size_t encd = sectionPayload(b, "ENCD");
-  const uint64_t length = getU64(b, encd - 8);
-  const uint64_t bricks = 8 + 4 * (f.volume.bricks.size() + f.volume.brickVoxels.size()) + 8;
-  const size_t end = encd + length, denseAt = size_t(end - bricks - 8 - 8);  // its count, then the two u32
-  EXPECT_EQ(getU64(b, denseAt), 0u);
-  b.erase(b.begin() + static_cast<std::ptrdiff_t>(end - bricks), b.begin() + static_cast<std::ptrdiff_t>(end));
-  std::vector<uint8_t> words(8 + 4 * dense.size());
-  for (size_t k = 0; k < 8; ++k) words[k] = uint8_t(uint64_t(dense.size()) >> (8 * k));
-  for (size_t i = 0; i < dense.size(); ++i)
-    for (size_t k = 0; k < 4; ++k) words[8 + 4 * i + k] = uint8_t(dense[i] >> (8 * k));
-  b.erase(b.begin() + static_cast<std::ptrdiff_t>(denseAt), b.begin() + static_cast<std::ptrdiff_t>(denseAt + 8));
-  b.insert(b.begin() + static_cast<std::ptrdiff_t>(denseAt), words.begin(), words.end());
-  putU64(b, encd - 8, length - bricks - 8 + words.size());
-  putU32(b, 4, 8);
-  putU64(b, 8, b.size());
-  resign(b);
-  return b;
-}
-
-// A version 8 voxel word: 12 distance bits over +-kVolumeBandVoxels, then 10 bits each of the
-// normal's octahedral coordinates (the zero vector at the levels' middle).
-uint32_t version8Word(float d, std::array<float, 3> n) {
-  const float l1 = std::fabs(n[0]) + std::fabs(n[1]) + std::fabs(n[2]);
-  float px = l1 > 0.0f ? n[0] / l1 : 0.0f, py = l1 > 0.0f ? n[1] / l1 : 0.0f;
-  if (l1 > 0.0f && n[2] < 0.0f) {
-    const float fx = (1.0f - std::fabs(py)) * (px >= 0.0f ? 1.0f : -1.0f);
-    py = (1.0f - std::fabs(px)) * (py >= 0.0f ? 1.0f : -1.0f);
-    px = fx;
-  }
-  const auto level = [](float p) { return uint32_t(std::lround(p * 511.0f + 511.0f)); };
-  return uint32_t(std::lround(std::clamp(d, -4.0f, 4.0f) / 4.0f * 2047.0f + 2047.0f)) | (level(px) << 12) |
-         (level(py) << 22);
-}
-
-// A version 8 grid is dense in the 12-and-10-bit word: it reads into this version's word and
-// bricks (its far voxels entries again, the others within the two layouts' steps), and a wrong
-// count of voxels is refused. Version 9 stores bricks only: a dense array there is refused.
-TEST(FieldVersion8, ADenseGridIsReadIntoBricks) {
-  const Field f = makeVolumeField(Quantization::U8, false);
-  const uint32_t n = kVolumeFieldSize;
-  std::vector<uint32_t> old;
-  std::vector<float> distance;
-  std::vector<std::array<float, 3>> normal;
-  for (uint32_t i = 0; i < n * n * n; ++i) {
-    const uint32_t x = i % n, y = (i / n) % n;
-    const float d = x >= 8 ? 4.0f : y >= 8 ? -4.0f : 4.0f * std::sin(0.7f * float(i));
-    const std::array<float, 3> u = x >= 8 || y >= 8 ? std::array<float, 3>{0.0f, 0.0f, 0.0f}
-                                                    : std::array<float, 3>{std::cos(0.3f * float(i)),
-                                                                           std::sin(0.3f * float(i)), 0.5f};
-    distance.push_back(d);
-    normal.push_back(u);
-    old.push_back(version8Word(d, u));
-  }
-  const Result<Field> r = parse(asVersion8(f, old), "v8.shrf");
-  ASSERT_TRUE(r.ok()) << r.error().message;
-  expectSameField(f, r.value());
-  const FieldVolume& v = r.value().volume;
-  EXPECT_EQ(v.bricks, f.volume.bricks);
-  double worstDistance = 0.0, worstNormal = 0.0;
-  for (uint32_t i = 0; i < n * n * n; ++i) {
-    const uint32_t word = volumeVoxel(v, i % n, (i / n) % n, i / (n * n));
-    const float d = (float(word & 0xffu) - 127.0f) * (4.0f / 127.0f);
-    worstDistance = std::max(worstDistance, double(std::fabs(d - distance[i])));
-    const std::array<float, 3>& u = normal[i];
-    if (u[0] == 0.0f && u[1] == 0.0f && u[2] == 0.0f) continue;
-    const std::array<float, 3> back = unpackVolumeNormal(word);
-    const float len = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-    const float c = (back[0] * u[0] + back[1] * u[1] + back[2] * u[2]) / len;
-    worstNormal = std::max(worstNormal, std::acos(std::min(1.0, double(c))) * 180.0 / 3.14159265358979);
-  }
-  EXPECT_LE(worstDistance, 2.0 / 127.0 + 2.0 / 2047.0 + 1e-6);  // half of each layout's step
-  EXPECT_LT(worstNormal, 0.3);                                 // version 8's 10 bits: at most 0.232 deg
-  std::vector<uint32_t> short_ = old;
-  short_.pop_back();
-  const Result<Field> cut = parse(asVersion8(f, short_), "v8.shrf");
-  ASSERT_FALSE(cut.ok());
-  EXPECT_TRUE(contains(cut.error().message, "volume has 1727 voxels, expected 12^3")) << cut.error().message;
-  std::vector<uint8_t> nine = asVersion8(f, old);
-  putU32(nine, 4, 9);
-  resign(nine);
-  EXPECT_FALSE(parse(nine, "v9.shrf").ok());
-  // A field without a grid: version 8 is version 9 without the two empty arrays at the end.
-  const Field sh = makeField({4, Quantization::U8});
-  const Result<Field> plain = parse(withShorterEncoding(sh, kBrickBytes, 8), "v8.shrf");
-  ASSERT_TRUE(plain.ok()) << plain.error().message;
-  expectSameField(sh, plain.value());
-}
-
-TEST(FieldVersion5, StillReadUnclustered) {
-  // A version 5 file is version 6 without the clustered flag and the indices at the end of ENCD.
-  Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false, true, true);
-  f.settings.shFit = ShFit::LeastSquares;  // what a file before version 7 reads as
-  std::vector<uint8_t> b = withShorterEncoding(f, kClusteredBytes + kShFitBytes + kVolumeBytes, 5);
-  const Result<Field> r = parse(b, "v5.shrf");
-  ASSERT_TRUE(r.ok()) << r.error().message;
-  expectSameField(f, r.value());
-  EXPECT_FALSE(r.value().clustered);
-  EXPECT_EQ(r.value().settings.clusters, 0u);
-  EXPECT_TRUE(r.value().sampleFrameExits);
-  // The same bytes labelled version 6 are short by the missing flag and array.
-  putU32(b, 4, 6);
-  resign(b);
-  EXPECT_FALSE(parse(b, "v5.shrf").ok());
-}
-
-TEST(FieldVersion4, StillReadWithObjectSpaceExits) {
-  // A version 4 file is version 5 without the exit frame at the end of ENCD.
-  Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false, true, true);
-  f.settings.shFit = ShFit::LeastSquares;  // what a file before version 7 reads as
-  std::vector<uint8_t> b = withShorterEncoding(f, 4 + kClusteredBytes + kShFitBytes + kVolumeBytes, 4);
-  const Result<Field> r = parse(b, "v4.shrf");
-  ASSERT_TRUE(r.ok()) << r.error().message;
-  expectSameField(f, r.value());
-  EXPECT_TRUE(r.value().jumpDistance);
-  EXPECT_FALSE(r.value().sampleFrameExits);
-  EXPECT_EQ(r.value().settings.exitFrame, ExitFrame::Object);
-  // The same bytes labelled version 5 are short by the missing flag.
-  putU32(b, 4, 5);
-  resign(b);
-  EXPECT_FALSE(parse(b, "v4.shrf").ok());
-}
-
-TEST(FieldVersion3, StillReadWithoutJumpDistance) {
-  // A version 3 file is version 5 without the jump distance and exit frame at the end of ENCD.
-  Field f = makeEncodedField(Encoding::Pca, Quantization::U8, false);
-  f.settings.shFit = ShFit::LeastSquares;  // what a file before version 7 reads as
-  std::vector<uint8_t> b = withShorterEncoding(f, 8 + kClusteredBytes + kShFitBytes + kVolumeBytes, 3);
-  const Result<Field> r = parse(b, "v3.shrf");
-  ASSERT_TRUE(r.ok()) << r.error().message;
-  expectSameField(f, r.value());
-  EXPECT_FALSE(r.value().jumpDistance);
-  EXPECT_EQ(r.value().settings.directionSampling, DirectionSampling::Nodes);
-  // The same bytes labelled version 4 are short by the missing flag.
-  putU32(b, 4, 4);
-  resign(b);
-  EXPECT_FALSE(parse(b, "v3.shrf").ok());
-}
-
 TEST(FieldJumpDistance, OnlyWhereTheDecodeIsJumpAware) {
   const std::vector<std::pair<std::string, std::function<void(Field&)>>> cases = {
       {"jump distance", [](Field& f) { f.settings.directionSampling = DirectionSampling::Grid; }},
@@ -1479,19 +1292,83 @@ TEST(FieldJumpDistance, OnlyWhereTheDecodeIsJumpAware) {
   EXPECT_TRUE(contains(r.error().message, "no optical depth")) << r.error().message;
 }
 
-TEST(FieldVersion2, StillReadWithGridSampling) {
-  // A version 2 file is version 3 without the direction sampling at the end of ENCD (and version 5
-  // without the jump distance and exit frame after it).
-  const Field f = makeEncodedField(Encoding::Table, Quantization::U8, false);
-  std::vector<uint8_t> b = withShorterEncoding(f, 12 + kClusteredBytes + kShFitBytes + kVolumeBytes, 2);
-  const Result<Field> r = parse(b, "v2.shrf");
-  ASSERT_TRUE(r.ok()) << r.error().message;
-  EXPECT_EQ(r.value().settings.directionSampling, DirectionSampling::Grid);
-  EXPECT_EQ(r.value().encoding, Encoding::Table);
-  // The same bytes labelled version 3 are short by the missing field.
-  putU32(b, 4, 3);
+// A file of another layout than this version's: the dense voxel words (`dense`) that ENCD's array
+// before the settings never holds in this version, the grid in bricks after them as usual.
+std::vector<uint8_t> withDenseVoxels(const Field& f, const std::vector<uint32_t>& dense) {
+  std::vector<uint8_t> b = serializeField(f);
+  const size_t encd = sectionPayload(b, "ENCD");
+  const uint64_t length = getU64(b, encd - 8);
+  const uint64_t bricks = 8 + 4 * (f.volume.bricks.size() + f.volume.brickVoxels.size()) + 8;
+  const size_t denseAt = size_t(encd + length - bricks - 4 - 4 - 8);  // its count, then the two u32
+  EXPECT_EQ(getU64(b, denseAt), 0u);
+  std::vector<uint8_t> words(4 * dense.size());
+  for (size_t i = 0; i < dense.size(); ++i)
+    for (size_t k = 0; k < 4; ++k) words[4 * i + k] = uint8_t(dense[i] >> (8 * k));
+  putU64(b, denseAt, dense.size());
+  b.insert(b.begin() + static_cast<std::ptrdiff_t>(denseAt + 8), words.begin(), words.end());
+  putU64(b, encd - 8, length + words.size());
+  putU64(b, 8, b.size());
   resign(b);
-  EXPECT_FALSE(parse(b, "v2.shrf").ok());
+  return b;
+}
+
+// The grid is stored in bricks only: dense voxels in this version's file are refused.
+TEST(FieldVolume, DenseVoxelsAreRefused) {
+  const Field f = makeVolumeField(Quantization::U8, false);
+  const Result<Field> r = parse(withDenseVoxels(f, volumeFieldVoxels()), "dense.shrf");
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::CorruptData);
+  EXPECT_TRUE(contains(r.error().message, "dense.shrf: volume has 1728 dense voxels")) << r.error().message;
+}
+
+// The line every refused version gets: the file, the version, and what to do about it.
+std::string refusal(const std::string& name, uint32_t version) {
+  return name + ": field format version " + std::to_string(version) +
+         " is no longer read; bake the field again with this version of shrefract";
+}
+
+// Versions before kOldestReadFieldFormatVersion are refused whole, as Unsupported, with one line,
+// before any of the file is interpreted: the same bytes read as this version's file when labelled
+// so, and every older label gets the refusal line.
+TEST(FieldFormatVersion, OlderVersionsAreRefusedWithOneLine) {
+  const std::vector<Field> fields = {makeField({4, Quantization::U8}), makeEncodedField(Encoding::Pca, Quantization::F16, true),
+                                     makeVolumeField(Quantization::U8, false)};
+  for (const Field& f : fields)
+    for (uint32_t version = 1; version < kOldestReadFieldFormatVersion; ++version) {
+      std::vector<uint8_t> b = serializeField(f);
+      putU32(b, 4, version);
+      resign(b);
+      const Result<Field> r = parse(b, "old.shrf");
+      ASSERT_FALSE(r.ok()) << "version " << version;
+      EXPECT_EQ(r.error().code, ErrorCode::Unsupported) << "version " << version;
+      EXPECT_EQ(r.error().message, refusal("old.shrf", version));
+    }
+}
+
+// Files of the older layouts themselves (ENCD shorter by what later versions appended, a version 1
+// file without ENCD) get the same line: the layout is never looked at.
+TEST(FieldFormatVersion, OlderLayoutsAreRefusedWithOneLine) {
+  const Field sh = makeField({4, Quantization::U8});
+  const std::vector<std::pair<uint32_t, uint64_t>> shorter = {
+      {8, kBrickBytes}, {7, kVolumeBytes}, {6, kShFitBytes + kVolumeBytes},
+      {5, kClusteredBytes + kShFitBytes + kVolumeBytes}, {4, 4 + kClusteredBytes + kShFitBytes + kVolumeBytes},
+      {3, 8 + kClusteredBytes + kShFitBytes + kVolumeBytes}, {2, 12 + kClusteredBytes + kShFitBytes + kVolumeBytes}};
+  for (const auto& [version, bytes] : shorter) {
+    const Result<Field> r = parse(withShorterEncoding(sh, bytes, version), "old.shrf");
+    ASSERT_FALSE(r.ok()) << "version " << version;
+    EXPECT_EQ(r.error().message, refusal("old.shrf", version));
+  }
+  std::vector<uint8_t> v1 = serializeField(sh);
+  const size_t encd = sectionPayload(v1, "ENCD") - 12;
+  v1.erase(v1.begin() + static_cast<std::ptrdiff_t>(encd), v1.end() - 4);
+  putU32(v1, 4, 1);
+  putU32(v1, 36, 6);
+  putU64(v1, 8, v1.size());
+  resign(v1);
+  const Result<Field> r = parse(v1, "v1.shrf");
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::Unsupported);
+  EXPECT_EQ(r.error().message, refusal("v1.shrf", 1));
 }
 
 // The hemi-octahedral map: nodes map back to their grid positions, the border is the horizon, and

@@ -105,8 +105,6 @@ namespace {
 constexpr uint32_t kMaxAtlasSize = 16384;      // texels per side
 constexpr uint32_t kMaxOrder = 32;             // SH order
 constexpr uint32_t kMaxStringBytes = 65536;    // any length-prefixed string
-// Version 1 has the first six sections; version 2 adds ENCD (encoding, throughput, path rule, basis).
-constexpr uint32_t kSectionCountV1 = 6;
 constexpr uint32_t kSectionCount = 7;
 // Largest magnitude of a Pca basis value. Direction channels (x, y, z): with |weights| <=
 // kMaxCoefficientMagnitude and at most kMaxComponents functions every decoded sum stays below
@@ -468,16 +466,9 @@ void readMesh(SectionReader& r, FieldMesh& mesh) {
   r.arrayU32(mesh.indices, "mesh.indices");
 }
 
-// ENCD (version 2): how the coefficients are to be decoded, and the bake's choices that go with it;
-// version 3 appends the direction sampling (Grid before it), version 4 the jump distance flag (none
-// before it; the settings record what the field has), version 5 the frame of the exits (object
-// space before it), version 6 whether a Pca field is clustered, its samples' indices and the
-// clusters the bake was asked for, version 7 how an SH field was fitted (least squares before it).
-// ENCD version 8: a Volume field's grid (FieldVolume; size 0 and no voxels for the other encodings),
-// its N^3 voxel words dense. Version 9 leaves that array empty and appends the grid's bricks
-// (FieldVolume::bricks, then brickVoxels) in a word of 8 distance bits and 12 a normal coordinate
-// (field.h); a version 8 grid's words (12 and 10) are read into that word and into bricks.
-void readVolume(SectionReader& r, Field& field, uint32_t version) {
+// The end of ENCD: a Volume field's grid (FieldVolume; size 0 and no bricks for the other
+// encodings). The array before the settings is always empty: the grid is stored in bricks.
+void readVolume(SectionReader& r, Field& field) {
   FieldVolume& v = field.volume;
   v.size = r.u32("volume.size");
   for (int k = 0; k < 3; ++k) v.origin[k] = r.f32("volume.origin");
@@ -486,17 +477,9 @@ void readVolume(SectionReader& r, Field& field, uint32_t version) {
   r.arrayU32(dense, "volume voxels");
   field.settings.volumeSize = r.u32("settings.volumeSize");
   field.settings.tryVolume = r.u32("settings.tryVolume") != 0;
-  if (version >= 9) {
-    r.arrayU32(v.bricks, "volume bricks");
-    r.arrayU32(v.brickVoxels, "volume brick voxels");
-    if (!dense.empty()) r.fail("a version 9 volume has " + std::to_string(dense.size()) + " dense voxels; it stores bricks");
-    return;
-  }
-  if (dense.empty() || r.failed()) return;  // no grid: validateVolume names what is missing
-  if (v.size < kMinVolumeSize || v.size > kMaxVolumeSize || dense.size() != uint64_t(v.size) * v.size * v.size)
-    return r.fail("volume has " + std::to_string(dense.size()) + " voxels, expected " + std::to_string(v.size) + "^3");
-  for (uint32_t& w : dense) w = volumeVoxelFromVersion8(w);
-  setVolumeVoxels(v, dense);
+  r.arrayU32(v.bricks, "volume bricks");
+  r.arrayU32(v.brickVoxels, "volume brick voxels");
+  if (!dense.empty()) r.fail("volume has " + std::to_string(dense.size()) + " dense voxels; the grid is stored in bricks");
 }
 
 void writeVolume(ByteWriter& w, const Field& field) {
@@ -504,14 +487,15 @@ void writeVolume(ByteWriter& w, const Field& field) {
   w.u32(v.size);
   for (float o : v.origin) w.f32(o);
   w.f32(v.spacing);
-  w.arrayU32({});  // version 8's dense voxels
+  w.arrayU32({});  // no dense voxels: the grid is in bricks
   w.u32(field.settings.volumeSize);
   w.u32(field.settings.tryVolume ? 1u : 0u);
   w.arrayU32(v.bricks);
   w.arrayU32(v.brickVoxels);
 }
 
-void readEncoding(SectionReader& r, Field& field, uint32_t version) {
+// ENCD: how the coefficients are to be decoded, and the bake's choices that go with it.
+void readEncoding(SectionReader& r, Field& field) {
   field.encoding = static_cast<Encoding>(r.u32("encoding"));
   field.tableSize = r.u32("encoding.tableSize");
   field.components = r.u32("encoding.components");
@@ -524,21 +508,19 @@ void readEncoding(SectionReader& r, Field& field, uint32_t version) {
   s.pathRule = static_cast<PathRule>(r.u32("settings.pathRule"));
   s.maxBytesPerSample = r.f32("settings.maxBytesPerSample");
   r.arrayF32(field.basis, "basis");
-  s.directionSampling =
-      version >= 3 ? static_cast<DirectionSampling>(r.u32("settings.directionSampling")) : DirectionSampling::Grid;
-  field.jumpDistance = version >= 4 && r.u32("encoding.jumpDistance") != 0;
+  s.directionSampling = static_cast<DirectionSampling>(r.u32("settings.directionSampling"));
+  field.jumpDistance = r.u32("encoding.jumpDistance") != 0;
   s.jumpDistance = field.jumpDistance;
-  field.sampleFrameExits = version >= 5 && r.u32("encoding.sampleFrameExits") != 0;
+  field.sampleFrameExits = r.u32("encoding.sampleFrameExits") != 0;
   s.exitFrame = field.sampleFrameExits ? ExitFrame::Sample : ExitFrame::Object;
-  if (version < 6) return;
   field.clustered = r.u32("encoding.clustered") != 0;
   r.arrayU16(field.clusterIndices, "cluster indices");
   s.clusters = r.u32("settings.clusters");
   // A clustered field's tables, binary16 (validateEncoding: the f32 basis above is then empty).
   std::vector<uint16_t> tables;
   r.arrayU16(tables, "cluster tables");
-  if (version >= 7) s.shFit = static_cast<ShFit>(r.u32("settings.shFit"));
-  if (version >= 8) readVolume(r, field, version);
+  s.shFit = static_cast<ShFit>(r.u32("settings.shFit"));
+  readVolume(r, field);
   if (field.clustered && !field.basis.empty()) return r.fail("a clustered field has an f32 basis (its tables are binary16)");
   if (!field.clustered && !tables.empty()) return r.fail("cluster tables are stored, but the field is not clustered");
   if (!field.clustered) return;
@@ -698,7 +680,7 @@ Result<void> validateEncoding(const Field& field) {
   if (field.basis.size() != basisValues)
     return invalid("basis has " + std::to_string(field.basis.size()) + " values, expected " + std::to_string(basisValues));
   for (size_t i = 0; i < field.basis.size(); ++i) {
-    // A clustered field stores its tables as binary16 (docs/field-format.md, ENCD version 6).
+    // A clustered field stores its tables as binary16 (docs/field-format.md, ENCD).
     if (field.clustered && !(halfToFloat(floatToHalf(field.basis[i])) == field.basis[i]))
       return invalid("basis[" + std::to_string(i) + "] = " + formatFloat(field.basis[i]) +
                      " of a clustered field is not a binary16 value");
@@ -1190,9 +1172,9 @@ std::vector<uint8_t> serializeField(const Field& field) {
 namespace {
 
 // The frame (magic, version, file size, trailing checksum) is the same in every version, so a
-// corrupt file is told apart from a newer one before the version is interpreted. Returns the
-// version.
-Result<uint32_t> checkFrame(const uint8_t* data, size_t size, const std::string& name) {
+// corrupt file is told apart from a newer or an older one before the version is interpreted. Past
+// it, the file is of the one version this reader reads.
+Result<void> checkFrame(const uint8_t* data, size_t size, const std::string& name) {
   auto corrupt = [&](const std::string& problem) { return makeError(ErrorCode::CorruptData, name + ": " + problem); };
   if (size >= 4 && std::memcmp(data, kMagic.data(), 4) != 0)
     return corrupt("not a shrefract field: magic is " + hexBytes(data, 4) + ", expected \"SHRF\" (53 48 52 46)");
@@ -1218,15 +1200,20 @@ Result<uint32_t> checkFrame(const uint8_t* data, size_t size, const std::string&
     return makeError(ErrorCode::Unsupported, name + ": format version " + std::to_string(version) +
                                                  " is newer than this reader's version " +
                                                  std::to_string(kFieldFormatVersion));
+  // Refused before the header is read, so no part of an old file is interpreted (field.h).
+  if (version < kOldestReadFieldFormatVersion)
+    return makeError(ErrorCode::Unsupported, name + ": field format version " + std::to_string(version) +
+                                                 " is no longer read; bake the field again with this version of "
+                                                 "shrefract");
   if (body < kHeaderBytes)
     return corrupt("truncated: file is " + std::to_string(size) + " bytes, the header alone needs " +
                    std::to_string(kHeaderBytes));
-  return version;
+  return {};
 }
 
 // The header's atlas size, order, channels and quantization into `field`, after checking them and
-// the section count the version has.
-Result<void> readHeader(const uint8_t* data, uint32_t version, const std::string& name, Field& field) {
+// the section count.
+Result<void> readHeader(const uint8_t* data, const std::string& name, Field& field) {
   auto corrupt = [&](const std::string& problem) { return makeError(ErrorCode::CorruptData, name + ": " + problem); };
   field.width = loadU32(data + 16);
   field.height = loadU32(data + 20);
@@ -1239,15 +1226,14 @@ Result<void> readHeader(const uint8_t* data, uint32_t version, const std::string
                    std::to_string(kMaxAtlasSize) + " texels per side");
   if (field.order > kMaxOrder)
     return corrupt("order " + std::to_string(field.order) + " is over the limit of " + std::to_string(kMaxOrder));
-  const uint32_t expectedSections = version == 1 ? kSectionCountV1 : kSectionCount;
-  if (sectionCount != expectedSections)
-    return corrupt("header lists " + std::to_string(sectionCount) + " sections, version " + std::to_string(version) +
-                   " has " + std::to_string(expectedSections));
+  if (sectionCount != kSectionCount)
+    return corrupt("header lists " + std::to_string(sectionCount) + " sections, version " +
+                   std::to_string(kFieldFormatVersion) + " has " + std::to_string(kSectionCount));
   return {};
 }
 
 // Section s's contents (kSections order) into `field`; failures are left in `r`.
-void readSection(uint32_t s, SectionReader& r, uint64_t length, uint32_t version, Field& field) {
+void readSection(uint32_t s, SectionReader& r, uint64_t length, Field& field) {
   switch (s) {
     case 0:
       if (length < kSettingsFixedBytes)
@@ -1266,16 +1252,15 @@ void readSection(uint32_t s, SectionReader& r, uint64_t length, uint32_t version
       r.arrayU8(field.coefficientsU8, "u8 coefficients");
       r.arrayU16(field.coefficientsF16, "f16 coefficients");
       break;
-    default: readEncoding(r, field, version); break;
+    default: readEncoding(r, field); break;
   }
 }
 
-// Every section of the version, in order, each read to its exact length, up to the checksum.
-Result<void> readSections(const uint8_t* data, size_t body, uint32_t version, const std::string& name, Field& field) {
+// Every section, in order, each read to its exact length, up to the checksum.
+Result<void> readSections(const uint8_t* data, size_t body, const std::string& name, Field& field) {
   auto corrupt = [&](const std::string& problem) { return makeError(ErrorCode::CorruptData, name + ": " + problem); };
-  const uint32_t sectionCount = version == 1 ? kSectionCountV1 : kSectionCount;
   size_t pos = kHeaderBytes;
-  for (uint32_t s = 0; s < sectionCount; ++s) {
+  for (uint32_t s = 0; s < kSectionCount; ++s) {
     const SectionInfo& info = kSections[s];
     if (body - pos < kSectionHeaderBytes)
       return corrupt(std::string("truncated: ") + info.label + " section header needs " +
@@ -1289,7 +1274,7 @@ Result<void> readSections(const uint8_t* data, size_t body, uint32_t version, co
       return corrupt(std::string("truncated: ") + info.label + " section needs " + std::to_string(length) + " bytes, " +
                      std::to_string(body - pos) + " left");
     SectionReader r(data + pos, static_cast<size_t>(length), name, info.label);
-    readSection(s, r, length, version, field);
+    readSection(s, r, length, field);
     if (r.failed()) return makeError(ErrorCode::CorruptData, r.message());
     if (r.consumed() != length)
       return corrupt(std::string(info.label) + " section is " + std::to_string(length) + " bytes, its contents use " +
@@ -1304,12 +1289,10 @@ Result<void> readSections(const uint8_t* data, size_t body, uint32_t version, co
 }  // namespace
 
 Result<Field> parseField(const uint8_t* data, size_t size, const std::string& name) {
-  auto version = checkFrame(data, size, name);
-  if (!version) return version.error();
+  if (auto r = checkFrame(data, size, name); !r) return r.error();
   Field field;
-  field.settings.shFit = ShFit::LeastSquares;  // the only fit before version 7, which records it
-  if (auto r = readHeader(data, version.value(), name, field); !r) return r.error();
-  if (auto r = readSections(data, size - kChecksumBytes, version.value(), name, field); !r) return r.error();
+  if (auto r = readHeader(data, name, field); !r) return r.error();
+  if (auto r = readSections(data, size - kChecksumBytes, name, field); !r) return r.error();
   if (auto r = validateField(field); !r) return makeError(ErrorCode::CorruptData, name + ": " + r.error().message);
   if (field.encoding == Encoding::Volume) field.volume.convex = meshIsConvex(field.mesh);
   return field;
