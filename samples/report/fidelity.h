@@ -36,7 +36,7 @@ struct FidelityResult {
 
 struct FidelityOptions {
   ReportSize size = ReportSize::Default;
-  std::vector<std::string> scenes;  // empty: the defaults of the size (see fidelity.cpp)
+  std::vector<std::string> scenes;  // empty: the defaults of the size (see fidelity_profile.cpp)
   std::string outputDirectory;
   uint32_t width = 0, height = 0;   // 0: by size
   uint32_t frames = 0;              // GPU frames timed per row; 0: by size

@@ -64,7 +64,7 @@ struct FidelityRow {
   uint32_t bytesPerSample = 0;   // fields only
   uint64_t samples = 0;          // fields: distinct surface points traced (BakeStatistics::uniqueSamples)
   double psnrPhysical = 0.0;     // dB against the physical reference
-  double psnrSameRule = 0.0;     // dB against the exact render of the same path rule (see fidelity.cpp)
+  double psnrSameRule = 0.0;     // dB against the exact render of the same path rule (see fidelity_measure.cpp)
   // dB against the full tree at 2S x 2S, which shares no sample positions with the S x S renders
   // (the physical row: the S x S reference's own figure against it).
   double psnrDense = 0.0;

@@ -285,6 +285,11 @@ std::vector<Case> cases() {
   c.push_back({"field of a newer format version", {"render", "future.shrf", "-o", "out.png"},
                [](const fs::path& dir) { writeBytes(dir / "future.shrf", bytesOf(fieldWithVersion(kFieldFormatVersion + 1))); },
                {"future.shrf", "version"}, "out.png"});
+  c.push_back({"field of an older format version", {"render", "old.shrf", "-o", "out.png"},
+               [](const fs::path& dir) {
+                 writeBytes(dir / "old.shrf", bytesOf(fieldWithVersion(kOldestReadFieldFormatVersion - 1)));
+               },
+               {"old.shrf", "bake the field again"}, "out.png"});
   c.push_back({"field of format version 0", {"info", "zero.shrf"},
                [](const fs::path& dir) { writeBytes(dir / "zero.shrf", bytesOf(fieldWithVersion(0))); },
                {"zero.shrf", "version"}, ""});

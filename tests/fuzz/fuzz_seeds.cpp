@@ -126,7 +126,7 @@ int main(int argc, char** argv) {
         const std::vector<uint8_t> bytes = shrefract::serializeField(shrefract::testing::makeSyntheticField(o));
         ok = write(fieldDir + "/field" + std::to_string(n++) + ".bin", std::string(bytes.begin(), bytes.end())) && ok;
       }
-  // Version 2 encodings: a small Table and Pca field each, one with the throughput channel.
+  // The Table and Pca encodings: a small field each, the Pca one with the throughput channel.
   for (auto encoding : {shrefract::Encoding::Table, shrefract::Encoding::Pca}) {
     shrefract::testing::SyntheticFieldOptions o;
     o.width = 4;
@@ -142,12 +142,12 @@ int main(int argc, char** argv) {
     const std::vector<uint8_t> bytes = shrefract::serializeField(shrefract::testing::makeSyntheticField(o));
     ok = write(fieldDir + "/field" + std::to_string(n++) + ".bin", std::string(bytes.begin(), bytes.end())) && ok;
     if (encoding != shrefract::Encoding::Pca) continue;
-    // Version 6: the same Pca field clustered, one index a sample.
+    // The same Pca field clustered, one index a sample.
     o.clustered = true;
     const std::vector<uint8_t> clustered = shrefract::serializeField(shrefract::testing::makeSyntheticField(o));
     ok = write(fieldDir + "/field" + std::to_string(n++) + ".bin", std::string(clustered.begin(), clustered.end())) && ok;
   }
-  // Version 8: a Volume field (a grid of the band's sphere, no coefficients).
+  // A Volume field (a grid of the band's sphere, no coefficients).
   {
     shrefract::testing::SyntheticFieldOptions o;
     o.width = 4;

@@ -2,8 +2,7 @@
 //
 // For every surface sample s (a texel of the sample atlas) and every view direction w over the
 // hemisphere of the sample's local frame, the bake traced where the refracted path leaves the
-// object (a unit direction, in object space or, since version 5, in the sample's own frame:
-// `sampleFrameExits`), how much optical depth it crossed and, optionally, the
+// object (a unit direction, in object space or in the sample's own frame: `sampleFrameExits`), how much optical depth it crossed and, optionally, the
 // Fresnel throughput of the path. These channels (x, y, z, [tau], [throughput]) are functions on
 // the hemisphere (node-sampled Table and Pca fields may add a last channel that only guides their
 // decode: the distance to the nearest jump of the exit direction, docs/encodings.md "Jumps"), stored in one of three encodings (docs/encodings.md):
@@ -31,11 +30,13 @@
 
 namespace shrefract {
 
-// 1: SH only, no throughput; 2: adds ENCD; 3: adds the direction sampling; 4: adds the jump
-// distance channel; 5: adds exits stored in the sample's frame; 6: adds clustered Pca fields, one
-// function index per sample; 7: adds how an SH field was fitted; 8: adds the Volume encoding's
-// grid, dense; 9: stores that grid in bricks (1 to 8 still read).
+// The `.shrf` version that serializeField writes (docs/field-format.md, "Versioning").
 inline constexpr uint32_t kFieldFormatVersion = 9;
+// The oldest version parseField reads. An older version is read only where the current reader
+// handles its layout with no branch of its own; every other one is refused as Unsupported with
+// one line: "FILE: field format version V is no longer read; bake the field again with this
+// version of shrefract". No version before 9 reads that way, so 9 is the only one read.
+inline constexpr uint32_t kOldestReadFieldFormatVersion = 9;
 
 // Largest magnitude of a decoded coefficient (validateField, encodeCoefficients). With at most
 // 1089 basis functions (order 32) the sum of |Y_i| is at most 1089 / sqrt(4 pi) = 307, so every
@@ -81,7 +82,7 @@ enum class DirectionSampling : uint32_t {
 enum class ExitFrame : uint32_t { Object = 0, Sample = 1, Auto = 2 };
 
 // How an SH bake fits each sample's expansion to its traced directions (docs/technique.md, "Robust
-// fit"). Fields of format version 6 and earlier were fitted by least squares.
+// fit").
 enum class ShFit : uint32_t {
   LeastSquares = 0,  // regularized least squares over the grid directions
   // The same, iteratively reweighted: a direction the expansion misses by far counts less, so that
@@ -394,9 +395,6 @@ inline constexpr uint32_t kMaxEncodedChannels = kMaxFieldChannels + 1;
 // and the unit normal back from a word.
 uint32_t packVolumeVoxel(float distanceVoxels, const std::array<float, 3>& normal);
 std::array<float, 3> unpackVolumeNormal(uint32_t word);
-// A version 8 file's voxel word (12 distance bits, 10 a normal coordinate) in this layout, its far
-// words far words again.
-uint32_t volumeVoxelFromVersion8(uint32_t word);
 // Whether every vertex of `mesh` lies on or behind every triangle's plane (within 1e-5 of its
 // extent, each plane facing the way its vertex normals do): the mesh then bounds one convex body,
 // which a straight ray leaving it never meets again (two convex parts fail: each lies in front of
@@ -432,8 +430,9 @@ Result<void> encodeCoefficients(Field& field, const std::function<const float*(u
 // coefficient within kMaxCoefficientMagnitude.
 Result<void> validateField(const Field& field);
 
-// Serialization. parseField validates everything: magic, version (newer versions are rejected
-// as Unsupported), section sizes, checksum, then validateField. `name` is used in messages.
+// Serialization. parseField validates everything: magic, file size, checksum, version (a newer
+// version, or one before kOldestReadFieldFormatVersion, is rejected as Unsupported), section
+// sizes, then validateField. `name` is used in messages.
 std::vector<uint8_t> serializeField(const Field& field);
 Result<Field> parseField(const uint8_t* data, size_t size, const std::string& name);
 Result<Field> readField(const std::string& path);

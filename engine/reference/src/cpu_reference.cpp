@@ -1,3 +1,7 @@
+// The CPU mirror of the engine's decompression and object passes (cpu_reference.h): the decode of a
+// texel, the distortion image, and the shading of a field's or a volume's fragment, line for line
+// as the shaders compute them. The environment's lookups are in environment_lookup.cpp, the pixel
+// loop around the shading in raster.cpp.
 #include <shrefract/cpu_reference.h>
 
 #include <algorithm>
@@ -16,12 +20,10 @@
 #include "core/half.h"
 #include "environment/latlong.h"
 #include "shrefract/gpu_layout.h"
+#include "reference_internal.h"
 
 namespace shrefract::reference {
 namespace {
-
-glm::vec3 toGlm(const Vec3& v) { return {v[0], v[1], v[2]}; }
-Vec3 fromGlm(const glm::vec3& v) { return {v.x, v.y, v.z}; }
 
 const float* texelAt(const DistortionImage& image, uint32_t x, uint32_t y) {
   return &image.rgba[(size_t(y) * image.width + x) * 4];
@@ -125,45 +127,6 @@ Vec4 sampleBilinear(const DistortionImage& image, float u, float v) {
   return out;
 }
 
-std::vector<std::vector<float>> environmentLevels(const LatLongImage& env) {
-  const uint32_t count = environmentLevelCount(env.width, env.height);
-  std::vector<std::vector<float>> levels;
-  std::vector<float> above(env.rgba, env.rgba + size_t(env.width) * env.height * 4);
-  for (float& v : above) v = roundToBinary16(v);
-  uint32_t w = env.width, h = env.height;
-  for (uint32_t level = 1; level < count; ++level) {
-    const uint32_t w2 = std::max(1u, w >> 1), h2 = std::max(1u, h >> 1);
-    std::vector<float> next(size_t(w2) * h2 * 4);
-    for (uint32_t j = 0; j < h2; ++j)
-      for (uint32_t i = 0; i < w2; ++i) {
-        // The destination texel centre in source texels, less half a texel: bilinear, clamped.
-        const float x = (float(i) + 0.5f) * float(w) / float(w2) - 0.5f;
-        const float y = (float(j) + 0.5f) * float(h) / float(h2) - 0.5f;
-        const float fx = std::floor(x), fy = std::floor(y);
-        const float ax = x - fx, ay = y - fy;
-        auto cx = [&](float t) { return size_t(std::clamp(t, 0.0f, float(w - 1))); };
-        auto cy = [&](float t) { return size_t(std::clamp(t, 0.0f, float(h - 1))); };
-        const size_t x0 = cx(fx), x1 = cx(fx + 1.0f), y0 = cy(fy), y1 = cy(fy + 1.0f);
-        for (size_t c = 0; c < 4; ++c) {
-          auto at = [&](size_t px, size_t py) { return above[(py * w + px) * 4 + c]; };
-          const float top = (1.0f - ax) * at(x0, y0) + ax * at(x1, y0);
-          const float bottom = (1.0f - ax) * at(x0, y1) + ax * at(x1, y1);
-          next[(size_t(j) * w2 + i) * 4 + c] = roundToBinary16((1.0f - ay) * top + ay * bottom);
-        }
-      }
-    levels.push_back(next);
-    above = std::move(next);
-    w = w2;
-    h = h2;
-  }
-  return levels;
-}
-
-float directionFootprint(const Vec3& ddx, const Vec3& ddy) {
-  const float chord = std::max(glm::length(toGlm(ddx)), glm::length(toGlm(ddy)));
-  return 2.0f * std::asin(std::min(0.5f * chord, 1.0f));
-}
-
 float scatterAfterOneJump(const std::array<Vec3, 4>& exits) {
   constexpr int kFirst[6] = {0, 0, 0, 1, 1, 2}, kSecond[6] = {1, 2, 3, 2, 3, 3};  // ab ac ad bc bd cd
   const glm::vec3 zero(0.0f);
@@ -179,96 +142,7 @@ float scatterAfterOneJump(const std::array<Vec3, 4>& exits) {
   return std::acos(std::clamp(best, -1.0f, 1.0f));
 }
 
-float environmentLevel(float footprint, float texelAngle, float maxLevel, float extraBias) {
-  return std::clamp(std::log2(std::max(footprint, 1e-30f) / texelAngle) + (gpu::kEnvironmentLevelBias + extraBias), 0.0f,
-                    maxLevel);
-}
-
-float latLongTexelAngle(float width) { return 2.0f * std::numbers::pi_v<float> / width; }
-float cubeTexelAngle(float faceSize) { return 0.5f * std::numbers::pi_v<float> / faceSize; }
-
 namespace {
-// Where tap i of n sits along one of the pixel's axes, in (-1/2, 1/2) (environment_select.glsl).
-float tapOffset(uint32_t i, float n) { return (float(i) + 0.5f) / n - 0.5f; }
-
-// The level sampleLatLong reads for `footprint` (env has levels).
-float latLongLevel(const LatLongImage& env, float footprint) {
-  return environmentLevel(footprint, latLongTexelAngle(float(env.width)), float(env.levels->size()), env.levelBias);
-}
-
-// sampleLatLong at a level found already: bilinear in the two levels around it, linear between.
-Vec3 sampleLatLongAtLevel(const LatLongImage& env, const Vec3& direction, float level) {
-  float u, v;
-  latLongUv(direction[0], direction[1], direction[2], u, v);  // once for both levels
-  const uint32_t l0 = static_cast<uint32_t>(level);
-  const float frac = level - float(l0);
-  auto sampleLevel = [&](uint32_t l) {
-    float c[4];
-    const float* rgba = l == 0 ? env.rgba : (*env.levels)[l - 1].data();
-    sampleLatLongBilinearUv(rgba, std::max(1u, env.width >> l), std::max(1u, env.height >> l), u, v, c);
-    return glm::vec3(c[0], c[1], c[2]);
-  };
-  glm::vec3 c = sampleLevel(l0);
-  if (frac > 0.0f) c = (1.0f - frac) * c + frac * sampleLevel(l0 + 1);
-  return fromGlm(c);
-}
-}  // namespace
-
-Vec3 sampleLatLong(const LatLongImage& env, const Vec3& direction, float footprint) {
-  float out[4];
-  if (!env.levels || env.levels->empty() || footprint <= 0.0f) {
-    sampleLatLongBilinear(env.rgba, env.width, env.height, direction[0], direction[1], direction[2], out);
-    return {out[0], out[1], out[2]};
-  }
-  return sampleLatLongAtLevel(env, direction, latLongLevel(env, footprint));
-}
-
-Vec3 sampleLatLongOverPixel(const LatLongImage& env, const Vec3& direction, const Vec3& ddx, const Vec3& ddy) {
-  const glm::vec3 dir = toGlm(direction), dx = toGlm(ddx), dy = toGlm(ddy);
-  if (dx == glm::vec3(0.0f) && dy == glm::vec3(0.0f)) return sampleLatLong(env, direction, 0.0f);
-  const uint32_t taps = std::clamp(env.tapsPerAxis, 1u, kMaxEnvironmentTapsPerAxis);
-  const float n = float(taps);
-  const float footprint = directionFootprint(fromGlm(dx / n), fromGlm(dy / n));
-  if (taps == 1) return sampleLatLong(env, direction, footprint * gpu::kOneTapFootprintScale);
-  // Every tap reads the same level (the footprint's): sampleLatLong's, found once.
-  const bool levels = env.levels && !env.levels->empty() && footprint > 0.0f;
-  const float level = levels ? latLongLevel(env, footprint) : 0.0f;
-  glm::vec3 sum(0.0f);
-  for (uint32_t j = 0; j < taps; ++j)
-    for (uint32_t i = 0; i < taps; ++i) {
-      const float a = tapOffset(i, n), b = tapOffset(j, n);
-      const glm::vec3 tap = dir + a * dx + b * dy;
-      const Vec3 at = fromGlm(glm::dot(tap, tap) > 1e-12f ? tap : dir);
-      sum += toGlm(levels ? sampleLatLongAtLevel(env, at, level) : sampleLatLong(env, at, footprint));
-    }
-  return fromGlm(sum / (n * n));
-}
-
-Vec3 cubeTexelDirection(uint32_t face, uint32_t i, uint32_t j, uint32_t faceSize) {
-  const float a = 2.0f * (float(i) + 0.5f) / float(faceSize) - 1.0f;
-  const float b = 2.0f * (float(j) + 0.5f) / float(faceSize) - 1.0f;
-  switch (face) {
-    case 0: return {1.0f, -b, -a};
-    case 1: return {-1.0f, -b, a};
-    case 2: return {a, 1.0f, b};
-    case 3: return {a, -1.0f, -b};
-    case 4: return {a, -b, 1.0f};
-    default: return {-a, -b, -1.0f};
-  }
-}
-
-namespace {
-
-// What the object pass computes from its inputs before the lookups (object_field_body.glsl).
-struct FieldFragment {
-  glm::vec2 uv{0.0f};
-  glm::vec3 v, n;
-  float cosView = 0.0f;  // -v . n before n is bent toward the viewer
-  float cosI = 0.0f;
-  Vec4 d{};
-  float len2 = 0.0f;
-  glm::vec3 exitWorld, reflectedWorld;
-};
 
 // The fragment's unit view direction and interpolated normal (object_field_body.glsl main).
 std::pair<glm::vec3, glm::vec3> viewAndNormal(const SurfacePoint& point, const Vec3& eyeArray) {
@@ -315,11 +189,15 @@ FieldFragment volumeFragment(const Field& volume, const SurfacePoint& point, con
   return f;
 }
 
+}  // namespace
+
 // The fragment either shading computes for `object` at `point`.
 FieldFragment objectFragment(const RenderObject& object, const SurfacePoint& point, const Vec3& eye) {
   return object.volume ? volumeFragment(*object.volume, point, eye, object.worldFromObject)
                        : fieldFragment(*object.distortion, point, eye, object.worldFromObject);
 }
+
+namespace {
 
 // The four texels around a field coordinate (object_field_body.glsl TexelCell, readCell).
 struct TexelCell {
@@ -647,208 +525,6 @@ Vec3 overBackground(const Vec3& colour, const SurfacePoint& point, const Vec3& e
   Vec3 out{};
   for (size_t k = 0; k < 3; ++k) out[k] = coverage * colour[k] + (1.0f - coverage) * background[k];
   return out;
-}
-
-Vec3 pixelRay(const Camera& camera, uint32_t width, uint32_t height, uint32_t x, uint32_t y) {
-  const float aspect = height ? float(width) / float(height) : 1.0f;
-  glm::mat4 proj = glm::perspectiveRH_ZO(glm::radians(camera.verticalFovDegrees), aspect, camera.nearPlane,
-                                         camera.farPlane);
-  proj[1][1] *= -1.0f;
-  glm::mat4 view = glm::lookAtRH(toGlm(camera.eye), toGlm(camera.target), toGlm(camera.up));
-  view[3] = glm::vec4(0.0f, 0.0f, 0.0f, 1.0f);
-  const glm::vec2 ndc((float(x) + 0.5f) / float(width) * 2.0f - 1.0f, (float(y) + 0.5f) / float(height) * 2.0f - 1.0f);
-  return fromGlm(glm::vec3(glm::inverse(proj * view) * glm::vec4(ndc, 1.0f, 1.0f)));
-}
-
-std::optional<TriangleHit> hitTriangle(const FieldMesh& mesh, uint32_t first, const std::array<double, 3>& eyeIn,
-                                       const std::array<double, 3>& rayIn) {
-  const glm::dvec3 eye(eyeIn[0], eyeIn[1], eyeIn[2]), ray(rayIn[0], rayIn[1], rayIn[2]);
-  glm::dvec3 p[3];
-  for (int k = 0; k < 3; ++k) {
-    const float* q = &mesh.positions[size_t(mesh.indices[first + uint32_t(k)]) * 3];
-    p[k] = glm::dvec3(q[0], q[1], q[2]);
-  }
-  const glm::dvec3 e1 = p[1] - p[0], e2 = p[2] - p[0];
-  // Back faces (clockwise seen from the eye) are culled, as in the raster pipeline.
-  if (glm::dot(glm::cross(e1, e2), eye - p[0]) <= 0.0) return std::nullopt;
-  // Moller-Trumbore.
-  const glm::dvec3 pv = glm::cross(ray, e2);
-  const double det = glm::dot(e1, pv);
-  if (std::fabs(det) < 1e-300) return std::nullopt;
-  const glm::dvec3 tv = eye - p[0];
-  const double u = glm::dot(tv, pv) / det;
-  if (u < 0.0 || u > 1.0) return std::nullopt;
-  const glm::dvec3 qv = glm::cross(tv, e1);
-  const double v = glm::dot(ray, qv) / det;
-  if (v < 0.0 || u + v > 1.0) return std::nullopt;
-  const double t = glm::dot(e2, qv) / det;
-  if (t <= 0.0) return std::nullopt;
-  return TriangleHit{t, u, v};
-}
-
-SurfacePoint surfacePointAt(const FieldMesh& mesh, uint32_t first, const TriangleHit& hit) {
-  const double bary[3] = {1.0 - hit.u - hit.v, hit.u, hit.v};
-  double position[3] = {0, 0, 0}, normal[3] = {0, 0, 0}, uv[2] = {0, 0}, ior = 0.0;
-  for (int k = 0; k < 3; ++k) {
-    const size_t vtx = mesh.indices[first + uint32_t(k)];
-    for (int c = 0; c < 3; ++c) {
-      position[c] += bary[k] * double(mesh.positions[vtx * 3 + size_t(c)]);
-      normal[c] += bary[k] * double(mesh.normals[vtx * 3 + size_t(c)]);
-    }
-    for (int c = 0; c < 2; ++c) uv[c] += bary[k] * double(mesh.uvs[vtx * 2 + size_t(c)]);
-    ior += bary[k] * double(mesh.frontIor.empty() ? 0.0f : mesh.frontIor[vtx]);
-  }
-  SurfacePoint point;
-  for (int c = 0; c < 3; ++c) {
-    point.position[size_t(c)] = static_cast<float>(position[c]);
-    point.normal[size_t(c)] = static_cast<float>(normal[c]);
-  }
-  point.uv = {static_cast<float>(uv[0]), static_cast<float>(uv[1])};
-  point.frontIor = static_cast<float>(ior);
-  return point;
-}
-
-LookupDerivatives pixelDerivatives(const RenderObject& object, uint32_t first, const Camera& camera, uint32_t width,
-                                   uint32_t height, uint32_t x, uint32_t y) {
-  const FieldMesh& mesh = *object.mesh;
-  const Transform& placed = object.worldFromObject;
-  const Vec3 eyeObject = inverseTransformPoint(placed, camera.eye);
-  const glm::dvec3 eye(eyeObject[0], eyeObject[1], eyeObject[2]);
-  glm::dvec3 p[3];
-  for (int k = 0; k < 3; ++k) {
-    const float* q = &mesh.positions[size_t(mesh.indices[first + uint32_t(k)]) * 3];
-    p[k] = glm::dvec3(q[0], q[1], q[2]);
-  }
-  const glm::dvec3 e1 = p[1] - p[0], e2 = p[2] - p[0];
-  // The triangle's plane hit by the ray through pixel (px, py), barycentrics unbounded: what a
-  // fragment of this triangle interpolates there, inside the triangle or not.
-  auto fragmentAt = [&](uint32_t px, uint32_t py) {
-    Vec3 rayObject = inverseRotateDirection(placed, pixelRay(camera, width, height, px, py));
-    for (float& c : rayObject) c /= placed.scale;
-    const glm::dvec3 ray(rayObject[0], rayObject[1], rayObject[2]);
-    const glm::dvec3 pv = glm::cross(ray, e2);
-    const double det = glm::dot(e1, pv);
-    const glm::dvec3 tv = eye - p[0];
-    const glm::dvec3 qv = glm::cross(tv, e1);
-    TriangleHit hit{0.0, 0.0, 0.0};
-    if (std::fabs(det) > 1e-300) hit = TriangleHit{glm::dot(e2, qv) / det, glm::dot(tv, pv) / det, glm::dot(ray, qv) / det};
-    const SurfacePoint point = surfacePointAt(mesh, first, hit);
-    return std::tuple{objectFragment(object, point, eyeObject), toGlm(point.position), toGlm(point.normal)};
-  };
-  const auto [self, selfPosition, selfNormal] = fragmentAt(x, y);
-  const auto [nx, nxPosition, nxNormal] = fragmentAt(x ^ 1u, y);
-  const auto [ny, nyPosition, nyNormal] = fragmentAt(x, y ^ 1u);
-  // Fine derivatives: odd column minus even column, odd row minus even row.
-  const float sx = (x & 1u) ? 1.0f : -1.0f, sy = (y & 1u) ? 1.0f : -1.0f;
-  LookupDerivatives out;
-  out.exitDx = fromGlm(sx * (self.exitWorld - nx.exitWorld));
-  out.exitDy = fromGlm(sy * (self.exitWorld - ny.exitWorld));
-  out.reflectedDx = fromGlm(sx * (self.reflectedWorld - nx.reflectedWorld));
-  out.reflectedDy = fromGlm(sy * (self.reflectedWorld - ny.reflectedWorld));
-  out.cosViewDx = sx * (self.cosView - nx.cosView);
-  out.cosViewDy = sy * (self.cosView - ny.cosView);
-  out.positionDx = fromGlm(sx * (selfPosition - nxPosition));
-  out.positionDy = fromGlm(sy * (selfPosition - nyPosition));
-  out.normalDx = fromGlm(sx * (selfNormal - nxNormal));
-  out.normalDy = fromGlm(sy * (selfNormal - nyNormal));
-  for (int k = 0; k < 2; ++k) {
-    out.uvDx[size_t(k)] = sx * (self.uv[k] - nx.uv[k]);
-    out.uvDy[size_t(k)] = sy * (self.uv[k] - ny.uv[k]);
-  }
-  return out;
-}
-
-Vec3 shadedExitDirection(const DistortionImage& distortion, const SurfacePoint& point, const Vec3& eye) {
-  const Vec4 d = sampleBilinear(distortion, point.uv[0], point.uv[1]);
-  glm::vec3 dir(d[0], d[1], d[2]);
-  const float len2 = glm::dot(dir, dir);
-  dir = len2 > gpu::kMinDirectionLength2 ? dir / std::sqrt(len2) : glm::normalize(toGlm(point.position) - toGlm(eye));
-  return fromGlm(dir);
-}
-
-namespace {
-
-// The nearest triangle any object's mesh puts under the ray, each tested in its object space.
-struct NearestHit {
-  std::optional<TriangleHit> hit;
-  int object = -1;
-  uint32_t triangle = 0;
-};
-
-// Double precision for the ray-triangle test: the GPU's coverage is exact for pixel centres away
-// from edges, and so should the reference be. Each object's eye, and the ray, in its object space:
-// t is the same along both (the eye and the ray are divided by the same scale), so hits of
-// different objects compare as they are.
-NearestHit nearestHit(const std::vector<RenderObject>& objects, const std::vector<Vec3>& objectEyes, const Vec3& rayF) {
-  auto toDouble = [](const Vec3& v) { return std::array<double, 3>{v[0], v[1], v[2]}; };
-  NearestHit best;
-  for (size_t o = 0; o < objects.size(); ++o) {
-    const FieldMesh& mesh = *objects[o].mesh;
-    const Transform& placed = objects[o].worldFromObject;
-    Vec3 rayObject = inverseRotateDirection(placed, rayF);
-    for (float& c : rayObject) c /= placed.scale;
-    const std::array<double, 3> eye = toDouble(objectEyes[o]), ray = toDouble(rayObject);
-    for (uint32_t t = 0; size_t(t) + 2 < mesh.indices.size(); t += 3) {
-      const std::optional<TriangleHit> hit = hitTriangle(mesh, t, eye, ray);
-      if (!hit || (best.hit && hit->t >= best.hit->t)) continue;
-      best = {hit, static_cast<int>(o), t};
-    }
-  }
-  return best;
-}
-
-}  // namespace
-
-RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImage& environment, const Camera& camera,
-                     uint32_t width, uint32_t height, float exposure, bool silhouetteCoverage) {
-  // The chain the engine builds at upload, unless the caller has it already.
-  std::vector<std::vector<float>> ownLevels;
-  LatLongImage filtered = environment;
-  if (!filtered.levels) {
-    ownLevels = environmentLevels(environment);
-    filtered.levels = &ownLevels;
-  }
-  RenderedImage image;
-  image.width = width;
-  image.height = height;
-  image.rgba.assign(size_t(width) * height * 4, 0.0f);
-  image.object.assign(size_t(width) * height, -1);
-  image.directions.assign(size_t(width) * height * 3, 0.0f);
-  std::vector<Vec3> objectEyes;
-  for (const RenderObject& object : objects) objectEyes.push_back(inverseTransformPoint(object.worldFromObject, camera.eye));
-  std::vector<std::vector<TriangleEdges>> edges;  // the object pass's polygon coverage
-  for (const RenderObject& object : objects)
-    edges.push_back(triangleEdges(object.mesh->positions.data(), uint32_t(object.mesh->positions.size() / 3),
-                                  object.mesh->indices.data(), uint32_t(object.mesh->indices.size())));
-  for (uint32_t py = 0; py < height; ++py)
-    for (uint32_t px = 0; px < width; ++px) {
-      const Vec3 rayF = pixelRay(camera, width, height, px, py);
-      const NearestHit best = nearestHit(objects, objectEyes, rayF);
-      float* out = &image.rgba[(size_t(py) * width + px) * 4];
-      out[3] = 1.0f;
-      if (best.object < 0) {
-        const Vec3 c = sampleLatLong(environment, rayF);
-        for (int k = 0; k < 3; ++k) out[k] = c[size_t(k)];
-        continue;
-      }
-      const RenderObject& object = objects[size_t(best.object)];
-      const SurfacePoint point = surfacePointAt(*object.mesh, best.triangle, *best.hit);
-      const Vec3& eye = objectEyes[size_t(best.object)];
-      const LookupDerivatives derivatives = pixelDerivatives(object, best.triangle, camera, width, height, px, py);
-      Vec3 dir{};
-      const Vec3 c = object.volume ? shadeVolume(*object.volume, filtered, point, eye, object.shading, exposure,
-                                                 object.worldFromObject, derivatives, &dir)
-                                   : shadeField(*object.distortion, filtered, point, eye, object.shading, exposure,
-                                                object.worldFromObject, derivatives);
-      if (!object.volume) dir = rotateDirection(object.worldFromObject, shadedExitDirection(*object.distortion, point, eye));
-      const Vec3 covered = silhouetteCoverage ? overBackground(c, point, eye, derivatives, environment, rayF,
-                                                               &edges[size_t(best.object)][best.triangle / 3])
-                                              : c;
-      for (int k = 0; k < 3; ++k) out[k] = covered[size_t(k)];
-      image.object[size_t(py) * width + px] = best.object;
-      for (int k = 0; k < 3; ++k) image.directions[(size_t(py) * width + px) * 3 + size_t(k)] = dir[size_t(k)];
-    }
-  return image;
 }
 
 }  // namespace shrefract::reference

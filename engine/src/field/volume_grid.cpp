@@ -1,5 +1,5 @@
-// A Volume field's grid words (field.h FieldVolume): packing a voxel, its normal, the bricks, the
-// version 8 migration, and whether a mesh bounds one convex body. What reading a field needs; the
+// A Volume field's grid words (field.h FieldVolume): packing a voxel, its normal, the bricks, and
+// whether a mesh bounds one convex body. What reading a field needs; the
 // trace through the grid is the CPU mirror's (engine/reference, volume_trace.cpp).
 #include <shrefract/field.h>
 #include <shrefract/gpu_layout.h>
@@ -70,15 +70,6 @@ std::array<float, 3> unpackVolumeNormal(uint32_t word) {
   const float py = std::min((float((word >> gpu::kVolumeNormalShiftY) & gpu::kVolumeNormalMask) - nzero) / nzero, 1.0f);
   const V3 n = unfoldOctahedral(px, py);
   return {n.x, n.y, n.z};
-}
-
-uint32_t volumeVoxelFromVersion8(uint32_t word) {
-  const float d = (float(word & 0xfffu) - 2047.0f) * (kVolumeBandVoxels / 2047.0f);
-  const float px = std::min((float((word >> 12) & 0x3ffu) - 511.0f) / 511.0f, 1.0f);
-  const float py = std::min((float((word >> 22) & 0x3ffu) - 511.0f) / 511.0f, 1.0f);
-  // The middle levels are +z (the far words' zero normal packs there too): far words stay far.
-  const V3 n = unfoldOctahedral(px, py);
-  return packVolumeVoxel(d, {n.x, n.y, n.z});
 }
 
 void setVolumeVoxels(FieldVolume& v, const std::vector<uint32_t>& dense) {
