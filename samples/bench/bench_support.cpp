@@ -218,15 +218,7 @@ std::unique_ptr<Gpu> createGpu(bool validation, bool* noDevice) {
   }
   auto gpu = std::make_unique<Gpu>();
   gpu->harness = std::move(h).value();
-  const harness::Harness& hr = *gpu->harness;
-  ContextCreateInfo info;
-  info.instance = hr.instance();
-  info.physicalDevice = hr.physicalDevice();
-  info.device = hr.device();
-  info.queueFamilyIndex = hr.queueFamily();
-  info.queue = hr.queue();
-  info.getInstanceProcAddr = vkGetInstanceProcAddr;
-  auto context = Context::create(info);
+  auto context = harness::createContext(*gpu->harness);
   if (!context) {
     std::fprintf(stderr, "%s\n", context.error().message.c_str());
     return nullptr;
@@ -236,13 +228,7 @@ std::unique_ptr<Gpu> createGpu(bool validation, bool* noDevice) {
 }
 
 GpuTimer::GpuTimer(harness::Harness& h, uint32_t marks) : h_(h), marks_(marks), ticks_(marks, 0) {
-  uint32_t count = 0;
-  vkGetPhysicalDeviceQueueFamilyProperties(h.physicalDevice(), &count, nullptr);
-  std::vector<VkQueueFamilyProperties> families(count);
-  vkGetPhysicalDeviceQueueFamilyProperties(h.physicalDevice(), &count, families.data());
-  if (h.queueFamily() >= count || families[h.queueFamily()].timestampValidBits == 0 ||
-      h.properties().limits.timestampPeriod <= 0.0f)
-    return;
+  if (!h.hasTimestamps()) return;
   VkQueryPoolCreateInfo info{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
   info.queryType = VK_QUERY_TYPE_TIMESTAMP;
   info.queryCount = marks;
