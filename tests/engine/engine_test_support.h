@@ -20,6 +20,27 @@ namespace shrefract::testing {
 using harness::contextInfo;
 using harness::createContext;
 
+// A harness and a context on it for each test. The test's engine objects are gone when its body
+// returns; then the context releases what they retired, and the test fails on any validation
+// message of the harness's whole life (device and instance teardown included).
+class ContextTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    h = harnessOrSkip();
+    ASSERT_TRUE(h);
+    auto created = createContext(*h);
+    ASSERT_TRUE(created.ok()) << created.error().message;
+    context = std::move(created).value();
+  }
+  void TearDown() override {
+    if (context) context->releaseDeferred();
+    context.reset();
+    expectNoMessagesThroughDestruction(h);
+  }
+  std::unique_ptr<harness::Harness> h;
+  std::unique_ptr<Context> context;
+};
+
 inline float halfToFloat(uint16_t h) {
   const int exponent = (h >> 10) & 0x1f;
   const int mantissa = h & 0x3ff;
