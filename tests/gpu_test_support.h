@@ -14,20 +14,25 @@ namespace shrefract::testing {
 // ctest's SKIP_RETURN_CODE for GPU tests (set in tests/CMakeLists.txt).
 inline constexpr int kSkipCode = 77;
 
+// `created` (a harness, or an owner of one), or the process exits with kSkipCode when `failure`
+// says no Vulkan device exists; null after a test failure (naming `what`) for any other error.
+template <class T>
+std::unique_ptr<T> createdOrSkip(Result<std::unique_ptr<T>> created, const harness::HarnessFailure& failure,
+                                 const char* what) {
+  if (created.ok()) return std::move(created).value();
+  if (failure == harness::HarnessFailure::NoDevice) {
+    std::fprintf(stderr, "SKIPPED: no Vulkan device: %s\n", created.error().message.c_str());
+    std::fflush(stderr);
+    std::exit(kSkipCode);
+  }
+  ADD_FAILURE() << what << " creation failed: " << created.error().message;
+  return nullptr;
+}
+
 // Returns a harness, or exits the process with kSkipCode when no Vulkan device exists.
 inline std::unique_ptr<harness::Harness> harnessOrSkip() {
   harness::HarnessFailure failure = harness::HarnessFailure::None;
-  auto h = harness::Harness::create(harness::HarnessOptions{}, &failure);
-  if (!h.ok()) {
-    if (failure == harness::HarnessFailure::NoDevice) {
-      std::fprintf(stderr, "SKIPPED: no Vulkan device: %s\n", h.error().message.c_str());
-      std::fflush(stderr);
-      std::exit(kSkipCode);
-    }
-    ADD_FAILURE() << "harness creation failed: " << h.error().message;
-    return nullptr;
-  }
-  return std::move(h).value();
+  return createdOrSkip(harness::Harness::create(harness::HarnessOptions{}, &failure), failure, "harness");
 }
 
 // A test compute shader (tests/*.comp, embedded by the build) reading binding 0 and writing

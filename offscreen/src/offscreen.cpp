@@ -34,15 +34,7 @@ Result<std::unique_ptr<Session>> createSession(const harness::HarnessOptions& op
   if (!h) return h.error();
   auto session = std::make_unique<Session>();
   session->harness = std::move(h).value();
-  const auto& hr = *session->harness;
-  ContextCreateInfo info;
-  info.instance = hr.instance();
-  info.physicalDevice = hr.physicalDevice();
-  info.device = hr.device();
-  info.queueFamilyIndex = hr.queueFamily();
-  info.queue = hr.queue();
-  info.getInstanceProcAddr = vkGetInstanceProcAddr;
-  auto context = Context::create(info);
+  auto context = harness::createContext(*session->harness);
   if (!context) return context.error();
   session->context = std::move(context).value();
   return session;
@@ -95,15 +87,7 @@ Result<std::vector<std::unique_ptr<Object>>> uploadScene(Session& session, const
 }
 
 Result<std::unique_ptr<Object>> uploadField(Session& session, const Field& field) {
-  std::unique_ptr<Object> object;
-  auto uploaded = session.context->uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
-    auto created = Object::createFromField(*session.context, field, cmd);
-    if (!created) return created.error();
-    object = std::move(created).value();
-    return {};
-  });
-  if (!uploaded) return uploaded.error();
-  return object;
+  return harness::uploadField(*session.context, field);
 }
 
 Camera defaultCamera(const bake::Scene& scene, float verticalFovDegrees) {
@@ -143,15 +127,6 @@ namespace {
 
 // Timestamp queries of one frame: decompression start/end, raster start/end.
 constexpr uint32_t kTimestampCount = 4;
-
-bool queueHasTimestamps(const harness::Harness& h) {
-  uint32_t count = 0;
-  vkGetPhysicalDeviceQueueFamilyProperties(h.physicalDevice(), &count, nullptr);
-  std::vector<VkQueueFamilyProperties> families(count);
-  vkGetPhysicalDeviceQueueFamilyProperties(h.physicalDevice(), &count, families.data());
-  return h.queueFamily() < count && families[h.queueFamily()].timestampValidBits > 0 &&
-         h.properties().limits.timestampPeriod > 0.0f;
-}
 
 constexpr VkFormat kColorFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
@@ -204,7 +179,7 @@ Result<std::unique_ptr<Decompressor>> createFrameDecompressor(Session& session, 
 
 // Null without timings or where the queue has no timestamps.
 Result<VkQueryPool> createTimestampQueries(const harness::Harness& h, const FrameTimings* timings) {
-  if (!timings || !queueHasTimestamps(h)) return VkQueryPool{VK_NULL_HANDLE};
+  if (!timings || !h.hasTimestamps()) return VkQueryPool{VK_NULL_HANDLE};
   VkQueryPool queries = VK_NULL_HANDLE;
   VkQueryPoolCreateInfo qpci{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
   qpci.queryType = VK_QUERY_TYPE_TIMESTAMP;

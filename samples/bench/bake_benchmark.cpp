@@ -24,6 +24,8 @@
 #include <thread>
 #include <vector>
 
+#include "cli/args.h"
+
 using namespace shrefract;
 
 namespace {
@@ -126,31 +128,30 @@ BareResult bareLoop(const bake::Scene& scene, const std::vector<bake::SurfacePoi
 
 // Reads the flags into `path` and `settings`; returns the exit code when the command line is bad.
 std::optional<int> parseArguments(int argc, char** argv, std::string& path, BakeSettings& settings) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "shrefract_bake_benchmark: %s needs a value\n", a.c_str());
-        std::exit(2);
-      }
-      return argv[++i];
-    };
-    if (a == "--samples") settings.sampleBudget = std::strtoull(value().c_str(), nullptr, 10);
-    else if (a == "--order") settings.order = static_cast<uint32_t>(std::strtoul(value().c_str(), nullptr, 10));
-    else if (a == "--threads") settings.threads = static_cast<uint32_t>(std::strtoul(value().c_str(), nullptr, 10));
-    else if (a == "--directions") {
-      const std::string v = value();
-      if (std::sscanf(v.c_str(), "%ux%u", &settings.directionsTheta, &settings.directionsPhi) != 2) {
-        std::fprintf(stderr, "shrefract_bake_benchmark: --directions expects RxC, got '%s'\n", v.c_str());
-        return 2;
-      }
-    } else if (a.rfind("--", 0) == 0) {
-      std::fprintf(stderr, "shrefract_bake_benchmark: unknown flag %s\n", a.c_str());
-      return 2;
-    } else {
-      path = a;
-    }
+  using cli::ValueKind;
+  const std::vector<cli::FlagSpec> flags = {
+      {"samples", true, "sample budget", ValueKind::Integer, {1, cli::kUnbounded}},
+      {"directions", true, "direction grid RxC", ValueKind::Size, {1, cli::kUnbounded}, {1, cli::kUnbounded}},
+      {"order", true, "SH order", ValueKind::Integer, {0, cli::kUnbounded}},
+      {"threads", true, "bake threads", ValueKind::Integer, {1, cli::kUnbounded}},
+  };
+  auto parsed = cli::Args::parseProgram("shrefract_bake_benchmark", argc, argv, flags);
+  if (!parsed) {
+    std::fprintf(stderr, "%s\n", parsed.error().message.c_str());
+    return 2;
   }
+  const cli::Args& args = parsed.value();
+  if (args.has("help")) {
+    std::printf("usage: shrefract_bake_benchmark [SCENE] [--samples N] [--directions RxC] [--order L] [--threads T]\n"
+                "       SCENE defaults to ../shared/assets/bunny.glb; when it is missing the benchmark skips.\n");
+    return 0;
+  }
+  if (auto samples = args.integer("samples"); samples.ok() && samples.value())
+    settings.sampleBudget = static_cast<uint64_t>(*samples.value());
+  args.read("order", settings.order);
+  args.read("threads", settings.threads);
+  args.read("directions", settings.directionsTheta, settings.directionsPhi);
+  if (!args.positional().empty()) path = args.positional().back();
   return std::nullopt;
 }
 

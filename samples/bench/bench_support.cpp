@@ -191,12 +191,47 @@ bool parseCount(const char* text, uint32_t lo, uint32_t hi, uint32_t& out) {
   return true;
 }
 
-bool parseSize(const char* text, uint32_t max, uint32_t& width, uint32_t& height) {
-  unsigned w = 0, h = 0;
-  char tail = 0;
-  if (!text || std::sscanf(text, "%ux%u%c", &w, &h, &tail) != 2 || w == 0 || h == 0 || w > max || h > max) return false;
-  width = w, height = h;
+std::variant<cli::Args, int> parseCommandLine(const char* program, int argc, char** argv,
+                                              const std::vector<cli::FlagSpec>& flags,
+                                              const std::function<void(const char* error)>& usage) {
+  auto parsed = cli::Args::parseProgram(program, argc, argv, flags);
+  if (!parsed) {
+    usage(parsed.error().message.c_str());
+    return 2;
+  }
+  if (parsed.value().has("help")) {
+    usage(nullptr);
+    return 0;
+  }
+  return std::move(parsed).value();
+}
+
+namespace {
+
+bool parseShading(const std::string& text, ShadingMode& out) {
+  if (text == "field") out = ShadingMode::Field;
+  else if (text == "exit-direction") out = ShadingMode::FieldExitDirection;
+  else if (text == "single-interface") out = ShadingMode::SingleInterface;
+  else return false;
   return true;
+}
+
+bool parseColorFormat(const std::string& text, VkFormat& out) {
+  if (text == "rgba16f") out = VK_FORMAT_R16G16B16A16_SFLOAT;
+  else if (text == "rgba8") out = VK_FORMAT_R8G8B8A8_UNORM;
+  else if (text == "rgba32f") out = VK_FORMAT_R32G32B32A32_SFLOAT;
+  else return false;
+  return true;
+}
+
+}  // namespace
+
+std::optional<std::string> readShadingAndFormat(const cli::Args& args, ShadingMode& shading, VkFormat& format) {
+  if (std::string v; args.read("shading", v) && !parseShading(v, shading))
+    return "--shading expects field, exit-direction or single-interface";
+  if (std::string v; args.read("format", v) && !parseColorFormat(v, format))
+    return "--format expects rgba16f, rgba8 or rgba32f";
+  return std::nullopt;
 }
 
 Gpu::~Gpu() {
@@ -218,15 +253,7 @@ std::unique_ptr<Gpu> createGpu(bool validation, bool* noDevice) {
   }
   auto gpu = std::make_unique<Gpu>();
   gpu->harness = std::move(h).value();
-  const harness::Harness& hr = *gpu->harness;
-  ContextCreateInfo info;
-  info.instance = hr.instance();
-  info.physicalDevice = hr.physicalDevice();
-  info.device = hr.device();
-  info.queueFamilyIndex = hr.queueFamily();
-  info.queue = hr.queue();
-  info.getInstanceProcAddr = vkGetInstanceProcAddr;
-  auto context = Context::create(info);
+  auto context = harness::createContext(*gpu->harness);
   if (!context) {
     std::fprintf(stderr, "%s\n", context.error().message.c_str());
     return nullptr;
@@ -236,13 +263,7 @@ std::unique_ptr<Gpu> createGpu(bool validation, bool* noDevice) {
 }
 
 GpuTimer::GpuTimer(harness::Harness& h, uint32_t marks) : h_(h), marks_(marks), ticks_(marks, 0) {
-  uint32_t count = 0;
-  vkGetPhysicalDeviceQueueFamilyProperties(h.physicalDevice(), &count, nullptr);
-  std::vector<VkQueueFamilyProperties> families(count);
-  vkGetPhysicalDeviceQueueFamilyProperties(h.physicalDevice(), &count, families.data());
-  if (h.queueFamily() >= count || families[h.queueFamily()].timestampValidBits == 0 ||
-      h.properties().limits.timestampPeriod <= 0.0f)
-    return;
+  if (!h.hasTimestamps()) return;
   VkQueryPoolCreateInfo info{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
   info.queryType = VK_QUERY_TYPE_TIMESTAMP;
   info.queryCount = marks;
@@ -284,20 +305,6 @@ double processCpuMs() {
   timespec ts{};
   clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
   return double(ts.tv_sec) * 1e3 + double(ts.tv_nsec) * 1e-6;
-}
-
-Result<std::unique_ptr<Object>> uploadObject(Context& context, const Field& field) {
-  std::unique_ptr<Object> object;
-  auto uploaded = context.uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
-    auto created = Object::createFromField(context, field, cmd);
-    if (!created) return created.error();
-    object = std::move(created).value();
-    // This measures the decompression pass: a Volume field traces its sample texels into the image.
-    if (field.encoding == Encoding::Volume) (void)object->setTracesVolumePerFragment(false);
-    return {};
-  });
-  if (!uploaded) return uploaded.error();
-  return object;
 }
 
 }  // namespace shrefract::bench

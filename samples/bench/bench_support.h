@@ -9,9 +9,14 @@
 #include <shrefract/renderer.h>
 
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <optional>
 #include <string>
+#include <variant>
 #include <vector>
+
+#include "cli/args.h"
 
 namespace shrefract::bench {
 
@@ -52,11 +57,28 @@ std::string encodingLabel(const Field& field);
 // Parses "u8" / "f16".
 bool parseQuantization(const std::string& text, Quantization& out);
 
-// The benchmarks' flag values. A whole decimal number in [lo, hi]; false for anything else ("12x",
-// "", "-1", a null pointer).
+// A benchmark's command line against `flags` (cli::Args::parseProgram, which adds --help): the
+// arguments, or the exit code to stop with once `usage` has printed: usage(nullptr) and 0 for
+// --help, usage(the error line) and 2 for a bad command line.
+std::variant<cli::Args, int> parseCommandLine(const char* program, int argc, char** argv,
+                                              const std::vector<cli::FlagSpec>& flags,
+                                              const std::function<void(const char* error)>& usage);
+
+// A benchmark's main: its options from the command line (`parse` returns the exit code to stop
+// with, or nothing to go on), then `run`.
+template <class Options>
+int benchmarkMain(int argc, char** argv, std::optional<int> (*parse)(int, char**, Options&),
+                  int (*run)(const Options&)) {
+  Options options;
+  if (const std::optional<int> exitCode = parse(argc, argv, options)) return *exitCode;
+  return run(options);
+}
+
+// A whole decimal number in [lo, hi]; false for anything else ("12x", "", "-1", a null pointer).
 bool parseCount(const char* text, uint32_t lo, uint32_t hi, uint32_t& out);
-// "WxH" with both in [1, max]; false for anything else (a trailing character included).
-bool parseSize(const char* text, uint32_t max, uint32_t& width, uint32_t& height);
+// The frame benchmarks' --shading (field, exit-direction, single-interface) and --format (rgba16f,
+// rgba8, rgba32f) when given; otherwise untouched. The usage line for a value not among them.
+std::optional<std::string> readShadingAndFormat(const cli::Args& args, ShadingMode& shading, VkFormat& format);
 
 // The harness (validation off: benchmarks measure the driver, not the layer) and a context on it.
 // Returns null after printing "SKIPPED: no Vulkan device" when there is none, or the error.
@@ -95,7 +117,5 @@ double median(std::vector<double> values);
 // CPU cost of its work, however busy the machine is.
 double processCpuMs();
 
-// `field` uploaded as the engine would (Object::createFromField through Context::uploadNow).
-Result<std::unique_ptr<Object>> uploadObject(Context& context, const Field& field);
 
 }  // namespace shrefract::bench

@@ -48,7 +48,8 @@
 #include <vector>
 
 #include "bench/bench_support.h"
-#include "bench_spirv.h"
+#include "bench/copy_references.h"
+#include "cli/args.h"
 
 namespace shrefract::bench {
 namespace {
@@ -70,165 +71,6 @@ int usage(const char* message) {
                "                                         [--channels 3|4] [--reps N] [--validation] [--profile]\n"
                "       shrefract_decompression_benchmark --encodings [--size WxH] [--reps N] [--validation]\n");
   return 2;
-}
-
-// Every Vulkan object the copies need, destroyed together.
-struct Resources {
-  harness::Harness& h;
-  std::vector<VkBuffer> buffers;
-  std::vector<VkDeviceMemory> memories;
-  std::vector<VkBufferView> views;
-  std::vector<VkImage> images;
-  std::vector<VkImageView> imageViews;
-  std::vector<VkSampler> samplers;
-  std::vector<VkDescriptorSetLayout> setLayouts;
-  std::vector<VkPipelineLayout> layouts;
-  std::vector<VkPipeline> pipelines;
-  std::vector<VkDescriptorPool> pools;
-
-  explicit Resources(harness::Harness& harness) : h(harness) {}
-  ~Resources() {
-    const VkDevice d = h.device();
-    for (auto p : pools) vkDestroyDescriptorPool(d, p, nullptr);
-    for (auto p : pipelines) vkDestroyPipeline(d, p, nullptr);
-    for (auto l : layouts) vkDestroyPipelineLayout(d, l, nullptr);
-    for (auto l : setLayouts) vkDestroyDescriptorSetLayout(d, l, nullptr);
-    for (auto s : samplers) vkDestroySampler(d, s, nullptr);
-    for (auto v : imageViews) vkDestroyImageView(d, v, nullptr);
-    for (auto i : images) vkDestroyImage(d, i, nullptr);
-    for (auto v : views) vkDestroyBufferView(d, v, nullptr);
-    for (auto b : buffers) vkDestroyBuffer(d, b, nullptr);
-    for (auto m : memories) vkFreeMemory(d, m, nullptr);
-  }
-
-  bool allocate(const VkMemoryRequirements& req, VkDeviceMemory& memory) {
-    VkMemoryAllocateInfo info{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-    info.allocationSize = req.size;
-    info.memoryTypeIndex = h.findMemoryType(req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
-    if (info.memoryTypeIndex == UINT32_MAX || vkAllocateMemory(h.device(), &info, nullptr, &memory) != VK_SUCCESS)
-      return false;
-    memories.push_back(memory);
-    return true;
-  }
-
-  VkBuffer buffer(VkDeviceSize size, VkBufferUsageFlags usage) {
-    VkBufferCreateInfo info{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
-    info.size = size;
-    info.usage = usage | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-    VkBuffer b = VK_NULL_HANDLE;
-    if (vkCreateBuffer(h.device(), &info, nullptr, &b) != VK_SUCCESS) return VK_NULL_HANDLE;
-    buffers.push_back(b);
-    VkMemoryRequirements req{};
-    vkGetBufferMemoryRequirements(h.device(), b, &req);
-    VkDeviceMemory memory = VK_NULL_HANDLE;
-    if (!allocate(req, memory) || vkBindBufferMemory(h.device(), b, memory, 0) != VK_SUCCESS) return VK_NULL_HANDLE;
-    return b;
-  }
-
-  VkBufferView view(VkBuffer b, VkFormat format, VkDeviceSize range) {
-    VkBufferViewCreateInfo info{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
-    info.buffer = b;
-    info.format = format;
-    info.range = range;
-    VkBufferView v = VK_NULL_HANDLE;
-    if (vkCreateBufferView(h.device(), &info, nullptr, &v) != VK_SUCCESS) return VK_NULL_HANDLE;
-    views.push_back(v);
-    return v;
-  }
-};
-
-// A copy shader with its descriptor set: binding 0 the source, binding 1 the destination.
-struct Copy {
-  const char* name;
-  VkPipeline pipeline = VK_NULL_HANDLE;
-  VkPipelineLayout layout = VK_NULL_HANDLE;
-  VkDescriptorSet set = VK_NULL_HANDLE;
-  std::array<uint32_t, 4> push{};
-  uint32_t groups = 0;         // workgroups in x
-  uint64_t bytes = 0;          // bytes read
-  bool reference = true;       // counts for the ratio
-  double ms = 0.0, cpuMs = 0.0;
-};
-
-bool createCopy(Resources& r, const uint32_t* code, size_t codeBytes, VkDescriptorType sourceType,
-                VkDescriptorType destinationType, Copy& out) {
-  const VkDevice d = r.h.device();
-  const std::array<VkDescriptorSetLayoutBinding, 2> bindings{{
-      {0, sourceType, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
-      {1, destinationType, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
-  }};
-  VkDescriptorSetLayoutCreateInfo dslci{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
-  dslci.bindingCount = 2;
-  dslci.pBindings = bindings.data();
-  VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
-  if (vkCreateDescriptorSetLayout(d, &dslci, nullptr, &setLayout) != VK_SUCCESS) return false;
-  r.setLayouts.push_back(setLayout);
-  const VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, 16};
-  VkPipelineLayoutCreateInfo plci{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
-  plci.setLayoutCount = 1;
-  plci.pSetLayouts = &setLayout;
-  plci.pushConstantRangeCount = 1;
-  plci.pPushConstantRanges = &range;
-  if (vkCreatePipelineLayout(d, &plci, nullptr, &out.layout) != VK_SUCCESS) return false;
-  r.layouts.push_back(out.layout);
-  VkShaderModuleCreateInfo smci{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
-  smci.codeSize = codeBytes;
-  smci.pCode = code;
-  VkShaderModule module = VK_NULL_HANDLE;
-  if (vkCreateShaderModule(d, &smci, nullptr, &module) != VK_SUCCESS) return false;
-  VkComputePipelineCreateInfo cpci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
-  cpci.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
-  cpci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-  cpci.stage.module = module;
-  cpci.stage.pName = "main";
-  cpci.layout = out.layout;
-  const VkResult result = vkCreateComputePipelines(d, VK_NULL_HANDLE, 1, &cpci, nullptr, &out.pipeline);
-  vkDestroyShaderModule(d, module, nullptr);
-  if (result != VK_SUCCESS) return false;
-  r.pipelines.push_back(out.pipeline);
-  const std::array<VkDescriptorPoolSize, 2> sizes{{{sourceType, 1}, {destinationType, 1}}};
-  VkDescriptorPoolCreateInfo dpci{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
-  dpci.maxSets = 1;
-  dpci.poolSizeCount = 2;
-  dpci.pPoolSizes = sizes.data();
-  VkDescriptorPool pool = VK_NULL_HANDLE;
-  if (vkCreateDescriptorPool(d, &dpci, nullptr, &pool) != VK_SUCCESS) return false;
-  r.pools.push_back(pool);
-  VkDescriptorSetAllocateInfo dsai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
-  dsai.descriptorPool = pool;
-  dsai.descriptorSetCount = 1;
-  dsai.pSetLayouts = &setLayout;
-  return vkAllocateDescriptorSets(d, &dsai, &out.set) == VK_SUCCESS;
-}
-
-// One descriptor write: exactly one of the three infos is used, by type.
-void writeDescriptor(VkDevice d, VkDescriptorSet set, uint32_t binding, VkDescriptorType type,
-                     const VkDescriptorBufferInfo* buffer, const VkBufferView* view, const VkDescriptorImageInfo* image) {
-  VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
-  w.dstSet = set;
-  w.dstBinding = binding;
-  w.descriptorCount = 1;
-  w.descriptorType = type;
-  w.pBufferInfo = buffer;
-  w.pTexelBufferView = view;
-  w.pImageInfo = image;
-  vkUpdateDescriptorSets(d, 1, &w, 0, nullptr);
-}
-
-// The coefficients as the engine used to upload them: RGBA per texel and layer, layer-major,
-// alpha 0 when the field has 3 channels (the source of the previous-layout copy).
-std::vector<uint8_t> rgbaCoefficients(const Field& field) {
-  const size_t n = size_t(field.texelCount()) * field.layerCount();
-  const size_t componentBytes = field.coefficientValueBytes();
-  const uint32_t values = field.valuesPerLayer();
-  const std::vector<uint16_t>& wide = field.clustered ? field.clusterIndices : field.coefficientsF16;
-  std::vector<uint8_t> out(n * 4 * componentBytes, 0);
-  for (size_t i = 0; i < n; ++i)
-    for (uint32_t c = 0; c < std::min(values, 4u); ++c) {  // a fifth channel has no place in RGBA
-      if (componentBytes == 1) out[i * 4 + c] = field.coefficientsU8[i * values + c];
-      else std::memcpy(&out[(i * 4 + c) * 2], &wide[i * values + c], 2);
-    }
-  return out;
 }
 
 // Median GPU milliseconds (and process CPU milliseconds) of each recorder over `reps` rounds,
@@ -376,15 +218,9 @@ Result<EncodingEntry> uploadEncodingCase(Context& context, Decompressor& decompr
     e.samples = sampleCount(field);
     e.bytesPerSample = field.bytesPerSample();
     e.buffers = fieldBufferBytes(field, e.samples);
-    auto uploaded = context.uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
-      auto created = Object::createFromField(context, field, cmd);
-      if (!created) return created.error();
-      e.object = std::move(created).value();
-      // The decompression pass is what is measured: a Volume field traces its sample texels here.
-      if (field.encoding == Encoding::Volume) (void)e.object->setTracesVolumePerFragment(false);
-      return {};
-    });
+    auto uploaded = harness::uploadField(context, field, /*volumeInDecompression=*/true);
     if (!uploaded) return makeError(uploaded.error().code, std::string(c.name) + ": " + uploaded.error().message);
+    e.object = std::move(uploaded).value();
   }
   context.releaseDeferred();  // the upload's staging buffers
   if (auto prepared = decompressor.prepare(*e.object); !prepared)
@@ -421,17 +257,7 @@ void printEncodingTable(harness::Harness& h, const SyntheticOptions& base, const
   }
 }
 
-int runEncodings(const Options& options) {
-  bool noDevice = false;
-  auto gpu = createGpu(options.validation, &noDevice);
-  if (!gpu) return noDevice ? 0 : 1;
-  harness::Harness& h = *gpu->harness;
-  Context& context = *gpu->context;
-  GpuTimer timer(h, 2);
-  if (!timer.available()) {
-    std::printf("SKIPPED: the queue has no timestamps\n");
-    return 0;
-  }
+int runEncodings(const Options& options, harness::Harness& h, Context& context, GpuTimer& timer) {
   auto decompressor = Decompressor::create(context);
   if (!decompressor) {
     std::fprintf(stderr, "%s\n", decompressor.error().message.c_str());
@@ -474,187 +300,6 @@ int runEncodings(const Options& options) {
     return 1;
   }
   return 0;
-}
-
-// The copies' sources and destinations: a source and a destination buffer of the bytes the
-// decompression reads (rounded up to whole 16-byte texels), and the previous layout's image.
-struct CopyTargets {
-  VkBuffer source = VK_NULL_HANDLE, destination = VK_NULL_HANDLE;
-  VkImage image = VK_NULL_HANDLE;
-  VkImageView imageView = VK_NULL_HANDLE;
-  VkSampler sampler = VK_NULL_HANDLE;
-  VkBufferView source1 = VK_NULL_HANDLE, destination1 = VK_NULL_HANDLE;  // a word per texel
-  VkBufferView source4 = VK_NULL_HANDLE, destination4 = VK_NULL_HANDLE;  // four words per texel
-};
-
-// The previous layout's image, a layer per coefficient layer, with its view and sampler.
-bool createPreviousLayoutImage(Resources& r, const Field& field, CopyTargets& t) {
-  harness::Harness& h = r.h;
-  VkImageCreateInfo ici{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
-  ici.imageType = VK_IMAGE_TYPE_2D;
-  ici.format = field.quantization == Quantization::U8 ? VK_FORMAT_R8G8B8A8_UNORM : VK_FORMAT_R16G16B16A16_SFLOAT;
-  ici.extent = {field.width, field.height, 1};
-  ici.mipLevels = 1;
-  ici.arrayLayers = field.layerCount();
-  ici.samples = VK_SAMPLE_COUNT_1_BIT;
-  ici.tiling = VK_IMAGE_TILING_OPTIMAL;
-  ici.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
-  bool ok = vkCreateImage(h.device(), &ici, nullptr, &t.image) == VK_SUCCESS;
-  if (t.image) r.images.push_back(t.image);
-  if (!ok) return false;
-  VkMemoryRequirements req{};
-  vkGetImageMemoryRequirements(h.device(), t.image, &req);
-  VkDeviceMemory memory = VK_NULL_HANDLE;
-  ok = r.allocate(req, memory) && vkBindImageMemory(h.device(), t.image, memory, 0) == VK_SUCCESS;
-  VkImageViewCreateInfo ivci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
-  ivci.image = t.image;
-  ivci.viewType = VK_IMAGE_VIEW_TYPE_2D_ARRAY;
-  ivci.format = ici.format;
-  ivci.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, ici.arrayLayers};
-  VkSamplerCreateInfo sci{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
-  ok = ok && vkCreateImageView(h.device(), &ivci, nullptr, &t.imageView) == VK_SUCCESS;
-  if (t.imageView) r.imageViews.push_back(t.imageView);
-  ok = ok && vkCreateSampler(h.device(), &sci, nullptr, &t.sampler) == VK_SUCCESS;
-  if (t.sampler) r.samplers.push_back(t.sampler);
-  return ok;
-}
-
-bool createCopyTargets(Resources& r, const Field& field, uint64_t copyWords, size_t rgbaBytes, CopyTargets& t) {
-  const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT |
-                                   VK_BUFFER_USAGE_STORAGE_TEXEL_BUFFER_BIT;
-  const VkDeviceSize destinationBytes = std::max<VkDeviceSize>(copyWords * 4, rgbaBytes);
-  t.source = r.buffer(copyWords * 4, usage);
-  t.destination = r.buffer(destinationBytes, usage);
-  bool ok = t.source && t.destination && createPreviousLayoutImage(r, field, t);
-  // Texel views of at most maxTexelBufferElements words (the copies read that many; see bindCopies).
-  const VkDeviceSize viewBytes =
-      std::min<uint64_t>(copyWords, uint64_t(r.h.properties().limits.maxTexelBufferElements) / 4 * 4) * 4;
-  t.source1 = ok ? r.view(t.source, VK_FORMAT_R32_UINT, viewBytes) : VK_NULL_HANDLE;
-  t.destination1 = ok ? r.view(t.destination, VK_FORMAT_R32_UINT, viewBytes) : VK_NULL_HANDLE;
-  t.source4 = ok ? r.view(t.source, VK_FORMAT_R32G32B32A32_UINT, viewBytes) : VK_NULL_HANDLE;
-  t.destination4 = ok ? r.view(t.destination, VK_FORMAT_R32G32B32A32_UINT, viewBytes) : VK_NULL_HANDLE;
-  return ok && t.source1 && t.destination1 && t.source4 && t.destination4;
-}
-
-constexpr VkDescriptorType kStorageBuffer = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-constexpr VkDescriptorType kTexel = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
-constexpr VkDescriptorType kStorageTexel = VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER;
-
-bool createCopies(Resources& r, std::array<Copy, 4>& copies) {
-  return createCopy(r, kSpirv_copy_buffer_comp, sizeof(kSpirv_copy_buffer_comp), kStorageBuffer, kStorageBuffer,
-                    copies[0]) &&
-         createCopy(r, kSpirv_copy_texel_comp, sizeof(kSpirv_copy_texel_comp), kTexel, kStorageTexel, copies[1]) &&
-         createCopy(r, kSpirv_copy_texel4_comp, sizeof(kSpirv_copy_texel4_comp), kTexel, kStorageTexel, copies[2]) &&
-         createCopy(r, kSpirv_copy_image_comp, sizeof(kSpirv_copy_image_comp), VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER,
-                    kStorageBuffer, copies[3]);
-}
-
-void recordCopySourceUpload(VkCommandBuffer cmd, VkBuffer stage, const CopyTargets& t, const Field& field,
-                            uint64_t copyWords) {
-  const uint32_t layers = field.layerCount();
-  VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
-  b.dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-  b.dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  b.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-  b.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-  b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.image = t.image;
-  b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, layers};
-  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-  dep.imageMemoryBarrierCount = 1;
-  dep.pImageMemoryBarriers = &b;
-  vkCmdPipelineBarrier2(cmd, &dep);
-  VkBufferImageCopy region{};
-  region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, layers};
-  region.imageExtent = {field.width, field.height, 1};
-  vkCmdCopyBufferToImage(cmd, stage, t.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
-  const VkBufferCopy words{0, 0, copyWords * 4};
-  vkCmdCopyBuffer(cmd, stage, t.source, 1, &words);
-  b.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-  b.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  b.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-  b.dstAccessMask = VK_ACCESS_2_SHADER_SAMPLED_READ_BIT;
-  b.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-  b.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
-  VkMemoryBarrier2 m{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
-  m.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-  m.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  m.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-  m.dstAccessMask = VK_ACCESS_2_SHADER_READ_BIT;
-  dep.memoryBarrierCount = 1;
-  dep.pMemoryBarriers = &m;
-  vkCmdPipelineBarrier2(cmd, &dep);
-}
-
-// Upload the previous layout's image; the copy sources hold whatever (a copy does not look).
-Result<void> uploadCopySources(harness::Harness& h, harness::Harness::Buffer stage, const std::vector<uint8_t>& rgba,
-                               const CopyTargets& t, const Field& field, uint64_t copyWords) {
-  std::memcpy(stage.mapped, rgba.data(), rgba.size());
-  auto submitted = h.submitAndWait(
-      [&](VkCommandBuffer cmd) { recordCopySourceUpload(cmd, stage.buffer, t, field, copyWords); });
-  h.destroyBuffer(stage);
-  return submitted;
-}
-
-// The copies' descriptors, push constants, dispatch sizes and the bytes each reads.
-void bindCopies(harness::Harness& h, const Field& field, const CopyTargets& t, uint64_t copyWords, size_t rgbaBytes,
-                std::array<Copy, 4>& copies) {
-  // Each copy reads as many bytes as its path's limit allows (all of them unless the field is huge).
-  const VkPhysicalDeviceLimits& limits = h.properties().limits;
-  const uint64_t storageWords = std::min<uint64_t>(copyWords, limits.maxStorageBufferRange / 16 * 4);
-  const uint64_t texelWords = std::min<uint64_t>(copyWords, uint64_t(limits.maxTexelBufferElements) / 4 * 4);
-  const VkDevice d = h.device();
-  const VkDescriptorBufferInfo sourceInfo{t.source, 0, storageWords * 4};
-  const VkDescriptorBufferInfo destinationInfo{t.destination, 0, storageWords * 4};
-  const VkDescriptorImageInfo imageInfo{t.sampler, t.imageView, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-  writeDescriptor(d, copies[0].set, 0, kStorageBuffer, &sourceInfo, nullptr, nullptr);
-  writeDescriptor(d, copies[0].set, 1, kStorageBuffer, &destinationInfo, nullptr, nullptr);
-  writeDescriptor(d, copies[1].set, 0, kTexel, nullptr, &t.source1, nullptr);
-  writeDescriptor(d, copies[1].set, 1, kStorageTexel, nullptr, &t.destination1, nullptr);
-  writeDescriptor(d, copies[2].set, 0, kTexel, nullptr, &t.source4, nullptr);
-  writeDescriptor(d, copies[2].set, 1, kStorageTexel, nullptr, &t.destination4, nullptr);
-  writeDescriptor(d, copies[3].set, 0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, nullptr, nullptr, &imageInfo);
-  // The previous layout's copy writes every texel of as many layers as the binding can hold.
-  const bool u8 = field.quantization == Quantization::U8;
-  const VkDeviceSize layerBytes = field.texelCount() * 4 * (u8 ? 1u : 2u);
-  const uint32_t imageLayers = static_cast<uint32_t>(std::min<VkDeviceSize>(
-      field.layerCount(), std::min<VkDeviceSize>(rgbaBytes, limits.maxStorageBufferRange) / layerBytes));
-  const VkDescriptorBufferInfo imageDestinationInfo{t.destination, 0, std::max<VkDeviceSize>(imageLayers, 1) * layerBytes};
-  writeDescriptor(d, copies[3].set, 1, kStorageBuffer, &imageDestinationInfo, nullptr, nullptr);
-  const uint32_t words = static_cast<uint32_t>(storageWords), texels = static_cast<uint32_t>(texelWords);
-  copies[0].push = {words, 0, 0, 0};
-  copies[0].groups = (words + 63) / 64;
-  copies[0].bytes = storageWords * 4;
-  copies[1].push = {texels, 0, 0, 0};
-  copies[1].groups = (texels + 63) / 64;
-  copies[1].bytes = texelWords * 4;
-  copies[2].push = {texels / 4, 0, 0, 0};
-  copies[2].groups = (texels / 4 + 63) / 64;
-  copies[2].bytes = texelWords * 4;
-  copies[3].push = {field.width, field.height, imageLayers, u8 ? 0u : 1u};
-  copies[3].groups = 0;  // 2D dispatch below
-  copies[3].bytes = imageLayers * layerBytes;
-  copies[3].reference = false;
-}
-
-std::function<void(VkCommandBuffer)> copyRecorder(const Field& field, const Copy& c) {
-  return [&field, c](VkCommandBuffer cmd) {
-    // Like the decompression's first barrier: wait for earlier writes of the destination.
-    VkMemoryBarrier2 m{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
-    m.srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-    m.srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-    m.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-    m.dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-    VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-    dep.memoryBarrierCount = 1;
-    dep.pMemoryBarriers = &m;
-    vkCmdPipelineBarrier2(cmd, &dep);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c.pipeline);
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c.layout, 0, 1, &c.set, 0, nullptr);
-    vkCmdPushConstants(cmd, c.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, 16, c.push.data());
-    if (c.groups) vkCmdDispatch(cmd, std::min(c.groups, 32768u), (c.groups + 32767u) / 32768u, 1);
-    else vkCmdDispatch(cmd, (field.width + 7) / 8, (field.height + 7) / 8, 1);
-  };
 }
 
 // The report: the decompression's rate and the copies', and its ratio to the fastest reference.
@@ -764,21 +409,9 @@ std::optional<int> loadField(const Options& options, Field& field) {
   return std::nullopt;
 }
 
-int run(const Options& options) {
-  Field field;
-  if (const std::optional<int> exitCode = loadField(options, field)) return *exitCode;
-  bool noDevice = false;
-  auto gpu = createGpu(options.validation, &noDevice);
-  if (!gpu) return noDevice ? 0 : 1;
-  harness::Harness& h = *gpu->harness;
-  Context& context = *gpu->context;
-  GpuTimer timer(h, 2);
-  if (!timer.available()) {
-    std::printf("SKIPPED: the queue has no timestamps\n");
-    return 0;
-  }
+int runField(const Options& options, const Field& field, harness::Harness& h, Context& context, GpuTimer& timer) {
 
-  auto uploaded = uploadObject(context, field);
+  auto uploaded = harness::uploadField(context, field, /*volumeInDecompression=*/true);
   if (!uploaded) {
     std::fprintf(stderr, "%s\n", uploaded.error().message.c_str());
     return 1;
@@ -810,44 +443,59 @@ int run(const Options& options) {
   return compareWithCopies(h, timer, options, field, object, decompressor.value(), recordDecompression, failed);
 }
 
+// The device and a timer of two marks, then --encodings or the field (FIELD.shrf, loaded first:
+// a missing file skips before any device is touched, or the synthetic one).
+int run(const Options& options) {
+  Field field;
+  if (!options.encodings)
+    if (const std::optional<int> exitCode = loadField(options, field)) return *exitCode;
+  bool noDevice = false;
+  std::unique_ptr<Gpu> gpu = createGpu(options.validation, &noDevice);
+  if (!gpu) return noDevice ? 0 : 1;
+  GpuTimer timer(*gpu->harness, 2);
+  if (!timer.available()) {
+    std::printf("SKIPPED: the queue has no timestamps\n");
+    return 0;
+  }
+  return options.encodings ? runEncodings(options, *gpu->harness, *gpu->context, timer)
+                           : runField(options, field, *gpu->harness, *gpu->context, timer);
+}
+
+// The options from the command line, or the exit code to stop with.
+std::optional<int> parseArguments(int argc, char** argv, Options& options) {
+  const std::vector<cli::FlagSpec> flags = {
+      {"size", true, "synthetic atlas", cli::ValueKind::Size, {1, 8192}, {1, 8192}},
+      {"order", true, "synthetic SH order", cli::ValueKind::Integer, {0, 16}},
+      {"quant", true, "u8 or f16"},
+      {"channels", true, "3 or 4", cli::ValueKind::Integer, {3, 4}},
+      {"reps", true, "repetitions", cli::ValueKind::Integer, {1, 1000}},
+      {"validation", false, "with the validation layer"},
+      {"profile", false, "the decompression alone"},
+      {"encodings", false, "compare the encodings"},
+  };
+  auto parsed = parseCommandLine("shrefract_decompression_benchmark", argc, argv, flags,
+                                 [](const char* error) { usage(error); });
+  if (const int* exitCode = std::get_if<int>(&parsed)) return *exitCode;
+  const cli::Args& args = std::get<cli::Args>(parsed);
+  options.sizeGiven = args.read("size", options.synthetic.width, options.synthetic.height);
+  args.read("order", options.synthetic.order);
+  args.read("channels", options.synthetic.channels);
+  args.read("reps", options.reps);
+  if (std::string q; args.read("quant", q) && !parseQuantization(q, options.synthetic.quantization))
+    return usage("--quant expects u8 or f16");
+  options.validation = args.has("validation");
+  options.profile = args.has("profile");
+  options.encodings = args.has("encodings");
+  if (args.positional().size() > 1) return usage(("unknown argument " + args.positional()[1]).c_str());
+  if (!args.positional().empty()) options.field = args.positional()[0];
+  if (options.encodings && (!options.field.empty() || options.profile))
+    return usage("--encodings takes no FIELD.shrf and no --profile");
+  return std::nullopt;
+}
+
 }  // namespace
 }  // namespace shrefract::bench
 
 int main(int argc, char** argv) {
-  using namespace shrefract::bench;
-  Options options;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
-    if (a == "--help" || a == "-h") {
-      usage(nullptr);
-      return 0;
-    } else if (a == "--size") {
-      if (!parseSize(value(), 8192, options.synthetic.width, options.synthetic.height))
-        return usage("--size expects WxH (1..8192)");
-      options.sizeGiven = true;
-    } else if (a == "--order") {
-      if (!parseCount(value(), 0, 16, options.synthetic.order)) return usage("--order expects 0..16");
-    } else if (a == "--quant") {
-      const char* v = value();
-      if (!v || !parseQuantization(v, options.synthetic.quantization)) return usage("--quant expects u8 or f16");
-    } else if (a == "--channels") {
-      if (!parseCount(value(), 3, 4, options.synthetic.channels)) return usage("--channels expects 3 or 4");
-    } else if (a == "--reps") {
-      if (!parseCount(value(), 1, 1000, options.reps)) return usage("--reps expects 1..1000");
-    } else if (a == "--validation") {
-      options.validation = true;
-    } else if (a == "--profile") {
-      options.profile = true;
-    } else if (a == "--encodings") {
-      options.encodings = true;
-    } else if (!a.empty() && a[0] != '-' && options.field.empty()) {
-      options.field = a;
-    } else {
-      return usage(("unknown argument " + a).c_str());
-    }
-  }
-  if (options.encodings && (!options.field.empty() || options.profile))
-    return usage("--encodings takes no FIELD.shrf and no --profile");
-  return options.encodings ? runEncodings(options) : run(options);
+  return shrefract::bench::benchmarkMain(argc, argv, shrefract::bench::parseArguments, shrefract::bench::run);
 }

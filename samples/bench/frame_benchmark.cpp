@@ -51,10 +51,12 @@
 #include <cstdlib>
 #include <filesystem>
 #include <numbers>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "bench/bench_support.h"
+#include "cli/args.h"
 
 namespace shrefract::bench {
 namespace {
@@ -659,62 +661,52 @@ bool parseTapCounts(const std::string& text, std::vector<uint32_t>& counts) {
   return true;
 }
 
-// Returns -1 when the arguments are good, else the exit code (2 after one line for bad ones).
-int parseArguments(int argc, char** argv, Options& o) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    const char* v = i + 1 < argc ? argv[i + 1] : nullptr;
-    auto takes = [&]() { return ++i, v ? std::string(v) : std::string(); };
-    if (a == "--help" || a == "-h") return help();
-    if (a == "--size") {
-      if (!parseSize(takes().c_str(), 8192, o.width, o.height)) return usage("--size expects WxH (1..8192)");
-    } else if (a == "--frames") {
-      if (!parseCount(takes().c_str(), 1, 10000, o.frames)) return usage("--frames expects 1..10000");
-    } else if (a == "--instances") {
-      if (!parseCount(takes().c_str(), 1, 256, o.instances)) return usage("--instances expects 1..256");
-    } else if (a == "--shading") {
-      const std::string s = takes();
-      if (s == "field") o.shading = ShadingMode::Field;
-      else if (s == "exit-direction") o.shading = ShadingMode::FieldExitDirection;
-      else if (s == "single-interface") o.shading = ShadingMode::SingleInterface;
-      else return usage("--shading expects field, exit-direction or single-interface");
-    } else if (a == "--format") {
-      const std::string s = takes();
-      if (s == "rgba16f") o.colorFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
-      else if (s == "rgba8") o.colorFormat = VK_FORMAT_R8G8B8A8_UNORM;
-      else if (s == "rgba32f") o.colorFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
-      else return usage("--format expects rgba16f, rgba8 or rgba32f");
-    } else if (a == "--env-taps") {
-      if (!parseTapCounts(takes(), o.environmentTaps))
-        return usage("--env-taps expects counts 1.." + std::to_string(kMaxEnvironmentTapsPerAxis) + ", comma-separated");
-    } else if (a == "--msaa") {
-      uint32_t n = 0;
-      if (!parseCount(takes().c_str(), 1, 8, n) || (n & (n - 1)))
-        return usage("--msaa expects 1, 2, 4 or 8");
-      o.msaa = static_cast<VkSampleCountFlagBits>(n);  // 1, 2, 4, 8 are the flag bits
-    } else if (a == "--cube-env") {
-      o.cube = true;
-    } else if (a == "--per-fragment") {
-      o.perFragment = true;
-    } else if (a == "--no-volume-refine") {
-      o.refineVolumePaths = false;
-    } else if (a == "--validation") {
-      o.validation = true;
-    } else if (!a.empty() && a[0] != '-') {
-      if (!std::filesystem::is_regular_file(a)) return usage(a + ": no such file");
-      o.fields.push_back(a);
-    } else {
-      return usage("unknown argument " + a);
-    }
+// Nothing when the arguments are good, else the exit code (2 after one line for bad ones).
+std::optional<int> parseArguments(int argc, char** argv, Options& o) {
+  const std::vector<cli::FlagSpec> flags = {
+      {"size", true, "frame size", cli::ValueKind::Size, {1, 8192}, {1, 8192}},
+      {"frames", true, "timed frames", cli::ValueKind::Integer, {1, 10000}},
+      {"instances", true, "instances of each field", cli::ValueKind::Integer, {1, 256}},
+      {"shading", true, "field, exit-direction or single-interface"},
+      {"format", true, "rgba16f, rgba8 or rgba32f"},
+      {"env-taps", true, "environment taps per axis, comma-separated"},
+      {"msaa", true, "1, 2, 4 or 8"},
+      {"cube-env", false, "a cube map environment"},
+      {"per-fragment", false, "a volume field also traced per fragment"},
+      {"no-volume-refine", false, "volume paths not refined"},
+      {"validation", false, "with the validation layer"},
+  };
+  auto parsed = parseCommandLine("shrefract_frame_benchmark", argc, argv, flags, [](const char* error) {
+    if (error) std::fprintf(stderr, "%s (--help for usage)\n", error);
+    else help();
+  });
+  if (const int* exitCode = std::get_if<int>(&parsed)) return *exitCode;
+  const cli::Args& args = std::get<cli::Args>(parsed);
+  args.read("size", o.width, o.height);
+  args.read("frames", o.frames);
+  args.read("instances", o.instances);
+  if (const auto bad = readShadingAndFormat(args, o.shading, o.colorFormat)) return usage(*bad);
+  if (std::string v; args.read("env-taps", v) && !parseTapCounts(v, o.environmentTaps))
+    return usage("--env-taps expects counts 1.." + std::to_string(kMaxEnvironmentTapsPerAxis) + ", comma-separated");
+  if (std::string v; args.read("msaa", v)) {
+    uint32_t n = 0;
+    if (!parseCount(v.c_str(), 1, 8, n) || (n & (n - 1))) return usage("--msaa expects 1, 2, 4 or 8");
+    o.msaa = static_cast<VkSampleCountFlagBits>(n);  // 1, 2, 4, 8 are the flag bits
   }
-  return -1;
+  o.cube = args.has("cube-env");
+  o.perFragment = args.has("per-fragment");
+  if (args.has("no-volume-refine")) o.refineVolumePaths = false;
+  o.validation = args.has("validation");
+  for (const std::string& a : args.positional()) {
+    if (!std::filesystem::is_regular_file(a)) return usage(a + ": no such file");
+    o.fields.push_back(a);
+  }
+  return std::nullopt;
 }
 
 }  // namespace
 }  // namespace shrefract::bench
 
 int main(int argc, char** argv) {
-  shrefract::bench::Options options;
-  if (const int rc = shrefract::bench::parseArguments(argc, argv, options); rc >= 0) return rc;
-  return shrefract::bench::run(options);
+  return shrefract::bench::benchmarkMain(argc, argv, shrefract::bench::parseArguments, shrefract::bench::run);
 }

@@ -14,10 +14,12 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "bench/bench_support.h"
+#include "cli/args.h"
 
 namespace shrefract::bench {
 namespace {
@@ -56,7 +58,7 @@ void printRow(const Row& r) {
 // Uploads `field` as the engine would and fills `row` with its layout and the object's device
 // memory; the object is released before returning, so rows never add up on the device.
 bool measure(Context& context, const Field& field, const std::string& name, Row& row) {
-  auto uploaded = uploadObject(context, field);
+  auto uploaded = harness::uploadField(context, field, /*volumeInDecompression=*/true);
   if (!uploaded) {
     std::fprintf(stderr, "%s: %s\n", name.c_str(), uploaded.error().message.c_str());
     return false;
@@ -155,33 +157,27 @@ int run(const Options& options) {
   return 0;
 }
 
+// The options from the command line, or the exit code to stop with.
+std::optional<int> parseArguments(int argc, char** argv, Options& options) {
+  const std::vector<cli::FlagSpec> flags = {
+      {"size", true, "synthetic atlas", cli::ValueKind::Size, {1, 4096}, {1, 4096}},
+      {"fill", true, "fraction of texels that are samples", cli::ValueKind::Real, {0, 1, true, false}},
+      {"validation", false, "with the validation layer"},
+  };
+  auto parsed = parseCommandLine("shrefract_memory_benchmark", argc, argv, flags,
+                                 [](const char* error) { usage(error); });
+  if (const int* exitCode = std::get_if<int>(&parsed)) return *exitCode;
+  const cli::Args& args = std::get<cli::Args>(parsed);
+  args.read("size", options.synthetic.width, options.synthetic.height);
+  if (double fill = 0.0; args.read("fill", fill)) options.synthetic.sampleFraction = static_cast<float>(fill);
+  options.validation = args.has("validation");
+  options.fields = args.positional();
+  return std::nullopt;
+}
+
 }  // namespace
 }  // namespace shrefract::bench
 
 int main(int argc, char** argv) {
-  using namespace shrefract::bench;
-  Options options;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
-    if (a == "--help" || a == "-h") {
-      usage(nullptr);
-      return 0;
-    } else if (a == "--size") {
-      if (!parseSize(value(), 4096, options.synthetic.width, options.synthetic.height))
-        return usage("--size expects WxH (1..4096)");
-    } else if (a == "--fill") {
-      const char* v = value();
-      const double f = v ? std::atof(v) : 0.0;
-      if (!(f > 0.0 && f <= 1.0)) return usage("--fill expects a fraction in (0, 1]");
-      options.synthetic.sampleFraction = static_cast<float>(f);
-    } else if (a == "--validation") {
-      options.validation = true;
-    } else if (!a.empty() && a[0] != '-') {
-      options.fields.push_back(a);
-    } else {
-      return usage(("unknown argument " + a).c_str());
-    }
-  }
-  return run(options);
+  return shrefract::bench::benchmarkMain(argc, argv, shrefract::bench::parseArguments, shrefract::bench::run);
 }

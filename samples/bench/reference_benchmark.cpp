@@ -36,12 +36,14 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <glm/glm.hpp>
 
 #include "bench/bench_support.h"
+#include "cli/args.h"
 #include "cli/scene_source.h"
 #include "offscreen/offscreen.h"
 
@@ -348,52 +350,40 @@ int run(const Options& options) {
   return runOnSession(*created.value(), options, field, envImage.value());
 }
 
+// The options from the command line, or the exit code to stop with.
+std::optional<int> parseArguments(int argc, char** argv, Options& options) {
+  const std::vector<cli::FlagSpec> flags = {
+      {"size", true, "frame size", cli::ValueKind::Size, {1, 8192}, {1, 8192}},
+      {"frames", true, "frames a series", cli::ValueKind::Integer, {1, 10000}},
+      {"env", true, "builtin or a file"},
+      {"threads", true, "CPU reference threads", cli::ValueKind::Integer, {1, 1024}},
+      {"shading", true, "field, exit-direction or single-interface"},
+      {"format", true, "rgba16f, rgba8 or rgba32f"},
+      {"cube-env", false, "a cube map environment"},
+      {"no-reference", false, "no CPU reference"},
+      {"validation", false, "with the validation layer"},
+  };
+  auto parsed = parseCommandLine("shrefract_reference_benchmark", argc, argv, flags,
+                                 [](const char* error) { usage(error); });
+  if (const int* exitCode = std::get_if<int>(&parsed)) return *exitCode;
+  const cli::Args& args = std::get<cli::Args>(parsed);
+  args.read("size", options.width, options.height);
+  args.read("frames", options.frames);
+  args.read("env", options.environment);
+  args.read("threads", options.threads);
+  if (const auto bad = readShadingAndFormat(args, options.shading, options.colorFormat)) return usage(bad->c_str());
+  options.cube = args.has("cube-env");
+  options.reference = !args.has("no-reference");
+  options.validation = args.has("validation");
+  if (args.positional().size() > 1) return usage(("unknown argument " + args.positional()[1]).c_str());
+  if (args.positional().empty()) return usage("missing FIELD.shrf");
+  options.field = args.positional()[0];
+  return std::nullopt;
+}
+
 }  // namespace
 }  // namespace shrefract::bench
 
 int main(int argc, char** argv) {
-  using namespace shrefract::bench;
-  Options options;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
-    if (a == "--help" || a == "-h") {
-      usage(nullptr);
-      return 0;
-    } else if (a == "--size") {
-      if (!parseSize(value(), 8192, options.width, options.height)) return usage("--size expects WxH (1..8192)");
-    } else if (a == "--frames") {
-      if (!parseCount(value(), 1, 10000, options.frames)) return usage("--frames expects 1..10000");
-    } else if (a == "--env") {
-      const char* v = value();
-      if (!v) return usage("--env expects builtin or a file");
-      options.environment = v;
-    } else if (a == "--threads") {
-      if (!parseCount(value(), 1, 1024, options.threads)) return usage("--threads expects 1..1024");
-    } else if (a == "--shading") {
-      const std::string v = value() ? argv[i] : "";
-      if (v == "field") options.shading = shrefract::ShadingMode::Field;
-      else if (v == "exit-direction") options.shading = shrefract::ShadingMode::FieldExitDirection;
-      else if (v == "single-interface") options.shading = shrefract::ShadingMode::SingleInterface;
-      else return usage("--shading expects field, exit-direction or single-interface");
-    } else if (a == "--format") {
-      const std::string v = value() ? argv[i] : "";
-      if (v == "rgba16f") options.colorFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
-      else if (v == "rgba8") options.colorFormat = VK_FORMAT_R8G8B8A8_UNORM;
-      else if (v == "rgba32f") options.colorFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
-      else return usage("--format expects rgba16f, rgba8 or rgba32f");
-    } else if (a == "--cube-env") {
-      options.cube = true;
-    } else if (a == "--no-reference") {
-      options.reference = false;
-    } else if (a == "--validation") {
-      options.validation = true;
-    } else if (!a.empty() && a[0] != '-' && options.field.empty()) {
-      options.field = a;
-    } else {
-      return usage(("unknown argument " + a).c_str());
-    }
-  }
-  if (options.field.empty()) return usage("missing FIELD.shrf");
-  return run(options);
+  return shrefract::bench::benchmarkMain(argc, argv, shrefract::bench::parseArguments, shrefract::bench::run);
 }

@@ -22,13 +22,13 @@ bool hasDeveloperOptions(const std::vector<FlagSpec>& flags) {
 }  // namespace
 
 Result<void> Args::setDeveloperOption(const std::string& text) {
-  const std::string prefix = "shrefract " + command_ + ": ";
+  const std::string prefix = who_ + ": ";
   const auto eq = text.find('=');
   const std::string key = text.substr(0, eq);
   const FlagSpec* f = spec(key);
   if (key.empty() || !f)
-    return makeError(ErrorCode::InvalidArgument, prefix + "--dev " + key + ": unknown developer option (shrefract " +
-                                                     command_ + " --help-dev lists them)");
+    return makeError(ErrorCode::InvalidArgument, prefix + "--dev " + key + ": unknown developer option (" + who_ +
+                                                     " --help-dev lists them)");
   if (!f->developer)
     return makeError(ErrorCode::InvalidArgument, prefix + "--dev " + key + ": not a developer option; give --" + key);
   const std::string shown = "--dev " + key;
@@ -49,9 +49,28 @@ Result<void> Args::setDeveloperOption(const std::string& text) {
 
 Result<Args> Args::parse(const std::string& command, int argc, char** argv, int first,
                          const std::vector<FlagSpec>& flags) {
+  return parseAs("shrefract " + command, command, argc, argv, first, flags, true);
+}
+
+Result<Args> Args::parseProgram(const std::string& program, int argc, char** argv,
+                                const std::vector<FlagSpec>& flags) {
+  std::vector<std::string> words(argv, argv + argc);
+  for (auto& w : words)
+    if (w == "-h") w = "--help";
+  std::vector<char*> pointers;
+  for (auto& w : words) pointers.push_back(w.data());
+  std::vector<FlagSpec> withHelp = flags;
+  withHelp.push_back({"help", false, "this text"});
+  return parseAs(program, program, argc, pointers.data(), 1, withHelp, false);
+}
+
+Result<Args> Args::parseAs(const std::string& who, const std::string& command, int argc, char** argv, int first,
+                           const std::vector<FlagSpec>& flags, bool tool) {
   Args args;
   args.command_ = command;
+  args.who_ = who;
   args.flags_ = flags;
+  const std::string prefix = who + ": ";
   const bool developer = hasDeveloperOptions(flags);
   for (int i = first; i < argc; ++i) {
     std::string a = argv[i];
@@ -63,7 +82,7 @@ Result<Args> Args::parse(const std::string& command, int argc, char** argv, int 
       } else {
         const std::string next = i + 1 < argc ? argv[i + 1] : "";
         if (i + 1 >= argc || next.rfind("-", 0) == 0)
-          return makeError(ErrorCode::InvalidArgument, "shrefract " + command + ": flag --dev needs KEY or KEY=VALUE");
+          return makeError(ErrorCode::InvalidArgument, prefix + "flag --dev needs KEY or KEY=VALUE");
         text = argv[++i];
       }
       if (auto ok = args.setDeveloperOption(text); !ok) return ok.error();
@@ -81,10 +100,10 @@ Result<Args> Args::parse(const std::string& command, int argc, char** argv, int 
       const FlagSpec* spec = nullptr;
       for (const auto& f : flags)
         if (f.name == name) spec = &f;
-      if (!spec) return makeError(ErrorCode::InvalidArgument, "shrefract " + command + ": unknown flag --" + name);
+      if (!spec) return makeError(ErrorCode::InvalidArgument, prefix + "unknown flag --" + name);
       if (args.values_.count(name))
         return makeError(ErrorCode::InvalidArgument,
-                         "shrefract " + command + ": flag " + flagName(*spec) + " given twice");
+                         prefix + "flag " + flagName(*spec) + " given twice");
       const std::string shown = "--" + name;
       if (spec->takesValue) {
         if (inlineValue) {
@@ -94,23 +113,27 @@ Result<Args> Args::parse(const std::string& command, int argc, char** argv, int 
           // The next argument is the value unless it is another flag ("--x" or "-o"): "--order -o F"
           // forgot the order's value, and taking "-o" as it would blame a different argument.
           const std::string next = i + 1 < argc ? argv[i + 1] : "";
-          if (i + 1 >= argc || (next.size() > 2 && next.rfind("--", 0) == 0) || next == "-o")
-            return makeError(ErrorCode::InvalidArgument, "shrefract " + command + ": flag --" + name + " needs a value");
+          // A program's flag last on the line reads as empty, so that the check of its value
+          // (the kind's, or the program's own) says what it expects.
+          const bool emptyAtEnd = !tool && i + 1 >= argc;
+          if (!emptyAtEnd && (i + 1 >= argc || (next.size() > 2 && next.rfind("--", 0) == 0) || next == "-o"))
+            return makeError(ErrorCode::InvalidArgument, prefix + "flag --" + name + " needs a value");
           if (auto ok = args.check(*spec, shown, next); !ok) return ok.error();
-          args.values_[name] = argv[++i];
+          args.values_[name] = next;
+          i += emptyAtEnd ? 0 : 1;
         }
       } else {
         if (inlineValue)
-          return makeError(ErrorCode::InvalidArgument, "shrefract " + command + ": flag --" + name + " takes no value");
+          return makeError(ErrorCode::InvalidArgument, prefix + "flag --" + name + " takes no value");
         args.values_[name] = "";
       }
-    } else if (a == "-o") {
-      if (i + 1 >= argc) return makeError(ErrorCode::InvalidArgument, "shrefract " + command + ": -o needs a path");
+    } else if (tool && a == "-o") {
+      if (i + 1 >= argc) return makeError(ErrorCode::InvalidArgument, prefix + "-o needs a path");
       if (args.values_.count("output"))
-        return makeError(ErrorCode::InvalidArgument, "shrefract " + command + ": output given twice");
+        return makeError(ErrorCode::InvalidArgument, prefix + "output given twice");
       args.values_["output"] = argv[++i];
     } else if (a.size() > 1 && a[0] == '-' && !(a[1] >= '0' && a[1] <= '9')) {
-      return makeError(ErrorCode::InvalidArgument, "shrefract " + command + ": unknown flag " + a);
+      return makeError(ErrorCode::InvalidArgument, prefix + "unknown flag " + a);
     } else {
       args.positional_.push_back(a);
     }
@@ -192,7 +215,7 @@ std::string FlagSpec::rangeText() const {
 }
 
 Result<void> Args::check(const FlagSpec& f, const std::string& shown, const std::string& value) const {
-  const std::string flag = "shrefract " + command_ + ": " + shown;
+  const std::string flag = who_ + ": " + shown;
   auto outside = [&]() {
     return makeError(ErrorCode::InvalidArgument, flag + " must be " + f.rangeText() + ", got '" + value + "'");
   };
@@ -224,7 +247,7 @@ Result<std::optional<double>> Args::number(const std::string& name) const {
   const auto d = parseReal(*v);
   if (!d)
     return makeError(ErrorCode::InvalidArgument,
-                     "shrefract " + command_ + ": " + shownName(name) + " expects a finite number, got '" + *v + "'");
+                     who_ + ": " + shownName(name) + " expects a finite number, got '" + *v + "'");
   return std::optional<double>{*d};
 }
 
@@ -234,7 +257,7 @@ Result<std::optional<int64_t>> Args::integer(const std::string& name) const {
   const auto n = parseInteger(*v);
   if (!n)
     return makeError(ErrorCode::InvalidArgument,
-                     "shrefract " + command_ + ": " + shownName(name) + " expects an integer, got '" + *v + "'");
+                     who_ + ": " + shownName(name) + " expects an integer, got '" + *v + "'");
   return std::optional<int64_t>{*n};
 }
 
@@ -251,7 +274,7 @@ Result<std::optional<std::array<float, 3>>> Args::vec3(const std::string& name) 
     // Finite as a float too: 1e300 would become inf once stored.
     if (end == p || !sepOk || errno == ERANGE || !std::isfinite(static_cast<float>(d)))
       return makeError(ErrorCode::InvalidArgument,
-                       "shrefract " + command_ + ": " + shownName(name) + " expects x,y,z (finite), got '" + *v + "'");
+                       who_ + ": " + shownName(name) + " expects x,y,z (finite), got '" + *v + "'");
     out[static_cast<size_t>(k)] = static_cast<float>(d);
     p = end + 1;
   }
@@ -267,9 +290,39 @@ Result<std::optional<std::array<uint32_t, 2>>> Args::size(const std::string& nam
   if (!p || (*p)[0] < 0 || (*p)[1] < 0 || (*p)[0] > UINT32_MAX || (*p)[1] > UINT32_MAX || !f ||
       f->kind != ValueKind::Size)
     return makeError(ErrorCode::InvalidArgument,
-                     "shrefract " + command_ + ": " + shownName(name) + " expects WxH, got '" + *v + "'");
+                     who_ + ": " + shownName(name) + " expects WxH, got '" + *v + "'");
   return std::optional<std::array<uint32_t, 2>>{
       std::array<uint32_t, 2>{static_cast<uint32_t>((*p)[0]), static_cast<uint32_t>((*p)[1])}};
+}
+
+namespace {
+
+// A typed accessor's value into `store` when the flag was given and well formed.
+template <class T, class Store>
+bool readInto(const Result<std::optional<T>>& value, Store&& store) {
+  if (!value.ok() || !value.value()) return false;
+  store(*value.value());
+  return true;
+}
+
+}  // namespace
+
+bool Args::read(const std::string& name, uint32_t& out) const {
+  return readInto(integer(name), [&](int64_t v) { out = static_cast<uint32_t>(v); });
+}
+
+bool Args::read(const std::string& name, double& out) const {
+  return readInto(number(name), [&](double v) { out = v; });
+}
+
+bool Args::read(const std::string& name, std::string& out) const {
+  auto v = get(name);
+  if (v) out = *v;
+  return v.has_value();
+}
+
+bool Args::read(const std::string& name, uint32_t& width, uint32_t& height) const {
+  return readInto(size(name), [&](const std::array<uint32_t, 2>& v) { width = v[0], height = v[1]; });
 }
 
 namespace {

@@ -1,4 +1,6 @@
 // Strict command line parsing: every flag a command accepts is declared; anything else is an error.
+// The one flag table of every program: the `shrefract` tool's commands and the benchmarks (a
+// library of its own, shrefract_flags, so that a benchmark links it without the tool).
 //
 // A command's flags are of two kinds. User flags are listed by --help. Developer options
 // (FlagSpec::developer: experiment switches and the knobs tests and measurements turn) are given
@@ -57,6 +59,10 @@ class Args {
   // `flags` has developer options, --dev KEY[=VALUE] sets them (and --help-dev is a switch).
   static Result<Args> parse(const std::string& command, int argc, char** argv, int first,
                             const std::vector<FlagSpec>& flags);
+  // The same for a program of its own (a benchmark): argv[1..argc), errors begin "PROGRAM: ",
+  // --help (or -h) is added to `flags`, and "-o" is no flag.
+  static Result<Args> parseProgram(const std::string& program, int argc, char** argv,
+                                   const std::vector<FlagSpec>& flags);
 
   const std::vector<std::string>& positional() const { return positional_; }
   bool has(const std::string& name) const { return values_.count(name) != 0; }
@@ -68,6 +74,13 @@ class Args {
   Result<std::optional<std::array<float, 3>>> vec3(const std::string& name) const;
   Result<std::optional<std::array<uint32_t, 2>>> size(const std::string& name) const;  // "WxH"
 
+  // For flags whose kind and range parse checked: the value into `out` when given, and whether
+  // it was.
+  bool read(const std::string& name, uint32_t& out) const;
+  bool read(const std::string& name, double& out) const;
+  bool read(const std::string& name, std::string& out) const;
+  bool read(const std::string& name, uint32_t& width, uint32_t& height) const;  // Size
+
  private:
   // A value against its declaration (kind and range); errors name the flag as given (`shown`)
   // and the range.
@@ -77,7 +90,11 @@ class Args {
   const FlagSpec* spec(const std::string& name) const;
   std::string shownName(const std::string& name) const;  // flagName of its declaration
 
+  static Result<Args> parseAs(const std::string& who, const std::string& command, int argc, char** argv,
+                              int first, const std::vector<FlagSpec>& flags, bool tool);
+
   std::string command_;
+  std::string who_;  // what errors begin with: "shrefract COMMAND" or the program's name
   std::vector<FlagSpec> flags_;
   std::vector<std::string> positional_;
   std::map<std::string, std::string> values_;

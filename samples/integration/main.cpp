@@ -18,6 +18,8 @@
 // The image (a binary PPM, sRGB) shows a red box in front of the glass, a green box behind it and
 // the glass refracting the environment. See docs/integration.md for the contract step by step.
 //
+// The host's own Vulkan objects (instance, device, frames, images, barriers) are in host.h.
+//
 // Exit codes: 0 success; 1 failure (one line on stderr), also when the validation layer reported
 // anything; 77 when no Vulkan 1.3 device exists (ctest's skip code).
 #include <cstdint>  // before the generated SPIR-V headers, which use uint32_t
@@ -31,7 +33,6 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -43,31 +44,12 @@
 
 #include "box.frag.h"  // kSpirv_box_frag, compiled at build time (CMakeLists.txt)
 #include "box.vert.h"  // kSpirv_box_vert
+#include "host.h"
 
 namespace {
 
-// ------------------------------------------------------------------------------------------------
-// Errors: a failed step throws a Failure, which unwinds to main and prints one line. (Host code
-// only: the engine itself never throws; it returns shrefract::Result values, unwrapped here.)
-
-struct Failure {
-  std::string message;
-  int exitCode = 1;
-};
-
-void check(VkResult r, const char* what) {
-  if (r != VK_SUCCESS) throw Failure{std::string(what) + " failed (VkResult " + std::to_string(r) + ")"};
-}
-
-template <class T>
-T take(shrefract::Result<T>&& result, const char* what) {
-  if (!result) throw Failure{std::string(what) + ": " + result.error().message};
-  return std::move(result).value();
-}
-
-void require(const shrefract::Result<void>& result, const char* what) {
-  if (!result) throw Failure{std::string(what) + ": " + result.error().message};
-}
+// The host's own Vulkan objects and error handling (host.h), as an engine already has them.
+using namespace integration;
 
 // ------------------------------------------------------------------------------------------------
 // Matrices. The host must draw its own geometry with the projection the engine uses for a
@@ -218,269 +200,8 @@ shrefract::Field makeLensField() {
   return f;
 }
 
-// ------------------------------------------------------------------------------------------------
-// The host's Vulkan objects.
-
-// Counts validation warnings and errors. Called by the layer, possibly from several threads.
-std::atomic<uint32_t> gValidationMessages{0};
-VKAPI_ATTR VkBool32 VKAPI_CALL onDebugMessage(VkDebugUtilsMessageSeverityFlagBitsEXT,
-                                              VkDebugUtilsMessageTypeFlagsEXT type,
-                                              const VkDebugUtilsMessengerCallbackDataEXT* data, void*) {
-  if (type & (VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT)) {
-    ++gValidationMessages;
-    std::fprintf(stderr, "[vulkan validation] %s\n", data && data->pMessage ? data->pMessage : "(no message)");
-  }
-  return VK_FALSE;
-}
-
-struct Image {
-  VkImage image = VK_NULL_HANDLE;
-  VkDeviceMemory memory = VK_NULL_HANDLE;
-  VkImageView view = VK_NULL_HANDLE;
-};
-
-struct Frame {  // one frame in flight
-  VkCommandBuffer cmd = VK_NULL_HANDLE;
-  VkFence fence = VK_NULL_HANDLE;
-};
-
-constexpr uint32_t kFramesInFlight = 2;  // also ContextCreateInfo::framesInFlight (see beginFrame)
 constexpr VkFormat kColorFormat = VK_FORMAT_R8G8B8A8_SRGB;
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
-
-class Host {
- public:
-  // Instance, device, queue, command pool. Throws Failure (exit code 77 when no device fits).
-  Host();
-  ~Host();
-  Host(const Host&) = delete;
-  Host& operator=(const Host&) = delete;
-
-  VkInstance instance = VK_NULL_HANDLE;
-  VkDebugUtilsMessengerEXT messenger = VK_NULL_HANDLE;
-  VkPhysicalDevice physicalDevice = VK_NULL_HANDLE;
-  VkDevice device = VK_NULL_HANDLE;
-  uint32_t queueFamily = 0;
-  VkQueue queue = VK_NULL_HANDLE;
-  VkCommandPool pool = VK_NULL_HANDLE;
-  std::array<Frame, kFramesInFlight> frames{};
-
-  uint32_t memoryType(uint32_t bits, VkMemoryPropertyFlags flags) const;
-  Image createImage(VkExtent2D extent, VkFormat format, VkImageUsageFlags usage, VkImageAspectFlags aspect);
-  void destroy(Image& image);
-  // Records with `record` into frames[0]'s command buffer, submits and waits: for one-off setup.
-  template <class F>
-  void submitNow(F&& record);
-
- private:
-  void createInstance(const shrefract::DeviceRequirements& req);  // and the debug messenger
-  void pickPhysicalDevice(const shrefract::DeviceRequirements& req);
-  void createDevice(const shrefract::DeviceRequirements& req);  // and gets its queue
-  void createFrames();  // the command pool, and each frame's command buffer and fence
-};
-
-// The messenger's settings: validation warnings and errors, to onDebugMessage.
-VkDebugUtilsMessengerCreateInfoEXT messengerCreateInfo() {
-  VkDebugUtilsMessengerCreateInfoEXT messengerInfo{VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
-  messengerInfo.messageSeverity =
-      VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
-  messengerInfo.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
-                              VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT;
-  messengerInfo.pfnUserCallback = onDebugMessage;
-  return messengerInfo;
-}
-
-Host::Host() {
-  const shrefract::DeviceRequirements req = shrefract::deviceRequirements();
-  createInstance(req);
-  pickPhysicalDevice(req);
-  createDevice(req);
-  createFrames();
-}
-
-void Host::createInstance(const shrefract::DeviceRequirements& req) {
-  // Instance: Vulkan 1.3, validation layer and debug messenger (a host ships without them; a
-  // sample and its test keep them on so that misuse of the engine's contract is reported).
-  uint32_t loaderVersion = 0;
-  if (vkEnumerateInstanceVersion(&loaderVersion) != VK_SUCCESS || loaderVersion < req.apiVersion)
-    throw Failure{"the Vulkan loader does not offer Vulkan 1.3", 77};
-  VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
-  app.pApplicationName = "shrefract_integration";
-  app.apiVersion = req.apiVersion;
-  const char* layer = "VK_LAYER_KHRONOS_validation";
-  const char* debugUtils = VK_EXT_DEBUG_UTILS_EXTENSION_NAME;
-  const VkDebugUtilsMessengerCreateInfoEXT messengerInfo = messengerCreateInfo();
-  // Synchronization validation too: a missing or too-narrow barrier is a counted message.
-  const VkValidationFeatureEnableEXT syncValidation = VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT;
-  VkValidationFeaturesEXT validationFeatures{VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT};
-  validationFeatures.enabledValidationFeatureCount = 1;
-  validationFeatures.pEnabledValidationFeatures = &syncValidation;
-  validationFeatures.pNext = &messengerInfo;  // also reports problems inside vkCreateInstance / vkDestroyInstance
-  VkInstanceCreateInfo ici{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
-  ici.pNext = &validationFeatures;
-  ici.pApplicationInfo = &app;
-  ici.enabledLayerCount = 1;
-  ici.ppEnabledLayerNames = &layer;
-  ici.enabledExtensionCount = 1;
-  ici.ppEnabledExtensionNames = &debugUtils;
-  const VkResult created = vkCreateInstance(&ici, nullptr, &instance);
-  if (created == VK_ERROR_INCOMPATIBLE_DRIVER) throw Failure{"no Vulkan driver (vkCreateInstance)", 77};
-  if (created == VK_ERROR_LAYER_NOT_PRESENT)
-    throw Failure{"VK_LAYER_KHRONOS_validation is not installed (Debian: vulkan-validationlayers)"};
-  check(created, "vkCreateInstance");
-  auto createMessenger = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
-      vkGetInstanceProcAddr(instance, "vkCreateDebugUtilsMessengerEXT"));
-  if (!createMessenger) throw Failure{"vkCreateDebugUtilsMessengerEXT is missing"};
-  check(createMessenger(instance, &messengerInfo, nullptr, &messenger), "vkCreateDebugUtilsMessengerEXT");
-}
-
-void Host::pickPhysicalDevice(const shrefract::DeviceRequirements& req) {
-  // Physical device: Vulkan 1.3, the features shrefract lists, and one queue family with the
-  // flags it needs (graphics + compute), which the host also uses for its own drawing.
-  uint32_t count = 0;
-  vkEnumeratePhysicalDevices(instance, &count, nullptr);
-  std::vector<VkPhysicalDevice> devices(count);
-  vkEnumeratePhysicalDevices(instance, &count, devices.data());
-  for (VkPhysicalDevice pd : devices) {
-    VkPhysicalDeviceProperties props{};
-    vkGetPhysicalDeviceProperties(pd, &props);
-    VkPhysicalDeviceVulkan13Features f13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
-    VkPhysicalDeviceFeatures2 f2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
-    f2.pNext = &f13;
-    if (props.apiVersion < req.apiVersion) continue;
-    vkGetPhysicalDeviceFeatures2(pd, &f2);
-    if ((req.dynamicRendering && !f13.dynamicRendering) || (req.synchronization2 && !f13.synchronization2) ||
-        (req.maintenance4 && !f13.maintenance4))
-      continue;
-    uint32_t families = 0;
-    vkGetPhysicalDeviceQueueFamilyProperties(pd, &families, nullptr);
-    std::vector<VkQueueFamilyProperties> qprops(families);
-    vkGetPhysicalDeviceQueueFamilyProperties(pd, &families, qprops.data());
-    for (uint32_t q = 0; q < families && !physicalDevice; ++q)
-      if ((qprops[q].queueFlags & req.queueFlags) == req.queueFlags) {
-        physicalDevice = pd;
-        queueFamily = q;
-      }
-    if (physicalDevice) break;
-  }
-  if (!physicalDevice) throw Failure{"no Vulkan 1.3 device with the features shrefract needs", 77};
-}
-
-void Host::createDevice(const shrefract::DeviceRequirements& req) {
-  // Device: exactly what deviceRequirements() lists (plus whatever the host itself needs).
-  float priority = 1.0f;
-  VkDeviceQueueCreateInfo qci{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
-  qci.queueFamilyIndex = queueFamily;
-  qci.queueCount = 1;
-  qci.pQueuePriorities = &priority;
-  VkPhysicalDeviceVulkan13Features f13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
-  f13.dynamicRendering = req.dynamicRendering ? VK_TRUE : VK_FALSE;
-  f13.synchronization2 = req.synchronization2 ? VK_TRUE : VK_FALSE;
-  f13.maintenance4 = req.maintenance4 ? VK_TRUE : VK_FALSE;
-  VkPhysicalDeviceFeatures2 features{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
-  features.pNext = &f13;
-  VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
-  dci.pNext = &features;
-  dci.queueCreateInfoCount = 1;
-  dci.pQueueCreateInfos = &qci;
-  dci.enabledExtensionCount = static_cast<uint32_t>(req.deviceExtensions.size());
-  dci.ppEnabledExtensionNames = req.deviceExtensions.data();
-  check(vkCreateDevice(physicalDevice, &dci, nullptr, &device), "vkCreateDevice");
-  vkGetDeviceQueue(device, queueFamily, 0, &queue);
-}
-
-void Host::createFrames() {
-  VkCommandPoolCreateInfo pci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
-  pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-  pci.queueFamilyIndex = queueFamily;
-  check(vkCreateCommandPool(device, &pci, nullptr, &pool), "vkCreateCommandPool");
-  for (Frame& f : frames) {
-    VkCommandBufferAllocateInfo ai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
-    ai.commandPool = pool;
-    ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-    ai.commandBufferCount = 1;
-    check(vkAllocateCommandBuffers(device, &ai, &f.cmd), "vkAllocateCommandBuffers");
-    VkFenceCreateInfo fci{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
-    fci.flags = VK_FENCE_CREATE_SIGNALED_BIT;
-    check(vkCreateFence(device, &fci, nullptr, &f.fence), "vkCreateFence");
-  }
-}
-
-Host::~Host() {
-  if (device) {
-    vkDeviceWaitIdle(device);
-    for (Frame& f : frames)
-      if (f.fence) vkDestroyFence(device, f.fence, nullptr);
-    if (pool) vkDestroyCommandPool(device, pool, nullptr);
-    vkDestroyDevice(device, nullptr);
-  }
-  if (messenger) {
-    auto destroyMessenger = reinterpret_cast<PFN_vkDestroyDebugUtilsMessengerEXT>(
-        vkGetInstanceProcAddr(instance, "vkDestroyDebugUtilsMessengerEXT"));
-    destroyMessenger(instance, messenger, nullptr);
-  }
-  if (instance) vkDestroyInstance(instance, nullptr);
-}
-
-uint32_t Host::memoryType(uint32_t bits, VkMemoryPropertyFlags flags) const {
-  VkPhysicalDeviceMemoryProperties mp{};
-  vkGetPhysicalDeviceMemoryProperties(physicalDevice, &mp);
-  for (uint32_t i = 0; i < mp.memoryTypeCount; ++i)
-    if ((bits & (1u << i)) && (mp.memoryTypes[i].propertyFlags & flags) == flags) return i;
-  throw Failure{"no suitable memory type"};
-}
-
-Image Host::createImage(VkExtent2D extent, VkFormat format, VkImageUsageFlags usage, VkImageAspectFlags aspect) {
-  Image img;
-  VkImageCreateInfo ici{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
-  ici.imageType = VK_IMAGE_TYPE_2D;
-  ici.format = format;
-  ici.extent = {extent.width, extent.height, 1};
-  ici.mipLevels = ici.arrayLayers = 1;
-  ici.samples = VK_SAMPLE_COUNT_1_BIT;
-  ici.tiling = VK_IMAGE_TILING_OPTIMAL;
-  ici.usage = usage;
-  check(vkCreateImage(device, &ici, nullptr, &img.image), "vkCreateImage");
-  VkMemoryRequirements req{};
-  vkGetImageMemoryRequirements(device, img.image, &req);
-  VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-  mai.allocationSize = req.size;
-  mai.memoryTypeIndex = memoryType(req.memoryTypeBits, 0);
-  check(vkAllocateMemory(device, &mai, nullptr, &img.memory), "vkAllocateMemory");
-  check(vkBindImageMemory(device, img.image, img.memory, 0), "vkBindImageMemory");
-  VkImageViewCreateInfo vci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
-  vci.image = img.image;
-  vci.viewType = VK_IMAGE_VIEW_TYPE_2D;
-  vci.format = format;
-  vci.subresourceRange = {aspect, 0, 1, 0, 1};
-  check(vkCreateImageView(device, &vci, nullptr, &img.view), "vkCreateImageView");
-  return img;
-}
-
-void Host::destroy(Image& img) {
-  if (img.view) vkDestroyImageView(device, img.view, nullptr);
-  if (img.image) vkDestroyImage(device, img.image, nullptr);
-  if (img.memory) vkFreeMemory(device, img.memory, nullptr);
-  img = Image{};
-}
-
-template <class F>
-void Host::submitNow(F&& record) {
-  Frame& f = frames[0];
-  check(vkWaitForFences(device, 1, &f.fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
-  check(vkResetFences(device, 1, &f.fence), "vkResetFences");
-  check(vkResetCommandBuffer(f.cmd, 0), "vkResetCommandBuffer");
-  VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
-  bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-  check(vkBeginCommandBuffer(f.cmd, &bi), "vkBeginCommandBuffer");
-  record(f.cmd);
-  check(vkEndCommandBuffer(f.cmd), "vkEndCommandBuffer");
-  VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
-  si.commandBufferCount = 1;
-  si.pCommandBuffers = &f.cmd;
-  check(vkQueueSubmit(queue, 1, &si, f.fence), "vkQueueSubmit");
-  check(vkWaitForFences(device, 1, &f.fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
-}
 
 // The host's pipeline for its opaque boxes: dynamic rendering into the same attachment formats the
 // engine's Renderer was created with, depth test LESS with writes (what the engine expects of a
@@ -583,25 +304,6 @@ BoxPipeline createBoxPipeline(VkDevice device) {
   vkDestroyShaderModule(device, frag, nullptr);
   check(r, "vkCreateGraphicsPipelines (boxes)");
   return p;
-}
-
-void imageBarrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkPipelineStageFlags2 srcStage,
-                  VkAccessFlags2 srcAccess, VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess,
-                  VkImageLayout oldLayout, VkImageLayout newLayout) {
-  VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
-  b.srcStageMask = srcStage;
-  b.srcAccessMask = srcAccess;
-  b.dstStageMask = dstStage;
-  b.dstAccessMask = dstAccess;
-  b.oldLayout = oldLayout;
-  b.newLayout = newLayout;
-  b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.image = image;
-  b.subresourceRange = {aspect, 0, 1, 0, 1};
-  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-  dep.imageMemoryBarrierCount = 1;
-  dep.pImageMemoryBarriers = &b;
-  vkCmdPipelineBarrier2(cmd, &dep);
 }
 
 // The transform that centres `object` at the origin with its largest extent `size` (unrotated).
@@ -827,13 +529,9 @@ void recordReadback(VkCommandBuffer cmd, const FrameScene& s, VkBuffer readback)
 void drawFrame(Host& host, Frame& frame, shrefract::Context& context, const FrameScene& s, VkBuffer readback) {
   // Wait until the GPU is done with this slot's previous frame, then tell the engine: it releases
   // what it retired kFramesInFlight frames ago (here: the upload's staging buffers).
-  check(vkWaitForFences(host.device, 1, &frame.fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+  host.wait(frame);
   context.beginFrame();
-  check(vkResetFences(host.device, 1, &frame.fence), "vkResetFences");
-  check(vkResetCommandBuffer(frame.cmd, 0), "vkResetCommandBuffer");
-  VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
-  bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-  check(vkBeginCommandBuffer(frame.cmd, &bi), "vkBeginCommandBuffer");
+  host.beginRecording(frame);
   VkCommandBuffer cmd = frame.cmd;
 
   // (a) Decompression: a compute pass, so it must be recorded outside dynamic rendering. It
@@ -843,11 +541,7 @@ void drawFrame(Host& host, Frame& frame, shrefract::Context& context, const Fram
   recordAttachmentBarriers(cmd, s);
   recordDrawing(cmd, s);
   if (readback) recordReadback(cmd, s, readback);
-  check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
-  VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
-  si.commandBufferCount = 1;
-  si.pCommandBuffers = &cmd;
-  check(vkQueueSubmit(host.queue, 1, &si, frame.fence), "vkQueueSubmit");
+  host.submit(frame);
 }
 
 // RGBA8 sRGB texels -> binary PPM (RGB).
@@ -946,12 +640,12 @@ int main(int argc, char** argv) {
   try {
     options = parseOptions(argc, argv);
     run(options);  // the Host (device, instance) is destroyed on return, with the messenger last
-  } catch (const Failure& f) {
+  } catch (const integration::Failure& f) {
     std::fprintf(stderr, "shrefract_integration: %s\n", f.message.c_str());
     return f.exitCode;
   }
-  if (gValidationMessages != 0) {
-    std::fprintf(stderr, "shrefract_integration: %u Vulkan validation message(s)\n", gValidationMessages.load());
+  if (const uint32_t messages = integration::validationMessageCount(); messages != 0) {
+    std::fprintf(stderr, "shrefract_integration: %u Vulkan validation message(s)\n", messages);
     return 1;
   }
   std::printf("shrefract_integration: wrote %s (%ux%u, %s), 0 validation messages\n", options.output.c_str(),

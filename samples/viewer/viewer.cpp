@@ -23,6 +23,7 @@
 #include "viewer/orbit_camera.h"
 #include "viewer/swapchain.h"
 #include "viewer/view_state.h"
+#include "viewer/window_input.h"
 
 namespace shrefract::viewer {
 namespace {
@@ -54,50 +55,6 @@ int fail(const std::string& message) {
 Error vkError(const char* what, VkResult r) {
   return makeError(ErrorCode::Vulkan, std::string(what) + " failed (VkResult " + std::to_string(r) + ")", r);
 }
-
-// What the GLFW callbacks collect between frames.
-struct Input {
-  std::vector<Action> actions;
-  OrbitCamera* camera = nullptr;
-  bool haveCursor = false;
-  double lastX = 0.0, lastY = 0.0;
-};
-
-Input& inputOf(GLFWwindow* window) { return *static_cast<Input*>(glfwGetWindowUserPointer(window)); }
-
-// Characters rather than key codes, so that '[', ']' and '+' work on any keyboard layout.
-void onChar(GLFWwindow* window, unsigned int codepoint) {
-  if (codepoint >= 128) return;
-  const char c = static_cast<char>(std::tolower(static_cast<int>(codepoint)));
-  if (auto action = actionForCharacter(c)) inputOf(window).actions.push_back(*action);
-}
-
-void onKey(GLFWwindow* window, int key, int /*scancode*/, int action, int /*mods*/) {
-  if (key == GLFW_KEY_ESCAPE && action == GLFW_PRESS) inputOf(window).actions.push_back(Action::Quit);
-}
-
-void onCursor(GLFWwindow* window, double x, double y) {
-  Input& in = inputOf(window);
-  const double dx = x - in.lastX, dy = y - in.lastY;
-  const bool hadCursor = in.haveCursor;
-  in.lastX = x;
-  in.lastY = y;
-  in.haveCursor = true;
-  if (!hadCursor) return;
-  int width = 0, height = 0;
-  glfwGetWindowSize(window, &width, &height);
-  const bool left = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS;
-  const bool right = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS;
-  const bool middle = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_MIDDLE) == GLFW_PRESS;
-  const bool shift =
-      glfwGetKey(window, GLFW_KEY_LEFT_SHIFT) == GLFW_PRESS || glfwGetKey(window, GLFW_KEY_RIGHT_SHIFT) == GLFW_PRESS;
-  if (right || middle || (left && shift))
-    in.camera->pan(static_cast<float>(dx), static_cast<float>(dy), static_cast<float>(height));
-  else if (left)
-    in.camera->orbit(static_cast<float>(dx), static_cast<float>(dy), static_cast<float>(height));
-}
-
-void onScroll(GLFWwindow* window, double /*dx*/, double dy) { inputOf(window).camera->zoom(static_cast<float>(dy)); }
 
 // Per frame in flight: the command buffer, the fence that says the GPU is done with it, the
 // semaphore the swapchain signals when the acquired image may be written, and the timestamps.
@@ -174,15 +131,6 @@ struct Host {
     if (glfwReady) glfwTerminate();
   }
 };
-
-bool queueHasTimestamps(const harness::Harness& h) {
-  uint32_t count = 0;
-  vkGetPhysicalDeviceQueueFamilyProperties(h.physicalDevice(), &count, nullptr);
-  std::vector<VkQueueFamilyProperties> families(count);
-  vkGetPhysicalDeviceQueueFamilyProperties(h.physicalDevice(), &count, families.data());
-  return h.queueFamily() < count && families[h.queueFamily()].timestampValidBits > 0 &&
-         h.properties().limits.timestampPeriod > 0.0f;
-}
 
 Result<void> createFrameSlots(Host& h, bool timestamps) {
   VkCommandPoolCreateInfo pci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
@@ -314,55 +262,13 @@ struct FrameInputs {
   VkImage swapchainImage = VK_NULL_HANDLE;
 };
 
-// The targets are cleared every frame (old contents discarded). The source stages order this
-// frame's writes after the previous frame's blit read and attachment writes on the same queue.
-// With MSAA the resolve target is written at the end of rendering, in the same stage.
-void recordTargetBarriers(const Host& h, VkCommandBuffer cmd) {
-  for (const harness::Harness::Image* target : {&h.color, &h.resolve})
-    if (target->image)
-      imageBarrier(cmd, target->image, VK_IMAGE_ASPECT_COLOR_BIT,
-                   VK_PIPELINE_STAGE_2_BLIT_BIT | VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_NONE,
-                   VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
-                   VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
-  imageBarrier(cmd, h.depth.image, VK_IMAGE_ASPECT_DEPTH_BIT,
-               VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-               VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-               VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-               VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-               VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
-}
-
-// The engine's raster pass inside our dynamic rendering, on the targets recordTargetBarriers()
+// The engine's raster pass inside our dynamic rendering, on the targets harness::attachmentBarriers()
 // made attachments.
 void recordRendering(const Host& h, VkCommandBuffer cmd, const FrameInputs& in) {
-  VkRenderingAttachmentInfo colorAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  colorAttachment.imageView = h.color.view;
-  colorAttachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-  colorAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  colorAttachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  if (h.resolve.image) {  // averaged into the single-sample target; the samples are not kept
-    colorAttachment.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-    colorAttachment.resolveMode = VK_RESOLVE_MODE_AVERAGE_BIT;
-    colorAttachment.resolveImageView = h.resolve.view;
-    colorAttachment.resolveImageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-  }
-  VkRenderingAttachmentInfo depthAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  depthAttachment.imageView = h.depth.view;
-  depthAttachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  depthAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  depthAttachment.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-  depthAttachment.clearValue.depthStencil = {1.0f, 0};
-  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-  ri.renderArea = {{0, 0}, h.targetExtent};
-  ri.layerCount = 1;
-  ri.colorAttachmentCount = 1;
-  ri.pColorAttachments = &colorAttachment;
-  ri.pDepthAttachment = &depthAttachment;
-  vkCmdBeginRendering(cmd, &ri);
-  const VkViewport viewport{0.0f, 0.0f, float(h.targetExtent.width), float(h.targetExtent.height), 0.0f, 1.0f};
-  const VkRect2D scissor{{0, 0}, h.targetExtent};
-  vkCmdSetViewport(cmd, 0, 1, &viewport);
-  vkCmdSetScissor(cmd, 0, 1, &scissor);
+  // With MSAA the frame is averaged into the resolve target; the samples are not kept.
+  const bool msaa = h.resolve.image != VK_NULL_HANDLE;
+  harness::beginDynamicRendering(cmd, h.color, h.depth, msaa ? &h.resolve : nullptr,
+                                 msaa ? VK_ATTACHMENT_STORE_OP_DONT_CARE : VK_ATTACHMENT_STORE_OP_STORE);
   h.renderer->recordBackground(cmd, *in.environment, in.camera, h.targetExtent);
   h.renderer->recordObjects(cmd, *in.environment, in.camera, h.targetExtent, in.objects, in.mode);
   vkCmdEndRendering(cmd);
@@ -405,7 +311,9 @@ Result<void> recordFrame(Host& h, FrameSlot& slot, const FrameInputs& in) {
     if (auto r = h.decompressor->record(cmd, in.camera.eye, in.objects); !r) return r;
   if (slot.queries) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, slot.queries, 1);
 
-  recordTargetBarriers(h, cmd);
+  // The targets are cleared every frame (old contents discarded), after the previous frame's
+  // blit out of them on the same queue.
+  harness::attachmentBarriers(cmd, h.color, h.depth, h.resolve.image ? &h.resolve : nullptr);
 
   if (slot.queries) vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, slot.queries, 2);
   recordRendering(h, cmd, in);
@@ -553,11 +461,7 @@ struct FrameLoop {
       : h(host), options(viewerOptions), rci(rendererInfo), state(initialState), orbit(initialCamera),
         timestamps(withTimestamps), fixedTarget(fixed), swapchainFramebuffer(framebuffer) {
     input.camera = &orbit;
-    glfwSetWindowUserPointer(h.window, &input);
-    glfwSetCharCallback(h.window, onChar);
-    glfwSetKeyCallback(h.window, onKey);
-    glfwSetCursorPosCallback(h.window, onCursor);
-    glfwSetScrollCallback(h.window, onScroll);
+    listenForInput(h.window, input);
   }
   FrameLoop(const FrameLoop&) = delete;  // the window's callbacks hold &input
   FrameLoop& operator=(const FrameLoop&) = delete;
@@ -843,7 +747,7 @@ int runViewer(const ViewerOptions& options) {
   if (auto exit = startVulkan(h, options)) return *exit;
   VkExtent2D swapchainFramebuffer{};
   if (auto exit = createSwapchain(h, options, swapchainFramebuffer)) return *exit;
-  const bool timestamps = queueHasTimestamps(*h.session->harness);
+  const bool timestamps = h.session->harness->hasTimestamps();
   if (auto r = createFrameSlots(h, timestamps); !r) return fail(r.error().message);
   // A screenshot is taken at the requested size; otherwise the target follows the window.
   const bool fixedTarget = !options.screenshot.empty();

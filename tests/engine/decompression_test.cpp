@@ -26,13 +26,11 @@ constexpr testing::DistortionTolerance kTolerance{
     /*tauRelative=*/1e-3f,  // optical depth: relative (binary16 ulp is 2^-10 relative)
     /*gutter=*/3e-3f};
 
-TEST(Decompression, GpuMatchesCpuReference) {
-  auto h = testing::harnessOrSkip();
-  ASSERT_TRUE(h);
+using Decompression = testing::ContextTest;
+
+TEST_F(Decompression, GpuMatchesCpuReference) {
   std::printf("device: %s\n", h->deviceName().c_str());
-  auto context = testing::createContext(*h);
-  ASSERT_TRUE(context.ok()) << context.error().message;
-  Context& ctx = *context.value();
+  Context& ctx = *context;
   auto decompressor = Decompressor::create(ctx);
   ASSERT_TRUE(decompressor.ok()) << decompressor.error().message;
 
@@ -77,19 +75,12 @@ TEST(Decompression, GpuMatchesCpuReference) {
         ctx.releaseDeferred();
       }
   decompressor.value().reset();
-  ctx.releaseDeferred();
-  context.value().reset();
-  testing::expectNoMessagesThroughDestruction(h);
 }
 
 // Two instances of one upload decode at different SH orders (Object::setDecodeOrder), each
 // matching the CPU reference summed to its order; coverageOrder follows the size on screen.
-TEST(Decompression, InstancesDecodeAtTheirOwnOrder) {
-  auto h = testing::harnessOrSkip();
-  ASSERT_TRUE(h);
-  auto context = testing::createContext(*h);
-  ASSERT_TRUE(context.ok()) << context.error().message;
-  Context& ctx = *context.value();
+TEST_F(Decompression, InstancesDecodeAtTheirOwnOrder) {
+  Context& ctx = *context;
   auto decompressor = Decompressor::create(ctx);
   ASSERT_TRUE(decompressor.ok()) << decompressor.error().message;
   SyntheticFieldOptions options;
@@ -139,9 +130,6 @@ TEST(Decompression, InstancesDecodeAtTheirOwnOrder) {
   low.reset();
   full.value().reset();
   decompressor.value().reset();
-  ctx.releaseDeferred();
-  context.value().reset();
-  testing::expectNoMessagesThroughDestruction(h);
 }
 
 }  // namespace

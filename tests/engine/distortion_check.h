@@ -30,19 +30,9 @@ struct DistortionStats {
   uint32_t samples = 0, gutters = 0, empty = 0;
 };
 
-// Uploads `field` through Context::uploadNow.
+// Uploads `field` through Context::uploadNow; a Volume field traced in the decompression pass.
 inline Result<std::unique_ptr<Object>> uploadFieldNow(Context& ctx, const Field& field) {
-  std::unique_ptr<Object> object;
-  auto uploaded = ctx.uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
-    auto created = Object::createFromField(ctx, field, cmd);
-    if (!created) return created.error();
-    object = std::move(created).value();
-    // This checks the decompression pass: a Volume field traces its sample texels into the image.
-    if (field.encoding == Encoding::Volume) (void)object->setTracesVolumePerFragment(false);
-    return {};
-  });
-  if (!uploaded) return uploaded.error();
-  return object;
+  return harness::uploadField(ctx, field, /*volumeInDecompression=*/true);
 }
 
 // Records one decompression of `object` for `eye`, submits it, waits, and reads the image back.

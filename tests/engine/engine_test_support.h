@@ -16,19 +16,30 @@
 
 namespace shrefract::testing {
 
-// The harness's handles, lent to a Context; tests that need more set the rest before creating it.
-inline ContextCreateInfo contextInfo(const harness::Harness& h) {
-  ContextCreateInfo info;
-  info.instance = h.instance();
-  info.physicalDevice = h.physicalDevice();
-  info.device = h.device();
-  info.queueFamilyIndex = h.queueFamily();
-  info.queue = h.queue();
-  info.getInstanceProcAddr = vkGetInstanceProcAddr;
-  return info;
-}
+// The harness's handles, lent to a Context (harness.h); tests that need more set the rest.
+using harness::contextInfo;
+using harness::createContext;
 
-inline Result<std::unique_ptr<Context>> createContext(const harness::Harness& h) { return Context::create(contextInfo(h)); }
+// A harness and a context on it for each test. The test's engine objects are gone when its body
+// returns; then the context releases what they retired, and the test fails on any validation
+// message of the harness's whole life (device and instance teardown included).
+class ContextTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    h = harnessOrSkip();
+    ASSERT_TRUE(h);
+    auto created = createContext(*h);
+    ASSERT_TRUE(created.ok()) << created.error().message;
+    context = std::move(created).value();
+  }
+  void TearDown() override {
+    if (context) context->releaseDeferred();
+    context.reset();
+    expectNoMessagesThroughDestruction(h);
+  }
+  std::unique_ptr<harness::Harness> h;
+  std::unique_ptr<Context> context;
+};
 
 inline float halfToFloat(uint16_t h) {
   const int exponent = (h >> 10) & 0x1f;
@@ -40,60 +51,11 @@ inline float halfToFloat(uint16_t h) {
   return (h & 0x8000) ? -value : value;
 }
 
-// Copies one of the object's images of extent fieldExtent() (SHADER_READ_ONLY_OPTIMAL, as the
-// engine leaves them) to the host as `bytesPerTexel` bytes a texel, and returns it to
-// SHADER_READ_ONLY_OPTIMAL.
+// One of the object's images of extent fieldExtent() (SHADER_READ_ONLY_OPTIMAL, as the engine
+// leaves them, and left so) on the host as `bytesPerTexel` bytes a texel.
 inline Result<std::vector<uint8_t>> readFieldImage(harness::Harness& h, const Object& object, VkImage image,
                                                    uint32_t bytesPerTexel) {
-  const VkExtent2D extent = object.fieldExtent();
-  const VkDeviceSize bytes = VkDeviceSize(extent.width) * extent.height * bytesPerTexel;
-  auto staging = h.createHostBuffer(bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
-  if (!staging) return staging.error();
-  harness::Harness::Buffer buffer = staging.value();
-  auto submitted = h.submitAndWait([&](VkCommandBuffer cmd) {
-    VkImageMemoryBarrier2 toSrc{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
-    toSrc.srcStageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
-    toSrc.srcAccessMask = VK_ACCESS_2_MEMORY_WRITE_BIT;
-    toSrc.dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-    toSrc.dstAccessMask = VK_ACCESS_2_TRANSFER_READ_BIT;
-    toSrc.oldLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
-    toSrc.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-    toSrc.srcQueueFamilyIndex = toSrc.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    toSrc.image = image;
-    toSrc.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-    VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-    dep.imageMemoryBarrierCount = 1;
-    dep.pImageMemoryBarriers = &toSrc;
-    vkCmdPipelineBarrier2(cmd, &dep);
-    VkBufferImageCopy region{};
-    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-    region.imageExtent = {extent.width, extent.height, 1};
-    vkCmdCopyImageToBuffer(cmd, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, buffer.buffer, 1, &region);
-    VkImageMemoryBarrier2 back = toSrc;
-    back.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-    back.srcAccessMask = 0;
-    back.dstStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-    back.dstAccessMask = 0;
-    back.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-    back.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
-    VkMemoryBarrier2 host{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
-    host.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-    host.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-    host.dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT;
-    host.dstAccessMask = VK_ACCESS_2_HOST_READ_BIT;
-    dep.pImageMemoryBarriers = &back;
-    dep.memoryBarrierCount = 1;
-    dep.pMemoryBarriers = &host;
-    vkCmdPipelineBarrier2(cmd, &dep);
-  });
-  std::vector<uint8_t> out;
-  if (submitted) {
-    const auto* p = static_cast<const uint8_t*>(buffer.mapped);
-    out.assign(p, p + bytes);
-  }
-  h.destroyBuffer(buffer);
-  if (!submitted) return submitted.error();
-  return out;
+  return h.readImage(image, object.fieldExtent(), bytesPerTexel, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
 }
 
 // The object's distortion image (RGBA16F) as floats, four a texel.

@@ -22,11 +22,11 @@
 #include "engine/synthetic_field.h"
 #include "gpu_test_support.h"
 #include "offscreen/offscreen.h"
+#include "session_test_support.h"
 
 namespace shrefract {
 namespace {
 
-using testing::kSkipCode;
 
 // Image tolerance, declared as data: a pixel passes when every channel is within
 // kAbsolute + kRelative * |reference|; at most kFailFraction of the pixels may fail.
@@ -100,26 +100,15 @@ void writeForInspection(const std::string& name, const bake::Image& image) {
     std::fprintf(stderr, "could not write %s: %s\n", name.c_str(), written.error().message.c_str());
 }
 
-class FieldRender : public ::testing::Test {
+class FieldRender : public testing::SessionTest {
  protected:
   void SetUp() override {
-    harness::HarnessFailure failure{};
-    auto s = offscreen::createSession(harness::HarnessOptions{}, &failure);
-    if (!s && failure == harness::HarnessFailure::NoDevice) {
-      std::fprintf(stderr, "SKIPPED: no Vulkan device: %s\n", s.error().message.c_str());
-      std::exit(kSkipCode);
-    }
-    ASSERT_TRUE(s.ok()) << s.error().message;
-    session = std::move(s).value();
-    std::printf("device: %s\n", session->harness->deviceName().c_str());
-  }
-  void TearDown() override {
-    testing::expectNoMessagesThroughDestruction(session);
+    SessionTest::SetUp();
+    if (session) std::printf("device: %s\n", session->harness->deviceName().c_str());
   }
   // `convex`: what the baked grid is taken for (FieldVolume::convex); `forceConvex`: the flag set
   // on a grid that is not, so that the GPU's and the CPU's traces both stop at the first way out.
   void expectVolumeMirror(const char* sceneName, std::array<float, 3> eye, bool convex, bool forceConvex = false);
-  std::unique_ptr<offscreen::Session> session;
 };
 
 TEST_F(FieldRender, TwoObjectsMatchCpuReference) {

@@ -54,12 +54,10 @@ Result<std::vector<float>> render(harness::Harness& h, Context& context, Decompr
   return pixels;
 }
 
-TEST(Msaa, HostSampleCountBringsTheFrameTowardSupersampling) {
-  auto h = testing::harnessOrSkip();
-  ASSERT_TRUE(h);
-  auto context = testing::createContext(*h);
-  ASSERT_TRUE(context.ok()) << context.error().message;
-  Context& ctx = *context.value();
+using Msaa = testing::ContextTest;
+
+TEST_F(Msaa, HostSampleCountBringsTheFrameTowardSupersampling) {
+  Context& ctx = *context;
   const VkSampleCountFlags counts = h->properties().limits.framebufferColorSampleCounts &
                                     h->properties().limits.framebufferDepthSampleCounts;
   ASSERT_TRUE(counts & VK_SAMPLE_COUNT_4_BIT) << "every Vulkan device supports 4 samples per pixel";
@@ -127,9 +125,6 @@ TEST(Msaa, HostSampleCountBringsTheFrameTowardSupersampling) {
   object.value().reset();
   environment.reset();
   decompressor.value().reset();
-  ctx.releaseDeferred();
-  context.value().reset();
-  testing::expectNoMessagesThroughDestruction(h);
 }
 
 }  // namespace

@@ -18,11 +18,11 @@
 
 #include "engine/engine_test_support.h"
 #include "offscreen/offscreen.h"
+#include "session_test_support.h"
 
 namespace shrefract {
 namespace {
 
-using testing::kSkipCode;
 
 // One binary16 step (ulp) of the distortion image at the magnitude of v, and at least the step at
 // 1: directions are unit vectors, so a component near zero still carries the rounding of its
@@ -74,22 +74,7 @@ SeamStats measureSeams(const bake::SampleAtlas& atlas, const reference::Distorti
   return s;
 }
 
-class Seams : public ::testing::Test {
- protected:
-  void SetUp() override {
-    harness::HarnessFailure failure{};
-    auto s = offscreen::createSession(harness::HarnessOptions{}, &failure);
-    if (!s && failure == harness::HarnessFailure::NoDevice) {
-      std::fprintf(stderr, "SKIPPED: no Vulkan device: %s\n", s.error().message.c_str());
-      std::exit(kSkipCode);
-    }
-    ASSERT_TRUE(s.ok()) << s.error().message;
-    session = std::move(s).value();
-  }
-  void TearDown() override {
-    testing::expectNoMessagesThroughDestruction(session);
-  }
-  std::unique_ptr<offscreen::Session> session;
+class Seams : public testing::SessionTest {
 };
 
 TEST_F(Seams, SplitIsContinuousChartsJumpsAreReported) {

@@ -24,12 +24,10 @@ namespace {
 constexpr float kDirectionTolerance = 1e-3f;
 constexpr float kTauRelative = 1e-3f;
 
-TEST(DecompressPaths, StorageBufferPathsMatchCpuReference) {
-  auto h = testing::harnessOrSkip();
-  ASSERT_TRUE(h);
-  auto context = testing::createContext(*h);
-  ASSERT_TRUE(context.ok()) << context.error().message;
-  Context& ctx = *context.value();
+using DecompressPaths = testing::ContextTest;
+
+TEST_F(DecompressPaths, StorageBufferPathsMatchCpuReference) {
+  Context& ctx = *context;
   auto decompressor = Decompressor::create(ctx);
   ASSERT_TRUE(decompressor.ok());
   decompressor.value()->setSkipUnchanged(false);
@@ -97,9 +95,6 @@ TEST(DecompressPaths, StorageBufferPathsMatchCpuReference) {
     ctx.releaseDeferred();
   }
   decompressor.value().reset();
-  ctx.releaseDeferred();
-  context.value().reset();
-  testing::expectNoMessagesThroughDestruction(h);
 }
 
 }  // namespace

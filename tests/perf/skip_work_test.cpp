@@ -12,11 +12,11 @@
 #include "engine/engine_test_support.h"
 #include "engine/synthetic_field.h"
 #include "offscreen/offscreen.h"
+#include "session_test_support.h"
 
 namespace shrefract {
 namespace {
 
-using testing::kSkipCode;
 
 // A distortion image left alone must be bit-identical; one decompressed again from the same inputs
 // runs the same shader on the same data, so it is identical too (0), but the comparison with the
@@ -32,22 +32,8 @@ float maxDifference(const std::vector<float>& a, const std::vector<float>& b) {
   return worst;
 }
 
-class SkipWork : public ::testing::Test {
+class SkipWork : public testing::SessionTest {
  protected:
-  void SetUp() override {
-    harness::HarnessFailure failure{};
-    auto s = offscreen::createSession(harness::HarnessOptions{}, &failure);
-    if (!s && failure == harness::HarnessFailure::NoDevice) {
-      std::fprintf(stderr, "SKIPPED: no Vulkan device: %s\n", s.error().message.c_str());
-      std::exit(kSkipCode);
-    }
-    ASSERT_TRUE(s.ok()) << s.error().message;
-    session = std::move(s).value();
-  }
-  void TearDown() override {
-    testing::expectNoMessagesThroughDestruction(session);
-  }
-
   std::unique_ptr<Object> upload(const Field& field) {
     auto object = offscreen::uploadField(*session, field);
     EXPECT_TRUE(object.ok()) << object.error().message;
@@ -70,7 +56,6 @@ class SkipWork : public ::testing::Test {
     return read.ok() ? std::move(read).value() : std::vector<float>{};
   }
 
-  std::unique_ptr<offscreen::Session> session;
 };
 
 TEST_F(SkipWork, SameEyeIsNotDecompressedAgain) {

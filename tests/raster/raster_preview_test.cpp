@@ -10,11 +10,11 @@
 
 #include "gpu_test_support.h"
 #include "offscreen/offscreen.h"
+#include "session_test_support.h"
 
 namespace shrefract {
 namespace {
 
-using testing::kSkipCode;
 
 glm::vec3 pixel(const bake::Image& img, uint32_t x, uint32_t y) {
   const float* p = &img.rgba[(size_t(y) * img.width + x) * 4];
@@ -33,22 +33,7 @@ glm::vec3 rayThroughPixel(const Camera& cam, uint32_t w, uint32_t h, uint32_t x,
   return glm::normalize(glm::vec3(glm::inverse(proj * view) * glm::vec4(ndc, 1.0f, 1.0f)));
 }
 
-class RasterPreview : public ::testing::Test {
- protected:
-  void SetUp() override {
-    harness::HarnessFailure failure{};
-    auto s = offscreen::createSession(harness::HarnessOptions{}, &failure);
-    if (!s && failure == harness::HarnessFailure::NoDevice) {
-      std::fprintf(stderr, "SKIPPED: no Vulkan device: %s\n", s.error().message.c_str());
-      std::exit(kSkipCode);
-    }
-    ASSERT_TRUE(s.ok()) << s.error().message;
-    session = std::move(s).value();
-  }
-  void TearDown() override {
-    testing::expectNoMessagesThroughDestruction(session);
-  }
-  std::unique_ptr<offscreen::Session> session;
+class RasterPreview : public testing::SessionTest {
 };
 
 TEST_F(RasterPreview, BackgroundMatchesCpuEnvironmentLookup) {

@@ -15,6 +15,7 @@
 
 #include "gpu_test_support.h"
 #include "offscreen/offscreen.h"
+#include "session_test_support.h"
 
 namespace shrefract {
 namespace {
@@ -63,21 +64,16 @@ TEST(ColourModel, GlassOfWaterHasOneTintInEveryMode) {
     modes.push_back({names[int(mode)], chroma(image.value().color, mask)});
   }
 
-  harness::HarnessFailure failure{};
-  auto session = offscreen::createSession(harness::HarnessOptions{}, &failure);
-  if (!session && failure == harness::HarnessFailure::NoDevice) {
-    std::fprintf(stderr, "SKIPPED: no Vulkan device: %s\n", session.error().message.c_str());
-    std::exit(testing::kSkipCode);
-  }
-  ASSERT_TRUE(session.ok()) << session.error().message;
-  auto env = offscreen::uploadEnvironment(*session.value(), white);
+  auto session = testing::sessionOrSkip();
+  ASSERT_TRUE(session);
+  auto env = offscreen::uploadEnvironment(*session, white);
   ASSERT_TRUE(env.ok()) << env.error().message;
   offscreen::FrameSettings frame;
   frame.width = kWidth;
   frame.height = kHeight;
   frame.camera = camera;
   {
-    auto objects = offscreen::uploadScene(*session.value(), scene.value());
+    auto objects = offscreen::uploadScene(*session, scene.value());
     ASSERT_TRUE(objects.ok()) << objects.error().message;
     std::vector<Object*> list;
     for (auto& o : objects.value()) {
@@ -85,7 +81,7 @@ TEST(ColourModel, GlassOfWaterHasOneTintInEveryMode) {
       list.push_back(o.get());
     }
     frame.mode = ShadingMode::SingleInterface;
-    auto image = offscreen::renderFrame(*session.value(), *env.value(), list, frame);
+    auto image = offscreen::renderFrame(*session, *env.value(), list, frame);
     ASSERT_TRUE(image.ok()) << image.error().message;
     modes.push_back({"single interface (GPU)", chroma(image.value(), mask)});
   }
@@ -97,16 +93,16 @@ TEST(ColourModel, GlassOfWaterHasOneTintInEveryMode) {
   bo.heldOutDirections = 0;
   auto field = bake::bakeField(scene.value(), bo);
   ASSERT_TRUE(field.ok()) << field.error().message;
-  auto object = offscreen::uploadField(*session.value(), field.value());
+  auto object = offscreen::uploadField(*session, field.value());
   ASSERT_TRUE(object.ok()) << object.error().message;
   object.value()->shading.reflection = false;
   frame.mode = ShadingMode::Field;
-  auto image = offscreen::renderFrame(*session.value(), *env.value(), {object.value().get()}, frame);
+  auto image = offscreen::renderFrame(*session, *env.value(), {object.value().get()}, frame);
   ASSERT_TRUE(image.ok()) << image.error().message;
   modes.push_back({"field", chroma(image.value(), mask)});
   object.value().reset();
   env.value().reset();
-  testing::expectNoMessagesThroughDestruction(session.value());
+  testing::expectNoMessagesThroughDestruction(session);
 
   const auto glass = scene.value().media[1].color;
   const Chroma expected{glass.x / glass.y, glass.z / glass.y};

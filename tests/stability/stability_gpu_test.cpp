@@ -13,13 +13,13 @@
 
 #include "engine/engine_test_support.h"
 #include "offscreen/offscreen.h"
+#include "session_test_support.h"
 #include "stability/stability_fields.h"
 #include "stability/stability_support.h"
 
 namespace shrefract::stability {
 namespace {
 
-using testing::kSkipCode;
 
 // GPU against the CPU reference of the same passes, as in field_render_test: a pixel passes when
 // every channel is within 0.02 + 0.02 |reference| (lavapipe's 8-bit bilinear weights and binary16
@@ -49,22 +49,8 @@ GpuComparison compareToCpu(const bake::Image& gpu, const reference::RenderedImag
   return c;
 }
 
-class StabilityGpu : public ::testing::Test {
+class StabilityGpu : public testing::SessionTest {
  protected:
-  void SetUp() override {
-    harness::HarnessFailure failure{};
-    auto s = offscreen::createSession(harness::HarnessOptions{}, &failure);
-    if (!s && failure == harness::HarnessFailure::NoDevice) {
-      std::fprintf(stderr, "SKIPPED: no Vulkan device: %s\n", s.error().message.c_str());
-      std::exit(kSkipCode);
-    }
-    ASSERT_TRUE(s.ok()) << s.error().message;
-    session = std::move(s).value();
-  }
-  void TearDown() override {
-    testing::expectNoMessagesThroughDestruction(session);
-  }
-
   // Uploads `field`, renders one Field-mode frame for `camera` and reads the distortion image back.
   struct GpuFrame {
     bake::Image image;
@@ -113,7 +99,6 @@ class StabilityGpu : public ::testing::Test {
     EXPECT_GT(vsExact.value().psnr, 12.0) << c.name;
   }
 
-  std::unique_ptr<offscreen::Session> session;
 };
 
 bake::Scene sphere(int tessellation, std::optional<float> ior = {}) {

@@ -19,6 +19,7 @@
 
 #include "gpu_test_support.h"
 #include "offscreen/offscreen.h"
+#include "session_test_support.h"
 #include "viewer/run_command.h"
 
 namespace shrefract::testing {
@@ -107,17 +108,9 @@ class ViewerTest : public ::testing::Test {
       std::fflush(stderr);
       std::exit(kSkipCode);
     }
-    harness::HarnessFailure failure = harness::HarnessFailure::None;
-    auto created = offscreen::createSession(harness::HarnessOptions{}, &failure);
-    if (!created.ok()) {
-      if (failure == harness::HarnessFailure::NoDevice) {
-        std::fprintf(stderr, "SKIPPED: no Vulkan device: %s\n", created.error().message.c_str());
-        std::fflush(stderr);
-        std::exit(kSkipCode);
-      }
-      FAIL() << "harness creation failed: " << created.error().message;
-    }
-    session_ = std::move(created).value().release();
+    auto created = testing::sessionOrSkip();
+    if (!created) FAIL() << "no offscreen session";
+    session_ = created.release();
 
     const char* work = std::getenv("SHREFRACT_VIEWER_WORK_DIR");
     paths().work = work ? fs::path(work) : fs::temp_directory_path() / "shrefract_viewer_test";

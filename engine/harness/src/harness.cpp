@@ -5,6 +5,8 @@
 #include <mutex>
 #include <string>
 
+#include "core/image_barrier.h"
+
 namespace shrefract::harness {
 namespace {
 
@@ -276,12 +278,35 @@ Result<void> Harness::submitAndWait(const std::function<void(VkCommandBuffer)>& 
   return {};
 }
 
+bool Harness::hasTimestamps() const {
+  uint32_t count = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(physicalDevice_, &count, nullptr);
+  std::vector<VkQueueFamilyProperties> families(count);
+  vkGetPhysicalDeviceQueueFamilyProperties(physicalDevice_, &count, families.data());
+  return queueFamily_ < count && families[queueFamily_].timestampValidBits > 0 &&
+         properties_.limits.timestampPeriod > 0.0f;
+}
+
 uint32_t Harness::findMemoryType(uint32_t typeBits, VkMemoryPropertyFlags required) const {
   VkPhysicalDeviceMemoryProperties mp{};
   vkGetPhysicalDeviceMemoryProperties(physicalDevice_, &mp);
   for (uint32_t i = 0; i < mp.memoryTypeCount; ++i)
     if ((typeBits & (1u << i)) && (mp.memoryTypes[i].propertyFlags & required) == required) return i;
   return UINT32_MAX;
+}
+
+Result<VkDeviceMemory> Harness::allocate(const VkMemoryRequirements& req, VkMemoryPropertyFlags preferred,
+                                         VkMemoryPropertyFlags required) const {
+  VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+  mai.allocationSize = req.size;
+  mai.memoryTypeIndex = findMemoryType(req.memoryTypeBits, preferred);
+  if (mai.memoryTypeIndex == UINT32_MAX) mai.memoryTypeIndex = findMemoryType(req.memoryTypeBits, required);
+  if (mai.memoryTypeIndex == UINT32_MAX)
+    return makeError(ErrorCode::MissingFeature, "no memory type with the flags " + std::to_string(required));
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+  if (VkResult r = vkAllocateMemory(device_, &mai, nullptr, &memory); r != VK_SUCCESS)
+    return vkError("vkAllocateMemory", r);
+  return memory;
 }
 
 Result<Harness::Buffer> Harness::createHostBuffer(VkDeviceSize size, VkBufferUsageFlags usage) {
@@ -294,18 +319,13 @@ Result<Harness::Buffer> Harness::createHostBuffer(VkDeviceSize size, VkBufferUsa
   if (r != VK_SUCCESS) return vkError("vkCreateBuffer", r);
   VkMemoryRequirements req{};
   vkGetBufferMemoryRequirements(device_, b.buffer, &req);
-  VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-  mai.allocationSize = req.size;
-  mai.memoryTypeIndex =
-      findMemoryType(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
-  if (mai.memoryTypeIndex == UINT32_MAX) {
+  const VkMemoryPropertyFlags hostFlags = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+  auto memory = allocate(req, hostFlags, hostFlags);
+  if (!memory) {
     destroyBuffer(b);
-    return makeError(ErrorCode::MissingFeature, "no host-visible coherent memory type");
+    return memory.error();
   }
-  if ((r = vkAllocateMemory(device_, &mai, nullptr, &b.memory)) != VK_SUCCESS) {
-    destroyBuffer(b);
-    return vkError("vkAllocateMemory", r);
-  }
+  b.memory = memory.value();
   vkBindBufferMemory(device_, b.buffer, b.memory, 0);
   vkMapMemory(device_, b.memory, 0, VK_WHOLE_SIZE, 0, &b.mapped);
   return b;
@@ -338,14 +358,12 @@ Result<Harness::Image> Harness::createImage(uint32_t width, uint32_t height, VkF
   if (r != VK_SUCCESS) return vkError("vkCreateImage", r);
   VkMemoryRequirements req{};
   vkGetImageMemoryRequirements(device_, img.image, &req);
-  VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-  mai.allocationSize = req.size;
-  mai.memoryTypeIndex = findMemoryType(req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
-  if (mai.memoryTypeIndex == UINT32_MAX) mai.memoryTypeIndex = findMemoryType(req.memoryTypeBits, 0);
-  if ((r = vkAllocateMemory(device_, &mai, nullptr, &img.memory)) != VK_SUCCESS) {
+  auto memory = allocate(req, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, 0);
+  if (!memory) {
     destroyImage(img);
-    return vkError("vkAllocateMemory", r);
+    return memory.error();
   }
+  img.memory = memory.value();
   vkBindImageMemory(device_, img.image, img.memory, 0);
   VkImageViewCreateInfo vci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
   vci.image = img.image;
@@ -366,81 +384,105 @@ void Harness::destroyImage(Image& img) {
   img = Image{};
 }
 
-Result<std::vector<float>> Harness::readbackColor(const Image& img, VkImageLayout layout) {
-  size_t texel = 0;
-  if (img.format == VK_FORMAT_R32G32B32A32_SFLOAT) texel = 16;
-  else if (img.format == VK_FORMAT_R8G8B8A8_UNORM) texel = 4;
-  else return makeError(ErrorCode::Unsupported, "readbackColor: unsupported format");
-  const VkDeviceSize bytes = VkDeviceSize(img.width) * img.height * texel;
+Result<std::vector<uint8_t>> Harness::readImage(VkImage image, VkExtent2D extent, uint32_t bytesPerTexel,
+                                                VkImageLayout layout) {
+  const VkDeviceSize bytes = VkDeviceSize(extent.width) * extent.height * bytesPerTexel;
   auto staging = createHostBuffer(bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
   if (!staging) return staging.error();
   Buffer buf = staging.value();
   auto submitted = submitAndWait([&](VkCommandBuffer cmd) {
-    VkImageMemoryBarrier toSrc{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER};
-    toSrc.srcAccessMask = VK_ACCESS_MEMORY_WRITE_BIT;
-    toSrc.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
-    toSrc.oldLayout = layout;
-    toSrc.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-    toSrc.srcQueueFamilyIndex = toSrc.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    toSrc.image = img.image;
-    toSrc.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0,
-                         nullptr, 1, &toSrc);
+    imageBarrier(cmd, image, VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
+                 VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT, layout,
+                 VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
     VkBufferImageCopy region{};
     region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-    region.imageExtent = {img.width, img.height, 1};
-    vkCmdCopyImageToBuffer(cmd, img.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, buf.buffer, 1, &region);
-    VkImageMemoryBarrier back = toSrc;
-    back.srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
-    back.dstAccessMask = VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT;
-    back.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-    back.newLayout = layout;
-    VkBufferMemoryBarrier hostRead{VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER};
-    hostRead.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-    hostRead.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-    hostRead.srcQueueFamilyIndex = hostRead.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    hostRead.buffer = buf.buffer;
-    hostRead.size = VK_WHOLE_SIZE;
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                         VK_PIPELINE_STAGE_ALL_COMMANDS_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 0, nullptr, 1, &hostRead,
-                         1, &back);
+    region.imageExtent = {extent.width, extent.height, 1};
+    vkCmdCopyImageToBuffer(cmd, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, buf.buffer, 1, &region);
+    // Back to `layout` for whatever comes next, and the copy's writes made visible to the host.
+    imageBarrier(cmd, image, VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_COPY_BIT, 0,
+                 VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT,
+                 VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, layout);
+    memoryBarrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
+                  VK_ACCESS_2_HOST_READ_BIT);
   });
-  if (!submitted) {
-    destroyBuffer(buf);
-    return submitted.error();
-  }
-  std::vector<float> out(size_t(img.width) * img.height * 4);
-  if (texel == 16) {
-    std::memcpy(out.data(), buf.mapped, out.size() * sizeof(float));
-  } else {
+  std::vector<uint8_t> out;
+  if (submitted) {
     const auto* p = static_cast<const uint8_t*>(buf.mapped);
-    for (size_t i = 0; i < out.size(); ++i) out[i] = static_cast<float>(p[i]) / 255.0f;
+    out.assign(p, p + bytes);
   }
   destroyBuffer(buf);
+  if (!submitted) return submitted.error();
   return out;
+}
+
+Result<std::vector<float>> Harness::readbackColor(const Image& img, VkImageLayout layout) {
+  uint32_t texel = 0;
+  if (img.format == VK_FORMAT_R32G32B32A32_SFLOAT) texel = 16;
+  else if (img.format == VK_FORMAT_R8G8B8A8_UNORM) texel = 4;
+  else return makeError(ErrorCode::Unsupported, "readbackColor: unsupported format");
+  auto bytes = readImage(img.image, {img.width, img.height}, texel, layout);
+  if (!bytes) return bytes.error();
+  std::vector<float> out(size_t(img.width) * img.height * 4);
+  if (texel == 16) {
+    std::memcpy(out.data(), bytes.value().data(), out.size() * sizeof(float));
+  } else {
+    for (size_t i = 0; i < out.size(); ++i) out[i] = static_cast<float>(bytes.value()[i]) / 255.0f;
+  }
+  return out;
+}
+
+ContextCreateInfo contextInfo(const Harness& h) {
+  ContextCreateInfo info;
+  info.instance = h.instance();
+  info.physicalDevice = h.physicalDevice();
+  info.device = h.device();
+  info.queueFamilyIndex = h.queueFamily();
+  info.queue = h.queue();
+  info.getInstanceProcAddr = vkGetInstanceProcAddr;
+  return info;
+}
+
+Result<std::unique_ptr<Context>> createContext(const Harness& h) { return Context::create(contextInfo(h)); }
+
+Result<std::unique_ptr<Object>> uploadField(Context& context, const Field& field, bool volumeInDecompression) {
+  std::unique_ptr<Object> object;
+  auto uploaded = context.uploadNow([&](VkCommandBuffer cmd) -> Result<void> {
+    auto created = Object::createFromField(context, field, cmd);
+    if (!created) return created.error();
+    object = std::move(created).value();
+    if (volumeInDecompression && field.encoding == Encoding::Volume) (void)object->setTracesVolumePerFragment(false);
+    return {};
+  });
+  if (!uploaded) return uploaded.error();
+  return object;
 }
 
 void imageBarrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkPipelineStageFlags2 srcStage,
                   VkAccessFlags2 srcAccess, VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess,
-                  VkImageLayout oldLayout, VkImageLayout newLayout) {
-  VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
-  b.srcStageMask = srcStage;
-  b.srcAccessMask = srcAccess;
-  b.dstStageMask = dstStage;
-  b.dstAccessMask = dstAccess;
-  b.oldLayout = oldLayout;
-  b.newLayout = newLayout;
-  b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.image = image;
-  b.subresourceRange = {aspect, 0, 1, 0, 1};
+                  VkImageLayout oldLayout, VkImageLayout newLayout, uint32_t layers) {
+  const VkImageMemoryBarrier2 b = shrefract::imageBarrier(
+      image, {srcStage, srcAccess, dstStage, dstAccess, oldLayout, newLayout}, 0, 1, layers, aspect);
   VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
   dep.imageMemoryBarrierCount = 1;
   dep.pImageMemoryBarriers = &b;
   vkCmdPipelineBarrier2(cmd, &dep);
 }
 
-void beginRendering(VkCommandBuffer cmd, const Harness::Image& color, const Harness::Image& depth,
-                    const Harness::Image* resolve) {
+void memoryBarrier(VkCommandBuffer cmd, VkPipelineStageFlags2 srcStage, VkAccessFlags2 srcAccess,
+                   VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess) {
+  VkMemoryBarrier2 m{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
+  m.srcStageMask = srcStage;
+  m.srcAccessMask = srcAccess;
+  m.dstStageMask = dstStage;
+  m.dstAccessMask = dstAccess;
+  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+  dep.memoryBarrierCount = 1;
+  dep.pMemoryBarriers = &m;
+  vkCmdPipelineBarrier2(cmd, &dep);
+}
+
+void attachmentBarriers(VkCommandBuffer cmd, const Harness::Image& color, const Harness::Image& depth,
+                        const Harness::Image* resolve) {
   const VkPipelineStageFlags2 colorStage = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT;
   // A colour target may have been copied or blitted out since its last frame.
   const VkPipelineStageFlags2 colorAfter = colorStage | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT;
@@ -456,12 +498,22 @@ void beginRendering(VkCommandBuffer cmd, const Harness::Image& color, const Harn
                    VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
   imageBarrier(cmd, depth.image, VK_IMAGE_ASPECT_DEPTH_BIT, depthStages, depthAccess, depthStages, depthAccess,
                VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+}
+
+void beginRendering(VkCommandBuffer cmd, const Harness::Image& color, const Harness::Image& depth,
+                    const Harness::Image* resolve) {
+  attachmentBarriers(cmd, color, depth, resolve);
+  beginDynamicRendering(cmd, color, depth, resolve);
+}
+
+void beginDynamicRendering(VkCommandBuffer cmd, const Harness::Image& color, const Harness::Image& depth,
+                           const Harness::Image* resolve, VkAttachmentStoreOp colorStore) {
   const VkExtent2D extent{color.width, color.height};
   VkRenderingAttachmentInfo colorAttachment{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
   colorAttachment.imageView = color.view;
   colorAttachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
   colorAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  colorAttachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  colorAttachment.storeOp = colorStore;
   if (resolve) {
     colorAttachment.resolveMode = VK_RESOLVE_MODE_AVERAGE_BIT;
     colorAttachment.resolveImageView = resolve->view;

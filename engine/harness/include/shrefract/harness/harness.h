@@ -6,6 +6,9 @@
 // Not part of the installed library. Lavapipe is chosen with VK_DRIVER_FILES (see tests/).
 #pragma once
 
+#include <shrefract/context.h>
+#include <shrefract/field.h>
+#include <shrefract/object.h>
 #include <shrefract/result.h>
 #include <vulkan/vulkan_core.h>
 
@@ -66,6 +69,8 @@ class Harness {
   VkQueue queue() const { return queue_; }
   const VkPhysicalDeviceProperties& properties() const { return properties_; }
   std::string deviceName() const { return properties_.deviceName; }
+  // Whether the queue writes timestamps (timestampValidBits) with a usable period.
+  bool hasTimestamps() const;
 
   // Number of validation or performance warnings and errors seen so far (general loader chatter
   // and info/verbose messages are not counted).
@@ -105,9 +110,17 @@ class Harness {
   // Reads back a VK_FORMAT_R32G32B32A32_SFLOAT or R8G8B8A8_UNORM color image that is in
   // `layout` (it is left in that layout) as linear RGBA floats.
   Result<std::vector<float>> readbackColor(const Image& image, VkImageLayout layout);
+  // The bytes of mip 0, layer 0 of a colour image of `extent` with `bytesPerTexel`, in `layout`
+  // (left in it) after all earlier work on the queue: what readbackColor and the tests' reads of
+  // an object's images share.
+  Result<std::vector<uint8_t>> readImage(VkImage image, VkExtent2D extent, uint32_t bytesPerTexel,
+                                         VkImageLayout layout);
 
  private:
   Harness() = default;
+  // Memory for `req` of a type with `preferred` flags, else (when `required` is 0) of any type.
+  Result<VkDeviceMemory> allocate(const VkMemoryRequirements& req, VkMemoryPropertyFlags preferred,
+                                  VkMemoryPropertyFlags required) const;
   static VKAPI_ATTR VkBool32 VKAPI_CALL debugCallback(VkDebugUtilsMessageSeverityFlagBitsEXT,
                                                       VkDebugUtilsMessageTypeFlagsEXT,
                                                       const VkDebugUtilsMessengerCallbackDataEXT*,
@@ -125,11 +138,26 @@ class Harness {
   std::shared_ptr<MessageLog> log_ = std::make_shared<MessageLog>();
 };
 
-// One image memory barrier on mip 0, layer 0 of `image` (the attachments and swapchain images of
-// the tools and tests have no more).
+// The harness's handles as a Context borrows them (the harness must outlive the context); callers
+// that need more set the rest before creating it.
+ContextCreateInfo contextInfo(const Harness& h);
+// Context::create(contextInfo(h)): the one way tools and tests put the engine on a harness.
+Result<std::unique_ptr<Context>> createContext(const Harness& h);
+
+// `field` as an engine object, uploaded at once (Context::uploadNow). With `volumeInDecompression`
+// a Volume field traces its sample texels in the decompression pass (what the benchmarks and tests
+// of that pass measure) rather than per fragment.
+Result<std::unique_ptr<Object>> uploadField(Context& context, const Field& field, bool volumeInDecompression = false);
+
+// One image memory barrier on mip 0, layers [0, layers) of `image` (the attachments and swapchain
+// images of the tools and tests have one), built as the engine builds its own.
 void imageBarrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkPipelineStageFlags2 srcStage,
                   VkAccessFlags2 srcAccess, VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess,
-                  VkImageLayout oldLayout, VkImageLayout newLayout);
+                  VkImageLayout oldLayout, VkImageLayout newLayout, uint32_t layers = 1);
+
+// One global memory barrier: the buffers of the tools and tests have no barriers of their own.
+void memoryBarrier(VkCommandBuffer cmd, VkPipelineStageFlags2 srcStage, VkAccessFlags2 srcAccess,
+                   VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess);
 
 // A host's frame into its own targets, as the tools, benchmarks and tests record it: `color` and
 // `depth` (and `resolve`, the single-sample target of a multisampled `color`, averaged into at the
@@ -139,5 +167,15 @@ void imageBarrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect,
 // the engine's passes and vkCmdEndRendering.
 void beginRendering(VkCommandBuffer cmd, const Harness::Image& color, const Harness::Image& depth,
                     const Harness::Image* resolve = nullptr);
+// Its two halves, for a host that records something between them (the viewer's timestamps).
+// The barriers: each target to its attachment layout, contents dropped, after earlier attachment
+// writes and transfers (copies, blits) out of it.
+void attachmentBarriers(VkCommandBuffer cmd, const Harness::Image& color, const Harness::Image& depth,
+                        const Harness::Image* resolve = nullptr);
+// vkCmdBeginRendering over colour's extent (all cleared), viewport and scissor set; `colorStore`
+// DONT_CARE for a multisampled colour whose samples are not read after the resolve.
+void beginDynamicRendering(VkCommandBuffer cmd, const Harness::Image& color, const Harness::Image& depth,
+                           const Harness::Image* resolve = nullptr,
+                           VkAttachmentStoreOp colorStore = VK_ATTACHMENT_STORE_OP_STORE);
 
 }  // namespace shrefract::harness
