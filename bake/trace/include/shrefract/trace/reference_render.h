@@ -26,9 +26,9 @@
 // with S = 1: the pixel-centre ray hits).
 #pragma once
 
-#include <shrefract/bake/image.h>
-#include <shrefract/bake/scene.h>
-#include <shrefract/bake/tracer.h>
+#include <shrefract/assets/image.h>
+#include <shrefract/assets/scene.h>
+#include <shrefract/trace/tracer.h>
 #include <shrefract/cpu_reference.h>
 #include <shrefract/field.h>
 #include <shrefract/renderer.h>
@@ -44,8 +44,6 @@ namespace shrefract::bake {
 
 enum class ReferenceMode { Exact, FullTree, SingleInterface };
 
-// Largest samplesPerAxis of every renderer here (64 samples per pixel).
-inline constexpr uint32_t kMaxSamplesPerAxis = 8;
 // The range of ReferenceOptions::environmentLevelBias: -kMax..kMax levels.
 inline constexpr float kMaxEnvironmentLevelBias = 4.0f;
 
@@ -128,7 +126,7 @@ struct ReferenceImage {
 glm::vec3 pixelDirection(const Camera& camera, uint32_t width, uint32_t height, uint32_t x, uint32_t y);
 
 // Errors (InvalidArgument): a size outside 1..16384 per axis, samplesPerAxis outside
-// 1..kMaxSamplesPerAxis or a supersampled size beyond 65536 per axis, an empty environment.
+// 1..kMaxSamplesPerAxis (image.h) or a supersampled size beyond 65536 per axis, an empty environment.
 Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene, const Image& environment,
                                        const ReferenceOptions& options);
 
@@ -141,11 +139,6 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
 // sides of an axis (a feature thinner than the cell, or two discontinuities): the expected share
 // 1/4 per probe, the axes combined as independent, split evenly. The sample keeps 1 - the sum.
 std::array<float, 4> shareBeyondCrossings(const std::array<float, 4>& crossing);
-
-// The mean of every samplesPerAxis x samplesPerAxis block of `image` (its size must be a
-// multiple of samplesPerAxis per axis; alpha averaged too), summed in row-major order within the
-// block: how every supersampled image here and in the tools is reduced.
-Image boxFilter(const Image& image, uint32_t samplesPerAxis);
 
 struct ExactDistortionOptions {
   PathRule pathRule = PathRule::HighestEnergy;

@@ -1,7 +1,7 @@
 // glTF import: reads the default scene with tinygltf, validates every accessor it touches, bakes
 // the node transforms into world-space surfaces and assigns media by containment (the medium
 // stack rule of docs/scenes.md, "glTF media and the medium stack").
-#include <shrefract/bake/gltf_import.h>
+#include <shrefract/assets/gltf_import.h>
 
 // tinygltf's header is not warning-clean under our flags; its implementation lives in the system
 // library (TINYGLTF_IMPLEMENTATION must not be defined here).

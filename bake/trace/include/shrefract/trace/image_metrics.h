@@ -1,7 +1,7 @@
 // Error metrics between an approximation and a reference, over the object's pixels.
 #pragma once
 
-#include <shrefract/bake/image.h>
+#include <shrefract/assets/image.h>
 #include <shrefract/result.h>
 
 #include <glm/vec3.hpp>

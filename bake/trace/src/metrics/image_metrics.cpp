@@ -1,4 +1,4 @@
-#include <shrefract/bake/image_metrics.h>
+#include <shrefract/trace/image_metrics.h>
 
 #include <algorithm>
 #include <cmath>
