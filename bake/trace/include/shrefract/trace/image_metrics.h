@@ -11,6 +11,10 @@
 
 namespace shrefract::bake {
 
+// The PSNR of a mean squared error of colours in [0, 1], in dB: 10 log10(1 / mse), and 100 dB
+// where mse <= 1e-10 or is not a number (never infinite). Every PSNR of the bake and the tools.
+double psnrFromMeanSquaredError(double mse);
+
 struct ImageErrors {
   uint64_t pixels = 0;          // pixels in the mask
   double psnr = 0.0;            // dB, colours clamped to [0, 1]; +inf-free: capped at 100 dB
