@@ -77,10 +77,6 @@ TriangleBins binTriangles(const FieldMesh& mesh, const Camera& camera, uint32_t 
   return bins;
 }
 
-}  // namespace
-
-namespace {
-
 Result<void> checkDistortionInput(const FieldMesh& mesh, const reference::DistortionImage& distortion,
                                   const Image& env, const DistortionRenderOptions& o) {
   if (auto r = checkSize("distortion render", o.width, o.height, o.samplesPerAxis); !r) return r.error();
@@ -98,73 +94,34 @@ Result<void> checkDistortionInput(const FieldMesh& mesh, const reference::Distor
   return {};
 }
 
-// What renderDistortion's sub-samples share: the supersampled camera, the binned mesh and the
-// filtered environment, built once.
+// What renderDistortion's sub-samples share, built once: the supersampled camera, the binned mesh
+// and reference::render's per-pixel set-up (the environment's chain, the triangles' edges).
 struct DistortionScene {
   DistortionScene(const FieldMesh& m, const reference::DistortionImage& d, const Image& env,
                   const DistortionRenderOptions& options)
-      : o(options), mesh(m), distortion(d), bigWidth(options.width * options.samplesPerAxis),
-        bigHeight(options.height * options.samplesPerAxis),
+      : bigWidth(options.width * options.samplesPerAxis), bigHeight(options.height * options.samplesPerAxis),
         dirFromClip(directionFromClip(options.camera, bigWidth, bigHeight)),
         bins(binTriangles(m, options.camera, bigWidth, bigHeight)),
-        // reference::render's filtered lookups: the engine's level chain, built once.
-        levels(reference::environmentLevels(reference::LatLongImage{env.width, env.height, env.rgba.data()})),
-        latLong{env.width, env.height, env.rgba.data(), &levels},
-        object{&m, &d, options.shading, Transform{}, options.volume},
-        edges(triangleEdges(m.positions.data(), uint32_t(m.positions.size() / 3), m.indices.data(),
-                            uint32_t(m.indices.size()))) {}
-  DistortionScene(const DistortionScene&) = delete;  // latLong points at levels
-  DistortionScene& operator=(const DistortionScene&) = delete;
+        pixels({reference::RenderObject{&m, &d, options.shading, Transform{}, options.volume}},
+               reference::LatLongImage{env.width, env.height, env.rgba.data()}, options.camera, bigWidth, bigHeight,
+               options.exposure) {}
 
-  const DistortionRenderOptions& o;
-  const FieldMesh& mesh;
-  const reference::DistortionImage& distortion;
   uint32_t bigWidth, bigHeight;
   glm::mat4 dirFromClip;
   TriangleBins bins;
-  std::vector<std::vector<float>> levels;
-  reference::LatLongImage latLong;
-  reference::RenderObject object;
-  std::vector<TriangleEdges> edges;
+  reference::PixelRenderer pixels;
 };
 
-// One sub-sample: reference::render's per-pixel operations for pixel (bx, by) of the big image.
+// One sub-sample: reference::render's pixel (bx, by) of the big image, cast against the triangles
+// of its tile only.
 Sample distortionSample(const DistortionScene& c, uint32_t bx, uint32_t by) {
+  const glm::vec3 ray = rayThrough(c.dirFromClip, c.bigWidth, c.bigHeight, bx, by);
+  const std::vector<uint32_t>& tile = c.bins.tiles[size_t(by / kTile) * c.bins.tilesX + bx / kTile];
+  const reference::PixelRenderer::Pixel p = c.pixels.pixel(bx, by, {ray.x, ray.y, ray.z}, &tile);
   Sample sample;
-  const DistortionRenderOptions& o = c.o;
-  const glm::vec3 rayF = rayThrough(c.dirFromClip, c.bigWidth, c.bigHeight, bx, by);
-  const std::array<double, 3> eyeD{o.camera.eye[0], o.camera.eye[1], o.camera.eye[2]};
-  const std::array<double, 3> ray{rayF.x, rayF.y, rayF.z};
-  std::optional<reference::TriangleHit> best;
-  uint32_t bestTriangle = 0;
-  for (uint32_t t : c.bins.tiles[size_t(by / kTile) * c.bins.tilesX + bx / kTile]) {
-    const std::optional<reference::TriangleHit> hit = reference::hitTriangle(c.mesh, t, eyeD, ray);
-    if (!hit || (best && hit->t >= best->t)) continue;
-    best = hit;
-    bestTriangle = t;
-  }
-  if (!best) {
-    const reference::Vec3 env = reference::sampleLatLong(c.latLong, {rayF.x, rayF.y, rayF.z});
-    sample.color = glm::vec3(env[0], env[1], env[2]);
-    return sample;
-  }
-  // reference::render's per-sample operations, through its own functions.
-  const reference::SurfacePoint point = reference::surfacePointAt(c.mesh, bestTriangle, *best);
-  const reference::LookupDerivatives derivatives =
-      reference::pixelDerivatives(c.object, bestTriangle, o.camera, c.bigWidth, c.bigHeight, bx, by);
-  reference::Vec3 dir{};
-  const reference::Vec3 shaded =
-      o.volume ? reference::shadeVolume(*o.volume, c.latLong, point, o.camera.eye, o.shading, o.exposure, Transform{},
-                                        derivatives, &dir)
-               : reference::shadeField(c.distortion, c.latLong, point, o.camera.eye, o.shading, o.exposure, Transform{},
-                                       derivatives);
-  // Blended with the background by its silhouette coverage, as reference::render does by default.
-  const reference::Vec3 covered = reference::overBackground(shaded, point, o.camera.eye, derivatives, c.latLong,
-                                                            {rayF.x, rayF.y, rayF.z}, &c.edges[bestTriangle / 3]);
-  sample.color = glm::vec3(covered[0], covered[1], covered[2]);
-  sample.hit = true;
-  if (!o.volume) dir = reference::shadedExitDirection(c.distortion, point, o.camera.eye);
-  sample.direction = glm::vec3(dir[0], dir[1], dir[2]);
+  sample.color = glm::vec3(p.colour[0], p.colour[1], p.colour[2]);
+  sample.hit = p.object >= 0;
+  sample.direction = glm::vec3(p.direction[0], p.direction[1], p.direction[2]);
   return sample;
 }
 

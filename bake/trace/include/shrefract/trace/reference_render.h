@@ -14,7 +14,7 @@
 //  - exactDistortion: the field's distortion image with the exact path at every sample texel,
 //    in place of the decoded encoding (no angular fit, no quantization; the spatial sampling of
 //    the atlas stays);
-//  - renderDistortion: the raster pass's CPU twin (reference::render's per-pixel operations)
+//  - renderDistortion: the raster pass's CPU twin (reference::render's pixel, supersampled)
 //    drawing a distortion image through the field's render mesh.
 //
 // Supersampling (every renderer here): samplesPerAxis = S traces S x S rays per pixel, through
@@ -189,14 +189,14 @@ struct DistortionRenderOptions {
   const Field* volume = nullptr;
 };
 
-// The engine's raster pass on the CPU for one field object: per sub-sample, the same operations
-// as reference::render (the nearest front-facing triangle of `mesh` in double precision, its
-// perspective-correct attributes, reference::shadeField with `distortion` and the filtered lookups
-// of reference::pixelDerivatives for the sub-sample grid; the environment's level 0 where no
-// triangle is hit), but only the triangles whose screen bounds cover the sample are tested, so
-// it runs on big meshes. `rays` counts sub-samples. Per-pixel results equal reference::render's
-// at S = 1 (reference_test checks it). Errors as renderReference's, and a distortion image whose
-// size disagrees with its pixels.
+// The engine's raster pass on the CPU for one field object: per sub-sample, reference::render's
+// pixel (reference::PixelRenderer: the nearest front-facing triangle of `mesh` in double
+// precision, its perspective-correct attributes, reference::shadeField with `distortion` and the
+// filtered lookups of reference::pixelDerivatives for the sub-sample grid; the environment's level
+// 0 where no triangle is hit), but only the triangles whose screen bounds cover the sample are
+// tested, so it runs on big meshes. `rays` counts sub-samples. Per-pixel results equal
+// reference::render's at S = 1 (reference_test checks it). Errors as renderReference's, and a
+// distortion image whose size disagrees with its pixels.
 Result<ReferenceImage> renderDistortion(const FieldMesh& mesh, const reference::DistortionImage& distortion,
                                         const Image& environment, const DistortionRenderOptions& options);
 
