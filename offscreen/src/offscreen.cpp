@@ -1,6 +1,6 @@
 #include "offscreen/offscreen.h"
 
-#include <shrefract/bake/reference_render.h>
+#include <shrefract/assets/image.h>
 
 #include <algorithm>
 #include <array>

@@ -8,7 +8,7 @@
 #include <embree3/rtcore.h>
 #include <shrefract/bake/bake.h>
 #include <shrefract/bake/fit.h>
-#include <shrefract/bake/gltf_import.h>
+#include <shrefract/assets/gltf_import.h>
 #include <shrefract/bake/layout.h>
 #include <shrefract/bake/sample_frame.h>
 

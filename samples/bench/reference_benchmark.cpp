@@ -26,8 +26,8 @@
 // (--threads to change).
 // GPU timestamps give the decompression and raster parts; medians over the frames. Exit code 0
 // with "SKIPPED:" when there is no Vulkan device or FIELD.shrf is missing.
-#include <shrefract/bake/reference_render.h>
-#include <shrefract/bake/tracer.h>
+#include <shrefract/trace/reference_render.h>
+#include <shrefract/trace/tracer.h>
 #include <shrefract/decompressor.h>
 
 #include <array>

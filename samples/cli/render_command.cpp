@@ -12,7 +12,7 @@
 #include <vector>
 
 #include <shrefract/bake/bake.h>
-#include <shrefract/bake/reference_render.h>
+#include <shrefract/trace/reference_render.h>
 
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>

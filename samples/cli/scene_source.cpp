@@ -1,6 +1,6 @@
 #include "cli/scene_source.h"
 
-#include <shrefract/bake/gltf_import.h>
+#include <shrefract/assets/gltf_import.h>
 
 #include <algorithm>
 #include <cctype>

@@ -9,7 +9,7 @@
 // loadScene accepts that form too; users give the options as flags (sceneFlags).
 #pragma once
 
-#include <shrefract/bake/scene.h>
+#include <shrefract/assets/scene.h>
 #include <shrefract/result.h>
 
 #include <optional>

@@ -2,7 +2,7 @@
 
 #include <shrefract/bake/bake.h>
 #include <shrefract/bake/layout.h>
-#include <shrefract/bake/reference_render.h>
+#include <shrefract/trace/reference_render.h>
 #include <shrefract/object.h>
 
 #include <algorithm>

@@ -5,7 +5,7 @@
 // relative to the reference's. The frames stay in the report as PNG sequences to flip through.
 #pragma once
 
-#include <shrefract/bake/image.h>
+#include <shrefract/assets/image.h>
 #include <shrefract/environment.h>
 #include <shrefract/renderer.h>
 #include <shrefract/result.h>

@@ -2,7 +2,7 @@
 // the report needs no plotting library.
 #pragma once
 
-#include <shrefract/bake/image.h>
+#include <shrefract/assets/image.h>
 
 #include <array>
 #include <string>

@@ -1,8 +1,8 @@
 #include "report/report.h"
 
 #include <shrefract/bake/bake.h>
-#include <shrefract/bake/image_metrics.h>
-#include <shrefract/bake/reference_render.h>
+#include <shrefract/trace/image_metrics.h>
+#include <shrefract/trace/reference_render.h>
 
 #include <glm/geometric.hpp>
 

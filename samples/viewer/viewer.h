@@ -4,8 +4,8 @@
 // command buffers and their synchronization, and blits the target to the swapchain image.
 #pragma once
 
-#include <shrefract/bake/image.h>
-#include <shrefract/bake/scene.h>
+#include <shrefract/assets/image.h>
+#include <shrefract/assets/scene.h>
 #include <shrefract/field.h>
 #include <shrefract/renderer.h>
 

@@ -10,7 +10,7 @@
 // observed messages are written there as the Markdown table of docs/bad-input.md.
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
-#include <shrefract/bake/image.h>
+#include <shrefract/assets/image.h>
 #include <shrefract/field.h>
 
 #include <algorithm>

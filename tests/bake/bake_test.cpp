@@ -7,7 +7,7 @@
 #include <shrefract/bake/fit.h>
 #include <shrefract/bake/layout.h>
 #include <shrefract/bake/sample_frame.h>
-#include <shrefract/bake/tracer.h>
+#include <shrefract/trace/tracer.h>
 
 #include <glm/geometric.hpp>
 

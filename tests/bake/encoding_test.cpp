@@ -10,7 +10,7 @@
 #include <shrefract/bake/bake.h>
 #include <shrefract/bake/layout.h>
 #include <shrefract/bake/table_fit.h>
-#include <shrefract/bake/tracer.h>
+#include <shrefract/trace/tracer.h>
 
 #include <glm/ext/vector_double3.hpp>
 #include <glm/geometric.hpp>

@@ -5,7 +5,7 @@
 #include <shrefract/bake/bake.h>
 #include <shrefract/bake/distance_volume.h>
 #include <shrefract/bake/layout.h>
-#include <shrefract/bake/reference_render.h>
+#include <shrefract/trace/reference_render.h>
 #include <shrefract/bake/shard.h>
 #include <shrefract/cpu_reference.h>
 

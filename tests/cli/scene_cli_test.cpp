@@ -7,7 +7,7 @@
 // GPU modes run on lavapipe like the GPU tests and are skipped, with a line, without a device.
 #include <gtest/gtest.h>
 #include <shrefract/bake/bake.h>
-#include <shrefract/bake/image.h>
+#include <shrefract/assets/image.h>
 
 #include <algorithm>
 #include <cmath>

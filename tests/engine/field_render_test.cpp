@@ -7,7 +7,7 @@
 // with SHREFRACT_WRITE_TEST_IMAGES set in the environment they are written on success too.
 #include <gtest/gtest.h>
 #include <shrefract/bake/bake.h>
-#include <shrefract/bake/scene.h>
+#include <shrefract/assets/scene.h>
 #include <shrefract/cpu_reference.h>
 #include <shrefract/gpu_layout.h>
 

@@ -3,8 +3,8 @@
 //
 // Beyond the sanitizers: an import that succeeds must return a scene that passes validateScene
 // (every consumer relies on it), and a failure must carry a one-line message naming the file.
-#include <shrefract/bake/gltf_import.h>
-#include <shrefract/bake/scene.h>
+#include <shrefract/assets/gltf_import.h>
+#include <shrefract/assets/scene.h>
 
 #include <cstdint>
 #include <cstdio>

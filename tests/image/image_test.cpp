@@ -1,6 +1,6 @@
 // Images: the lat-long convention, PNG/EXR/HDR round trips, error reporting, atomic writes and the
 // procedural environment.
-#include <shrefract/bake/image.h>
+#include <shrefract/assets/image.h>
 
 #include <glm/geometric.hpp>
 #include <glm/gtc/constants.hpp>

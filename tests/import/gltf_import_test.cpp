@@ -1,7 +1,7 @@
 // glTF import: files written here (JSON with data-URI buffers, and GLB from a minimal writer), so
 // the test needs nothing from outside the repository. Cubes have analytic volumes and normals.
-#include <shrefract/bake/gltf_import.h>
-#include <shrefract/bake/scene.h>
+#include <shrefract/assets/gltf_import.h>
+#include <shrefract/assets/scene.h>
 
 #include <glm/geometric.hpp>
 #include <glm/gtc/quaternion.hpp>

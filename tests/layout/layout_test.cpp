@@ -3,7 +3,7 @@
 // sample positions, gutters rebuilt by their rule), the charts layout's gutters and seams, and its
 // use of the scene's TEXCOORD_0.
 #include <shrefract/bake/layout.h>
-#include <shrefract/bake/scene.h>
+#include <shrefract/assets/scene.h>
 
 #include <gtest/gtest.h>
 

@@ -5,9 +5,9 @@
 // object's mean colour, normalized by its green channel, must be the glass's tint in every mode.
 #include <gtest/gtest.h>
 #include <shrefract/bake/bake.h>
-#include <shrefract/bake/reference_render.h>
-#include <shrefract/bake/scene.h>
-#include <shrefract/bake/tracer.h>
+#include <shrefract/trace/reference_render.h>
+#include <shrefract/assets/scene.h>
+#include <shrefract/trace/tracer.h>
 
 #include <array>
 #include <cstdio>

@@ -3,9 +3,9 @@
 // metrics.
 #include <gtest/gtest.h>
 #include <shrefract/bake/bake.h>
-#include <shrefract/bake/image_metrics.h>
+#include <shrefract/trace/image_metrics.h>
 #include <shrefract/bake/layout.h>
-#include <shrefract/bake/reference_render.h>
+#include <shrefract/trace/reference_render.h>
 #include <shrefract/bake/sample_frame.h>
 #include <shrefract/cpu_reference.h>
 

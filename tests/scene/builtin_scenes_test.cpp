@@ -1,5 +1,5 @@
 // Built-in scenes: structure, closed and outward-oriented media, analytic volumes, normals, options.
-#include <shrefract/bake/scene.h>
+#include <shrefract/assets/scene.h>
 
 #include <glm/geometric.hpp>
 #include <glm/gtc/constants.hpp>

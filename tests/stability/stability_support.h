@@ -11,9 +11,9 @@
 
 #include <gtest/gtest.h>
 #include <shrefract/bake/bake.h>
-#include <shrefract/bake/image_metrics.h>
-#include <shrefract/bake/reference_render.h>
-#include <shrefract/bake/tracer.h>
+#include <shrefract/trace/image_metrics.h>
+#include <shrefract/trace/reference_render.h>
+#include <shrefract/trace/tracer.h>
 #include <shrefract/cpu_reference.h>
 #include <shrefract/field.h>
 

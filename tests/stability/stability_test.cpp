@@ -6,7 +6,7 @@
 // not small changes in accuracy.
 #include "stability/stability_support.h"
 
-#include <shrefract/bake/scene.h>
+#include <shrefract/assets/scene.h>
 
 #include <set>
 #include <utility>

@@ -1,7 +1,7 @@
 // Tracer: analytic paths through a sphere, a cube and a torus (deviation, optical depth, total
 // internal reflection, re-entry), the cap, nested media, the full Fresnel tree, determinism across
 // threads, extreme indices of refraction, scaled and translated scenes and a thin shell.
-#include <shrefract/bake/tracer.h>
+#include <shrefract/trace/tracer.h>
 
 #include <glm/ext/vector_double3.hpp>
 #include <glm/geometric.hpp>

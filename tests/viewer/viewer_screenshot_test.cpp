@@ -6,8 +6,8 @@
 // Skips (exit 77, with a line saying why) when xvfb-run is missing or no Vulkan device exists.
 // Inputs (environment, set by tests/CMakeLists.txt): SHREFRACT_TOOL, SHREFRACT_VIEWER_WORK_DIR.
 #include <gtest/gtest.h>
-#include <shrefract/bake/image.h>
-#include <shrefract/bake/scene.h>
+#include <shrefract/assets/image.h>
+#include <shrefract/assets/scene.h>
 #include <shrefract/field.h>
 
 #include <algorithm>

@@ -72,7 +72,7 @@ ViewsError fieldViewsError(const Field& field, const SampleAtlas& atlas, const F
   if (count > 0) {
     e.clippedMean /= count;
     e.rms = std::sqrt(e.rms / count);
-    e.colourPsnr = 10.0 * std::log10(1.0 / std::max(e.colourPsnr / count, 1e-10));
+    e.colourPsnr = psnrFromMeanSquaredError(e.colourPsnr / count);
   }
   return e;
 }
@@ -135,7 +135,7 @@ double volumeSpatialPsnr(const Field& field, uint32_t threads) {
   double sum = 0.0;
   for (double v : squares) sum += v;  // in pair order: deterministic
   const double mean = sum / double(std::max<size_t>(1, chosen.size() * kFrameChoiceViews));
-  return 10.0 * std::log10(1.0 / std::max(mean, 1e-10));
+  return psnrFromMeanSquaredError(mean);
 }
 
 // The default's choice between the baked field and the volume (keepVolumeWhereCloser), by their
@@ -192,7 +192,7 @@ Result<double> pooledSquares(const Image& image, const ReferenceImage& exact, ui
 
 // pooledSquares' sum over `pixels` pixels as a PSNR again.
 double pooledPsnr(double sum, uint64_t pixels) {
-  return 10.0 * std::log10(1.0 / std::max(sum / double(std::max<uint64_t>(1, pixels)), 1e-10));
+  return psnrFromMeanSquaredError(sum / double(std::max<uint64_t>(1, pixels)));
 }
 
 // The CPU reference render of one of the image choices' views (exact, the plan's rule and bounce

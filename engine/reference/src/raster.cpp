@@ -152,8 +152,9 @@ struct NearestHit {
 // Double precision for the ray-triangle test: the GPU's coverage is exact for pixel centres away
 // from edges, and so should the reference be. Each object's eye, and the ray, in its object space:
 // t is the same along both (the eye and the ray are divided by the same scale), so hits of
-// different objects compare as they are.
-NearestHit nearestHit(const std::vector<RenderObject>& objects, const std::vector<Vec3>& objectEyes, const Vec3& rayF) {
+// different objects compare as they are. candidates: only these triangles of objects[0].
+NearestHit nearestHit(const std::vector<RenderObject>& objects, const std::vector<Vec3>& objectEyes, const Vec3& rayF,
+                      const std::vector<uint32_t>* candidates) {
   auto toDouble = [](const Vec3& v) { return std::array<double, 3>{v[0], v[1], v[2]}; };
   NearestHit best;
   for (size_t o = 0; o < objects.size(); ++o) {
@@ -162,10 +163,15 @@ NearestHit nearestHit(const std::vector<RenderObject>& objects, const std::vecto
     Vec3 rayObject = inverseRotateDirection(placed, rayF);
     for (float& c : rayObject) c /= placed.scale;
     const std::array<double, 3> eye = toDouble(objectEyes[o]), ray = toDouble(rayObject);
-    for (uint32_t t = 0; size_t(t) + 2 < mesh.indices.size(); t += 3) {
+    auto test = [&](uint32_t t) {
       const std::optional<TriangleHit> hit = hitTriangle(mesh, t, eye, ray);
-      if (!hit || (best.hit && hit->t >= best.hit->t)) continue;
+      if (!hit || (best.hit && hit->t >= best.hit->t)) return;
       best = {hit, static_cast<int>(o), t};
+    };
+    if (candidates) {
+      for (uint32_t t : *candidates) test(t);
+    } else {
+      for (uint32_t t = 0; size_t(t) + 2 < mesh.indices.size(); t += 3) test(t);
     }
   }
   return best;
@@ -173,54 +179,67 @@ NearestHit nearestHit(const std::vector<RenderObject>& objects, const std::vecto
 
 }  // namespace
 
+PixelRenderer::PixelRenderer(const std::vector<RenderObject>& objects, const LatLongImage& environment,
+                             const Camera& camera, uint32_t width, uint32_t height, float exposure,
+                             bool silhouetteCoverage)
+    : objects_(objects), environment_(environment), camera_(camera), width_(width), height_(height),
+      exposure_(exposure), silhouetteCoverage_(silhouetteCoverage) {
+  // The chain the engine builds at upload, unless the caller has it already.
+  if (!environment_.levels) {
+    levels_ = environmentLevels(environment);
+    environment_.levels = &levels_;
+  }
+  for (const RenderObject& object : objects_) {
+    objectEyes_.push_back(inverseTransformPoint(object.worldFromObject, camera.eye));
+    edges_.push_back(triangleEdges(object.mesh->positions.data(), uint32_t(object.mesh->positions.size() / 3),
+                                   object.mesh->indices.data(), uint32_t(object.mesh->indices.size())));
+  }
+}
+
+// The background, level 0 (sampleLatLong without a footprint), reads environment_'s pixels alone,
+// whatever chain it carries.
+PixelRenderer::Pixel PixelRenderer::pixel(uint32_t x, uint32_t y, const Vec3& ray,
+                                          const std::vector<uint32_t>* candidates) const {
+  Pixel out;
+  const NearestHit best = nearestHit(objects_, objectEyes_, ray, candidates);
+  if (best.object < 0) {
+    out.colour = sampleLatLong(environment_, ray);
+    return out;
+  }
+  const RenderObject& object = objects_[size_t(best.object)];
+  const SurfacePoint point = surfacePointAt(*object.mesh, best.triangle, *best.hit);
+  const Vec3& eye = objectEyes_[size_t(best.object)];
+  const LookupDerivatives derivatives = pixelDerivatives(object, best.triangle, camera_, width_, height_, x, y);
+  const Vec3 c = object.volume ? shadeVolume(*object.volume, environment_, point, eye, object.shading, exposure_,
+                                             object.worldFromObject, derivatives, &out.direction)
+                               : shadeField(*object.distortion, environment_, point, eye, object.shading, exposure_,
+                                            object.worldFromObject, derivatives);
+  if (!object.volume)
+    out.direction = rotateDirection(object.worldFromObject, shadedExitDirection(*object.distortion, point, eye));
+  out.colour = silhouetteCoverage_ ? overBackground(c, point, eye, derivatives, environment_, ray,
+                                                    &edges_[size_t(best.object)][best.triangle / 3])
+                                   : c;
+  out.object = best.object;
+  return out;
+}
+
 RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImage& environment, const Camera& camera,
                      uint32_t width, uint32_t height, float exposure, bool silhouetteCoverage) {
-  // The chain the engine builds at upload, unless the caller has it already.
-  std::vector<std::vector<float>> ownLevels;
-  LatLongImage filtered = environment;
-  if (!filtered.levels) {
-    ownLevels = environmentLevels(environment);
-    filtered.levels = &ownLevels;
-  }
+  const PixelRenderer renderer(objects, environment, camera, width, height, exposure, silhouetteCoverage);
   RenderedImage image;
   image.width = width;
   image.height = height;
   image.rgba.assign(size_t(width) * height * 4, 0.0f);
   image.object.assign(size_t(width) * height, -1);
   image.directions.assign(size_t(width) * height * 3, 0.0f);
-  std::vector<Vec3> objectEyes;
-  for (const RenderObject& object : objects) objectEyes.push_back(inverseTransformPoint(object.worldFromObject, camera.eye));
-  std::vector<std::vector<TriangleEdges>> edges;  // the object pass's polygon coverage
-  for (const RenderObject& object : objects)
-    edges.push_back(triangleEdges(object.mesh->positions.data(), uint32_t(object.mesh->positions.size() / 3),
-                                  object.mesh->indices.data(), uint32_t(object.mesh->indices.size())));
   for (uint32_t py = 0; py < height; ++py)
     for (uint32_t px = 0; px < width; ++px) {
-      const Vec3 rayF = pixelRay(camera, width, height, px, py);
-      const NearestHit best = nearestHit(objects, objectEyes, rayF);
-      float* out = &image.rgba[(size_t(py) * width + px) * 4];
-      out[3] = 1.0f;
-      if (best.object < 0) {
-        const Vec3 c = sampleLatLong(environment, rayF);
-        for (int k = 0; k < 3; ++k) out[k] = c[size_t(k)];
-        continue;
-      }
-      const RenderObject& object = objects[size_t(best.object)];
-      const SurfacePoint point = surfacePointAt(*object.mesh, best.triangle, *best.hit);
-      const Vec3& eye = objectEyes[size_t(best.object)];
-      const LookupDerivatives derivatives = pixelDerivatives(object, best.triangle, camera, width, height, px, py);
-      Vec3 dir{};
-      const Vec3 c = object.volume ? shadeVolume(*object.volume, filtered, point, eye, object.shading, exposure,
-                                                 object.worldFromObject, derivatives, &dir)
-                                   : shadeField(*object.distortion, filtered, point, eye, object.shading, exposure,
-                                                object.worldFromObject, derivatives);
-      if (!object.volume) dir = rotateDirection(object.worldFromObject, shadedExitDirection(*object.distortion, point, eye));
-      const Vec3 covered = silhouetteCoverage ? overBackground(c, point, eye, derivatives, environment, rayF,
-                                                               &edges[size_t(best.object)][best.triangle / 3])
-                                              : c;
-      for (int k = 0; k < 3; ++k) out[k] = covered[size_t(k)];
-      image.object[size_t(py) * width + px] = best.object;
-      for (int k = 0; k < 3; ++k) image.directions[(size_t(py) * width + px) * 3 + size_t(k)] = dir[size_t(k)];
+      const PixelRenderer::Pixel p = renderer.pixel(px, py, pixelRay(camera, width, height, px, py));
+      const size_t at = size_t(py) * width + px;
+      for (int k = 0; k < 3; ++k) image.rgba[at * 4 + size_t(k)] = p.colour[size_t(k)];
+      image.rgba[at * 4 + 3] = 1.0f;
+      image.object[at] = p.object;
+      for (int k = 0; k < 3; ++k) image.directions[at * 3 + size_t(k)] = p.direction[size_t(k)];
     }
   return image;
 }

@@ -3,8 +3,8 @@
 // records shrefract's passes into them.
 #pragma once
 
-#include <shrefract/bake/image.h>
-#include <shrefract/bake/scene.h>
+#include <shrefract/assets/image.h>
+#include <shrefract/assets/scene.h>
 #include <shrefract/context.h>
 #include <shrefract/decompressor.h>
 #include <shrefract/environment.h>

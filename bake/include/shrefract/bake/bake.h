@@ -2,7 +2,7 @@
 // Embree, fit SH per sample, smooth, quantize, and assemble a Field ready to be written.
 #pragma once
 
-#include <shrefract/bake/scene.h>
+#include <shrefract/assets/scene.h>
 #include <shrefract/bake/bake_settings.h>
 #include <shrefract/field.h>
 #include <shrefract/result.h>

@@ -3,8 +3,8 @@
 // (docs/encodings.md, "Volume").
 #pragma once
 
-#include <shrefract/bake/scene.h>
-#include <shrefract/bake/tracer.h>
+#include <shrefract/assets/scene.h>
+#include <shrefract/trace/tracer.h>
 #include <shrefract/field.h>
 #include <shrefract/result.h>
 

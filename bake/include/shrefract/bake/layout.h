@@ -12,7 +12,7 @@
 #pragma once
 
 #include <shrefract/bake/sample_frame.h>
-#include <shrefract/bake/scene.h>
+#include <shrefract/assets/scene.h>
 #include <shrefract/field.h>
 #include <shrefract/result.h>
 

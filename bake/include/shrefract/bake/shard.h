@@ -9,7 +9,7 @@
 #pragma once
 
 #include <shrefract/bake/bake.h>
-#include <shrefract/bake/scene.h>
+#include <shrefract/assets/scene.h>
 #include <shrefract/bake/bake_settings.h>
 #include <shrefract/field.h>
 #include <shrefract/result.h>

@@ -275,4 +275,42 @@ LookupDerivatives pixelDerivatives(const RenderObject& object, uint32_t first, c
 RenderedImage render(const std::vector<RenderObject>& objects, const LatLongImage& environment, const Camera& camera,
                      uint32_t width, uint32_t height, float exposure = 1.0f, bool silhouetteCoverage = true);
 
+// render()'s set-up and per-pixel operations, for renderers that choose their own pixels and rays
+// (the bake's supersampled, binned renderDistortion): one implementation of the pixel, so that
+// both give the same pixels bit for bit. Construction takes render()'s arguments and builds the
+// environment's chain when environment.levels is null. Immutable after construction: pixel() may
+// be called from any thread. The objects' meshes and images and the environment's pixels must
+// outlive it.
+class PixelRenderer {
+ public:
+  PixelRenderer(const std::vector<RenderObject>& objects, const LatLongImage& environment, const Camera& camera,
+                uint32_t width, uint32_t height, float exposure = 1.0f, bool silhouetteCoverage = true);
+  PixelRenderer(const PixelRenderer&) = delete;  // environment_ may point at levels_
+  PixelRenderer& operator=(const PixelRenderer&) = delete;
+
+  struct Pixel {
+    Vec3 colour{};        // as render() writes it (alpha 1)
+    Vec3 direction{};     // the unit world-space exit direction shaded there; zero for the background
+    int32_t object = -1;  // the visible object, -1 for the background
+  };
+
+  // Pixel (x, y) of the width x height image, cast along `ray` (pixelRay(camera, width, height,
+  // x, y), or the same bits computed another way). candidates: where given, the only triangles
+  // tested (first indices into mesh.indices, in increasing order) of the one object there must be;
+  // they must include every triangle the ray can hit (a caller's screen tiles). Null: every
+  // triangle of every object, as render().
+  Pixel pixel(uint32_t x, uint32_t y, const Vec3& ray, const std::vector<uint32_t>* candidates = nullptr) const;
+
+ private:
+  std::vector<RenderObject> objects_;
+  std::vector<Vec3> objectEyes_;                  // the camera's eye in each object's space
+  std::vector<std::vector<TriangleEdges>> edges_;  // per object, per triangle: polygon coverage
+  std::vector<std::vector<float>> levels_;         // the chain, when the caller gave none
+  LatLongImage environment_;                       // with its chain
+  Camera camera_;
+  uint32_t width_ = 0, height_ = 0;
+  float exposure_ = 1.0f;
+  bool silhouetteCoverage_ = true;
+};
+
 }  // namespace shrefract::reference

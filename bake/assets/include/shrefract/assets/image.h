@@ -1,5 +1,6 @@
 // Images for the baker and the tools: loading and writing (OpenImageIO behind this header), the
-// lat-long environment convention, and a procedural environment for tests and demos.
+// lat-long environment convention, a procedural environment for tests and demos, and the box
+// filter that reduces supersampled renders.
 //
 // Lat-long convention (shared with the GPU shaders; docs/technique.md):
 //   +Y is up. For a direction d,
@@ -78,5 +79,14 @@ glm::vec3 latLongToDirection(glm::vec2 uv);
 // in u and clamped in v (rows 0 and height - 1 extend to the poles). Precondition: the image is
 // non-empty and rgba.size() == 4 * width * height.
 glm::vec3 sampleLatLong(const Image& image, glm::vec3 direction);
+
+// Largest samplesPerAxis of every supersampled renderer (the CPU references, offscreen's GPU
+// frames): 64 samples per pixel.
+inline constexpr uint32_t kMaxSamplesPerAxis = 8;
+
+// The mean of every samplesPerAxis x samplesPerAxis block of `image` (its size must be a
+// multiple of samplesPerAxis per axis; alpha averaged too), summed in row-major order within the
+// block: how every supersampled image by the renderers and the tools is reduced.
+Image boxFilter(const Image& image, uint32_t samplesPerAxis);
 
 }  // namespace shrefract::bake

@@ -1,5 +1,5 @@
 // Scene validation and topology checks (welded by exact position).
-#include <shrefract/bake/scene.h>
+#include <shrefract/assets/scene.h>
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>

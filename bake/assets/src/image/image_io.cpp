@@ -1,6 +1,6 @@
 // Image files through OpenImageIO (kept out of every header), sRGB handling, atomic writes, and
 // the lat-long mapping.
-#include <shrefract/bake/image.h>
+#include <shrefract/assets/image.h>
 
 #include <OpenImageIO/imageio.h>
 

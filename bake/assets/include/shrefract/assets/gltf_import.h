@@ -5,7 +5,7 @@
 // section "glTF media and the medium stack".
 #pragma once
 
-#include <shrefract/bake/scene.h>
+#include <shrefract/assets/scene.h>
 #include <shrefract/result.h>
 
 #include <cstddef>

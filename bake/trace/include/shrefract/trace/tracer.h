@@ -9,8 +9,8 @@
 // flush-to-zero / denormals-are-zero set the same way everywhere).
 #pragma once
 
-#include <shrefract/bake/sample_frame.h>
-#include <shrefract/bake/scene.h>
+#include <shrefract/assets/scene.h>
+#include <shrefract/trace/surface_point.h>
 #include <shrefract/field.h>
 #include <shrefract/result.h>
 

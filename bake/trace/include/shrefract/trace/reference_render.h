@@ -14,7 +14,7 @@
 //  - exactDistortion: the field's distortion image with the exact path at every sample texel,
 //    in place of the decoded encoding (no angular fit, no quantization; the spatial sampling of
 //    the atlas stays);
-//  - renderDistortion: the raster pass's CPU twin (reference::render's per-pixel operations)
+//  - renderDistortion: the raster pass's CPU twin (reference::render's pixel, supersampled)
 //    drawing a distortion image through the field's render mesh.
 //
 // Supersampling (every renderer here): samplesPerAxis = S traces S x S rays per pixel, through
@@ -26,9 +26,9 @@
 // with S = 1: the pixel-centre ray hits).
 #pragma once
 
-#include <shrefract/bake/image.h>
-#include <shrefract/bake/scene.h>
-#include <shrefract/bake/tracer.h>
+#include <shrefract/assets/image.h>
+#include <shrefract/assets/scene.h>
+#include <shrefract/trace/tracer.h>
 #include <shrefract/cpu_reference.h>
 #include <shrefract/field.h>
 #include <shrefract/renderer.h>
@@ -44,8 +44,6 @@ namespace shrefract::bake {
 
 enum class ReferenceMode { Exact, FullTree, SingleInterface };
 
-// Largest samplesPerAxis of every renderer here (64 samples per pixel).
-inline constexpr uint32_t kMaxSamplesPerAxis = 8;
 // The range of ReferenceOptions::environmentLevelBias: -kMax..kMax levels.
 inline constexpr float kMaxEnvironmentLevelBias = 4.0f;
 
@@ -128,7 +126,7 @@ struct ReferenceImage {
 glm::vec3 pixelDirection(const Camera& camera, uint32_t width, uint32_t height, uint32_t x, uint32_t y);
 
 // Errors (InvalidArgument): a size outside 1..16384 per axis, samplesPerAxis outside
-// 1..kMaxSamplesPerAxis or a supersampled size beyond 65536 per axis, an empty environment.
+// 1..kMaxSamplesPerAxis (image.h) or a supersampled size beyond 65536 per axis, an empty environment.
 Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene, const Image& environment,
                                        const ReferenceOptions& options);
 
@@ -141,11 +139,6 @@ Result<ReferenceImage> renderReference(const Tracer& tracer, const Scene& scene,
 // sides of an axis (a feature thinner than the cell, or two discontinuities): the expected share
 // 1/4 per probe, the axes combined as independent, split evenly. The sample keeps 1 - the sum.
 std::array<float, 4> shareBeyondCrossings(const std::array<float, 4>& crossing);
-
-// The mean of every samplesPerAxis x samplesPerAxis block of `image` (its size must be a
-// multiple of samplesPerAxis per axis; alpha averaged too), summed in row-major order within the
-// block: how every supersampled image here and in the tools is reduced.
-Image boxFilter(const Image& image, uint32_t samplesPerAxis);
 
 struct ExactDistortionOptions {
   PathRule pathRule = PathRule::HighestEnergy;
@@ -196,14 +189,14 @@ struct DistortionRenderOptions {
   const Field* volume = nullptr;
 };
 
-// The engine's raster pass on the CPU for one field object: per sub-sample, the same operations
-// as reference::render (the nearest front-facing triangle of `mesh` in double precision, its
-// perspective-correct attributes, reference::shadeField with `distortion` and the filtered lookups
-// of reference::pixelDerivatives for the sub-sample grid; the environment's level 0 where no
-// triangle is hit), but only the triangles whose screen bounds cover the sample are tested, so
-// it runs on big meshes. `rays` counts sub-samples. Per-pixel results equal reference::render's
-// at S = 1 (reference_test checks it). Errors as renderReference's, and a distortion image whose
-// size disagrees with its pixels.
+// The engine's raster pass on the CPU for one field object: per sub-sample, reference::render's
+// pixel (reference::PixelRenderer: the nearest front-facing triangle of `mesh` in double
+// precision, its perspective-correct attributes, reference::shadeField with `distortion` and the
+// filtered lookups of reference::pixelDerivatives for the sub-sample grid; the environment's level
+// 0 where no triangle is hit), but only the triangles whose screen bounds cover the sample are
+// tested, so it runs on big meshes. `rays` counts sub-samples. Per-pixel results equal
+// reference::render's at S = 1 (reference_test checks it). Errors as renderReference's, and a
+// distortion image whose size disagrees with its pixels.
 Result<ReferenceImage> renderDistortion(const FieldMesh& mesh, const reference::DistortionImage& distortion,
                                         const Image& environment, const DistortionRenderOptions& options);
 

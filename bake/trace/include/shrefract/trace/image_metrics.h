@@ -1,7 +1,7 @@
 // Error metrics between an approximation and a reference, over the object's pixels.
 #pragma once
 
-#include <shrefract/bake/image.h>
+#include <shrefract/assets/image.h>
 #include <shrefract/result.h>
 
 #include <glm/vec3.hpp>
@@ -10,6 +10,10 @@
 #include <vector>
 
 namespace shrefract::bake {
+
+// The PSNR of a mean squared error of colours in [0, 1], in dB: 10 log10(1 / mse), and 100 dB
+// where mse <= 1e-10 or is not a number (never infinite). Every PSNR of the bake and the tools.
+double psnrFromMeanSquaredError(double mse);
 
 struct ImageErrors {
   uint64_t pixels = 0;          // pixels in the mask

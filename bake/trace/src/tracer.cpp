@@ -1,5 +1,5 @@
 // Path tracing through the media of a scene with Embree 3. Rules and their reasons: docs/technique.md.
-#include <shrefract/bake/tracer.h>
+#include <shrefract/trace/tracer.h>
 
 #include <embree3/rtcore.h>
 

@@ -1,7 +1,7 @@
 // A procedural lat-long environment: sky, sun, three small bright lights and a checkered ground.
 // Every refraction artefact shows on it: the checker bends, the lights become caustic sparkles,
 // the horizon line shows distortion, and nothing needs a file.
-#include <shrefract/bake/image.h>
+#include <shrefract/assets/image.h>
 
 #include <glm/common.hpp>
 #include <glm/exponential.hpp>

@@ -1,4 +1,4 @@
-#include <shrefract/bake/image_metrics.h>
+#include <shrefract/trace/image_metrics.h>
 
 #include <algorithm>
 #include <cmath>
@@ -82,6 +82,10 @@ double maskedSsim(const Image& a, const Image& b, const std::vector<uint8_t>& ma
 
 }  // namespace
 
+double psnrFromMeanSquaredError(double mse) {
+  return mse > 1e-10 ? std::min(100.0, 10.0 * std::log10(1.0 / mse)) : 100.0;
+}
+
 Result<ImageErrors> compareImages(const Image& a, const Image& b, const std::vector<uint8_t>& mask,
                                   const std::vector<glm::vec3>& da, const std::vector<glm::vec3>& db) {
   const size_t n = size_t(a.width) * a.height;
@@ -105,7 +109,7 @@ Result<ImageErrors> compareImages(const Image& a, const Image& b, const std::vec
   }
   if (e.pixels == 0) return e;
   const double mse = squares / double(e.pixels * 3);
-  e.psnr = mse > 1e-10 ? std::min(100.0, 10.0 * std::log10(1.0 / mse)) : 100.0;
+  e.psnr = psnrFromMeanSquaredError(mse);
   angleStatistics(angleList, e);
   e.ssim = maskedSsim(a, b, mask);
   return e;

@@ -1,6 +1,6 @@
 // Built-in scenes: analytic shapes whose volumes and normals the tests can check, and a glass of
 // water for nested media. Dimensions and media are documented in docs/scenes.md.
-#include <shrefract/bake/scene.h>
+#include <shrefract/assets/scene.h>
 
 #include <glm/geometric.hpp>
 #include <glm/gtc/constants.hpp>
