@@ -5,7 +5,7 @@
 // sample's texel gets their distortion texel (decompress_common.glsl: the normalized direction,
 // scaled by the throughput when the field has one, and the optical depth). Empty texels keep the
 // zero the image was created with; the gutter pass fills gutter texels. Mirrored by
-// engine/src/reference/cpu_reference.cpp (decodeTexel).
+// engine/reference/src/cpu_reference.cpp (decodeTexel).
 //
 // One invocation decompresses 4 consecutive samples, as the 4 components of vec4s: the SH
 // recurrence runs on vec4s (SH_FOR_EACH_BASIS_X4), and per basis function it reads one word per

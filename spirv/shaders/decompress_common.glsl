@@ -1,6 +1,6 @@
 // Shared by the decompression shaders (decompress.comp: Sh; decompress_table.comp: Table, Pca):
 // the specialization constants and bindings both read, the eye in a sample's frame, and the
-// distortion texel of a decoded sum (gpu_layout.h). Mirrored by engine/src/reference/
+// distortion texel of a decoded sum (gpu_layout.h). Mirrored by engine/reference/src/
 // cpu_reference.cpp (decodeTexel).
 #include "shrefract/gpu_layout.h"
 

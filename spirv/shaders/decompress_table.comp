@@ -8,7 +8,7 @@
 // sample's texel gets the result's distortion texel (decompress_common.glsl), and with the jump
 // distance channel the jump image its eyeJump. Empty texels keep the zero (the jump image: the
 // cap) the images were created with; the gutter pass fills gutter texels. Mirrored by
-// engine/src/field/field_decode.cpp (evaluateSample), which cpu_reference.cpp (decodeTexel) uses.
+// engine/reference/src/field_decode.cpp (evaluateSample), which cpu_reference.cpp (decodeTexel) uses.
 //
 // One invocation per sample, reading its values sample-major (gpu_layout.h): a sample reads only
 // 4 nodes of its own table (Table) or its own K weights and 4 nodes of each shared basis function

@@ -1,6 +1,6 @@
 // Field shading: the decompressed distortion image gives, at the fragment's field texture
 // coordinate, the direction in which the refracted path leaves the object and its optical depth.
-// Mirrored exactly by engine/src/reference/cpu_reference.cpp (shadeField).
+// Mirrored exactly by engine/reference/src/cpu_reference.cpp (shadeField).
 #extension GL_EXT_samplerless_texture_functions : require  // texelFetch of the jump image
 #include "shrefract/gpu_layout.h"
 #include "environment_select.glsl"

@@ -4,7 +4,7 @@
 // (volume_trace.glsl), where the texture-space shading reads the distortion image the
 // decompression pass traced at the sample texels and interpolates between them. Nothing between
 // texels is interpolated, so the field's spatial sampling costs nothing; the grid's own errors
-// remain. Mirrored by engine/src/reference/cpu_reference.cpp (shadeVolume).
+// remain. Mirrored by engine/reference/src/cpu_reference.cpp (shadeVolume).
 #include "shrefract/gpu_layout.h"
 #include "environment_select.glsl"
 

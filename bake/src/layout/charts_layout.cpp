@@ -183,23 +183,18 @@ void addSeams(const FrontMesh& front, const std::vector<EdgeUse>& uses,
 }  // namespace
 
 Result<SampleAtlas> buildChartsLayout(const Scene& scene, const LayoutOptions& options) {
-  Result<FrontMesh> collected = layout_detail::collectFront(scene);
-  if (!collected) {
-    return collected.error();
-  }
-  const FrontMesh& front = collected.value();
-  Result<double> target = layout_detail::sampleTarget(options, front.area);
-  if (!target) {
-    return target.error();
-  }
+  Result<layout_detail::FrontAndTarget> start = layout_detail::frontAndTarget(scene, options);
+  if (!start) return start.error();
+  const FrontMesh& front = start->front;
+  const double target = start->target;
   const uint32_t maxSize = std::min(options.maxAtlasSize, layout_detail::kLargestAtlas);
   const std::vector<EdgeUse> uses = layout_detail::sortedEdgeUses(front);
 
   std::vector<Tri2> uvs;
   const bool useSceneUvs = sceneAtlas(scene, front, uvs);
   Result<Fitted> fitted = useSceneUvs
-                              ? Result<Fitted>(fitSceneAtlas(scene, front, uses, uvs, target.value(), maxSize))
-                              : fitGeneratedCharts(scene, front, uses, target.value(), maxSize);
+                              ? Result<Fitted>(fitSceneAtlas(scene, front, uses, uvs, target, maxSize))
+                              : fitGeneratedCharts(scene, front, uses, target, maxSize);
   if (!fitted) {
     return fitted.error();
   }

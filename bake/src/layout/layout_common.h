@@ -121,6 +121,19 @@ inline Result<double> sampleTarget(const LayoutOptions& options, double area) {
   return static_cast<double>(options.sampleBudget > 0 ? options.sampleBudget : kDefaultSampleBudget);
 }
 
+// What both layouts start from: the scene's front triangles and the samples asked of their area.
+struct FrontAndTarget {
+  FrontMesh front;
+  double target = 0.0;
+};
+inline Result<FrontAndTarget> frontAndTarget(const Scene& scene, const LayoutOptions& options) {
+  Result<FrontMesh> front = collectFront(scene);
+  if (!front) return front.error();
+  Result<double> target = sampleTarget(options, front->area);
+  if (!target) return target.error();
+  return FrontAndTarget{std::move(front).value(), target.value()};
+}
+
 // One use of an undirected welded edge: edge e of a triangle runs from corner e to corner (e+1)%3.
 struct EdgeUse {
   uint64_t key = 0;  // (lower welded id << 32) | higher welded id

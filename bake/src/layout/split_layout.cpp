@@ -318,15 +318,10 @@ void addSharedEdges(const FrontMesh& front, const std::vector<EdgeUse>& uses, Sa
 }  // namespace
 
 Result<SampleAtlas> buildSplitLayout(const Scene& scene, const LayoutOptions& options) {
-  Result<FrontMesh> collected = layout_detail::collectFront(scene);
-  if (!collected) {
-    return collected.error();
-  }
-  const FrontMesh& front = collected.value();
-  Result<double> target = layout_detail::sampleTarget(options, front.area);
-  if (!target) {
-    return target.error();
-  }
+  Result<layout_detail::FrontAndTarget> start = layout_detail::frontAndTarget(scene, options);
+  if (!start) return start.error();
+  const FrontMesh& front = start->front;
+  const double target = start->target;
 
   const std::vector<EdgeUse> uses = layout_detail::sortedEdgeUses(front);
   const WeldedEdges edges = numberWeldedEdges(front, uses);
@@ -336,7 +331,7 @@ Result<SampleAtlas> buildSplitLayout(const Scene& scene, const LayoutOptions& op
     return grid.error();
   }
   const SampleCounts counts{front.weldPositions.size(), edges.count, triangles};
-  Result<uint64_t> n = chooseEdgeResolution(options, counts, target.value(), grid->maxN);
+  Result<uint64_t> n = chooseEdgeResolution(options, counts, target, grid->maxN);
   if (!n) {
     return n.error();
   }

@@ -2,10 +2,11 @@
 //
 // For every surface sample s (a texel of the sample atlas) and every view direction w over the
 // hemisphere of the sample's local frame, the bake traced where the refracted path leaves the
-// object (a unit direction, in object space or in the sample's own frame: `sampleFrameExits`), how much optical depth it crossed and, optionally, the
-// Fresnel throughput of the path. These channels (x, y, z, [tau], [throughput]) are functions on
-// the hemisphere (node-sampled Table and Pca fields may add a last channel that only guides their
-// decode: the distance to the nearest jump of the exit direction, docs/encodings.md "Jumps"), stored in one of three encodings (docs/encodings.md):
+// object (a unit direction, in object space or in the sample's own frame: `sampleFrameExits`), how
+// much optical depth it crossed and, optionally, the Fresnel throughput of the path. These channels
+// (x, y, z, [tau], [throughput]) are functions on the hemisphere (node-sampled Table and Pca fields
+// may add a last channel that only guides their decode: the distance to the nearest jump of the
+// exit direction, docs/encodings.md "Jumps"), stored in one of three encodings (docs/encodings.md):
 //  - Sh: real SH coefficients of order L (see shrefract/sh.h), the paper's scheme;
 //  - Table: the values at the N x N nodes of a hemi-octahedral grid, bilinear between nodes;
 //  - Pca: K weights per sample of a basis learned from the whole field (each basis function a
@@ -150,8 +151,8 @@ struct FieldVolume {
   std::vector<uint32_t> bricks;
   std::vector<uint32_t> brickVoxels;
   // No straight way out meets the object again (meshIsConvex of the field's mesh): the trace stops
-  // at the first way out instead of marching it to the grid's box. Not stored: parseField and the bake set it from the mesh; a grid built by hand leaves it false,
-  // which costs time, never a path.
+  // at the first way out instead of marching it to the grid's box. Not stored: parseField and the
+  // bake set it from the mesh; a grid built by hand leaves it false, which costs time, never a path.
   bool convex = false;
 };
 

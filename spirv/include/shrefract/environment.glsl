@@ -17,7 +17,7 @@ vec2 latLongUv(vec3 dir) {
 // Filtered lookups (docs/technique.md). The environment has a level chain (a 2x2 box per level,
 // built at upload); the level is chosen from the angle a lookup direction spans across the pixel,
 // not from the sampler's own uv derivatives: those jump by a whole turn at the lat-long seam and
-// know nothing of how the glass bends the rays. Mirrored by engine/src/reference/cpu_reference.cpp
+// know nothing of how the glass bends the rays. Mirrored by engine/reference/src/environment_lookup.cpp
 // (directionFootprint, environmentLevel) and tested against it (tests/engine/environment_level_test).
 
 // Angle (radians) spanned across the pixel by a unit direction with screen derivatives ddx, ddy:

@@ -1,5 +1,5 @@
 // The hemi-octahedral grid of the Table and Pca encodings (shrefract/field.h), in the same float
-// operations as engine/src/field/field_decode.cpp (hemiOctFromDirection, hemiOctBilinear), so that
+// operations as engine/reference/src/field_decode.cpp (hemiOctFromDirection, hemiOctBilinear), so that
 // the GPU picks the same cell and weights as the CPU decoder.
 #ifndef SHREFRACT_HEMI_OCT_GLSL
 #define SHREFRACT_HEMI_OCT_GLSL
