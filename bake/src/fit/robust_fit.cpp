@@ -13,9 +13,6 @@ namespace shrefract::bake {
 
 namespace {
 
-double rowTheta(uint32_t r, uint32_t rows) { return (r + 0.5) * 0.5 * std::numbers::pi / rows; }
-double columnPhi(uint32_t j, uint32_t columns) { return (j + 0.5) * 2.0 * std::numbers::pi / columns; }
-
 // The angle between the expansion's exit and the traced one; a zero expansion is as far as can be.
 double exitAngle(const double* fitted, const double* traced) {
   const double cx = fitted[1] * traced[2] - fitted[2] * traced[1];
@@ -29,21 +26,8 @@ double exitAngle(const double* fitted, const double* traced) {
 }  // namespace
 
 bool isProductGrid(const DirectionGrid& grid) {
-  if (grid.rows == 0 || grid.columns == 0 || grid.directions.size() != size_t(grid.rows) * grid.columns ||
-      grid.weights.size() != grid.directions.size())
-    return false;
-  for (uint32_t r = 0; r < grid.rows; ++r) {
-    const double theta = rowTheta(r, grid.rows);
-    for (uint32_t j = 0; j < grid.columns; ++j) {
-      const double phi = columnPhi(j, grid.columns);
-      const size_t d = size_t(r) * grid.columns + j;
-      const glm::dvec3 expected(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
-      const glm::dvec3 w = grid.directions[d];
-      if (std::abs(w.x - expected.x) + std::abs(w.y - expected.y) + std::abs(w.z - expected.z) > 1e-9) return false;
-      if (grid.weights[d] != grid.weights[size_t(r) * grid.columns]) return false;
-    }
-  }
-  return true;
+  const DirectionGrid product = makeHemisphereGrid(grid.rows, grid.columns);
+  return grid.directions == product.directions && grid.weights == product.weights;
 }
 
 RobustReweighting::RobustReweighting(const DirectionGrid& grid, int order, std::vector<double> penalty)
@@ -54,8 +38,8 @@ RobustReweighting::RobustReweighting(const DirectionGrid& grid, int order, std::
   polar_.resize(rows_, basis_);
   std::vector<double> y(static_cast<size_t>(basis_));
   for (uint32_t r = 0; r < rows_; ++r) {
-    const double theta = rowTheta(r, rows_);
-    sh::evaluate(order, std::sin(theta), 0.0, std::cos(theta), y.data());
+    const glm::dvec3 w = grid.directions[size_t(r) * columns_];  // the row's theta at phi = 0
+    sh::evaluate(order, std::hypot(w.x, w.y), 0.0, w.z, y.data());
     for (int l = 0; l <= order; ++l)
       for (int m = -l; m <= l; ++m) polar_(r, sh::index(l, m)) = y[size_t(sh::index(l, std::abs(m)))];
   }
@@ -73,7 +57,7 @@ RobustReweighting::RobustReweighting(const DirectionGrid& grid, int order, std::
   for (int s = 0; s < slots_; ++s) {
     const int m = s - order;
     for (uint32_t j = 0; j < columns_; ++j) {
-      const double phi = columnPhi(j, columns_);
+      const double phi = std::atan2(grid.directions[j].y, grid.directions[j].x);
       azimuthal_(s, j) = m >= 0 ? std::cos(m * phi) : std::sin(-m * phi);
       cosines_(s, j) = std::cos(s * phi);
       sines_(s, j) = std::sin(s * phi);

@@ -46,7 +46,8 @@ class RobustReweighting {
   void rightHandSide(Workspace& w) const;
 };
 
-// True where `grid` is makeHemisphereGrid(grid.rows, grid.columns), which the reweighting needs.
+// True where `grid` is makeHemisphereGrid(grid.rows, grid.columns), whose rows of one theta and
+// columns of one phi the reweighting reads its factors from.
 bool isProductGrid(const DirectionGrid& grid);
 
 }  // namespace shrefract::bake
