@@ -11,6 +11,25 @@ namespace shrefract::bake {
 // The stages (driver/): plan.cpp, budget.cpp, trace.cpp, basis.cpp, encode.cpp, choose.cpp.
 using namespace detail;
 
+namespace {
+
+// The scene's surfaces as one mesh, for meshIsConvex.
+bool sceneIsConvex(const Scene& scene) {
+  FieldMesh mesh;
+  for (const Surface& surface : scene.surfaces) {
+    const auto base = uint32_t(mesh.positions.size() / 3);
+    for (size_t v = 0; v < surface.positions.size(); ++v)
+      for (int c = 0; c < 3; ++c) {
+        mesh.positions.push_back(surface.positions[v][c]);
+        mesh.normals.push_back(surface.normals[v][c]);
+      }
+    for (uint32_t i : surface.indices) mesh.indices.push_back(base + i);
+  }
+  return meshIsConvex(mesh);
+}
+
+}  // namespace
+
 BakeSettings settingsForScene(const Scene& scene, BakeSettings s, std::string* why) {
   if (!s.tryVolume || s.chooseByImages) return s;
   s.tryVolume = s.moreClusters = s.choosePathRule = s.volumeDensify = false;
@@ -18,7 +37,12 @@ BakeSettings settingsForScene(const Scene& scene, BakeSettings s, std::string* w
   const bool budgetGiven = s.sampleBudget > 0 || s.samplesPerUnitArea > 0.0f;
   if (problem.empty()) {
     s.encoding = Encoding::Volume;
-    if (!budgetGiven) s.sampleBudget = kDefaultSampleBudget;
+    // A convex grid traces one segment a path, so more texels stay cheap at the frame: it is
+    // densified where its texels miss the paths between them. A concave one traces several a path
+    // and keeps fewer texels (bake.h kDefaultConcaveVolumeBudget).
+    const bool convex = sceneIsConvex(scene);
+    if (!budgetGiven) s.sampleBudget = convex ? kDefaultSampleBudget : kDefaultConcaveVolumeBudget;
+    s.volumeDensify = !budgetGiven && convex;
     if (s.volumeSize == 0) s.volumeSize = kDefaultVolumeSize;
     if (why) *why = "one closed medium in air: its distance grid, traced per eye";
     return s;

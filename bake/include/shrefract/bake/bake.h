@@ -114,11 +114,15 @@ inline constexpr size_t kVolumeDensityPairs = 4000;
 // seconds to bake, a grid of a few MiB. Otherwise (several media, open or overlapping volumes,
 // which the grid's one interface rule cannot hold): Pca over kDefaultPerSampleTableSize node
 // tables, 324 components or as many clusters, exits in the sample's frame. A sample budget of 0
-// (and no density) becomes kDefaultSampleBudget for the volume, whose samples trace nothing at the
-// bake, and kDefaultPerSampleBudget for Pca, which keeps its bake within half a minute on 2 cores.
+// (and no density) becomes kDefaultSampleBudget for a convex volume (densified: volumeDensify),
+// kDefaultConcaveVolumeBudget for a concave one, whose samples trace nothing at the bake, and
+// kDefaultPerSampleBudget for Pca, which keeps its bake within half a minute on 2 cores.
 // Its 324 tables are means over the samples of a cluster: finer tables over fewer samples a table
 // measured closer to the exact render on the glass of water than 16x16 tables over 20000 samples.
 // The path rule and quantization are kept; `why` (optional) receives the reason, for the note.
+// A concave volume (the trace follows several segments a path) lays out kDefaultConcaveVolumeBudget
+// samples, a convex one kDefaultSampleBudget, laid out again as volumeDensify says.
+inline constexpr uint64_t kDefaultConcaveVolumeBudget = 20000;
 inline constexpr uint32_t kDefaultPerSampleTableSize = 24, kDefaultPcaComponents = 324;
 inline constexpr uint64_t kDefaultPerSampleBudget = 12000;
 BakeSettings settingsForScene(const Scene& scene, BakeSettings settings, std::string* why = nullptr);
