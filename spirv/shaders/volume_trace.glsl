@@ -36,9 +36,9 @@ void corners(vec3 g, out uint words[8], out float weight[8]) {
   uint per = (n + kVolumeBrickSide - 1u) / kVolumeBrickSide;
   uvec3 b = c0 / kVolumeBrickSide, l = c0 % kVolumeBrickSide;
   uint entry = volumeWord((b.z * per + b.y) * per + b.x);
-  uint far = volumeFarWord(entry == kVolumeBrickInside);
+  uint far = volumeFarWord((entry & 1u) == 0u);
   for (uint k = 0u; k < 8u; ++k) words[k] = far;
-  if (entry < kVolumeBrickInside) {
+  if (entry < kVolumeBrickFar) {
     uint base = per * per * per + entry * kVolumeApronWords + (l.z * kVolumeApronSide + l.y) * kVolumeApronSide + l.x;
     for (uint k = 0u; k < 8u; ++k)
       words[k] = volumeWord(base + (k & 1u) + ((k >> 1u) & 1u) * kVolumeApronSide +
@@ -89,6 +89,24 @@ vec3 normalAt(vec3 g) {
   return unitOr(n);
 }
 
+// As volume_trace.cpp farSkip: how far along d from grid point g the cube of far bricks around
+// g's brick reaches (gpu_layout.h kVolumeBrickFar); 0 in a stored brick or off the grid.
+float farSkip(vec3 g, vec3 d) {
+  uint n = head.grid.x;
+  float hi = float(n - 1u);
+  if (min(g.x, min(g.y, g.z)) < 0.0 || max(g.x, max(g.y, g.z)) > hi) return 0.0;
+  uint per = (n + kVolumeBrickSide - 1u) / kVolumeBrickSide;
+  uvec3 b = min(uvec3(g), uvec3(n - 2u)) / kVolumeBrickSide;
+  uint entry = volumeWord((b.z * per + b.y) * per + b.x);
+  if (entry < kVolumeBrickFar) return 0.0;
+  uint reach = (entry - kVolumeBrickFar) >> 1u;
+  vec3 lo = vec3((b + 1u - reach) * kVolumeBrickSide), up = vec3((b + reach) * kVolumeBrickSide);
+  float t = 4.0 * float(n);
+  for (int k = 0; k < 3; ++k)
+    if (d[k] != 0.0) t = min(t, ((d[k] > 0.0 ? up[k] : lo[k]) - g[k]) / d[k]);
+  return t;
+}
+
 // As volume_trace.cpp crossing: the distance along d to the next interface (`outside`: from outside
 // the object, where the march stops as it leaves the grid's box), or -1.
 float crossing(vec3 g, vec3 d, bool outside) {
@@ -120,7 +138,7 @@ float crossing(vec3 g, vec3 d, bool outside) {
     }
     previous = t;
     before = s;
-    t += max(kVolumeStepScale * abs(s), kVolumeMinStep);
+    t += max(max(kVolumeStepScale * abs(s), kVolumeMinStep), farSkip(q, d));
   }
   return -1.0;
 }

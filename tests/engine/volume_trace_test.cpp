@@ -199,9 +199,10 @@ TEST(VolumeTrace, BoxTotalInternalReflectionMirrorsTheIncident) {
 }
 
 // Two unit spheres on the x axis, centres at -+kPairOffset, as one grid: each voxel's distance to
-// the nearer sphere and that sphere's normal.
+// the nearer sphere and that sphere's normal; `banded`: beyond the band, the far word, as the bake
+// stores it (so that the bricks wholly beyond it are entries).
 constexpr float kPairOffset = 1.25f;
-FieldVolume spherePairVolume(uint32_t n) {
+FieldVolume spherePairVolume(uint32_t n, bool banded = false) {
   FieldVolume v;
   v.size = n;
   v.spacing = 2.0f * (kPairOffset + 1.0f) / float(n - 5);
@@ -214,7 +215,10 @@ FieldVolume spherePairVolume(uint32_t n) {
                   v.origin[2] + v.spacing * float(z)};
         const V local = plus(p, {p[0] < 0.0f ? kPairOffset : -kPairOffset, 0.0f, 0.0f});
         const float r = std::sqrt(dot(local, local));
-        dense[(size_t(z) * n + y) * n + x] = packVolumeVoxel((r - 1.0f) / v.spacing, scaled(local, 1.0f / r));
+        const float d = (r - 1.0f) / v.spacing;
+        dense[(size_t(z) * n + y) * n + x] = banded && std::fabs(d) >= kVolumeBandVoxels
+                                                 ? volumeFarWord(d < 0.0f)
+                                                 : packVolumeVoxel(d, scaled(local, 1.0f / r));
       }
   setVolumeVoxels(v, dense);
   return v;
@@ -367,6 +371,70 @@ TEST(VolumeVoxel, NormalsAndDistancesRoundTrip) {
   EXPECT_EQ(volumeDistance(v, {0.5f, 0.5f, 0.5f}), -kVolumeBandVoxels);
   setVolumeVoxels(v, std::vector<uint32_t>(8, near));
   EXPECT_NEAR(volumeDistance(v, {0.5f, 0.5f, 0.5f}), 1.2345f, 0.5f * kVolumeBandVoxels / 127.0f);  // half a level
+}
+
+// FieldVolume::farReach against its definition, counted out brick by brick: a far brick's reach is
+// the least k such that the cube of half-width k around it holds a brick that is not far on its
+// side, or leaves the grid.
+TEST(VolumeFarReach, IsTheCubeOfLikeBricksAroundEach) {
+  std::mt19937 rng(11);
+  uint32_t largest = 0;
+  for (int trial = 0; trial < 6; ++trial) {
+    FieldVolume v;
+    v.size = 9 * kVolumeBrickSide;
+    const int per = int(volumeBricksPerSide(v.size));
+    std::uniform_int_distribution<int> pick(0, 99);
+    const int stored = 1 + 3 * trial, outside = 2 * trial;  // percent
+    for (int i = 0; i < per * per * per; ++i) {
+      const int r = pick(rng);
+      v.bricks.push_back(r < stored ? 0u : r < stored + outside ? kVolumeBrickOutside : kVolumeBrickInside);
+    }
+    setVolumeFarReach(v);
+    const auto at = [per](int a, int b, int c) { return (size_t(c) * per + b) * per + a; };
+    for (int c = 0; c < per; ++c)
+      for (int b = 0; b < per; ++b)
+        for (int a = 0; a < per; ++a) {
+          const uint32_t own = v.bricks[at(a, b, c)];
+          uint32_t expected = 0;
+          for (int k = 1; own >= kVolumeBrickInside && expected == 0; ++k)
+            for (int z = c - k; z <= c + k && expected == 0; ++z)
+              for (int y = b - k; y <= b + k && expected == 0; ++y)
+                for (int x = a - k; x <= a + k && expected == 0; ++x)
+                  if (x < 0 || y < 0 || z < 0 || x >= per || y >= per || z >= per || v.bricks[at(x, y, z)] != own)
+                    expected = uint32_t(k);
+          ASSERT_EQ(volumeFarReach(v, at(a, b, c)), expected) << "brick " << a << "," << b << "," << c;
+          largest = std::max(largest, expected);
+        }
+  }
+  std::printf("far reach: up to %u bricks\n", largest);
+  EXPECT_GE(largest, 3u);
+}
+
+// Crossing the far bricks in one step keeps the pair's paths (exits and optical depths as the
+// march brick by brick finds them) and takes fewer distance reads.
+TEST(VolumeTrace, FarBricksAreCrossedInOneStep) {
+  Field skipping = volumeField(spherePairVolume(192, true), 1.5f, 0.5f, 4, false);
+  Field marching = skipping;
+  marching.volume.farReach.assign(marching.volume.bricks.size(), 0);  // no far brick skipped
+  const V left{-kPairOffset, 0.0f, 0.0f}, along{1.0f, 0.0f, 0.0f};
+  uint64_t readsSkipping = 0, readsMarching = 0;
+  double worst = 0.0, worstDepth = 0.0;
+  for (float h : {0.0f, 0.1f, 0.3f, 0.45f, 0.6f, 0.8f, 0.9f})
+    for (float phi : {0.0f, 1.3f, 2.9f}) {
+      const V p = plus(left, {-std::sqrt(1.0f - h * h), h * std::cos(phi), h * std::sin(phi)});
+      const std::array<float, 12> m = frameRows(p, plus(p, scaled(left, -1.0f)));
+      float a[kMaxFieldChannels] = {}, b[kMaxFieldChannels] = {};
+      readsSkipping += traceVolumeSample(skipping, m.data(), eyeInFrame(m, plus(p, scaled(along, -3.0f))), a).steps;
+      readsMarching += traceVolumeSample(marching, m.data(), eyeInFrame(m, plus(p, scaled(along, -3.0f))), b).steps;
+      for (int k = 0; k < 3; ++k) worst = std::max(worst, std::fabs(double(a[k]) - double(b[k])));
+      worstDepth = std::max(worstDepth, std::fabs(double(a[3]) - double(b[3])));
+    }
+  std::printf("far bricks skipped: %llu distance reads against %llu; exits within %.6f, depths %.6f\n",
+              static_cast<unsigned long long>(readsSkipping), static_cast<unsigned long long>(readsMarching), worst,
+              worstDepth);
+  EXPECT_LT(worst, 1e-3);  // about 0.06 deg
+  EXPECT_LT(worstDepth, 1e-3);
+  EXPECT_LT(double(readsSkipping), 0.9 * double(readsMarching));
 }
 
 }  // namespace

@@ -150,6 +150,11 @@ struct FieldVolume {
   // (z * 8 + y) * 8 + x), or kVolumeBrickInside / kVolumeBrickOutside. Set by setVolumeVoxels.
   std::vector<uint32_t> bricks;
   std::vector<uint32_t> brickVoxels;
+  // Per brick beyond the band, how far its side's region beyond the band reaches around it: every
+  // brick within farReach - 1 of it (counted in bricks along each axis) lies beyond the band on the
+  // same side, so a march crosses that cube in one step (empty-space skipping). 0 for a stored
+  // brick. Not stored: parseField and setVolumeVoxels set it (setVolumeFarReach); empty reads as 1.
+  std::vector<uint8_t> farReach;
   // No straight way out meets the object again (meshIsConvex of the field's mesh): the trace stops
   // at the first way out instead of marching it to the grid's box. Not stored: parseField and the
   // bake set it from the mesh; a grid built by hand leaves it false, which costs time, never a path.
@@ -176,6 +181,15 @@ inline uint32_t volumeVoxel(const FieldVolume& v, uint32_t x, uint32_t y, uint32
 // brick whose every voxel within the grid is one far word becomes its entry; the others are
 // stored in brick order. volumeVoxel then reads every voxel back exactly.
 void setVolumeVoxels(FieldVolume& v, const std::vector<uint32_t>& dense);
+
+// Sets v.farReach from v.bricks (at most 255 bricks).
+void setVolumeFarReach(FieldVolume& v);
+
+// A brick's farReach: 1 where v has none set, 0 for a stored brick.
+inline uint32_t volumeFarReach(const FieldVolume& v, size_t brick) {
+  if (v.bricks[brick] < kVolumeBrickInside) return 0;
+  return v.farReach.empty() ? 1u : v.farReach[brick];
+}
 
 // The grid's bytes as stored and uploaded: its entries and its stored bricks' words.
 inline uint64_t volumeGridBytes(const FieldVolume& v) {

@@ -80,6 +80,26 @@ V3 normalAt(const FieldVolume& v, V3 g) {
   return unitOrZ(n);
 }
 
+// How far along d from grid point g the cube of far bricks around g's brick reaches
+// (FieldVolume::farReach): no interface lies inside it, so the march may cross it in one step. 0
+// in a stored brick or off the grid.
+float farSkip(const FieldVolume& v, V3 g, V3 d) {
+  const uint32_t n = v.size;
+  const float hi = float(n - 1);
+  if (std::min({g.x, g.y, g.z}) < 0.0f || std::max({g.x, g.y, g.z}) > hi) return 0.0f;
+  const uint32_t per = volumeBricksPerSide(n), s = kVolumeBrickSide;
+  const uint32_t bx = std::min(uint32_t(g.x), n - 2) / s, by = std::min(uint32_t(g.y), n - 2) / s,
+                 bz = std::min(uint32_t(g.z), n - 2) / s;
+  const uint32_t reach = volumeFarReach(v, (size_t(bz) * per + by) * per + bx);
+  if (reach == 0) return 0.0f;
+  const V3 lo(float((bx + 1 - reach) * s), float((by + 1 - reach) * s), float((bz + 1 - reach) * s));
+  const V3 up(float((bx + reach) * s), float((by + reach) * s), float((bz + reach) * s));
+  float t = 4.0f * float(n);
+  for (int k = 0; k < 3; ++k)
+    if (d[k] != 0.0f) t = std::min(t, ((d[k] > 0.0f ? up[k] : lo[k]) - g[k]) / d[k]);
+  return t;
+}
+
 // The distance along d (unit) from g to where the grid's distance changes sign: turns positive
 // inside the medium, negative `outside` it (a path re-entering the object: the torus's hole):
 // marched by 0.9 of the distance, at
@@ -121,7 +141,7 @@ float crossing(const FieldVolume& v, V3 g, V3 d, bool outside, uint32_t& steps) 
     }
     previous = t;
     before = s;
-    t += std::max(gpu::kVolumeStepScale * std::fabs(s), gpu::kVolumeMinStep);
+    t += std::max(std::max(gpu::kVolumeStepScale * std::fabs(s), gpu::kVolumeMinStep), farSkip(v, q, d));
   }
   return -1.0f;
 }

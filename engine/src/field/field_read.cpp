@@ -263,7 +263,10 @@ Result<Field> parseField(const uint8_t* data, size_t size, const std::string& na
   if (auto r = readHeader(data, name, field); !r) return r.error();
   if (auto r = readSections(data, size - kChecksumBytes, name, field); !r) return r.error();
   if (auto r = validateField(field); !r) return makeError(ErrorCode::CorruptData, name + ": " + r.error().message);
-  if (field.encoding == Encoding::Volume) field.volume.convex = meshIsConvex(field.mesh);
+  if (field.encoding == Encoding::Volume) {
+    field.volume.convex = meshIsConvex(field.mesh);
+    setVolumeFarReach(field.volume);
+  }
   return field;
 }
 

@@ -48,6 +48,9 @@ Result<void> validateVolume(const Field& field) {
     if (v.bricks[i] < kVolumeBrickInside && v.bricks[i] >= stored)
       return invalid("volume brick " + std::to_string(i) + " refers to stored brick " + std::to_string(v.bricks[i]) +
                      " of " + std::to_string(stored));
+  if (!v.farReach.empty() && v.farReach.size() != v.bricks.size())
+    return invalid("volume has " + std::to_string(v.farReach.size()) + " far reaches for " +
+                   std::to_string(v.bricks.size()) + " bricks");
   // Within 1e-15..1e15: points within kMaxFrameMagnitude of the origin stay finite in voxels.
   if (!(std::isfinite(v.spacing) && v.spacing >= 1e-15f && v.spacing <= kMaxFrameMagnitude))
     return invalid("volume spacing " + formatFloat(v.spacing) + " is not within 1e-15..1e15");

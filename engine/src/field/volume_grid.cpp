@@ -96,6 +96,37 @@ void setVolumeVoxels(FieldVolume& v, const std::vector<uint32_t>& dense) {
           v.brickVoxels.insert(v.brickVoxels.end(), words.begin(), words.end());
         }
       }
+  setVolumeFarReach(v);
+}
+
+// The cube of bricks around a far brick holds only far bricks of its side out to farReach - 1:
+// eroded one brick at a time by its 26 neighbours (none beyond the grid), a brick's reach is the
+// number of erosions it survives.
+void setVolumeFarReach(FieldVolume& v) {
+  const int per = int(volumeBricksPerSide(v.size));
+  const auto at = [per](int a, int b, int c) { return (size_t(c) * per + b) * per + a; };
+  v.farReach.assign(v.bricks.size(), 0);
+  for (size_t i = 0; i < v.bricks.size(); ++i) v.farReach[i] = v.bricks[i] >= kVolumeBrickInside ? 1 : 0;
+  std::vector<uint8_t> next = v.farReach;
+  for (uint32_t reach = 1; reach < 255; ++reach) {
+    bool grew = false;
+    for (int c = 0; c < per; ++c)
+      for (int b = 0; b < per; ++b)
+        for (int a = 0; a < per; ++a) {
+          const size_t i = at(a, b, c);
+          if (v.farReach[i] != reach) continue;
+          bool keeps = true;
+          for (int k = 0; k < 27 && keeps; ++k) {
+            const int x = a + k % 3 - 1, y = b + (k / 3) % 3 - 1, z = c + k / 9 - 1;
+            keeps = x >= 0 && y >= 0 && z >= 0 && x < per && y < per && z < per &&
+                    v.farReach[at(x, y, z)] >= reach && v.bricks[at(x, y, z)] == v.bricks[i];
+          }
+          if (keeps) next[i] = uint8_t(reach + 1);
+          grew = grew || keeps;
+        }
+    v.farReach = next;
+    if (!grew) break;
+  }
 }
 
 bool meshIsConvex(const FieldMesh& mesh) {

@@ -449,7 +449,10 @@ std::vector<uint32_t> volumeWords(const Field& field) {
   const size_t headWords = sizeof(head) / sizeof(uint32_t);
   std::vector<uint32_t> words(size_t(volumeDeviceWords(v)));
   std::memcpy(words.data(), &head, sizeof(head));
-  std::copy(v.bricks.begin(), v.bricks.end(), words.begin() + headWords);
+  for (size_t i = 0; i < v.bricks.size(); ++i)  // far entries carry their reach (gpu_layout.h kVolumeBrickFar)
+    words[headWords + i] = v.bricks[i] < kVolumeBrickInside
+                               ? v.bricks[i]
+                               : gpu::kVolumeBrickFar + (volumeFarReach(v, i) << 1) + (v.bricks[i] == kVolumeBrickOutside);
   writeApronBricks(v, words, headWords + v.bricks.size());
   return words;
 }

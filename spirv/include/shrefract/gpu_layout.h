@@ -197,6 +197,10 @@ SHR_CONST(kVolumeApronSide, 9u)
 SHR_CONST(kVolumeApronWords, 729u)
 SHR_CONST(kVolumeBrickInside, 0xfffffffeu)
 SHR_CONST(kVolumeBrickOutside, 0xffffffffu)
+// On the device a far brick's entry is kVolumeBrickFar + (its farReach << 1) + 1 outside, + 0
+// inside (field.h FieldVolume::farReach): a march in it steps at least to the edge of the cube of
+// far bricks that reach spans.
+SHR_CONST(kVolumeBrickFar, 0xff000000u)
 SHR_CONST(kVolumeNormalZero, 2047u)
 SHR_CONSTF(kVolumeBandVoxels, 4.0f)
 // Workgroup sizes: the Sh decompression runs one invocation per 4 samples, the Table and Pca
