@@ -158,7 +158,7 @@ class Object {
   // holds how far the eye's view lies from the nearest jump of that sample's table, in table cells
   // (gpu_layout.h kBindingJumpOut), for the same decompression; 1 (no jump within a cell) where
   // nothing is decoded or the field stores no jump distance. The raster pass places jumps between
-  // texels with it (docs/encodings.md, "Placing the jump between texels").
+  // texels with it (docs/technique.md, "Jumps across texels").
   VkImage jumpImage() const;
   // Forgets which eye the distortion image was decompressed for, so that the next
   // Decompressor::record() rewrites it. Needed only by a host that records a decompression into a

@@ -92,7 +92,7 @@ struct RendererCreateInfo {
   // TriangleEdges), writes the share of its pixel it covers as alpha, and the object pass blends it
   // over what the attachment holds (the background, or the host's scene drawn before): a
   // silhouette's pixels are no longer all glass or all background (docs/technique.md,
-  // "Silhouette coverage", "Polygon silhouettes"). The
+  // "Silhouettes and MSAA"). The
   // colour format must support blending (VK_FORMAT_FEATURE_COLOR_ATTACHMENT_BLEND_BIT, else
   // Renderer::create fails with Unsupported); such a fragment still writes depth. Ignored with
   // MSAA (the samples cover the silhouette) and in ShadingMode::FieldExitDirection (its alpha is

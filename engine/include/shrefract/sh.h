@@ -38,8 +38,9 @@ inline constexpr int kMaxOrder = 20;
 // non-finite input is unspecified.
 // The float overload runs the same recurrences in float (constants are computed in double and
 // rounded once). Its error grows about linearly with l: it agrees with the double overload to
-// 5e-6 absolute up to order 20 (tested; measured 3.2e-6). Intermediate values grow with the order
-// near the poles, but float stays finite well past order 30 (tested), double far beyond.
+// 5e-6 absolute up to order 20 (tested; docs/technique.md, "Evaluation"). Intermediate values grow
+// with the order near the poles, but float stays finite well past order 30 (tested), double far
+// beyond.
 // Preconditions: order >= 0 (nothing is written otherwise); out has basisCount(order) entries.
 void evaluate(int order, double x, double y, double z, double* out);
 void evaluate(int order, float x, float y, float z, float* out);

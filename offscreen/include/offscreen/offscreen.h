@@ -75,8 +75,8 @@ struct FrameSettings {
   bool refineVolumePaths = RendererCreateInfo{}.refineVolumePaths;
   // The host's multisampling (RendererCreateInfo::sampleCount): colour and depth attachments of
   // this many samples, resolved (averaged) into the image that is read back. It covers the
-  // silhouettes that one shading sample per pixel steps on (docs/technique.md, "MSAA"), at
-  // every sub-sample of samplesPerAxis alike. A count the device lacks is refused by
+  // silhouettes that one shading sample per pixel steps on (docs/technique.md, "Silhouettes and
+  // MSAA"), at every sub-sample of samplesPerAxis alike. A count the device lacks is refused by
   // Renderer::create (Unsupported).
   VkSampleCountFlagBits msaaSamples = VK_SAMPLE_COUNT_1_BIT;
 };

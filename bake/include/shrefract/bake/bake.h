@@ -33,8 +33,9 @@ struct BakeOptions {
   // One-line notes on choices the bake made (the --max-error selection), for the tool to print.
   std::function<void(const std::string&)> note;
   // Called from the calling thread as each stage after the tracing begins (choosing the exit
-  // frame, learning a Pca basis, checking the fit, quantizing), with what it does: on 64x64
-  // tables these take minutes that `progress` alone would leave silent.
+  // frame, learning a Pca basis, checking the fit, quantizing), with what it does: on large tables
+  // these take long, and `progress` alone would leave them silent (docs/performance.md, "By
+  // encoding").
   std::function<void(const std::string&)> stage;
 };
 
@@ -48,17 +49,14 @@ struct BakeOptions {
 
 // Largest table size the bake fits: the format's kMaxTableSize. A grid-fitted Table inverts an
 // N^2 x N^2 matrix (4096^2 at 64); a Pca over 64x64 tables traces 4096 paths a sample and learns
-// its basis from the tables themselves, without their Gram matrix (the torus's bake peaked at
-// 3.55 GiB with --exit-frame sample; docs/encodings.md "64x64 tables").
+// its basis from the tables themselves, without their Gram matrix, whose size grows as the square
+// of a table's (docs/performance.md, "By encoding").
 inline constexpr uint32_t kMaxBakeTableSize = kMaxTableSize;
 
 // Nodes per side of the Pca basis tables when the caller does not ask (the tool's default field and
-// the report's). With the exits in the sample's frame, 32x32 tables under the same 324 weights
-// gained 2.5 to 4.3 dB on the built-in scenes over 16x16 (docs/encodings.md, "Finer tables in the
-// sample's frame"), and 64x64 tables gain again on all five measured scenes: sphere +0.57, cube
-// +1.75, torus +1.63, glass of water +0.27, bunny +0.17 dB; the bake traces 4x the paths, takes
-// 3.5 to 5x as long and about twice the memory, and the basis is 4x the size (docs/encodings.md,
-// "64x64 tables").
+// the report's). With the exits in the sample's frame, finer tables under the same 324 weights
+// read closer on every built-in scene, for 4x the traced paths and basis per doubling and a
+// longer, larger bake (docs/encodings.md, "Pca").
 inline constexpr uint32_t kDefaultPcaTableSize = 64;
 // The same for a Pca fitted to a direction grid (--direction-sampling grid): the default 32x64 grid
 // traces 2048 directions, half the nodes of a 64x64 table.
@@ -72,34 +70,27 @@ inline constexpr uint32_t kMaxBakeBounces = 1024;
 
 // BakeSettings::volumeDensify: a Volume field whose paths between neighbouring texels, as its texels
 // predict them, see colours below kVolumeDensifyBelowDb of PSNR is laid out again at
-// kVolumeDensifyFactor times the sample budget, once. Measured at the default 40000 samples, 128^3
-// (the spatial check / the image by the linear measure, 4x4 against the 4x4 full tree, at 40000 ->
-// 160000 samples): bunny 14.5 dB / 21.97 -> 23.40, cube 28.0 / 29.21 -> 31.80, torus 24.3 / 23.19 ->
-// 23.23, sphere 37.6 / 33.18 -> 33.18 (docs/encodings.md, "Volume").
+// kVolumeDensifyFactor times the sample budget, once: where texels predict the paths poorly
+// (chaotic paths, edges between faces) more of them bring the image closer; elsewhere the cheaper
+// layout stays (docs/encodings.md, "Samples").
 inline constexpr double kVolumeDensifyBelowDb = 32.0;
 inline constexpr uint64_t kVolumeDensifyFactor = 4;
 // BakeSettings::tryVolume with no volumeSize: the volume tried is kDefaultVolumeSize per side, or
 // twice that where the image choice (4 views, 320x240 at 2x2 against exact renders) reads it at
-// least kFinerVolumeGainDb closer. Measured there, 128^3 -> 256^3: cube 31.64 -> 32.34 dB, bunny
-// 21.34 -> 21.68, sphere 31.66 -> 31.66, torus 27.74 -> 27.74; the report's view (4x4 against the
-// 4x4 full tree): cube 33.39 -> 34.15, bunny 24.07 -> 24.90, for 8x the grid's memory (8 -> 64 MiB)
-// (docs/encodings.md, "The grid's size, chosen by images").
+// least kFinerVolumeGainDb closer: the finer grid costs 8x the dense grid's memory, and only some
+// scenes read closer at it (docs/encodings.md, "The default encoding").
 inline constexpr double kFinerVolumeGainDb = 0.25;
 // BakeSettings::choosePathRule: the bake keeps highest-energy where its exact renders at the image
 // choice's views (4 views, 320x240 at 2x2, against the full tree at depth 8 at the same positions)
 // come at least this much closer than first-refraction's, the tool's rule otherwise (first-
-// refraction fields have fewer jumps: docs/encodings.md, "Path rule and throughput, chosen by
-// measurement"). A volume traced per fragment follows its rule's exact render: the torus's 128^3
-// read 29.02 dB under highest-energy against 28.61 under first-refraction (the report, 4x4
-// against the 4x4 tree), the bunny's 256^3 25.34 against 25.04 (docs/encodings.md, "The path rule
-// chosen per scene").
+// refraction fields have fewer jumps). A volume follows its rule's exact render, and which rule
+// reads closer depends on the scene (docs/encodings.md, "The path rule").
 inline constexpr double kHighestEnergyGainDb = 0.25;
 // The budget the default bake's grids are held to: the paper's 324 encoded bytes per sample (81 SH
 // coefficients x 4 channels x 1 byte), a grid's stored bytes (volumeGridBytes: its brick entries
 // and the words of the bricks the band reaches) counted over the field's samples (its frames and
-// mesh not counted, as for every encoding). Dense, 256^3 was 64 MiB, which needed 207127 samples;
-// in bricks the bunny's is 10.16 MiB, the sphere's 13.84, the cube's 11.39, which fit the default
-// samples (docs/encodings.md, "Bricks").
+// mesh not counted, as for every encoding). Stored in bricks, the built-in scenes' 256^3 grids fit
+// it at the default samples, where a dense one would not (docs/encodings.md, "Bricks").
 inline constexpr double kDefaultBytesPerSampleBudget = 324.0;
 // Whether a grid of `gridBytes` fits kDefaultBytesPerSampleBudget over `samples` samples.
 constexpr bool volumeFitsDefaultBudget(uint64_t gridBytes, uint64_t samples) {
@@ -111,14 +102,14 @@ inline constexpr size_t kVolumeDensityPairs = 4000;
 // BakeSettings::tryVolume without chooseByImages: the encoding follows from what the scene is,
 // with no image rendered. One closed medium in air (volumeSceneProblem empty): the Volume encoding,
 // kDefaultVolumeSize per side unless volumeSize is given, traced in texture space by the engine;
-// seconds to bake, a grid of a few MiB. Otherwise (several media, open or overlapping volumes,
+// quick to bake, small to store. Otherwise (several media, open or overlapping volumes,
 // which the grid's one interface rule cannot hold): Pca over kDefaultPerSampleTableSize node
 // tables, 324 components or as many clusters, exits in the sample's frame. A sample budget of 0
 // (and no density) becomes kDefaultSampleBudget for a convex volume (densified: volumeDensify),
 // kDefaultConcaveVolumeBudget for a concave one, whose samples trace nothing at the bake, and
-// kDefaultPerSampleBudget for Pca, which keeps its bake within half a minute on 2 cores.
-// Its 324 tables are means over the samples of a cluster: finer tables over fewer samples a table
-// measured closer to the exact render on the glass of water than 16x16 tables over 20000 samples.
+// kDefaultPerSampleBudget for Pca, which keeps its bake short (docs/performance.md, "Default
+// fields"). Its tables are means over a cluster's samples, so finer tables over fewer samples read
+// closer than coarser ones over more (docs/encodings.md, "The default encoding").
 // The path rule and quantization are kept; `why` (optional) receives the reason, for the note.
 // A concave volume (the trace follows several segments a path) lays out kDefaultConcaveVolumeBudget
 // samples, a convex one kDefaultSampleBudget, laid out again as volumeDensify says.

@@ -7,8 +7,8 @@
 namespace shrefract {
 
 struct BakeSettings : BakeRecord {
-  // With tryVolume (the tool's default): the image contest above instead of the scene's decision (minutes, gigabytes).
-  //
+  // With tryVolume (the tool's default): the image contest instead of the scene's decision, far
+  // slower and larger (docs/encodings.md, "The default encoding").
   bool chooseByImages = false;
   // A Volume field (asked for, or kept by tryVolume) whose texels predict the paths between them
   // poorly is laid out again at more samples (bake.h kVolumeDensifyBelowDb): the tool's default

@@ -12,9 +12,9 @@
 
 namespace shrefract::bake {
 
-// Bisections of a grid edge that a jump crosses: the crossing is located to 1 / 2^4 of a cell (probe
-// on the cube, docs/encodings.md "Jumps": 25.33, 25.46 dB with 3, 5; the bake traces a quarter
-// more rays per bisection).
+// Bisections of a grid edge that a jump crosses: the crossing is located to 1 / 2^4 of a cell,
+// where more bisections change the image little and each traces more rays (docs/encodings.md,
+// "Placing the jump").
 inline constexpr int kJumpBisections = 4;
 
 // A traced view direction: the exit of its path and the direction the view ray travels (the exit

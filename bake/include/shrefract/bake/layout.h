@@ -22,12 +22,10 @@
 
 namespace shrefract::bake {
 
-// Sample budget used when LayoutOptions names neither a budget nor a density. 40000 since clustered
-// Pca fields: a cluster's table is the mean of alike samples, so twice the samples sharpen the
-// spatial term without the loss they brought when 324 shared components had to span them all (the
-// torus +0.47 dB in the report, inside the 3 dB line; docs/encodings.md, "More samples with
-// clusters"). Fields that keep components lose a little (cube -0.11, bunny -0.20 dB). The price:
-// about 2.2x the bake time, 1.9x its peak memory, 1.4x the file.
+// Sample budget used when LayoutOptions names neither a budget nor a density. Sized for clustered
+// Pca fields: a cluster's table is the mean of alike samples, so more samples sharpen the spatial
+// term, where shared components had to span them all; fields that keep components lose a little,
+// and the bake and file grow (docs/technique.md, "Sample layouts").
 inline constexpr uint64_t kDefaultSampleBudget = 40000;
 
 // SampleAtlas::texelSample of a texel that holds no sample (empty or split-layout gutter).
@@ -43,8 +41,8 @@ struct LayoutOptions {
   // Largest atlas width and height, in texels.
   uint32_t maxAtlasSize = 8192;
   // charts: the gutter texels beside a smooth seam hold the surface beyond it (docs/technique.md,
-  // "Gutters beside smooth seams"); false: they copy the nearest sample of their chart, as every
-  // gutter texel did before 2026-11-27 (kept to measure the difference).
+  // "Charts layout (the tool's default)"); false: they copy the nearest sample of their chart, as
+  // other gutter texels do (kept to measure the difference).
   bool extendSmoothSeams = true;
 };
 

@@ -36,10 +36,9 @@ inline constexpr float kFlatFaceCosine = 1.0f - 1e-6f;
 // The frame a sample's directions are traced and stored in: frameFromNormal, except in the polar
 // cap of a curved surface off the axis, where the tangent is up x position in the tangent plane.
 // That is the latitude through the point, so the cap of a surface of revolution (a torus's top and
-// bottom rings, a sphere's polar caps) keeps the symmetry the rest of it has (the torus's field
-// measured 25.87 -> 26.14 dB at 4x4, docs/encodings.md "The polar cap"). A flat face across the
-// axis (a cube's top) keeps +X: there up x position would turn the frame from sample to sample of
-// alike geometry (the cube's field measured 31.57 -> 28.47 dB with it).
+// bottom rings, a sphere's polar caps) keeps the symmetry the rest of it has. A flat face across
+// the axis (a cube's top) keeps +X: there up x position would turn the frame from sample to sample
+// of alike geometry (docs/technique.md, "Sample layouts").
 LocalFrame frameAt(const SurfacePoint& point);
 
 // Rows of M_s: w = normalize(M_s * (eye, 1)) is the direction from the sample toward the eye,

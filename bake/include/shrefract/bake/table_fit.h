@@ -8,7 +8,8 @@
 //
 // With DirectionSampling::Nodes the bake traces the nodes' own directions (makeNodeGrid) and the
 // fit is the identity (TableFit::atNodes): every node holds an exact traced exit, never a blend of
-// exits from both sides of a jump, which is what the images measured better (docs/encodings.md).
+// exits from both sides of a jump, which is what the images measured better (docs/encodings.md,
+// "Sampling").
 //
 // Pca: the per-sample tables of a whole field, as K weights of a basis learned from them (the
 // leading eigenvectors of their second-moment matrix, uncentred, so that the first function
@@ -96,9 +97,9 @@ std::vector<float> projectOnBasis(const std::vector<float>& tables, size_t sampl
 // are one-hot: each sample decodes to its cluster's mean, whatever the others. Where the samples
 // form a family whose jumps move from sample to sample (glass turned on a lathe: the torus, the
 // glass of water), a sum of K shared components blends every jump's places into the reconstruction,
-// while a cluster's mean blends only those of alike samples: it fits the nodes worse (torus RMS
-// 18.7 deg against 15.9) but renders better (+0.3 to +0.5 dB). Where the functions vary smoothly
-// (the cube's faces), components are far better; the bake chooses by measurement.
+// while a cluster's mean blends only those of alike samples: it fits the nodes worse but renders
+// better. Where the functions vary smoothly (the cube's faces), components are far better; the
+// bake chooses by measurement.
 inline constexpr uint32_t kClusterIterations = 40;
 
 struct ClusteredBasis {
@@ -120,17 +121,14 @@ Result<ClusteredBasis> clusterTables(const std::vector<float>& tables, size_t sa
 // ---- u8 refinement layers of a Pca field (docs/encodings.md, "Quantization") -------------------
 // A u8 layer keeps 255 levels over its component's range over the whole field. The leading
 // components carry most of every table and have the widest ranges, so their rounding is most of
-// what u8 loses (sphere, Pca K=324: 32.16 dB against exact paths in u8, 33.76 in f16). A
-// refinement layer is a copy of a leading component's basis function whose weight is what the u8
-// layer of that component lost: the two layers hold the weight to about 16 bits. It takes the place
-// of the last component. The decoder does not know: it sums K layers as before.
+// what u8 loses. A refinement layer is a copy of a leading component's basis function whose weight
+// is what the u8 layer of that component lost: the two layers hold the weight to about 16 bits. It
+// takes the place of the last component. The decoder does not know: it sums K layers as before.
 
 // What dropping a trailing component costs is priced on the samples where its weights are
 // smallest, this share of them: rounding errs on every sample alike, while a trailing component's
-// weight is heavy-tailed (the cube at K = 324: component 300's mean squared weight 3.1e-3, its
-// median 9e-7): the typical sample hardly uses it, and the images agreed (docs).
-// Priced on all samples (1.0), the cube kept 3 layers and its u8 image read 0.47 dB below f16;
-// measured shares in docs/encodings.md, "Quantization".
+// weight is heavy-tailed: the typical sample hardly uses it, and a few edge samples would dominate
+// a mean over all of them, refining too few layers (docs/encodings.md, "Quantization").
 inline constexpr double kRefinementTypicalShare = 0.75;
 
 // The components to refine, in the order of their refinement layers (which are the last

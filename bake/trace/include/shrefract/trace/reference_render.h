@@ -84,25 +84,24 @@ struct ReferenceOptions {
   // (bake::sampleLatLong), as the physical reference is rendered.
   bool filtered = false;
   // filtered: taps per axis of each lookup, as RendererCreateInfo::environmentTapsPerAxis (1..4).
-  // 4, not the engine's default 2: offline the 16 lookups per direction cost little (the torus's
-  // exact render 1.25x the time) and read the footprint of a fast-turning path closer to the
-  // pixel's box (exact 1 spp torus 29.60 -> 30.41 dB; docs/technique.md). 2, with
-  // environmentLevelBias 0, mirrors the engine.
+  // 4, not the engine's default 2: offline the 16 lookups per direction cost little and read the
+  // footprint of a fast-turning path closer to the pixel's box (docs/technique.md, "The CPU
+  // references"). 2, with environmentLevelBias 0, mirrors the engine.
   uint32_t environmentTapsPerAxis = 4;
   // filtered: levels added to each tap's (reference::LatLongImage::levelBias), in [-4, 4]. -1, not
   // the engine's 0: a trilinear tap blurs over about twice its cell's footprint, so at bias 0 the
   // 4x4 taps spread a pixel over about 1.5 pixels' worth of directions, which a small bright source
   // (the sun) turns into a halo of saturated pixels; one level finer keeps each tap to its cell and
-  // the pixel to its box (docs/technique.md, "Level bias of the references").
+  // the pixel to its box (docs/technique.md, "The CPU references").
   float environmentLevelBias = -1.0f;
   // filtered, FullTree: where a sub-sample's probes see its colour change within the cell (a probe
   // across a discontinuity whose colour differs by more than 0.03 in any channel of the written
   // image, or, with none, the probes' mean on an axis more than 0.01 from the sample's colour), the
   // sub-sample is the mean of four filtered samples of its cell's quarters, each with its own probes:
   // the rim of smooth glass, where Fresnel rises toward grazing in the last tenth of a pixel, and
-  // the flanks where the tree changes shape (docs/technique.md, "Refined pixels in the full
-  // tree"). False: one filtered sample per cell. The exact mode is not refined: it meets its 2 dB
-  // without (the same section).
+  // the flanks where the tree changes shape (docs/technique.md, "The CPU references"). False: one
+  // filtered sample per cell. The exact mode is not refined: it meets its 2 dB line without (the
+  // same section).
   bool refine = true;
   // Called from the calling thread, between the rows it renders, at most every 100 ms, and once
   // at the end. May be empty.
