@@ -106,9 +106,8 @@ class GltfWriter {
         const auto v = static_cast<uint16_t>(index);
         bytes.insert(bytes.end(), {static_cast<uint8_t>(v & 0xFFu), static_cast<uint8_t>(v >> 8)});
       } else {
-        uint8_t raw[4];
-        std::memcpy(raw, &index, 4);
-        bytes.insert(bytes.end(), raw, raw + 4);
+        bytes.resize(bytes.size() + 4);
+        std::memcpy(bytes.data() + bytes.size() - 4, &index, 4);
       }
     }
     const int view = addView(bytes.data(), bytes.size());
