@@ -113,47 +113,28 @@ struct NumericFlags {
 };
 
 Result<NumericFlags> readNumericFlags(const Args& args) {
-  auto order = args.integer("order");
-  auto samples = args.integer("samples");
-  auto density = args.number("density");
-  auto threads = args.integer("threads");
-  auto bounces = args.integer("max-bounces");
-  auto spatial = args.integer("spatial");
-  auto reg = args.number("regularization");
-  auto heldOut = args.integer("held-out");
-  auto dirs = args.size("directions");
-  auto maxError = args.number("max-error");
-  auto tableSize = args.integer("table-size");
-  auto components = args.integer("components");
-  auto clusters = args.integer("clusters");
-  auto maxBytes = args.number("max-bytes-per-sample");
-  auto volumeSize = args.integer("volume-size");
-  for (const Error* e :
-       {order.ok() ? nullptr : &order.error(), samples.ok() ? nullptr : &samples.error(),
-        density.ok() ? nullptr : &density.error(), threads.ok() ? nullptr : &threads.error(),
-        bounces.ok() ? nullptr : &bounces.error(), spatial.ok() ? nullptr : &spatial.error(),
-        reg.ok() ? nullptr : &reg.error(), heldOut.ok() ? nullptr : &heldOut.error(),
-        dirs.ok() ? nullptr : &dirs.error(), maxError.ok() ? nullptr : &maxError.error(),
-        tableSize.ok() ? nullptr : &tableSize.error(), components.ok() ? nullptr : &components.error(),
-        clusters.ok() ? nullptr : &clusters.error(), maxBytes.ok() ? nullptr : &maxBytes.error(),
-        volumeSize.ok() ? nullptr : &volumeSize.error()})
-    if (e) return *e;
   NumericFlags n;
-  n.order = order.value();
-  n.samples = samples.value();
-  n.density = density.value();
-  n.threads = threads.value();
-  n.bounces = bounces.value();
-  n.spatial = spatial.value();
-  n.reg = reg.value();
-  n.heldOut = heldOut.value();
-  n.dirs = dirs.value();
-  n.maxError = maxError.value();
-  n.tableSize = tableSize.value();
-  n.components = components.value();
-  n.clusters = clusters.value();
-  n.maxBytes = maxBytes.value();
-  n.volumeSize = volumeSize.value();
+  std::optional<Error> error;  // the first malformed flag's, in this order
+  const auto read = [&error](auto parsed, auto& into) {
+    if (parsed) into = parsed.value();
+    else if (!error) error = parsed.error();
+  };
+  read(args.integer("order"), n.order);
+  read(args.integer("samples"), n.samples);
+  read(args.number("density"), n.density);
+  read(args.integer("threads"), n.threads);
+  read(args.integer("max-bounces"), n.bounces);
+  read(args.integer("spatial"), n.spatial);
+  read(args.number("regularization"), n.reg);
+  read(args.integer("held-out"), n.heldOut);
+  read(args.size("directions"), n.dirs);
+  read(args.number("max-error"), n.maxError);
+  read(args.integer("table-size"), n.tableSize);
+  read(args.integer("components"), n.components);
+  read(args.integer("clusters"), n.clusters);
+  read(args.number("max-bytes-per-sample"), n.maxBytes);
+  read(args.integer("volume-size"), n.volumeSize);
+  if (error) return *error;
   return n;
 }
 
