@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <optional>
 #include <string>
 #include <unistd.h>
@@ -90,6 +91,25 @@ int fail(const std::string& message, int code = 1) {
 // A usage error: the caller prints the message and exits 2.
 Error usageError(std::string message) { return makeError(ErrorCode::InvalidArgument, std::move(message)); }
 
+// Flag `name`'s value (`fallback` when not given) as one of `choices` into `out`, or the usage
+// error that lists them in order, naming the flag as `shown` ("--dev window").
+template <class E>
+Result<void> pick(const Args& args, const std::string& name, const std::string& shown, const std::string& fallback,
+                  std::initializer_list<std::pair<const char*, E>> choices, E& out) {
+  const std::string value = args.get(name).value_or(fallback);
+  std::string listed;
+  size_t i = 0;
+  for (const auto& [text, e] : choices) {
+    if (value == text) {
+      out = e;
+      return {};
+    }
+    listed += (i == 0 ? "" : i + 1 == choices.size() ? " or " : ", ") + std::string(text);
+    ++i;
+  }
+  return usageError("shrefract bake: " + shown + " must be " + listed + ", got '" + value + "'");
+}
+
 // --shard, checked against mpirun, and the output's extension, which depends on it.
 Result<std::optional<bake::Shard>> shardFlag(const Args& args, const std::string& output) {
   std::optional<bake::Shard> shard;
@@ -170,24 +190,21 @@ Result<void> applyNumericFlags(const NumericFlags& n, BakeSettings& s) {
 Result<void> applyLayoutFlags(const Args& args, BakeSettings& s) {
   // Charts by default: at the default budget the split layout's per-triangle lattices are coarse
   // (n = 1 to 7 on the built-in scenes and the bunny) and flicker more (docs/technique.md).
-  const std::string layout = args.get("layout").value_or("charts");
-  if (layout == "split") s.layout = SampleLayout::Split;
-  else if (layout == "charts") s.layout = SampleLayout::Charts;
-  else return usageError("shrefract bake: --layout must be split or charts, got '" + layout + "'");
-  const std::string window = args.get("window").value_or("none");
-  if (window == "none") s.window = SmoothingWindow::None;
-  else if (window == "hann") s.window = SmoothingWindow::Hann;
-  else if (window == "lanczos") s.window = SmoothingWindow::Lanczos;
-  else return usageError("shrefract bake: --dev window must be none, hann or lanczos, got '" + window + "'");
-  const std::string fit = args.get("sh-fit").value_or("robust");
-  if (fit == "robust") s.shFit = ShFit::Robust;
-  else if (fit == "least-squares") s.shFit = ShFit::LeastSquares;
-  else return usageError("shrefract bake: --dev sh-fit must be robust or least-squares, got '" + fit + "'");
-  const std::string quant = args.get("quant").value_or("u8");
-  if (quant == "u8") s.quantization = Quantization::U8;
-  else if (quant == "f16") s.quantization = Quantization::F16;
-  else return usageError("shrefract bake: --quant must be u8 or f16, got '" + quant + "'");
-  return {};
+  Result<void> picked =
+      pick(args, "layout", "--layout", "charts", {{"split", SampleLayout::Split}, {"charts", SampleLayout::Charts}},
+           s.layout);
+  if (picked)
+    picked = pick(args, "window", "--dev window", "none",
+                  {{"none", SmoothingWindow::None}, {"hann", SmoothingWindow::Hann},
+                   {"lanczos", SmoothingWindow::Lanczos}},
+                  s.window);
+  if (picked)
+    picked = pick(args, "sh-fit", "--dev sh-fit", "robust",
+                  {{"robust", ShFit::Robust}, {"least-squares", ShFit::LeastSquares}}, s.shFit);
+  if (picked)
+    picked = pick(args, "quant", "--quant", "u8", {{"u8", Quantization::U8}, {"f16", Quantization::F16}},
+                  s.quantization);
+  return picked;
 }
 
 // --encoding with the flags that belong to one encoding: --components, --order, --dev max-error.
@@ -195,12 +212,11 @@ Result<void> applyEncodingFlag(const Args& args, const NumericFlags& n, BakeSett
   // The default is the measured best at the paper's 324 bytes per sample (docs/encodings.md): Pca
   // with 324 weights over 64x64 tables traced at their nodes. --order or --dev max-error ask for SH.
   const bool shImplied = n.order || n.maxError;
-  const std::string encoding = args.get("encoding").value_or(shImplied ? "sh" : "pca");
-  if (encoding == "sh") s.encoding = Encoding::Sh;
-  else if (encoding == "table") s.encoding = Encoding::Table;
-  else if (encoding == "pca") s.encoding = Encoding::Pca;
-  else if (encoding == "volume") s.encoding = Encoding::Volume;
-  else return usageError("shrefract bake: --encoding must be sh, table, pca or volume, got '" + encoding + "'");
+  const Result<void> picked = pick(args, "encoding", "--encoding", shImplied ? "sh" : "pca",
+                                   {{"sh", Encoding::Sh}, {"table", Encoding::Table}, {"pca", Encoding::Pca},
+                                    {"volume", Encoding::Volume}},
+                                   s.encoding);
+  if (!picked) return picked;
   // The default (no --encoding, no byte budget, none of Pca's own flags): Pca, and the volume tried
   // beside it where the scene allows (BakeSettings::tryVolume). A flag of Pca's asks for a Pca field.
   const bool pcaAsked = n.components || n.clusters || n.tableSize || n.dirs || args.get("direction-sampling") ||
@@ -238,10 +254,10 @@ Result<void> applySamplingFlags(const Args& args, const NumericFlags& n, BakeSet
   // are grid fits whatever this says).
   const bool tabulated = s.encoding == Encoding::Table || s.encoding == Encoding::Pca;
   const bool nodesByDefault = s.encoding == Encoding::Pca && !n.dirs;
-  const std::string sampling = args.get("direction-sampling").value_or(nodesByDefault ? "nodes" : "grid");
-  if (sampling == "nodes") s.directionSampling = DirectionSampling::Nodes;
-  else if (sampling == "grid") s.directionSampling = DirectionSampling::Grid;
-  else return usageError("shrefract bake: --dev direction-sampling must be nodes or grid, got '" + sampling + "'");
+  const Result<void> picked =
+      pick(args, "direction-sampling", "--dev direction-sampling", nodesByDefault ? "nodes" : "grid",
+           {{"nodes", DirectionSampling::Nodes}, {"grid", DirectionSampling::Grid}}, s.directionSampling);
+  if (!picked) return picked;
   if (s.directionSampling == DirectionSampling::Nodes && !tabulated && !n.maxBytes)
     return usageError("shrefract bake: --dev direction-sampling=nodes needs --encoding table or pca");
   if (s.directionSampling == DirectionSampling::Nodes && n.dirs)
@@ -257,20 +273,19 @@ Result<void> applySamplingFlags(const Args& args, const NumericFlags& n, BakeSet
 
 // --path-rule, --max-bytes-per-sample and the options --dev throughput, no-jump-distance and exit-frame.
 Result<void> applyPathFlags(const Args& args, const NumericFlags& n, BakeSettings& s) {
-  const std::string rule = args.get("path-rule").value_or("first-refraction");
-  if (rule == "highest-energy") s.pathRule = PathRule::HighestEnergy;
-  else if (rule == "first-refraction") s.pathRule = PathRule::FirstRefraction;
-  else return usageError("shrefract bake: --path-rule must be highest-energy or first-refraction, got '" + rule + "'");
+  const Result<void> rule =
+      pick(args, "path-rule", "--path-rule", "first-refraction",
+           {{"highest-energy", PathRule::HighestEnergy}, {"first-refraction", PathRule::FirstRefraction}}, s.pathRule);
+  if (!rule) return rule;
   s.throughput = args.has("throughput");
   // The image contest chooses the rule too, by the exact renders against the full tree, where no
   // rule is given (BakeSettings::choosePathRule).
   s.choosePathRule = !args.get("path-rule") && !s.throughput && s.chooseByImages;
   s.jumpDistance = !args.has("no-jump-distance");
-  const std::string exitFrame = args.get("exit-frame").value_or("auto");
-  if (exitFrame == "auto") s.exitFrame = ExitFrame::Auto;
-  else if (exitFrame == "sample") s.exitFrame = ExitFrame::Sample;
-  else if (exitFrame == "object") s.exitFrame = ExitFrame::Object;
-  else return usageError("shrefract bake: --dev exit-frame must be auto, sample or object, got '" + exitFrame + "'");
+  const Result<void> frame =
+      pick(args, "exit-frame", "--dev exit-frame", "auto",
+           {{"auto", ExitFrame::Auto}, {"sample", ExitFrame::Sample}, {"object", ExitFrame::Object}}, s.exitFrame);
+  if (!frame) return frame;
   if (n.maxBytes) s.maxBytesPerSample = static_cast<float>(*n.maxBytes);
   return {};
 }
