@@ -27,13 +27,12 @@ namespace {
 
 using K = ValueKind;
 
-// Every flag once: its kind and range are what the parser checks and what --help prints; the
-// ranges come from the bake library's own limits where it has them. --help lists the flags a user
-// bakes with, one short line each (docs/encodings.md has the details); the experiment switches
-// and the knobs tests turn are developer options (--dev KEY=VALUE, listed by --help-dev).
+// The ranges come from the bake library's own limits where it has them. --help lists the flags a
+// user bakes with, one short line each (docs/encodings.md has the details); the experiment
+// switches and the knobs tests turn are developer options (--dev KEY=VALUE, listed by --help-dev).
 std::vector<FlagSpec> bakeFlags() {
   const auto dev = developerOption;
-  std::vector<FlagSpec> flags = {
+  return sceneCommandFlags({
       {"output", true, "the field file to write, .shrf (also -o)"},
       {"encoding", true, "volume, pca, table or sh (default: chosen from the scene)"},
       {"choose-by-images", false, "choose between pca and volume by rendering both (minutes and GiB)"},
@@ -76,11 +75,7 @@ std::vector<FlagSpec> bakeFlags() {
            {0, 180, true}}),
       dev({"held-out", true, "held-out directions a sample for the error estimate (default 4)", K::Integer,
            {0, 1024}}),
-  };
-  for (auto& f : sceneFlags(true)) flags.push_back(f);
-  flags.push_back({"json", false, "print the summary as JSON on stdout"});
-  flags.push_back({"help", false, "this text"});
-  return flags;
+      }, true, "print the summary as JSON on stdout");
 }
 
 int fail(const std::string& message, int code = 1) {
