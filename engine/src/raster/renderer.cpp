@@ -285,17 +285,7 @@ bool outsideFrustum(const ViewFrustum& frustum, const std::array<float, 3>& boxM
 
 Renderer::Renderer(std::unique_ptr<RendererImpl> impl) : impl_(std::move(impl)) {}
 
-Renderer::~Renderer() {
-  RendererImpl* r = impl_.release();
-  if (!r->context) {
-    delete r;
-    return;
-  }
-  r->context->retire([r]() {
-    r->release();
-    delete r;
-  });
-}
+Renderer::~Renderer() { retireImpl(std::move(impl_)); }
 
 namespace {
 
