@@ -22,9 +22,13 @@
 namespace shrefract::bake {
 namespace {
 
+using layout_detail::cornerAt;
 using layout_detail::EdgeUse;
+using layout_detail::forEachWeldedEdge;
 using layout_detail::FrontMesh;
 using layout_detail::FrontTriangle;
+using layout_detail::higherEnd;
+using layout_detail::lowerEnd;
 
 // Unique samples at edge resolution n of a mesh with V welded vertices, E welded edges and F
 // triangles: every vertex once, n - 1 points per edge, (n-1)(n-2)/2 interior points per triangle.
@@ -290,29 +294,17 @@ class BlockWriter {
 
 // Shared edges: the first triangle of each welded edge against every other one.
 void addSharedEdges(const FrontMesh& front, const std::vector<EdgeUse>& uses, SampleAtlas& atlas) {
-  const auto cornerUv = [&](uint32_t t, uint32_t c) {
-    const size_t v = size_t(t) * 3 + c;
+  // Every triangle has three vertices of its own.
+  const auto uvOf = [&](const EdgeUse& use, uint32_t id) {
+    const size_t v = size_t(use.triangle) * 3 + cornerAt(front, use, id);
     return std::array<float, 2>{atlas.mesh.uvs[2 * v], atlas.mesh.uvs[2 * v + 1]};
   };
-  for (size_t k = 0; k < uses.size();) {
-    size_t end = k + 1;
-    while (end < uses.size() && uses[end].key == uses[k].key) ++end;
-    const uint32_t lo = static_cast<uint32_t>(uses[k].key >> 32);
-    const uint32_t hi = static_cast<uint32_t>(uses[k].key & 0xFFFFFFFFu);
-    if (lo != hi) {
-      // Corner of a use's triangle that sits at welded id `id`.
-      const auto endpoint = [&](const EdgeUse& use, uint32_t id) {
-        const FrontTriangle& tri = front.triangles[use.triangle];
-        const uint32_t c = tri.weld[use.edge] == id ? use.edge : (use.edge + 1) % 3;
-        return cornerUv(use.triangle, c);
-      };
-      for (size_t other = k + 1; other < end; ++other) {
-        atlas.sharedEdges.push_back({endpoint(uses[k], lo), endpoint(uses[k], hi),
-                                     endpoint(uses[other], lo), endpoint(uses[other], hi)});
-      }
-    }
-    k = end;
-  }
+  forEachWeldedEdge(uses, [&](size_t first, size_t end) {
+    const uint32_t lo = lowerEnd(uses[first].key), hi = higherEnd(uses[first].key);
+    for (size_t other = first + 1; other < end && lo != hi; ++other)
+      atlas.sharedEdges.push_back(
+          {uvOf(uses[first], lo), uvOf(uses[first], hi), uvOf(uses[other], lo), uvOf(uses[other], hi)});
+  });
 }
 
 }  // namespace
