@@ -86,20 +86,21 @@ int fail(const std::string& message, int code = 1) {
 // A usage error: the caller prints the message and exits 2.
 Error usageError(std::string message) { return makeError(ErrorCode::InvalidArgument, std::move(message)); }
 
-// Flag `name`'s value (`fallback` when not given) as one of `choices` into `out`, or the usage
-// error that lists them in order, naming the flag as `shown` ("--dev window").
+// Flag `name`'s value, one of `choices` by its name (toString, field.h), into `out`; `fallback`
+// when the flag is not given. Else the usage error that lists them in order, naming the flag as
+// `shown` ("--dev window").
 template <class E>
-Result<void> pick(const Args& args, const std::string& name, const std::string& shown, const std::string& fallback,
-                  std::initializer_list<std::pair<const char*, E>> choices, E& out) {
-  const std::string value = args.get(name).value_or(fallback);
+Result<void> pick(const Args& args, const std::string& name, const std::string& shown, E fallback,
+                  std::initializer_list<E> choices, E& out) {
+  const std::string value = args.get(name).value_or(toString(fallback));
   std::string listed;
   size_t i = 0;
-  for (const auto& [text, e] : choices) {
-    if (value == text) {
+  for (const E e : choices) {
+    if (value == toString(e)) {
       out = e;
       return {};
     }
-    listed += (i == 0 ? "" : i + 1 == choices.size() ? " or " : ", ") + std::string(text);
+    listed += std::string(i == 0 ? "" : i + 1 == choices.size() ? " or " : ", ") + toString(e);
     ++i;
   }
   return usageError("shrefract bake: " + shown + " must be " + listed + ", got '" + value + "'");
@@ -186,19 +187,14 @@ Result<void> applyLayoutFlags(const Args& args, BakeSettings& s) {
   // Charts by default: at the default budget the split layout's per-triangle lattices are coarse
   // (n = 1 to 7 on the built-in scenes and the bunny) and flicker more (docs/technique.md).
   Result<void> picked =
-      pick(args, "layout", "--layout", "charts", {{"split", SampleLayout::Split}, {"charts", SampleLayout::Charts}},
-           s.layout);
+      pick(args, "layout", "--layout", SampleLayout::Charts, {SampleLayout::Split, SampleLayout::Charts}, s.layout);
   if (picked)
-    picked = pick(args, "window", "--dev window", "none",
-                  {{"none", SmoothingWindow::None}, {"hann", SmoothingWindow::Hann},
-                   {"lanczos", SmoothingWindow::Lanczos}},
-                  s.window);
+    picked = pick(args, "window", "--dev window", SmoothingWindow::None,
+                  {SmoothingWindow::None, SmoothingWindow::Hann, SmoothingWindow::Lanczos}, s.window);
   if (picked)
-    picked = pick(args, "sh-fit", "--dev sh-fit", "robust",
-                  {{"robust", ShFit::Robust}, {"least-squares", ShFit::LeastSquares}}, s.shFit);
+    picked = pick(args, "sh-fit", "--dev sh-fit", ShFit::Robust, {ShFit::Robust, ShFit::LeastSquares}, s.shFit);
   if (picked)
-    picked = pick(args, "quant", "--quant", "u8", {{"u8", Quantization::U8}, {"f16", Quantization::F16}},
-                  s.quantization);
+    picked = pick(args, "quant", "--quant", Quantization::U8, {Quantization::U8, Quantization::F16}, s.quantization);
   return picked;
 }
 
@@ -207,10 +203,9 @@ Result<void> applyEncodingFlag(const Args& args, const NumericFlags& n, BakeSett
   // The default is the measured best at the paper's 324 bytes per sample (docs/encodings.md): Pca
   // with 324 weights over 64x64 tables traced at their nodes. --order or --dev max-error ask for SH.
   const bool shImplied = n.order || n.maxError;
-  const Result<void> picked = pick(args, "encoding", "--encoding", shImplied ? "sh" : "pca",
-                                   {{"sh", Encoding::Sh}, {"table", Encoding::Table}, {"pca", Encoding::Pca},
-                                    {"volume", Encoding::Volume}},
-                                   s.encoding);
+  const Result<void> picked =
+      pick(args, "encoding", "--encoding", shImplied ? Encoding::Sh : Encoding::Pca,
+           {Encoding::Sh, Encoding::Table, Encoding::Pca, Encoding::Volume}, s.encoding);
   if (!picked) return picked;
   // The default (no --encoding, no byte budget, none of Pca's own flags): Pca, and the volume tried
   // beside it where the scene allows (BakeSettings::tryVolume). A flag of Pca's asks for a Pca field.
@@ -250,8 +245,9 @@ Result<void> applySamplingFlags(const Args& args, const NumericFlags& n, BakeSet
   const bool tabulated = s.encoding == Encoding::Table || s.encoding == Encoding::Pca;
   const bool nodesByDefault = s.encoding == Encoding::Pca && !n.dirs;
   const Result<void> picked =
-      pick(args, "direction-sampling", "--dev direction-sampling", nodesByDefault ? "nodes" : "grid",
-           {{"nodes", DirectionSampling::Nodes}, {"grid", DirectionSampling::Grid}}, s.directionSampling);
+      pick(args, "direction-sampling", "--dev direction-sampling",
+           nodesByDefault ? DirectionSampling::Nodes : DirectionSampling::Grid,
+           {DirectionSampling::Nodes, DirectionSampling::Grid}, s.directionSampling);
   if (!picked) return picked;
   if (s.directionSampling == DirectionSampling::Nodes && !tabulated && !n.maxBytes)
     return usageError("shrefract bake: --dev direction-sampling=nodes needs --encoding table or pca");
@@ -268,18 +264,16 @@ Result<void> applySamplingFlags(const Args& args, const NumericFlags& n, BakeSet
 
 // --path-rule, --max-bytes-per-sample and the options --dev throughput, no-jump-distance and exit-frame.
 Result<void> applyPathFlags(const Args& args, const NumericFlags& n, BakeSettings& s) {
-  const Result<void> rule =
-      pick(args, "path-rule", "--path-rule", "first-refraction",
-           {{"highest-energy", PathRule::HighestEnergy}, {"first-refraction", PathRule::FirstRefraction}}, s.pathRule);
+  const Result<void> rule = pick(args, "path-rule", "--path-rule", PathRule::FirstRefraction,
+                                 {PathRule::HighestEnergy, PathRule::FirstRefraction}, s.pathRule);
   if (!rule) return rule;
   s.throughput = args.has("throughput");
   // The image contest chooses the rule too, by the exact renders against the full tree, where no
   // rule is given (BakeSettings::choosePathRule).
   s.choosePathRule = !args.get("path-rule") && !s.throughput && s.chooseByImages;
   s.jumpDistance = !args.has("no-jump-distance");
-  const Result<void> frame =
-      pick(args, "exit-frame", "--dev exit-frame", "auto",
-           {{"auto", ExitFrame::Auto}, {"sample", ExitFrame::Sample}, {"object", ExitFrame::Object}}, s.exitFrame);
+  const Result<void> frame = pick(args, "exit-frame", "--dev exit-frame", ExitFrame::Auto,
+                                  {ExitFrame::Auto, ExitFrame::Sample, ExitFrame::Object}, s.exitFrame);
   if (!frame) return frame;
   if (n.maxBytes) s.maxBytesPerSample = static_cast<float>(*n.maxBytes);
   return {};
