@@ -11,6 +11,8 @@
 #include <map>
 #include <unistd.h>
 
+#include "fnv1a.h"
+
 namespace shrefract::bake {
 namespace {
 
@@ -23,9 +25,9 @@ constexpr uint32_t kPartVersion = 10;  // 9: BakeSettings::volumeDensify; 10: mo
 constexpr size_t kHeaderBytes = 8 + 4 + 8 + 8;  // magic, version, payload size, checksum
 
 uint64_t fnv1a(const uint8_t* data, size_t size) {
-  uint64_t h = 0xcbf29ce484222325ull;
-  for (size_t i = 0; i < size; ++i) h = (h ^ data[i]) * 0x100000001b3ull;
-  return h;
+  Fnv1a h;
+  h.add(data, size);
+  return h.value();
 }
 
 class Writer {
