@@ -161,18 +161,10 @@ std::vector<std::array<uint32_t, 3>> appendRenderMesh(const Scene& scene, const 
 // Seams: welded edges whose two triangles show them at different atlas positions.
 void addSeams(const FrontMesh& front, const std::vector<EdgeUse>& uses,
               const std::vector<std::array<uint32_t, 3>>& cornerVertex, SampleAtlas& atlas) {
-  const auto uvOf = [&](const EdgeUse& use, uint32_t id) {
-    const uint32_t v = cornerVertex[use.triangle][cornerAt(front, use, id)];
-    return std::array<float, 2>{atlas.mesh.uvs[2 * v], atlas.mesh.uvs[2 * v + 1]};
+  const auto vertexAt = [&](const EdgeUse& use, uint32_t id) {
+    return cornerVertex[use.triangle][cornerAt(front, use, id)];
   };
-  forEachWeldedEdge(uses, [&](size_t first, size_t end) {
-    const uint32_t lo = lowerEnd(uses[first].key), hi = higherEnd(uses[first].key);
-    for (size_t other = first + 1; other < end && lo != hi; ++other) {
-      const SampleAtlas::SharedEdge edge{uvOf(uses[first], lo), uvOf(uses[first], hi), uvOf(uses[other], lo),
-                                         uvOf(uses[other], hi)};
-      if (edge.a0 != edge.b0 || edge.a1 != edge.b1) atlas.sharedEdges.push_back(edge);
-    }
-  });
+  appendSharedEdges(uses, vertexAt, /*seamsOnly=*/true, atlas);
 }
 
 }  // namespace

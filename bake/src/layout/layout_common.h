@@ -165,6 +165,25 @@ void forEachWeldedEdge(const std::vector<EdgeUse>& uses, Visit&& visit) {
   }
 }
 
+// Each welded edge's first use against every other one, at the atlas uvs of the render vertices
+// vertexAt(use, welded id), into atlas.sharedEdges: every pair, or with `seamsOnly` the pairs
+// whose positions differ.
+template <class VertexAt>
+void appendSharedEdges(const std::vector<EdgeUse>& uses, VertexAt&& vertexAt, bool seamsOnly, SampleAtlas& atlas) {
+  const auto uvOf = [&](const EdgeUse& use, uint32_t id) {
+    const size_t v = vertexAt(use, id);
+    return std::array<float, 2>{atlas.mesh.uvs[2 * v], atlas.mesh.uvs[2 * v + 1]};
+  };
+  forEachWeldedEdge(uses, [&](size_t first, size_t end) {
+    const uint32_t lo = lowerEnd(uses[first].key), hi = higherEnd(uses[first].key);
+    for (size_t other = first + 1; other < end && lo != hi; ++other) {
+      const SampleAtlas::SharedEdge edge{uvOf(uses[first], lo), uvOf(uses[first], hi), uvOf(uses[other], lo),
+                                         uvOf(uses[other], hi)};
+      if (!seamsOnly || edge.a0 != edge.b0 || edge.a1 != edge.b1) atlas.sharedEdges.push_back(edge);
+    }
+  });
+}
+
 // Every edge use, sorted by key, then triangle, then edge: uses of one edge are adjacent.
 inline std::vector<EdgeUse> sortedEdgeUses(const FrontMesh& mesh) {
   std::vector<EdgeUse> uses;

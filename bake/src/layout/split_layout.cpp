@@ -24,11 +24,8 @@ namespace {
 
 using layout_detail::cornerAt;
 using layout_detail::EdgeUse;
-using layout_detail::forEachWeldedEdge;
 using layout_detail::FrontMesh;
 using layout_detail::FrontTriangle;
-using layout_detail::higherEnd;
-using layout_detail::lowerEnd;
 
 // Unique samples at edge resolution n of a mesh with V welded vertices, E welded edges and F
 // triangles: every vertex once, n - 1 points per edge, (n-1)(n-2)/2 interior points per triangle.
@@ -294,17 +291,11 @@ class BlockWriter {
 
 // Shared edges: the first triangle of each welded edge against every other one.
 void addSharedEdges(const FrontMesh& front, const std::vector<EdgeUse>& uses, SampleAtlas& atlas) {
-  // Every triangle has three vertices of its own.
-  const auto uvOf = [&](const EdgeUse& use, uint32_t id) {
-    const size_t v = size_t(use.triangle) * 3 + cornerAt(front, use, id);
-    return std::array<float, 2>{atlas.mesh.uvs[2 * v], atlas.mesh.uvs[2 * v + 1]};
+  // Every triangle has three render vertices of its own.
+  const auto vertexAt = [&](const EdgeUse& use, uint32_t id) {
+    return size_t(use.triangle) * 3 + cornerAt(front, use, id);
   };
-  forEachWeldedEdge(uses, [&](size_t first, size_t end) {
-    const uint32_t lo = lowerEnd(uses[first].key), hi = higherEnd(uses[first].key);
-    for (size_t other = first + 1; other < end && lo != hi; ++other)
-      atlas.sharedEdges.push_back(
-          {uvOf(uses[first], lo), uvOf(uses[first], hi), uvOf(uses[other], lo), uvOf(uses[other], hi)});
-  });
+  layout_detail::appendSharedEdges(uses, vertexAt, /*seamsOnly=*/false, atlas);
 }
 
 }  // namespace
