@@ -11,6 +11,8 @@
 #include <map>
 #include <unistd.h>
 
+#include "fnv1a.h"
+
 namespace shrefract::bake {
 namespace {
 
@@ -23,9 +25,9 @@ constexpr uint32_t kPartVersion = 10;  // 9: BakeSettings::volumeDensify; 10: mo
 constexpr size_t kHeaderBytes = 8 + 4 + 8 + 8;  // magic, version, payload size, checksum
 
 uint64_t fnv1a(const uint8_t* data, size_t size) {
-  uint64_t h = 0xcbf29ce484222325ull;
-  for (size_t i = 0; i < size; ++i) h = (h ^ data[i]) * 0x100000001b3ull;
-  return h;
+  Fnv1a h;
+  h.add(data, size);
+  return h.value();
 }
 
 class Writer {
@@ -74,6 +76,11 @@ class Reader {
     for (float& f : v) f = f32();
     return v;
   }
+  // Into a field, as visitPartBody calls them (Writer's take the value).
+  void u32(uint32_t& v) { v = u32(); }
+  void u64(uint64_t& v) { v = u64(); }
+  void f64(double& v) { v = f64(); }
+  void floats(std::vector<float>& v) { v = floats(); }
 
  private:
   bool have(uint64_t n) {
@@ -126,6 +133,31 @@ void visitSettings(S& s, V& v) {
   v.boolean("more clusters", s.moreClusters);  // and tries the clusters the bake would
   v.f32("max error", s.maxErrorDegrees);
   v.u32("threads", s.threads);
+}
+
+// The fields after the settings, in file order: the one list that writes and reads them. `io` is a
+// Writer or a Reader.
+template <class P, class IO>
+void visitPartBody(P& p, IO& io) {
+  io.u32(p.heldOutDirections);
+  io.u32(p.shard.index);
+  io.u32(p.shard.count);
+  io.u64(p.sampleCount);
+  io.u64(p.sceneHash);
+  io.u32(p.channels);
+  io.u32(p.directions);
+  io.u64(p.stride);
+  io.u64(p.rays);
+  io.u64(p.paths);
+  io.u64(p.trappedPaths);
+  io.f64(p.timings.bakeSeconds);
+  io.f64(p.timings.traceWallSeconds);
+  io.f64(p.timings.threadTraceSeconds);
+  io.f64(p.timings.threadFitSeconds);
+  io.u64(p.timings.peakMemoryBytes);
+  io.floats(p.coefficients);
+  io.floats(p.heldOut);
+  io.floats(p.gridExits);
 }
 
 struct SettingsWriter {
@@ -220,25 +252,7 @@ std::vector<uint8_t> serializePart(const BakePart& p) {
   Writer w;
   SettingsWriter sw{w, {}};
   visitSettings(p.settings, sw);
-  w.u32(p.heldOutDirections);
-  w.u32(p.shard.index);
-  w.u32(p.shard.count);
-  w.u64(p.sampleCount);
-  w.u64(p.sceneHash);
-  w.u32(p.channels);
-  w.u32(p.directions);
-  w.u64(p.stride);
-  w.u64(p.rays);
-  w.u64(p.paths);
-  w.u64(p.trappedPaths);
-  w.f64(p.timings.bakeSeconds);
-  w.f64(p.timings.traceWallSeconds);
-  w.f64(p.timings.threadTraceSeconds);
-  w.f64(p.timings.threadFitSeconds);
-  w.u64(p.timings.peakMemoryBytes);
-  w.floats(p.coefficients);
-  w.floats(p.heldOut);
-  w.floats(p.gridExits);
+  visitPartBody(p, w);
   Writer out;
   out.bytes.assign(kMagic, kMagic + 8);
   out.u32(kPartVersion);
@@ -266,21 +280,7 @@ Result<BakePart> parsePart(const uint8_t* data, size_t size, const std::string& 
   SettingsReader sr{r, {}};
   visitSettings(p.settings, sr);
   if (!sr.bad.empty()) return corrupt(name, "setting '" + sr.bad + "' out of range");
-  p.heldOutDirections = r.u32();
-  p.shard.index = r.u32();
-  p.shard.count = r.u32();
-  p.sampleCount = r.u64();
-  p.sceneHash = r.u64();
-  p.channels = r.u32();
-  p.directions = r.u32();
-  p.stride = r.u64();
-  p.rays = r.u64();
-  p.paths = r.u64();
-  p.trappedPaths = r.u64();
-  p.timings = {r.f64(), r.f64(), r.f64(), r.f64(), r.u64()};
-  p.coefficients = r.floats();
-  p.heldOut = r.floats();
-  p.gridExits = r.floats();
+  visitPartBody(p, r);
   if (r.failed || !r.atEnd()) return corrupt(name, "sections disagree with the payload size");
   if (auto ok = checkPartData(p, name); !ok) return ok.error();
   return p;

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
+#include <filesystem>
 #include <random>
 
 namespace shrefract::bench {
@@ -194,7 +195,9 @@ bool parseCount(const char* text, uint32_t lo, uint32_t hi, uint32_t& out) {
 std::variant<cli::Args, int> parseCommandLine(const char* program, int argc, char** argv,
                                               const std::vector<cli::FlagSpec>& flags,
                                               const std::function<void(const char* error)>& usage) {
-  auto parsed = cli::Args::parseProgram(program, argc, argv, flags);
+  std::vector<cli::FlagSpec> all = flags;
+  all.push_back({"validation", false, "with the validation layer"});
+  auto parsed = cli::Args::parseProgram(program, argc, argv, all);
   if (!parsed) {
     usage(parsed.error().message.c_str());
     return 2;
@@ -204,6 +207,25 @@ std::variant<cli::Args, int> parseCommandLine(const char* program, int argc, cha
     return 0;
   }
   return std::move(parsed).value();
+}
+
+std::variant<Field, int> benchmarkField(const std::string& path, const char* why) {
+  if (!std::filesystem::exists(path)) {
+    std::printf("SKIPPED: %s does not exist%s\n", path.c_str(), why);
+    return 0;
+  }
+  auto read = readField(path);
+  if (!read) {
+    std::fprintf(stderr, "%s\n", read.error().message.c_str());
+    return 1;
+  }
+  return std::move(read).value();
+}
+
+int usageError(const char* message, const char* usage) {
+  if (message) std::fprintf(stderr, "%s\n", message);
+  std::fprintf(stderr, "%s", usage);
+  return 2;
 }
 
 namespace {
@@ -225,6 +247,14 @@ bool parseColorFormat(const std::string& text, VkFormat& out) {
 }
 
 }  // namespace
+
+std::vector<cli::FlagSpec> withFrameFlags(std::vector<cli::FlagSpec> own) {
+  own.insert(own.end(), {{"size", true, "frame size", cli::ValueKind::Size, {1, 8192}, {1, 8192}},
+                         {"shading", true, "field, exit-direction or single-interface"},
+                         {"format", true, "rgba16f, rgba8 or rgba32f"},
+                         {"cube-env", false, "a cube map environment"}});
+  return own;
+}
 
 std::optional<std::string> readShadingAndFormat(const cli::Args& args, ShadingMode& shading, VkFormat& format) {
   if (std::string v; args.read("shading", v) && !parseShading(v, shading))

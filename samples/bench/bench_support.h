@@ -57,12 +57,20 @@ std::string encodingLabel(const Field& field);
 // Parses "u8" / "f16".
 bool parseQuantization(const std::string& text, Quantization& out);
 
-// A benchmark's command line against `flags` (cli::Args::parseProgram, which adds --help): the
-// arguments, or the exit code to stop with once `usage` has printed: usage(nullptr) and 0 for
-// --help, usage(the error line) and 2 for a bad command line.
+// A benchmark's command line against `flags` and --validation, which every benchmark has (and
+// --help, which cli::Args::parseProgram adds): the arguments, or the exit code to stop with once
+// `usage` has printed: usage(nullptr) and 0 for --help, usage(the error line) and 2 for a bad
+// command line.
 std::variant<cli::Args, int> parseCommandLine(const char* program, int argc, char** argv,
                                               const std::vector<cli::FlagSpec>& flags,
                                               const std::function<void(const char* error)>& usage);
+
+// FIELD.shrf for a benchmark, or the exit code to stop with: 0 after "SKIPPED: PATH does not
+// exist" (and `why`) when there is no such file, 1 after the error when it does not read.
+std::variant<Field, int> benchmarkField(const std::string& path, const char* why = "");
+
+// A benchmark's usage error: `message` (when given) and then `usage` on stderr; returns 2.
+int usageError(const char* message, const char* usage);
 
 // A benchmark's main: its options from the command line (`parse` returns the exit code to stop
 // with, or nothing to go on), then `run`.
@@ -76,6 +84,9 @@ int benchmarkMain(int argc, char** argv, std::optional<int> (*parse)(int, char**
 
 // A whole decimal number in [lo, hi]; false for anything else ("12x", "", "-1", a null pointer).
 bool parseCount(const char* text, uint32_t lo, uint32_t hi, uint32_t& out);
+// The frame benchmarks' flags (frame, reference) after `own`: --size of the frame, --shading,
+// --format (readShadingAndFormat reads them) and --cube-env.
+std::vector<cli::FlagSpec> withFrameFlags(std::vector<cli::FlagSpec> own);
 // The frame benchmarks' --shading (field, exit-direction, single-interface) and --format (rgba16f,
 // rgba8, rgba32f) when given; otherwise untouched. The usage line for a value not among them.
 std::optional<std::string> readShadingAndFormat(const cli::Args& args, ShadingMode& shading, VkFormat& format);

@@ -40,7 +40,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <filesystem>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -65,12 +64,10 @@ struct Options {
 };
 
 int usage(const char* message) {
-  if (message) std::fprintf(stderr, "%s\n", message);
-  std::fprintf(stderr,
-               "usage: shrefract_decompression_benchmark [FIELD.shrf] [--size WxH] [--order L] [--quant u8|f16]\n"
-               "                                         [--channels 3|4] [--reps N] [--validation] [--profile]\n"
-               "       shrefract_decompression_benchmark --encodings [--size WxH] [--reps N] [--validation]\n");
-  return 2;
+  return usageError(message,
+                    "usage: shrefract_decompression_benchmark [FIELD.shrf] [--size WxH] [--order L] [--quant u8|f16]\n"
+                    "                                         [--channels 3|4] [--reps N] [--validation] [--profile]\n"
+                    "       shrefract_decompression_benchmark --encodings [--size WxH] [--reps N] [--validation]\n");
 }
 
 // Median GPU milliseconds (and process CPU milliseconds) of each recorder over `reps` rounds,
@@ -396,16 +393,9 @@ std::optional<int> loadField(const Options& options, Field& field) {
     field = syntheticField(options.synthetic);
     return std::nullopt;
   }
-  if (!std::filesystem::exists(options.field)) {
-    std::printf("SKIPPED: %s does not exist\n", options.field.c_str());
-    return 0;
-  }
-  auto read = readField(options.field);
-  if (!read) {
-    std::fprintf(stderr, "%s\n", read.error().message.c_str());
-    return 1;
-  }
-  field = std::move(read).value();
+  auto read = benchmarkField(options.field);
+  if (const int* exitCode = std::get_if<int>(&read)) return *exitCode;
+  field = std::get<Field>(std::move(read));
   return std::nullopt;
 }
 
@@ -469,7 +459,6 @@ std::optional<int> parseArguments(int argc, char** argv, Options& options) {
       {"quant", true, "u8 or f16"},
       {"channels", true, "3 or 4", cli::ValueKind::Integer, {3, 4}},
       {"reps", true, "repetitions", cli::ValueKind::Integer, {1, 1000}},
-      {"validation", false, "with the validation layer"},
       {"profile", false, "the decompression alone"},
       {"encodings", false, "compare the encodings"},
   };

@@ -663,19 +663,14 @@ bool parseTapCounts(const std::string& text, std::vector<uint32_t>& counts) {
 
 // Nothing when the arguments are good, else the exit code (2 after one line for bad ones).
 std::optional<int> parseArguments(int argc, char** argv, Options& o) {
-  const std::vector<cli::FlagSpec> flags = {
-      {"size", true, "frame size", cli::ValueKind::Size, {1, 8192}, {1, 8192}},
+  const std::vector<cli::FlagSpec> flags = withFrameFlags({
       {"frames", true, "timed frames", cli::ValueKind::Integer, {1, 10000}},
       {"instances", true, "instances of each field", cli::ValueKind::Integer, {1, 256}},
-      {"shading", true, "field, exit-direction or single-interface"},
-      {"format", true, "rgba16f, rgba8 or rgba32f"},
       {"env-taps", true, "environment taps per axis, comma-separated"},
       {"msaa", true, "1, 2, 4 or 8"},
-      {"cube-env", false, "a cube map environment"},
       {"per-fragment", false, "a volume field also traced per fragment"},
       {"no-volume-refine", false, "volume paths not refined"},
-      {"validation", false, "with the validation layer"},
-  };
+  });
   auto parsed = parseCommandLine("shrefract_frame_benchmark", argc, argv, flags, [](const char* error) {
     if (error) std::fprintf(stderr, "%s (--help for usage)\n", error);
     else help();

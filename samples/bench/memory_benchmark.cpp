@@ -31,9 +31,8 @@ struct Options {
 };
 
 int usage(const char* message) {
-  if (message) std::fprintf(stderr, "%s\n", message);
-  std::fprintf(stderr, "usage: shrefract_memory_benchmark [FIELD.shrf ...] [--size WxH] [--fill F] [--validation]\n");
-  return 2;
+  return usageError(message,
+                    "usage: shrefract_memory_benchmark [FIELD.shrf ...] [--size WxH] [--fill F] [--validation]\n");
 }
 
 struct Row {
@@ -114,17 +113,13 @@ bool measureSynthetic(Context& context, const SyntheticOptions& synthetic, Row& 
 // One row per FIELD.shrf given; a missing file is skipped, an unreadable one fails.
 bool measureFields(Context& context, const std::vector<std::string>& fields) {
   for (const std::string& path : fields) {
-    if (!std::filesystem::exists(path)) {
-      std::printf("SKIPPED: %s does not exist\n", path.c_str());
-      continue;
-    }
-    auto field = readField(path);
-    if (!field) {
-      std::fprintf(stderr, "%s\n", field.error().message.c_str());
-      return false;
+    const std::variant<Field, int> field = benchmarkField(path);
+    if (const int* exitCode = std::get_if<int>(&field)) {
+      if (*exitCode != 0) return false;
+      continue;  // skipped
     }
     Row row;
-    if (!measure(context, field.value(), std::filesystem::path(path).filename().string(), row)) return false;
+    if (!measure(context, std::get<Field>(field), std::filesystem::path(path).filename().string(), row)) return false;
     printRow(row);
     std::printf("  (%s: %llu samples in a %llu-texel atlas, %llu triangles)\n", path.c_str(),
                 static_cast<unsigned long long>(row.samples), static_cast<unsigned long long>(row.texels),
@@ -162,7 +157,6 @@ std::optional<int> parseArguments(int argc, char** argv, Options& options) {
   const std::vector<cli::FlagSpec> flags = {
       {"size", true, "synthetic atlas", cli::ValueKind::Size, {1, 4096}, {1, 4096}},
       {"fill", true, "fraction of texels that are samples", cli::ValueKind::Real, {0, 1, true, false}},
-      {"validation", false, "with the validation layer"},
   };
   auto parsed = parseCommandLine("shrefract_memory_benchmark", argc, argv, flags,
                                  [](const char* error) { usage(error); });

@@ -35,7 +35,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
@@ -65,13 +64,12 @@ struct Options {
 };
 
 int usage(const char* message) {
-  if (message) std::fprintf(stderr, "%s\n", message);
-  std::fprintf(stderr,
-               "usage: shrefract_reference_benchmark FIELD.shrf [--size WxH] [--frames N] [--env builtin|FILE] [--cube-env]\n"
-               "                                     [--shading field|exit-direction|single-interface]\n"
-               "                                     [--format rgba16f|rgba8|rgba32f]\n"
-               "                                     [--threads T] [--no-reference] [--validation]\n");
-  return 2;
+  return usageError(message,
+                    "usage: shrefract_reference_benchmark FIELD.shrf [--size WxH] [--frames N] [--env builtin|FILE] "
+                    "[--cube-env]\n"
+                    "                                     [--shading field|exit-direction|single-interface]\n"
+                    "                                     [--format rgba16f|rgba8|rgba32f]\n"
+                    "                                     [--threads T] [--no-reference] [--validation]\n");
 }
 
 enum class Series { Moving, Static, RasterOnly, BackgroundOnly };
@@ -320,16 +318,9 @@ int runOnSession(offscreen::Session& session, const Options& options, const Fiel
 }
 
 int run(const Options& options) {
-  if (!std::filesystem::exists(options.field)) {
-    std::printf("SKIPPED: %s does not exist (bake it first, see docs/performance.md)\n", options.field.c_str());
-    return 0;
-  }
-  auto read = readField(options.field);
-  if (!read) {
-    std::fprintf(stderr, "%s\n", read.error().message.c_str());
-    return 1;
-  }
-  const Field field = std::move(read).value();
+  auto read = benchmarkField(options.field, " (bake it first, see docs/performance.md)");
+  if (const int* exitCode = std::get_if<int>(&read)) return *exitCode;
+  const Field field = std::get<Field>(std::move(read));
   auto envImage = offscreen::loadEnvironmentImage(options.environment);
   if (!envImage) {
     std::fprintf(stderr, "%s\n", envImage.error().message.c_str());
@@ -352,17 +343,12 @@ int run(const Options& options) {
 
 // The options from the command line, or the exit code to stop with.
 std::optional<int> parseArguments(int argc, char** argv, Options& options) {
-  const std::vector<cli::FlagSpec> flags = {
-      {"size", true, "frame size", cli::ValueKind::Size, {1, 8192}, {1, 8192}},
+  const std::vector<cli::FlagSpec> flags = withFrameFlags({
       {"frames", true, "frames a series", cli::ValueKind::Integer, {1, 10000}},
       {"env", true, "builtin or a file"},
       {"threads", true, "CPU reference threads", cli::ValueKind::Integer, {1, 1024}},
-      {"shading", true, "field, exit-direction or single-interface"},
-      {"format", true, "rgba16f, rgba8 or rgba32f"},
-      {"cube-env", false, "a cube map environment"},
       {"no-reference", false, "no CPU reference"},
-      {"validation", false, "with the validation layer"},
-  };
+  });
   auto parsed = parseCommandLine("shrefract_reference_benchmark", argc, argv, flags,
                                  [](const char* error) { usage(error); });
   if (const int* exitCode = std::get_if<int>(&parsed)) return *exitCode;

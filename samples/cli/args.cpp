@@ -241,24 +241,28 @@ Result<void> Args::check(const FlagSpec& f, const std::string& shown, const std:
   return {};
 }
 
+namespace {
+
+// A typed accessor's result: nothing when the flag is absent, else `text` parsed by `parse` or the
+// error that `flag` (who and name) expects `what`.
+template <class T>
+Result<std::optional<T>> parsedValue(const std::optional<std::string>& text,
+                                     std::optional<T> (*parse)(const std::string&), const std::string& flag,
+                                     const char* what) {
+  if (!text) return std::optional<T>{};
+  const std::optional<T> value = parse(*text);
+  if (!value) return makeError(ErrorCode::InvalidArgument, flag + " expects " + what + ", got '" + *text + "'");
+  return value;
+}
+
+}  // namespace
+
 Result<std::optional<double>> Args::number(const std::string& name) const {
-  auto v = get(name);
-  if (!v) return std::optional<double>{};
-  const auto d = parseReal(*v);
-  if (!d)
-    return makeError(ErrorCode::InvalidArgument,
-                     who_ + ": " + shownName(name) + " expects a finite number, got '" + *v + "'");
-  return std::optional<double>{*d};
+  return parsedValue(get(name), parseReal, who_ + ": " + shownName(name), "a finite number");
 }
 
 Result<std::optional<int64_t>> Args::integer(const std::string& name) const {
-  auto v = get(name);
-  if (!v) return std::optional<int64_t>{};
-  const auto n = parseInteger(*v);
-  if (!n)
-    return makeError(ErrorCode::InvalidArgument,
-                     who_ + ": " + shownName(name) + " expects an integer, got '" + *v + "'");
-  return std::optional<int64_t>{*n};
+  return parsedValue(get(name), parseInteger, who_ + ": " + shownName(name), "an integer");
 }
 
 Result<std::optional<std::array<float, 3>>> Args::vec3(const std::string& name) const {

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <optional>
 #include <string>
 #include <unistd.h>
@@ -26,13 +27,12 @@ namespace {
 
 using K = ValueKind;
 
-// Every flag once: its kind and range are what the parser checks and what --help prints; the
-// ranges come from the bake library's own limits where it has them. --help lists the flags a user
-// bakes with, one short line each (docs/encodings.md has the details); the experiment switches
-// and the knobs tests turn are developer options (--dev KEY=VALUE, listed by --help-dev).
+// The ranges come from the bake library's own limits where it has them. --help lists the flags a
+// user bakes with, one short line each (docs/encodings.md has the details); the experiment
+// switches and the knobs tests turn are developer options (--dev KEY=VALUE, listed by --help-dev).
 std::vector<FlagSpec> bakeFlags() {
   const auto dev = developerOption;
-  std::vector<FlagSpec> flags = {
+  return sceneCommandFlags({
       {"output", true, "the field file to write, .shrf (also -o)"},
       {"encoding", true, "volume, pca, table or sh (default: chosen from the scene)"},
       {"choose-by-images", false, "choose between pca and volume by rendering both (minutes and GiB)"},
@@ -75,11 +75,7 @@ std::vector<FlagSpec> bakeFlags() {
            {0, 180, true}}),
       dev({"held-out", true, "held-out directions a sample for the error estimate (default 4)", K::Integer,
            {0, 1024}}),
-  };
-  for (auto& f : sceneFlags(true)) flags.push_back(f);
-  flags.push_back({"json", false, "print the summary as JSON on stdout"});
-  flags.push_back({"help", false, "this text"});
-  return flags;
+      }, true, "print the summary as JSON on stdout");
 }
 
 int fail(const std::string& message, int code = 1) {
@@ -89,6 +85,26 @@ int fail(const std::string& message, int code = 1) {
 
 // A usage error: the caller prints the message and exits 2.
 Error usageError(std::string message) { return makeError(ErrorCode::InvalidArgument, std::move(message)); }
+
+// Flag `name`'s value, one of `choices` by its name (toString, field.h), into `out`; `fallback`
+// when the flag is not given. Else the usage error that lists them in order, naming the flag as
+// `shown` ("--dev window").
+template <class E>
+Result<void> pick(const Args& args, const std::string& name, const std::string& shown, E fallback,
+                  std::initializer_list<E> choices, E& out) {
+  const std::string value = args.get(name).value_or(toString(fallback));
+  std::string listed;
+  size_t i = 0;
+  for (const E e : choices) {
+    if (value == toString(e)) {
+      out = e;
+      return {};
+    }
+    listed += std::string(i == 0 ? "" : i + 1 == choices.size() ? " or " : ", ") + toString(e);
+    ++i;
+  }
+  return usageError("shrefract bake: " + shown + " must be " + listed + ", got '" + value + "'");
+}
 
 // --shard, checked against mpirun, and the output's extension, which depends on it.
 Result<std::optional<bake::Shard>> shardFlag(const Args& args, const std::string& output) {
@@ -113,47 +129,28 @@ struct NumericFlags {
 };
 
 Result<NumericFlags> readNumericFlags(const Args& args) {
-  auto order = args.integer("order");
-  auto samples = args.integer("samples");
-  auto density = args.number("density");
-  auto threads = args.integer("threads");
-  auto bounces = args.integer("max-bounces");
-  auto spatial = args.integer("spatial");
-  auto reg = args.number("regularization");
-  auto heldOut = args.integer("held-out");
-  auto dirs = args.size("directions");
-  auto maxError = args.number("max-error");
-  auto tableSize = args.integer("table-size");
-  auto components = args.integer("components");
-  auto clusters = args.integer("clusters");
-  auto maxBytes = args.number("max-bytes-per-sample");
-  auto volumeSize = args.integer("volume-size");
-  for (const Error* e :
-       {order.ok() ? nullptr : &order.error(), samples.ok() ? nullptr : &samples.error(),
-        density.ok() ? nullptr : &density.error(), threads.ok() ? nullptr : &threads.error(),
-        bounces.ok() ? nullptr : &bounces.error(), spatial.ok() ? nullptr : &spatial.error(),
-        reg.ok() ? nullptr : &reg.error(), heldOut.ok() ? nullptr : &heldOut.error(),
-        dirs.ok() ? nullptr : &dirs.error(), maxError.ok() ? nullptr : &maxError.error(),
-        tableSize.ok() ? nullptr : &tableSize.error(), components.ok() ? nullptr : &components.error(),
-        clusters.ok() ? nullptr : &clusters.error(), maxBytes.ok() ? nullptr : &maxBytes.error(),
-        volumeSize.ok() ? nullptr : &volumeSize.error()})
-    if (e) return *e;
   NumericFlags n;
-  n.order = order.value();
-  n.samples = samples.value();
-  n.density = density.value();
-  n.threads = threads.value();
-  n.bounces = bounces.value();
-  n.spatial = spatial.value();
-  n.reg = reg.value();
-  n.heldOut = heldOut.value();
-  n.dirs = dirs.value();
-  n.maxError = maxError.value();
-  n.tableSize = tableSize.value();
-  n.components = components.value();
-  n.clusters = clusters.value();
-  n.maxBytes = maxBytes.value();
-  n.volumeSize = volumeSize.value();
+  std::optional<Error> error;  // the first malformed flag's, in this order
+  const auto read = [&error](auto parsed, auto& into) {
+    if (parsed) into = parsed.value();
+    else if (!error) error = parsed.error();
+  };
+  read(args.integer("order"), n.order);
+  read(args.integer("samples"), n.samples);
+  read(args.number("density"), n.density);
+  read(args.integer("threads"), n.threads);
+  read(args.integer("max-bounces"), n.bounces);
+  read(args.integer("spatial"), n.spatial);
+  read(args.number("regularization"), n.reg);
+  read(args.integer("held-out"), n.heldOut);
+  read(args.size("directions"), n.dirs);
+  read(args.number("max-error"), n.maxError);
+  read(args.integer("table-size"), n.tableSize);
+  read(args.integer("components"), n.components);
+  read(args.integer("clusters"), n.clusters);
+  read(args.number("max-bytes-per-sample"), n.maxBytes);
+  read(args.integer("volume-size"), n.volumeSize);
+  if (error) return *error;
   return n;
 }
 
@@ -189,24 +186,16 @@ Result<void> applyNumericFlags(const NumericFlags& n, BakeSettings& s) {
 Result<void> applyLayoutFlags(const Args& args, BakeSettings& s) {
   // Charts by default: at the default budget the split layout's per-triangle lattices are coarse
   // (n = 1 to 7 on the built-in scenes and the bunny) and flicker more (docs/technique.md).
-  const std::string layout = args.get("layout").value_or("charts");
-  if (layout == "split") s.layout = SampleLayout::Split;
-  else if (layout == "charts") s.layout = SampleLayout::Charts;
-  else return usageError("shrefract bake: --layout must be split or charts, got '" + layout + "'");
-  const std::string window = args.get("window").value_or("none");
-  if (window == "none") s.window = SmoothingWindow::None;
-  else if (window == "hann") s.window = SmoothingWindow::Hann;
-  else if (window == "lanczos") s.window = SmoothingWindow::Lanczos;
-  else return usageError("shrefract bake: --dev window must be none, hann or lanczos, got '" + window + "'");
-  const std::string fit = args.get("sh-fit").value_or("robust");
-  if (fit == "robust") s.shFit = ShFit::Robust;
-  else if (fit == "least-squares") s.shFit = ShFit::LeastSquares;
-  else return usageError("shrefract bake: --dev sh-fit must be robust or least-squares, got '" + fit + "'");
-  const std::string quant = args.get("quant").value_or("u8");
-  if (quant == "u8") s.quantization = Quantization::U8;
-  else if (quant == "f16") s.quantization = Quantization::F16;
-  else return usageError("shrefract bake: --quant must be u8 or f16, got '" + quant + "'");
-  return {};
+  Result<void> picked =
+      pick(args, "layout", "--layout", SampleLayout::Charts, {SampleLayout::Split, SampleLayout::Charts}, s.layout);
+  if (picked)
+    picked = pick(args, "window", "--dev window", SmoothingWindow::None,
+                  {SmoothingWindow::None, SmoothingWindow::Hann, SmoothingWindow::Lanczos}, s.window);
+  if (picked)
+    picked = pick(args, "sh-fit", "--dev sh-fit", ShFit::Robust, {ShFit::Robust, ShFit::LeastSquares}, s.shFit);
+  if (picked)
+    picked = pick(args, "quant", "--quant", Quantization::U8, {Quantization::U8, Quantization::F16}, s.quantization);
+  return picked;
 }
 
 // --encoding with the flags that belong to one encoding: --components, --order, --dev max-error.
@@ -214,12 +203,10 @@ Result<void> applyEncodingFlag(const Args& args, const NumericFlags& n, BakeSett
   // The default is the measured best at the paper's 324 bytes per sample (docs/encodings.md): Pca
   // with 324 weights over 64x64 tables traced at their nodes. --order or --dev max-error ask for SH.
   const bool shImplied = n.order || n.maxError;
-  const std::string encoding = args.get("encoding").value_or(shImplied ? "sh" : "pca");
-  if (encoding == "sh") s.encoding = Encoding::Sh;
-  else if (encoding == "table") s.encoding = Encoding::Table;
-  else if (encoding == "pca") s.encoding = Encoding::Pca;
-  else if (encoding == "volume") s.encoding = Encoding::Volume;
-  else return usageError("shrefract bake: --encoding must be sh, table, pca or volume, got '" + encoding + "'");
+  const Result<void> picked =
+      pick(args, "encoding", "--encoding", shImplied ? Encoding::Sh : Encoding::Pca,
+           {Encoding::Sh, Encoding::Table, Encoding::Pca, Encoding::Volume}, s.encoding);
+  if (!picked) return picked;
   // The default (no --encoding, no byte budget, none of Pca's own flags): Pca, and the volume tried
   // beside it where the scene allows (BakeSettings::tryVolume). A flag of Pca's asks for a Pca field.
   const bool pcaAsked = n.components || n.clusters || n.tableSize || n.dirs || args.get("direction-sampling") ||
@@ -257,10 +244,11 @@ Result<void> applySamplingFlags(const Args& args, const NumericFlags& n, BakeSet
   // are grid fits whatever this says).
   const bool tabulated = s.encoding == Encoding::Table || s.encoding == Encoding::Pca;
   const bool nodesByDefault = s.encoding == Encoding::Pca && !n.dirs;
-  const std::string sampling = args.get("direction-sampling").value_or(nodesByDefault ? "nodes" : "grid");
-  if (sampling == "nodes") s.directionSampling = DirectionSampling::Nodes;
-  else if (sampling == "grid") s.directionSampling = DirectionSampling::Grid;
-  else return usageError("shrefract bake: --dev direction-sampling must be nodes or grid, got '" + sampling + "'");
+  const Result<void> picked =
+      pick(args, "direction-sampling", "--dev direction-sampling",
+           nodesByDefault ? DirectionSampling::Nodes : DirectionSampling::Grid,
+           {DirectionSampling::Nodes, DirectionSampling::Grid}, s.directionSampling);
+  if (!picked) return picked;
   if (s.directionSampling == DirectionSampling::Nodes && !tabulated && !n.maxBytes)
     return usageError("shrefract bake: --dev direction-sampling=nodes needs --encoding table or pca");
   if (s.directionSampling == DirectionSampling::Nodes && n.dirs)
@@ -276,20 +264,17 @@ Result<void> applySamplingFlags(const Args& args, const NumericFlags& n, BakeSet
 
 // --path-rule, --max-bytes-per-sample and the options --dev throughput, no-jump-distance and exit-frame.
 Result<void> applyPathFlags(const Args& args, const NumericFlags& n, BakeSettings& s) {
-  const std::string rule = args.get("path-rule").value_or("first-refraction");
-  if (rule == "highest-energy") s.pathRule = PathRule::HighestEnergy;
-  else if (rule == "first-refraction") s.pathRule = PathRule::FirstRefraction;
-  else return usageError("shrefract bake: --path-rule must be highest-energy or first-refraction, got '" + rule + "'");
+  const Result<void> rule = pick(args, "path-rule", "--path-rule", PathRule::FirstRefraction,
+                                 {PathRule::HighestEnergy, PathRule::FirstRefraction}, s.pathRule);
+  if (!rule) return rule;
   s.throughput = args.has("throughput");
   // The image contest chooses the rule too, by the exact renders against the full tree, where no
   // rule is given (BakeSettings::choosePathRule).
   s.choosePathRule = !args.get("path-rule") && !s.throughput && s.chooseByImages;
   s.jumpDistance = !args.has("no-jump-distance");
-  const std::string exitFrame = args.get("exit-frame").value_or("auto");
-  if (exitFrame == "auto") s.exitFrame = ExitFrame::Auto;
-  else if (exitFrame == "sample") s.exitFrame = ExitFrame::Sample;
-  else if (exitFrame == "object") s.exitFrame = ExitFrame::Object;
-  else return usageError("shrefract bake: --dev exit-frame must be auto, sample or object, got '" + exitFrame + "'");
+  const Result<void> frame = pick(args, "exit-frame", "--dev exit-frame", ExitFrame::Auto,
+                                  {ExitFrame::Auto, ExitFrame::Sample, ExitFrame::Object}, s.exitFrame);
+  if (!frame) return frame;
   if (n.maxBytes) s.maxBytesPerSample = static_cast<float>(*n.maxBytes);
   return {};
 }

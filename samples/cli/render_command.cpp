@@ -28,13 +28,12 @@ namespace {
 
 using K = ValueKind;
 
-// Every flag once: its kind and range are what the parser checks and what --help prints. --help
-// lists the flags a user renders with, one short line each (docs/technique.md has the details);
-// the reference renders' switches, timings and device choices are developer options (--dev
-// KEY=VALUE, listed by --help-dev).
+// --help lists the flags a user renders with, one short line each (docs/technique.md has the
+// details); the reference renders' switches, timings and device choices are developer options
+// (--dev KEY=VALUE, listed by --help-dev).
 std::vector<FlagSpec> renderFlags() {
   const auto dev = developerOption;
-  std::vector<FlagSpec> flags = {
+  return sceneCommandFlags({
       {"output", true, "the image to write, .png or .exr (also -o)"},
       {"mode", true, "field (default for a .shrf), single-interface (default for a scene), exact or full-tree"},
       {"env", true, "environment: builtin (default) or a lat-long image file"},
@@ -67,11 +66,7 @@ std::vector<FlagSpec> renderFlags() {
       dev({"frames", true, "frames rendered, for timings (default 1)", K::Integer, {1, 100000}}),
       dev({"device", true, "Vulkan device index (default: the first)", K::Integer, {0, 1024}}),
       dev({"no-validation", false, "do not enable the Vulkan validation layer"}),
-  };
-  for (auto& f : sceneFlags(false)) flags.push_back(f);
-  flags.push_back({"json", false, "print a JSON summary with timings on stdout"});
-  flags.push_back({"help", false, "this text"});
-  return flags;
+      }, false, "print a JSON summary with timings on stdout");
 }
 
 int fail(const Error& e, int code = 1) {

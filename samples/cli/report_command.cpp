@@ -17,9 +17,8 @@ namespace {
 namespace fs = std::filesystem;
 using K = ValueKind;
 
-// Every flag once: its kind and range are what the parser checks and what --help prints.
 std::vector<FlagSpec> reportFlags() {
-  std::vector<FlagSpec> flags = {
+  return sceneCommandFlags({
       {"output", true, "output directory (replaced only once the report is complete); also -o"},
       {"full", false, "also the settings sweeps, stability cases and flicker orbits, and every fidelity row (hours)"},
       {"smoke", false, "a tiny report in seconds (for tests)"},
@@ -29,10 +28,7 @@ std::vector<FlagSpec> reportFlags() {
       {"samples", true, "surface sample budget of every bake (default: each encoding's own)", K::Integer, {1, 1e8}},
       {"threads", true, "bake and CPU reference threads (default: all cores)", K::Integer, {1, 1024}},
       {"device", true, "Vulkan device index", K::Integer, {0, 1024}},
-  };
-  for (auto& f : sceneFlags(true)) flags.push_back(f);
-  flags.push_back({"help", false, "this text"});
-  return flags;
+      }, true);
 }
 
 int usageError(const std::string& m) {

@@ -126,6 +126,13 @@ std::vector<FlagSpec> sceneFlags(bool mediumAbsorption) {
   return flags;
 }
 
+std::vector<FlagSpec> sceneCommandFlags(std::vector<FlagSpec> own, bool mediumAbsorption, const char* jsonHelp) {
+  for (auto& f : sceneFlags(mediumAbsorption)) own.push_back(f);
+  if (jsonHelp) own.push_back({"json", false, jsonHelp});
+  own.push_back({"help", false, "this text"});
+  return own;
+}
+
 SceneOverrides sceneOverridesFrom(const Args& args, bool mediumAbsorption) {
   SceneOverrides o;
   if (auto v = args.number("ior"); v.ok() && v.value()) o.ior = static_cast<float>(*v.value());

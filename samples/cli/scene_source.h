@@ -31,6 +31,11 @@ struct SceneOverrides {
 // media override; render and view use --absorption for the shading scale k instead.
 std::vector<FlagSpec> sceneFlags(bool mediumAbsorption);
 
+// A scene command's table, every flag once (its kind and range are what the parser checks and what
+// --help prints): `own`, then sceneFlags, then --json (with `jsonHelp`, when given) and --help.
+std::vector<FlagSpec> sceneCommandFlags(std::vector<FlagSpec> own, bool mediumAbsorption,
+                                        const char* jsonHelp = nullptr);
+
 // The overrides those flags set (Args::parse has checked their ranges).
 SceneOverrides sceneOverridesFrom(const Args& args, bool mediumAbsorption);
 

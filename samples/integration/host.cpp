@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <cstdio>
+#include <type_traits>
 #include <vector>
 
 namespace integration {
@@ -232,23 +233,48 @@ void Host::submit(Frame& frame) {
   check(vkQueueSubmit(queue, 1, &si, frame.fence), "vkQueueSubmit");
 }
 
-void imageBarrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkPipelineStageFlags2 srcStage,
-                  VkAccessFlags2 srcAccess, VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess,
-                  VkImageLayout oldLayout, VkImageLayout newLayout) {
-  VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
+namespace {
+
+// `b` (an image or a buffer barrier) with these stages and accesses, on the one queue family,
+// recorded alone.
+template <class Barrier>
+void recordBarrier(VkCommandBuffer cmd, Barrier b, VkPipelineStageFlags2 srcStage, VkAccessFlags2 srcAccess,
+                   VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess) {
   b.srcStageMask = srcStage;
   b.srcAccessMask = srcAccess;
   b.dstStageMask = dstStage;
   b.dstAccessMask = dstAccess;
+  b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+  if constexpr (std::is_same_v<Barrier, VkImageMemoryBarrier2>) {
+    dep.imageMemoryBarrierCount = 1;
+    dep.pImageMemoryBarriers = &b;
+  } else {
+    dep.bufferMemoryBarrierCount = 1;
+    dep.pBufferMemoryBarriers = &b;
+  }
+  vkCmdPipelineBarrier2(cmd, &dep);
+}
+
+}  // namespace
+
+void imageBarrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkPipelineStageFlags2 srcStage,
+                  VkAccessFlags2 srcAccess, VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess,
+                  VkImageLayout oldLayout, VkImageLayout newLayout) {
+  VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
   b.oldLayout = oldLayout;
   b.newLayout = newLayout;
-  b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
   b.image = image;
   b.subresourceRange = {aspect, 0, 1, 0, 1};
-  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-  dep.imageMemoryBarrierCount = 1;
-  dep.pImageMemoryBarriers = &b;
-  vkCmdPipelineBarrier2(cmd, &dep);
+  recordBarrier(cmd, b, srcStage, srcAccess, dstStage, dstAccess);
+}
+
+void bufferBarrier(VkCommandBuffer cmd, VkBuffer buffer, VkPipelineStageFlags2 srcStage, VkAccessFlags2 srcAccess,
+                   VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess) {
+  VkBufferMemoryBarrier2 b{VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2};
+  b.buffer = buffer;
+  b.size = VK_WHOLE_SIZE;
+  recordBarrier(cmd, b, srcStage, srcAccess, dstStage, dstAccess);
 }
 
 }  // namespace integration

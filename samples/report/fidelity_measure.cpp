@@ -102,6 +102,23 @@ Result<double> psnrOf(const SceneContext& c, const bake::Image& approx, const ba
   return e.value().psnr;
 }
 
+// One figure: the PSNR of `image` against `reference`, stored in `psnr`.
+struct PsnrFigure {
+  const bake::Image* image;
+  const bake::Image* reference;
+  double* psnr;
+};
+
+// Each figure in order, or the first error.
+Result<void> measurePsnrs(const SceneContext& c, std::initializer_list<PsnrFigure> figures) {
+  for (const PsnrFigure& f : figures) {
+    auto r = psnrOf(c, *f.image, *f.reference);
+    if (!r) return r.error();
+    *f.psnr = r.value();
+  }
+  return {};
+}
+
 // samplesPerAxis 0: the profile's.
 Result<bake::ReferenceImage> cpuRender(const SceneContext& c, bake::ReferenceOptions ro, const std::string& what,
                                        uint32_t samplesPerAxis = 0) {
@@ -130,16 +147,9 @@ FidelityRow baseRow(const SceneContext& c, const std::string& kind, const std::s
 
 // Both PSNRs of a row: against the physical reference and against the exact render it approximates.
 Result<void> scoreRow(const SceneContext& c, const bake::Image& image, const bake::Image& sameRule, FidelityRow& row) {
-  auto physical = psnrOf(c, image, c.physical.color);
-  if (!physical) return physical.error();
-  auto same = psnrOf(c, image, sameRule);
-  if (!same) return same.error();
-  auto dense = psnrOf(c, image, c.dense.color);
-  if (!dense) return dense.error();
-  row.psnrPhysical = physical.value();
-  row.psnrSameRule = same.value();
-  row.psnrDense = dense.value();
-  return {};
+  return measurePsnrs(c, {{&image, &c.physical.color, &row.psnrPhysical},
+                         {&image, &sameRule, &row.psnrSameRule},
+                         {&image, &c.dense.color, &row.psnrDense}});
 }
 
 // A variant's columns, shared by its f16 and u8 rows.
@@ -292,12 +302,9 @@ Result<void> addStep(const SceneContext& c, FidelityScene& out, const std::strin
   FidelityStep st;
   st.step = name;
   st.compares = compares;
-  auto a = psnrOf(c, coarser, finer);
-  if (!a) return a.error();
-  auto b = psnrOf(c, coarser, c.physical.color);
-  if (!b) return b.error();
-  st.psnr = a.value();
-  st.cumulative = b.value();
+  auto measured =
+      measurePsnrs(c, {{&coarser, &finer, &st.psnr}, {&coarser, &c.physical.color, &st.cumulative}});
+  if (!measured) return measured;
   out.decomposition.push_back(st);
   return {};
 }
@@ -390,14 +397,11 @@ Result<void> measureAntialiasing(SceneContext& c, const DefaultField& def, Fidel
   ro.treeDepth = c.profile.treeDepth;
   auto entry = [&](const std::string& mode, const bake::Image& one, const bake::Image& supersampled) -> Result<void> {
     FidelityAntialiasing a{mode};
-    for (auto [image, reference, psnr] : {std::tuple{&one, &c.physical.color, &a.psnrOneSample},
-                                          std::tuple{&supersampled, &c.physical.color, &a.psnrSupersampled},
-                                          std::tuple{&one, &c.dense.color, &a.denseOneSample},
-                                          std::tuple{&supersampled, &c.dense.color, &a.denseSupersampled}}) {
-      auto r = psnrOf(c, *image, *reference);
-      if (!r) return r.error();
-      *psnr = r.value();
-    }
+    auto measured = measurePsnrs(c, {{&one, &c.physical.color, &a.psnrOneSample},
+                                     {&supersampled, &c.physical.color, &a.psnrSupersampled},
+                                     {&one, &c.dense.color, &a.denseOneSample},
+                                     {&supersampled, &c.dense.color, &a.denseSupersampled}});
+    if (!measured) return measured;
     // The full tree's S x S render is the physical reference: no figure against itself.
     if (&supersampled == &c.physical.color) a.psnrSupersampled = std::numeric_limits<double>::infinity();
     out.antialiasing.push_back(a);

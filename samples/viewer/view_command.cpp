@@ -20,9 +20,8 @@ namespace {
 
 using K = ValueKind;
 
-// Every flag once: its kind and range are what the parser checks and what --help prints.
 std::vector<FlagSpec> viewFlags() {
-  std::vector<FlagSpec> flags = {
+  return sceneCommandFlags({
       {"field2", true, "a second field of the same object (e.g. the charts bake beside the split one); F toggles"},
       {"env", true, "lat-long image file or 'builtin'; repeatable; E cycles through them and builtin"},
       {"size", true, "window size WxH (default 960x640); with --screenshot, the image size", K::Size, {1, 16384},
@@ -42,10 +41,7 @@ std::vector<FlagSpec> viewFlags() {
       {"device", true, "Vulkan device index (default: first)", K::Integer, {0, 1024}},
       {"no-validation", false, "do not enable the Vulkan validation layer"},
       {"no-vsync", false, "present without waiting for vertical blank where the surface allows it"},
-  };
-  for (auto& f : sceneFlags(false)) flags.push_back(f);
-  flags.push_back({"help", false, "this text"});
-  return flags;
+      }, false);
 }
 
 int fail(const std::string& message, int code) {

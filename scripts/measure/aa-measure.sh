@@ -13,18 +13,16 @@
 # Fields are baked with --samples 4000 (a few minutes on 2 cores): the comparison is each mode at 1
 # spp against the same mode at 4x4, so the field's own angular error is common to both.
 set -euo pipefail
-tool=$1
-out=$2
-shift 2
-scenes=("$@")
-[ ${#scenes[@]} -gt 0 ] || scenes=(sphere cube torus glass-of-water)
 here=$(cd "$(dirname "$0")" && pwd)
+# shellcheck source=scripts/measure/scene-runs.sh
+source "$here/scene-runs.sh"
+scene_args "$@"
 size=320x240
 for s in "${scenes[@]}"; do
   d=$out/$s
   mkdir -p "$d"
   scene=builtin:$s
-  [ -f "$d/field.shrf" ] || "$tool" bake "$scene" --samples 4000 -o "$d/field.shrf" > "$d/bake.log"
+  bake_once "$d" "$scene"
   r() { "$tool" render "$@" --size $size > /dev/null; }
   # The object mask: two IORs change every object pixel and no background pixel.
   r "$scene" --mode single-interface --ior 1.2 -o "$d/mask_a.png"

@@ -12,19 +12,17 @@
 # through. Fields are baked with --samples 4000, as in aa-measure.sh; a field already at
 # OUTDIR/SCENE/field.shrf is used as it is (place the field you want to measure there).
 set -euo pipefail
-tool=$1
-out=$2
-shift 2
-scenes=("$@")
-[ ${#scenes[@]} -gt 0 ] || scenes=(sphere cube torus glass-of-water)
+here=$(cd "$(dirname "$0")" && pwd)
+# shellcheck source=scripts/measure/scene-runs.sh
+source "$here/scene-runs.sh"
+scene_args "$@"
 frames=${FRAMES:-16}
 size=${SIZE:-160x120}
-here=$(cd "$(dirname "$0")" && pwd)
 for s in "${scenes[@]}"; do
   d=$out/$s
   mkdir -p "$d"
   scene=builtin:$s
-  [ -f "$d/field.shrf" ] || "$tool" bake "$scene" --samples 4000 -o "$d/field.shrf" > "$d/bake.log"
+  bake_once "$d" "$scene"
   for ((t = 0; t < frames; ++t)); do
     eye=$(python3 -c "import math; a = math.radians(3 * $t); print(f'{4 * math.sin(a):.5f},1.2,{4 * math.cos(a):.5f}')")
     # Progress lines go to render.log; a failing render stops the script (set -e) and its line is there.

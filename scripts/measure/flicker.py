@@ -12,29 +12,21 @@ relative to the first MODE's (the reference).
 import os
 import sys
 
-
-def load_reader():
-    # aa_psnr.py runs main() at import; read its PNG reader without running it.
-    source = open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "aa_psnr.py")).read()
-    source = source.replace("\nmain()\n", "\n")
-    namespace = {}
-    exec(compile(source, "aa_psnr.py", "exec"), namespace)
-    return namespace["pixels"]
+from measure_images import object_pixels, png_pixels
 
 
 def main():
     if len(sys.argv) < 4:
         raise SystemExit(__doc__)
-    pixels = load_reader()
     folder, frames, modes = sys.argv[1], int(sys.argv[2]), sys.argv[3:]
     masks = []
     for t in range(frames):
-        _, _, a = pixels(os.path.join(folder, f"mask_a_{t}.png"))
-        _, _, b = pixels(os.path.join(folder, f"mask_b_{t}.png"))
-        masks.append({i for i in range(len(a)) if a[i] != b[i]})
+        _, _, a = png_pixels(os.path.join(folder, f"mask_a_{t}.png"))
+        _, _, b = png_pixels(os.path.join(folder, f"mask_b_{t}.png"))
+        masks.append(set(object_pixels(a, b)))
     results = []
     for mode in modes:
-        images = [pixels(os.path.join(folder, f"{mode}_{t}.png"))[2] for t in range(frames)]
+        images = [png_pixels(os.path.join(folder, f"{mode}_{t}.png"))[2] for t in range(frames)]
         total = 0.0
         for t in range(1, frames):
             region = masks[t] | masks[t - 1]

@@ -15,13 +15,12 @@
 # (openimageio-tools, which scripts/setup-debian.sh installs).
 set -euo pipefail
 [ $# -ge 2 ] || { echo "usage: $0 SHREFRACT OUTDIR [SCENE...]" >&2; exit 2; }
-tool=$1 out=$2
-shift 2
-scenes=("$@")
-[ ${#scenes[@]} -gt 0 ] || scenes=(sphere cube torus glass-of-water)
 here=$(cd "$(dirname "$0")" && pwd)
 # shellcheck source=scripts/measure/render-once.sh
 source "$here/render-once.sh"
+# shellcheck source=scripts/measure/scene-runs.sh
+source "$here/scene-runs.sh"
+scene_args "$@"
 for s in "${scenes[@]}"; do
   d=$out/$s
   mkdir -p "$d"

@@ -2,6 +2,7 @@
 // and the --max-error choice of order and directions (bake_driver.h: planBake).
 #include "driver/bake_driver.h"
 
+#include "fnv1a.h"
 #include "parallel.h"
 
 #include <algorithm>
@@ -175,27 +176,8 @@ Result<void> checkEncoding(const BakeSettings& s) {
 
 // FNV-1a over what a merge must share with the parts: the layout's samples, texels, gutters,
 // neighbours and mesh, and the media. A changed scene file or override changes it.
-class Fingerprint {
- public:
-  template <class T>
-  void add(const T* data, size_t count) {
-    const auto* bytes = reinterpret_cast<const unsigned char*>(data);
-    for (size_t i = 0; i < count * sizeof(T); ++i) hash_ = (hash_ ^ bytes[i]) * 0x100000001b3ull;
-  }
-  template <class T>
-  void add(const std::vector<T>& v) {
-    const uint64_t n = v.size();
-    add(&n, 1);
-    add(v.data(), v.size());
-  }
-  uint64_t value() const { return hash_; }
-
- private:
-  uint64_t hash_ = 0xcbf29ce484222325ull;
-};
-
 uint64_t sceneFingerprint(const Scene& scene, const SampleAtlas& atlas) {
-  Fingerprint f;
+  Fnv1a f;
   const uint32_t size[2] = {atlas.width, atlas.height};
   f.add(size, 2);
   f.add(atlas.texelKinds);

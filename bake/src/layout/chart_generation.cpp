@@ -53,10 +53,8 @@ std::vector<uint32_t> axisClasses(const Scene& scene, const FrontMesh& front) {
 std::vector<std::vector<uint32_t>> classAdjacency(const std::vector<EdgeUse>& uses,
                                                   const std::vector<uint32_t>& axisClass) {
   std::vector<std::vector<uint32_t>> adjacent(axisClass.size());
-  for (size_t k = 0; k < uses.size();) {
-    size_t end = k + 1;
-    while (end < uses.size() && uses[end].key == uses[k].key) ++end;
-    for (size_t a = k; a < end; ++a) {
+  forEachWeldedEdge(uses, [&](size_t first, size_t end) {
+    for (size_t a = first; a < end; ++a) {
       for (size_t b = a + 1; b < end; ++b) {
         const uint32_t ta = uses[a].triangle, tb = uses[b].triangle;
         if (ta != tb && axisClass[ta] == axisClass[tb]) {
@@ -65,8 +63,7 @@ std::vector<std::vector<uint32_t>> classAdjacency(const std::vector<EdgeUse>& us
         }
       }
     }
-    k = end;
-  }
+  });
   return adjacent;
 }
 
@@ -177,23 +174,16 @@ uint32_t uvCharts(const FrontMesh& front, const std::vector<EdgeUse>& uses, cons
     while (parent[a] != a) a = parent[a] = parent[parent[a]];
     return a;
   };
-  const auto uvAt = [&](const EdgeUse& use, uint32_t id) {
-    const FrontTriangle& tri = front.triangles[use.triangle];
-    const uint32_t c = tri.weld[use.edge] == id ? use.edge : (use.edge + 1) % 3;
-    return uvs[use.triangle][c];
-  };
-  for (size_t k = 0; k < uses.size();) {
-    size_t end = k + 1;
-    while (end < uses.size() && uses[end].key == uses[k].key) ++end;
-    const uint32_t lo = static_cast<uint32_t>(uses[k].key >> 32), hi = static_cast<uint32_t>(uses[k].key);
-    for (size_t other = k + 1; other < end && lo != hi; ++other) {
-      if (uvAt(uses[k], lo) == uvAt(uses[other], lo) && uvAt(uses[k], hi) == uvAt(uses[other], hi)) {
-        const uint32_t a = find(uses[k].triangle), b = find(uses[other].triangle);
+  const auto uvAt = [&](const EdgeUse& use, uint32_t id) { return uvs[use.triangle][cornerAt(front, use, id)]; };
+  forEachWeldedEdge(uses, [&](size_t first, size_t end) {
+    const uint32_t lo = lowerEnd(uses[first].key), hi = higherEnd(uses[first].key);
+    for (size_t other = first + 1; other < end && lo != hi; ++other) {
+      if (uvAt(uses[first], lo) == uvAt(uses[other], lo) && uvAt(uses[first], hi) == uvAt(uses[other], hi)) {
+        const uint32_t a = find(uses[first].triangle), b = find(uses[other].triangle);
         parent[std::max(a, b)] = std::min(a, b);
       }
     }
-    k = end;
-  }
+  });
   chartOf.assign(front.triangles.size(), 0);
   std::vector<uint32_t> id(front.triangles.size(), kNoSample);
   uint32_t count = 0;

@@ -254,11 +254,9 @@ void extendAcrossSmoothSeams(const Scene& scene, const FrontMesh& front, const P
   const auto clampTexel = [](double v, uint32_t size) {
     return static_cast<uint32_t>(std::clamp(v, 0.0, double(size - 1)));
   };
-  for (size_t k = 0; k < uses.size();) {
-    size_t end = k + 1;
-    while (end < uses.size() && uses[end].key == uses[k].key) ++end;
-    for (size_t m = k; m < end; ++m)
-      for (size_t n = k; n < end; ++n) {
+  forEachWeldedEdge(uses, [&](size_t first, size_t end) {
+    for (size_t m = first; m < end; ++m)
+      for (size_t n = first; n < end; ++n) {
         const uint32_t t = uses[m].triangle, across = uses[n].triangle;
         const uint32_t chart = placement.chartOf[t];
         if (t == across || placement.chartOf[across] == chart) continue;
@@ -281,8 +279,7 @@ void extendAcrossSmoothSeams(const Scene& scene, const FrontMesh& front, const P
             extended[texel] = 1;
           }
       }
-    k = end;
-  }
+  });
 }
 
 }  // namespace shrefract::bake::layout_detail

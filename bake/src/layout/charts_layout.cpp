@@ -161,23 +161,10 @@ std::vector<std::array<uint32_t, 3>> appendRenderMesh(const Scene& scene, const 
 // Seams: welded edges whose two triangles show them at different atlas positions.
 void addSeams(const FrontMesh& front, const std::vector<EdgeUse>& uses,
               const std::vector<std::array<uint32_t, 3>>& cornerVertex, SampleAtlas& atlas) {
-  const auto uvOf = [&](const EdgeUse& use, uint32_t id) {
-    const FrontTriangle& tri = front.triangles[use.triangle];
-    const uint32_t c = tri.weld[use.edge] == id ? use.edge : (use.edge + 1) % 3;
-    const uint32_t v = cornerVertex[use.triangle][c];
-    return std::array<float, 2>{atlas.mesh.uvs[2 * v], atlas.mesh.uvs[2 * v + 1]};
+  const auto vertexAt = [&](const EdgeUse& use, uint32_t id) {
+    return cornerVertex[use.triangle][cornerAt(front, use, id)];
   };
-  for (size_t k = 0; k < uses.size();) {
-    size_t end = k + 1;
-    while (end < uses.size() && uses[end].key == uses[k].key) ++end;
-    const uint32_t lo = static_cast<uint32_t>(uses[k].key >> 32), hi = static_cast<uint32_t>(uses[k].key);
-    for (size_t other = k + 1; other < end && lo != hi; ++other) {
-      const SampleAtlas::SharedEdge edge{uvOf(uses[k], lo), uvOf(uses[k], hi), uvOf(uses[other], lo),
-                                         uvOf(uses[other], hi)};
-      if (edge.a0 != edge.b0 || edge.a1 != edge.b1) atlas.sharedEdges.push_back(edge);
-    }
-    k = end;
-  }
+  appendSharedEdges(uses, vertexAt, /*seamsOnly=*/true, atlas);
 }
 
 }  // namespace

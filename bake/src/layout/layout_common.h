@@ -144,6 +144,45 @@ struct EdgeUse {
 inline uint64_t edgeKey(uint32_t a, uint32_t b) {
   return (uint64_t(std::min(a, b)) << 32) | uint64_t(std::max(a, b));
 }
+// The welded ids of a key's edge: the lower and the higher.
+inline uint32_t lowerEnd(uint64_t key) { return static_cast<uint32_t>(key >> 32); }
+inline uint32_t higherEnd(uint64_t key) { return static_cast<uint32_t>(key); }
+
+// The corner of `use`'s triangle at welded id `id`, one of the two ends of its edge.
+inline uint32_t cornerAt(const FrontMesh& mesh, const EdgeUse& use, uint32_t id) {
+  return mesh.triangles[use.triangle].weld[use.edge] == id ? use.edge : (use.edge + 1) % 3;
+}
+
+// Calls visit(first, end) for each welded edge, [first, end) the run of its uses in `uses`
+// (sortedEdgeUses).
+template <class Visit>
+void forEachWeldedEdge(const std::vector<EdgeUse>& uses, Visit&& visit) {
+  for (size_t first = 0; first < uses.size();) {
+    size_t end = first + 1;
+    while (end < uses.size() && uses[end].key == uses[first].key) ++end;
+    visit(first, end);
+    first = end;
+  }
+}
+
+// Each welded edge's first use against every other one, at the atlas uvs of the render vertices
+// vertexAt(use, welded id), into atlas.sharedEdges: every pair, or with `seamsOnly` the pairs
+// whose positions differ.
+template <class VertexAt>
+void appendSharedEdges(const std::vector<EdgeUse>& uses, VertexAt&& vertexAt, bool seamsOnly, SampleAtlas& atlas) {
+  const auto uvOf = [&](const EdgeUse& use, uint32_t id) {
+    const size_t v = vertexAt(use, id);
+    return std::array<float, 2>{atlas.mesh.uvs[2 * v], atlas.mesh.uvs[2 * v + 1]};
+  };
+  forEachWeldedEdge(uses, [&](size_t first, size_t end) {
+    const uint32_t lo = lowerEnd(uses[first].key), hi = higherEnd(uses[first].key);
+    for (size_t other = first + 1; other < end && lo != hi; ++other) {
+      const SampleAtlas::SharedEdge edge{uvOf(uses[first], lo), uvOf(uses[first], hi), uvOf(uses[other], lo),
+                                         uvOf(uses[other], hi)};
+      if (!seamsOnly || edge.a0 != edge.b0 || edge.a1 != edge.b1) atlas.sharedEdges.push_back(edge);
+    }
+  });
+}
 
 // Every edge use, sorted by key, then triangle, then edge: uses of one edge are adjacent.
 inline std::vector<EdgeUse> sortedEdgeUses(const FrontMesh& mesh) {

@@ -22,6 +22,7 @@
 namespace shrefract::bake {
 namespace {
 
+using layout_detail::cornerAt;
 using layout_detail::EdgeUse;
 using layout_detail::FrontMesh;
 using layout_detail::FrontTriangle;
@@ -290,29 +291,11 @@ class BlockWriter {
 
 // Shared edges: the first triangle of each welded edge against every other one.
 void addSharedEdges(const FrontMesh& front, const std::vector<EdgeUse>& uses, SampleAtlas& atlas) {
-  const auto cornerUv = [&](uint32_t t, uint32_t c) {
-    const size_t v = size_t(t) * 3 + c;
-    return std::array<float, 2>{atlas.mesh.uvs[2 * v], atlas.mesh.uvs[2 * v + 1]};
+  // Every triangle has three render vertices of its own.
+  const auto vertexAt = [&](const EdgeUse& use, uint32_t id) {
+    return size_t(use.triangle) * 3 + cornerAt(front, use, id);
   };
-  for (size_t k = 0; k < uses.size();) {
-    size_t end = k + 1;
-    while (end < uses.size() && uses[end].key == uses[k].key) ++end;
-    const uint32_t lo = static_cast<uint32_t>(uses[k].key >> 32);
-    const uint32_t hi = static_cast<uint32_t>(uses[k].key & 0xFFFFFFFFu);
-    if (lo != hi) {
-      // Corner of a use's triangle that sits at welded id `id`.
-      const auto endpoint = [&](const EdgeUse& use, uint32_t id) {
-        const FrontTriangle& tri = front.triangles[use.triangle];
-        const uint32_t c = tri.weld[use.edge] == id ? use.edge : (use.edge + 1) % 3;
-        return cornerUv(use.triangle, c);
-      };
-      for (size_t other = k + 1; other < end; ++other) {
-        atlas.sharedEdges.push_back({endpoint(uses[k], lo), endpoint(uses[k], hi),
-                                     endpoint(uses[other], lo), endpoint(uses[other], hi)});
-      }
-    }
-    k = end;
-  }
+  layout_detail::appendSharedEdges(uses, vertexAt, /*seamsOnly=*/false, atlas);
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "core/image_barrier.h"
+#include "core/image_info.h"
 
 namespace shrefract::harness {
 namespace {
@@ -295,18 +296,24 @@ uint32_t Harness::findMemoryType(uint32_t typeBits, VkMemoryPropertyFlags requir
   return UINT32_MAX;
 }
 
-Result<VkDeviceMemory> Harness::allocate(const VkMemoryRequirements& req, VkMemoryPropertyFlags preferred,
-                                         VkMemoryPropertyFlags required) const {
+Result<void> Harness::bindMemory(VkBuffer buffer, VkImage image, VkMemoryPropertyFlags preferred,
+                                 VkMemoryPropertyFlags required, VkDeviceMemory& memory) const {
+  VkMemoryRequirements req{};
+  if (buffer) vkGetBufferMemoryRequirements(device_, buffer, &req);
+  else vkGetImageMemoryRequirements(device_, image, &req);
   VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
   mai.allocationSize = req.size;
   mai.memoryTypeIndex = findMemoryType(req.memoryTypeBits, preferred);
   if (mai.memoryTypeIndex == UINT32_MAX) mai.memoryTypeIndex = findMemoryType(req.memoryTypeBits, required);
   if (mai.memoryTypeIndex == UINT32_MAX)
     return makeError(ErrorCode::MissingFeature, "no memory type with the flags " + std::to_string(required));
-  VkDeviceMemory memory = VK_NULL_HANDLE;
-  if (VkResult r = vkAllocateMemory(device_, &mai, nullptr, &memory); r != VK_SUCCESS)
+  VkDeviceMemory allocated = VK_NULL_HANDLE;  // `memory` stays null on failure
+  if (VkResult r = vkAllocateMemory(device_, &mai, nullptr, &allocated); r != VK_SUCCESS)
     return vkError("vkAllocateMemory", r);
-  return memory;
+  memory = allocated;
+  if (buffer) vkBindBufferMemory(device_, buffer, memory, 0);
+  else vkBindImageMemory(device_, image, memory, 0);
+  return {};
 }
 
 Result<Harness::Buffer> Harness::createHostBuffer(VkDeviceSize size, VkBufferUsageFlags usage) {
@@ -317,16 +324,11 @@ Result<Harness::Buffer> Harness::createHostBuffer(VkDeviceSize size, VkBufferUsa
   bci.usage = usage;
   VkResult r = vkCreateBuffer(device_, &bci, nullptr, &b.buffer);
   if (r != VK_SUCCESS) return vkError("vkCreateBuffer", r);
-  VkMemoryRequirements req{};
-  vkGetBufferMemoryRequirements(device_, b.buffer, &req);
   const VkMemoryPropertyFlags hostFlags = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-  auto memory = allocate(req, hostFlags, hostFlags);
-  if (!memory) {
+  if (auto bound = bindMemory(b.buffer, VK_NULL_HANDLE, hostFlags, hostFlags, b.memory); !bound) {
     destroyBuffer(b);
-    return memory.error();
+    return bound.error();
   }
-  b.memory = memory.value();
-  vkBindBufferMemory(device_, b.buffer, b.memory, 0);
   vkMapMemory(device_, b.memory, 0, VK_WHOLE_SIZE, 0, &b.mapped);
   return b;
 }
@@ -344,27 +346,14 @@ Result<Harness::Image> Harness::createImage(uint32_t width, uint32_t height, VkF
   img.format = format;
   img.width = width;
   img.height = height;
-  VkImageCreateInfo ici{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
-  ici.imageType = VK_IMAGE_TYPE_2D;
-  ici.format = format;
-  ici.extent = {width, height, 1};
-  ici.mipLevels = 1;
-  ici.arrayLayers = 1;
-  ici.samples = samples;
-  ici.tiling = VK_IMAGE_TILING_OPTIMAL;
-  ici.usage = usage;
-  ici.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  const VkImageCreateInfo ici = imageInfo2D(format, width, height, usage, samples);
   VkResult r = vkCreateImage(device_, &ici, nullptr, &img.image);
   if (r != VK_SUCCESS) return vkError("vkCreateImage", r);
-  VkMemoryRequirements req{};
-  vkGetImageMemoryRequirements(device_, img.image, &req);
-  auto memory = allocate(req, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, 0);
-  if (!memory) {
+  auto bound = bindMemory(VK_NULL_HANDLE, img.image, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, 0, img.memory);
+  if (!bound) {
     destroyImage(img);
-    return memory.error();
+    return bound.error();
   }
-  img.memory = memory.value();
-  vkBindImageMemory(device_, img.image, img.memory, 0);
   VkImageViewCreateInfo vci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
   vci.image = img.image;
   vci.viewType = VK_IMAGE_VIEW_TYPE_2D;

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -90,6 +91,21 @@ struct ContextImpl {
   // the staging buffer.
   Result<void> recordBufferUpload(VkCommandBuffer cmd, VkBuffer dst, const void* data, VkDeviceSize bytes);
 };
+
+// Frees a pass's state (DecompressorImpl, RendererImpl: a `context` and release()) once the GPU can
+// no longer be using it; state that never got a context goes at once.
+template <class Impl>
+void retireImpl(std::unique_ptr<Impl> impl) {
+  Impl* p = impl.release();
+  if (!p->context) {
+    delete p;
+    return;
+  }
+  p->context->retire([p]() {
+    p->release();
+    delete p;
+  });
+}
 
 // The engine's way into Context's private state.
 struct ContextAccess {

@@ -95,17 +95,7 @@ struct DecompressorImpl {
 
 Decompressor::Decompressor(std::unique_ptr<DecompressorImpl> impl) : impl_(std::move(impl)) {}
 
-Decompressor::~Decompressor() {
-  DecompressorImpl* d = impl_.release();
-  if (!d->context) {
-    delete d;
-    return;
-  }
-  d->context->retire([d]() {
-    d->release();
-    delete d;
-  });
-}
+Decompressor::~Decompressor() { retireImpl(std::move(impl_)); }
 
 Result<std::unique_ptr<Decompressor>> Decompressor::create(Context& context) {
   ContextImpl& c = ContextAccess::impl(context);

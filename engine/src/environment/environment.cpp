@@ -8,6 +8,7 @@
 
 #include "core/barriers.h"
 #include "core/half.h"
+#include "core/image_info.h"
 #include "environment/environment_impl.h"
 #include "environment/latlong.h"
 
@@ -32,18 +33,14 @@ Result<void> toHalf(const float* rgba, size_t texels, uint32_t width, const std:
 
 // The RGBA16F image (layers == 6: cube) with room for its level chain.
 Result<ImageAllocation> createEnvironmentImage(ContextImpl& c, bool cube, uint32_t width, uint32_t height) {
-  VkImageCreateInfo ici{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
-  ici.flags = cube ? VkImageCreateFlags{VK_IMAGE_CREATE_CUBE_COMPATIBLE_BIT} : VkImageCreateFlags{0};
-  ici.imageType = VK_IMAGE_TYPE_2D;
-  ici.format = VK_FORMAT_R16G16B16A16_SFLOAT;
-  ici.extent = {width, height, 1};
-  ici.mipLevels = environmentLevelCount(width, height);
-  ici.arrayLayers = cube ? 6u : 1u;
-  ici.samples = VK_SAMPLE_COUNT_1_BIT;
-  ici.tiling = VK_IMAGE_TILING_OPTIMAL;
   // TRANSFER_SRC: each level is blitted from the one above (RGBA16F supports BLIT_SRC, BLIT_DST
   // and linear filtering with optimal tiling on every Vulkan device: a mandatory format).
-  ici.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  VkImageCreateInfo ici =
+      imageInfo2D(VK_FORMAT_R16G16B16A16_SFLOAT, width, height,
+                  VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT);
+  ici.flags = cube ? VkImageCreateFlags{VK_IMAGE_CREATE_CUBE_COMPATIBLE_BIT} : VkImageCreateFlags{0};
+  ici.mipLevels = environmentLevelCount(width, height);
+  ici.arrayLayers = cube ? 6u : 1u;
   return c.createImage(ici, cube ? VK_IMAGE_VIEW_TYPE_CUBE : VK_IMAGE_VIEW_TYPE_2D, VK_IMAGE_ASPECT_COLOR_BIT);
 }
 

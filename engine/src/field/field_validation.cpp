@@ -319,6 +319,58 @@ Result<void> validateClusterIndices(const Field& field) {
   return {};
 }
 
+// The array of the field's quantization holds `count` values and the other none.
+Result<void> validateCoefficientCounts(const Field& field, uint64_t count) {
+  const bool u8 = field.quantization == Quantization::U8;
+  const std::string name = u8 ? "coefficientsU8" : "coefficientsF16", other = u8 ? "coefficientsF16" : "coefficientsU8";
+  const size_t stored = u8 ? field.coefficientsU8.size() : field.coefficientsF16.size();
+  const size_t otherStored = u8 ? field.coefficientsF16.size() : field.coefficientsU8.size();
+  if (stored != count)
+    return invalid(name + " has " + std::to_string(stored) + " entries, expected " + std::to_string(count) +
+                   " (layers x texels x values)");
+  if (otherStored != 0)
+    return invalid(other + " has " + std::to_string(otherStored) + " entries but the field is quantized to " +
+                   (u8 ? "u8" : "f16"));
+  return {};
+}
+
+// U8: a scale and bias per layer and value (`tables` of them), each decoding to finite values.
+Result<void> validateScaleBias(const Field& field, uint64_t tables, uint32_t values) {
+  if (field.scale.size() != tables || field.bias.size() != tables)
+    return invalid("scale/bias have " + std::to_string(field.scale.size()) + "/" + std::to_string(field.bias.size()) +
+                   " entries, expected " + std::to_string(tables) + " (layers x values)");
+  for (size_t i = 0; i < tables; ++i) {
+    const float top = field.bias[i] + field.scale[i];  // the decoded value of q = 255
+    if (!std::isfinite(field.scale[i]) || !std::isfinite(field.bias[i]) || !std::isfinite(top))
+      return invalid("scale/bias of layer " + std::to_string(i / values) + " value " + std::to_string(i % values) +
+                     " (" + formatFloat(field.scale[i]) + ", " + formatFloat(field.bias[i]) +
+                     ") do not decode to finite values");
+    // Every level lies between bias and top; bounding both keeps every SH sum finite in float.
+    if (!(std::fabs(field.bias[i]) <= kMaxCoefficientMagnitude) || !(std::fabs(top) <= kMaxCoefficientMagnitude))
+      return invalid("scale/bias of layer " + std::to_string(i / values) + " value " + std::to_string(i % values) +
+                     " (" + formatFloat(field.scale[i]) + ", " + formatFloat(field.bias[i]) + ") decode beyond +-" +
+                     formatFloat(kMaxCoefficientMagnitude));
+  }
+  return {};
+}
+
+// F16: no scale or bias, and no NaN or Inf among the `count` values.
+Result<void> validateF16Values(const Field& field, uint64_t count, uint64_t texels, uint32_t values) {
+  if (!field.scale.empty() || !field.bias.empty())
+    return invalid("scale/bias have " + std::to_string(field.scale.size()) + "/" + std::to_string(field.bias.size()) +
+                   " entries but the field is quantized to f16 (expected none)");
+  for (size_t i = 0; i < count; ++i) {
+    const uint16_t h = field.coefficientsF16[i];
+    if ((h & 0x7C00u) == 0x7C00u) {
+      const uint64_t perLayer = texels * values;
+      return invalid("coefficientsF16[" + std::to_string(i) + "] (layer " + std::to_string(i / perLayer) + ", " +
+                     texelName(field, (i % perLayer) / values) + ", value " + std::to_string(i % values) + ") is " +
+                     ((h & 0x3FFu) ? "NaN" : "Inf") + " (bits " + hex32(h) + ")");
+    }
+  }
+  return {};
+}
+
 Result<void> validateCoefficients(const Field& field) {
   if (field.clustered) return validateClusterIndices(field);
   if (!field.clusterIndices.empty())
@@ -328,50 +380,9 @@ Result<void> validateCoefficients(const Field& field) {
   const uint32_t values = field.valuesPerLayer();
   const uint64_t tables = uint64_t(field.layerCount()) * values;
   const uint64_t count = tables * texels;
-  if (field.quantization == Quantization::U8) {
-    if (field.coefficientsU8.size() != count)
-      return invalid("coefficientsU8 has " + std::to_string(field.coefficientsU8.size()) + " entries, expected " +
-                     std::to_string(count) + " (layers x texels x values)");
-    if (!field.coefficientsF16.empty())
-      return invalid("coefficientsF16 has " + std::to_string(field.coefficientsF16.size()) +
-                     " entries but the field is quantized to u8");
-    if (field.scale.size() != tables || field.bias.size() != tables)
-      return invalid("scale/bias have " + std::to_string(field.scale.size()) + "/" + std::to_string(field.bias.size()) +
-                     " entries, expected " + std::to_string(tables) + " (layers x values)");
-    for (size_t i = 0; i < tables; ++i) {
-      const float top = field.bias[i] + field.scale[i];  // the decoded value of q = 255
-      if (!std::isfinite(field.scale[i]) || !std::isfinite(field.bias[i]) || !std::isfinite(top))
-        return invalid("scale/bias of layer " + std::to_string(i / values) + " value " +
-                       std::to_string(i % values) + " (" + formatFloat(field.scale[i]) + ", " +
-                       formatFloat(field.bias[i]) + ") do not decode to finite values");
-      // Every level lies between bias and top; bounding both keeps every SH sum finite in float.
-      if (!(std::fabs(field.bias[i]) <= kMaxCoefficientMagnitude) || !(std::fabs(top) <= kMaxCoefficientMagnitude))
-        return invalid("scale/bias of layer " + std::to_string(i / values) + " value " +
-                       std::to_string(i % values) + " (" + formatFloat(field.scale[i]) + ", " +
-                       formatFloat(field.bias[i]) + ") decode beyond +-" + formatFloat(kMaxCoefficientMagnitude));
-    }
-  } else {
-    if (field.coefficientsF16.size() != count)
-      return invalid("coefficientsF16 has " + std::to_string(field.coefficientsF16.size()) + " entries, expected " +
-                     std::to_string(count) + " (layers x texels x values)");
-    if (!field.coefficientsU8.empty())
-      return invalid("coefficientsU8 has " + std::to_string(field.coefficientsU8.size()) +
-                     " entries but the field is quantized to f16");
-    if (!field.scale.empty() || !field.bias.empty())
-      return invalid("scale/bias have " + std::to_string(field.scale.size()) + "/" + std::to_string(field.bias.size()) +
-                     " entries but the field is quantized to f16 (expected none)");
-    for (size_t i = 0; i < count; ++i) {
-      const uint16_t h = field.coefficientsF16[i];
-      if ((h & 0x7C00u) == 0x7C00u) {
-        const uint64_t perLayer = texels * values;
-        return invalid("coefficientsF16[" + std::to_string(i) + "] (layer " + std::to_string(i / perLayer) + ", " +
-                       texelName(field, (i % perLayer) / values) + ", value " +
-                       std::to_string(i % values) + ") is " + ((h & 0x3FFu) ? "NaN" : "Inf") + " (bits " +
-                       hex32(h) + ")");
-      }
-    }
-  }
-  return {};
+  if (auto r = validateCoefficientCounts(field, count); !r) return r;
+  if (field.quantization == Quantization::U8) return validateScaleBias(field, tables, values);
+  return validateF16Values(field, count, texels, values);
 }
 
 }  // namespace

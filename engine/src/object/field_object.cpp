@@ -13,6 +13,7 @@
 #include "core/barriers.h"
 #include "core/context_impl.h"
 #include "core/half.h"
+#include "core/image_info.h"
 #include "decompress/field_layouts.h"
 #include "object/object_impl.h"
 #include "shrefract/gpu_layout.h"
@@ -174,16 +175,9 @@ Result<FieldBufferSizes> fieldBufferSizes(const Field& field, uint64_t samples, 
 // supports), in one allocation held by the distortion image. Both storage (decompression), sampled
 // (raster), transfer (clear, and copies out for tools and tests).
 Result<std::vector<ImageAllocation>> createInstanceImages(ContextImpl& c, uint32_t width, uint32_t height) {
-  VkImageCreateInfo ici{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
-  ici.imageType = VK_IMAGE_TYPE_2D;
-  ici.format = VK_FORMAT_R16G16B16A16_SFLOAT;
-  ici.extent = {width, height, 1};
-  ici.mipLevels = 1;
-  ici.arrayLayers = 1;
-  ici.samples = VK_SAMPLE_COUNT_1_BIT;
-  ici.tiling = VK_IMAGE_TILING_OPTIMAL;
-  ici.usage = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT |
-              VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  const VkImageCreateInfo ici = imageInfo2D(VK_FORMAT_R16G16B16A16_SFLOAT, width, height,
+                                            VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT |
+                                                VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT);
   VkImageCreateInfo jump = ici;
   jump.format = VK_FORMAT_R32_SFLOAT;
   return c.createImages({ici, jump}, VK_IMAGE_VIEW_TYPE_2D, VK_IMAGE_ASPECT_COLOR_BIT);

@@ -64,6 +64,12 @@ struct ShaderPair {
   size_t fragBytes;
 };
 
+// A pair of embedded SPIR-V arrays (engine_spirv.h).
+template <size_t V, size_t F>
+ShaderPair shaderPair(const uint32_t (&vert)[V], const uint32_t (&frag)[F]) {
+  return {vert, sizeof(vert), frag, sizeof(frag)};
+}
+
 // The object pass reads ObjectImpl's interleaved vertex (object/object_impl.h, kVertexFloats words).
 constexpr VkVertexInputBindingDescription kObjectVertexBinding{0, kVertexFloats * sizeof(float),
                                                                VK_VERTEX_INPUT_RATE_VERTEX};
@@ -279,17 +285,7 @@ bool outsideFrustum(const ViewFrustum& frustum, const std::array<float, 3>& boxM
 
 Renderer::Renderer(std::unique_ptr<RendererImpl> impl) : impl_(std::move(impl)) {}
 
-Renderer::~Renderer() {
-  RendererImpl* r = impl_.release();
-  if (!r->context) {
-    delete r;
-    return;
-  }
-  r->context->retire([r]() {
-    r->release();
-    delete r;
-  });
-}
+Renderer::~Renderer() { retireImpl(std::move(impl_)); }
 
 namespace {
 
@@ -375,31 +371,18 @@ struct PipelineVariant {
 };
 
 std::vector<PipelineVariant> pipelineVariants(RendererImpl& impl, bool coverage) {
-  const ShaderPair fieldShaders{kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_field_frag,
-                                sizeof(kSpirv_object_field_frag)};
-  const ShaderPair fieldCubeShaders{kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_field_cube_frag,
-                                    sizeof(kSpirv_object_field_cube_frag)};
-  const ShaderPair volumeShaders{kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_volume_frag,
-                                 sizeof(kSpirv_object_volume_frag)};
-  const ShaderPair volumeCubeShaders{kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_volume_cube_frag,
-                                     sizeof(kSpirv_object_volume_cube_frag)};
+  const ShaderPair fieldShaders = shaderPair(kSpirv_object_vert, kSpirv_object_field_frag);
+  const ShaderPair fieldCubeShaders = shaderPair(kSpirv_object_vert, kSpirv_object_field_cube_frag);
+  const ShaderPair volumeShaders = shaderPair(kSpirv_object_vert, kSpirv_object_volume_frag);
+  const ShaderPair volumeCubeShaders = shaderPair(kSpirv_object_vert, kSpirv_object_volume_cube_frag);
   std::vector<PipelineVariant> variants{{
-      {&impl.background[0], impl.backgroundLayout,
-       {kSpirv_background_vert, sizeof(kSpirv_background_vert), kSpirv_background_frag,
-        sizeof(kSpirv_background_frag)},
-       false},
-      {&impl.background[1], impl.backgroundLayout,
-       {kSpirv_background_vert, sizeof(kSpirv_background_vert), kSpirv_background_cube_frag,
-        sizeof(kSpirv_background_cube_frag)},
+      {&impl.background[0], impl.backgroundLayout, shaderPair(kSpirv_background_vert, kSpirv_background_frag), false},
+      {&impl.background[1], impl.backgroundLayout, shaderPair(kSpirv_background_vert, kSpirv_background_cube_frag),
        false},
       {&impl.singleInterface[0], impl.objectLayout,
-       {kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_single_interface_frag,
-        sizeof(kSpirv_object_single_interface_frag)},
-       true},
+       shaderPair(kSpirv_object_vert, kSpirv_object_single_interface_frag), true},
       {&impl.singleInterface[1], impl.objectLayout,
-       {kSpirv_object_vert, sizeof(kSpirv_object_vert), kSpirv_object_single_interface_cube_frag,
-        sizeof(kSpirv_object_single_interface_cube_frag)},
-       true},
+       shaderPair(kSpirv_object_vert, kSpirv_object_single_interface_cube_frag), true},
       {&impl.field[0], impl.fieldLayout, fieldShaders, true, coverage},
       {&impl.field[1], impl.fieldLayout, fieldCubeShaders, true, coverage},
       {&impl.volume[0], impl.fieldLayout, volumeShaders, true, coverage},

@@ -101,6 +101,7 @@ Result<AccessorView> Importer::viewAccessor(int accessorIndex, const std::string
   out.data = buffer.data.data() + view.byteOffset + accessor.byteOffset;
   out.count = accessor.count;
   out.stride = stride;
+  out.type = accessor.type;
   out.componentType = accessor.componentType;
   out.normalized = accessor.normalized;
   return out;
@@ -145,12 +146,10 @@ Result<std::vector<glm::vec3>> Importer::readVec3(int accessorIndex,
   if (!view) {
     return view.error();
   }
-  const tinygltf::Accessor& accessor = model_.accessors[static_cast<size_t>(accessorIndex)];
-  if (accessor.type != TINYGLTF_TYPE_VEC3 ||
-      accessor.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT) {
+  if (view->type != TINYGLTF_TYPE_VEC3 || view->componentType != TINYGLTF_COMPONENT_TYPE_FLOAT) {
     return fail(ErrorCode::Unsupported, what + " must be FLOAT VEC3 (component type " +
-                                            std::to_string(accessor.componentType) + ", type " +
-                                            std::to_string(accessor.type) + ")");
+                                            std::to_string(view->componentType) + ", type " +
+                                            std::to_string(view->type) + ")");
   }
   std::vector<glm::vec3> out(view->count);
   for (size_t i = 0; i < view->count; ++i) {
@@ -170,12 +169,11 @@ Result<std::vector<glm::vec2>> Importer::readTexcoords(int accessorIndex,
   if (!view) {
     return view.error();
   }
-  const tinygltf::Accessor& accessor = model_.accessors[static_cast<size_t>(accessorIndex)];
-  const int type = accessor.componentType;
+  const int type = view->componentType;
   const bool supported =
-      accessor.type == TINYGLTF_TYPE_VEC2 &&
+      view->type == TINYGLTF_TYPE_VEC2 &&
       (type == TINYGLTF_COMPONENT_TYPE_FLOAT ||
-       (accessor.normalized && (type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+       (view->normalized && (type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
                                 type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT)));
   if (!supported) {
     return fail(ErrorCode::Unsupported,
@@ -207,9 +205,8 @@ Result<std::vector<uint32_t>> Importer::readIndices(int accessorIndex, const std
   if (!view) {
     return view.error();
   }
-  const tinygltf::Accessor& accessor = model_.accessors[static_cast<size_t>(accessorIndex)];
-  const int type = accessor.componentType;
-  if (accessor.type != TINYGLTF_TYPE_SCALAR ||
+  const int type = view->componentType;
+  if (view->type != TINYGLTF_TYPE_SCALAR ||
       (type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
        type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
        type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)) {

@@ -151,6 +151,7 @@ struct AccessorView {
   const unsigned char* data = nullptr;
   size_t count = 0;
   size_t stride = 0;
+  int type = 0;  // TINYGLTF_TYPE_*
   int componentType = 0;
   bool normalized = false;
 

@@ -59,6 +59,15 @@ class SurfaceBuilder {
   Surface& surface_;
 };
 
+// An empty surface between two media (indices into Scene::media).
+Surface surfaceBetween(std::string name, uint32_t innerMedium, uint32_t outerMedium) {
+  Surface surface;
+  surface.name = std::move(name);
+  surface.innerMedium = innerMedium;
+  surface.outerMedium = outerMedium;
+  return surface;
+}
+
 // t-th of n steps from a to b, returning a and b exactly at the ends so that vertices shared
 // between surfaces (or between the parts of one surface) are bitwise identical.
 float lerpExact(float a, float b, int t, int n) {
@@ -100,13 +109,10 @@ Surface makeSphereSurface(int level) {
     }
     indices = std::move(next);
   }
-  Surface surface;
-  surface.name = "sphere";
+  Surface surface = surfaceBetween("sphere", 1, 0);
   surface.normals = positions;  // unit sphere: the normal is the position
   surface.positions = std::move(positions);
   surface.indices = std::move(indices);
-  surface.innerMedium = 1;
-  surface.outerMedium = 0;
   return surface;
 }
 
@@ -125,10 +131,7 @@ Surface makeCubeSurface(int level) {
       {{0, 0, 1}, {1, 0, 0}, {0, 1, 0}},
       {{0, 0, -1}, {0, 1, 0}, {1, 0, 0}},
   }};
-  Surface surface;
-  surface.name = "cube";
-  surface.innerMedium = 1;
-  surface.outerMedium = 0;
+  Surface surface = surfaceBetween("cube", 1, 0);
   SurfaceBuilder builder(surface);
   for (const Face& face : faces) {
     const uint32_t first = static_cast<uint32_t>(surface.positions.size());
@@ -158,10 +161,7 @@ Surface makeTorusSurface(int level) {
   const int major = 8 << level;  // segments around the y axis
   const int minor = 4 << level;  // segments around the tube
   const float twoPi = glm::two_pi<float>();
-  Surface surface;
-  surface.name = "torus";
-  surface.innerMedium = 1;
-  surface.outerMedium = 0;
+  Surface surface = surfaceBetween("torus", 1, 0);
   SurfaceBuilder builder(surface);
   // P(theta, phi) = ((R + r cos phi) cos theta, r sin phi, (R + r cos phi) sin theta).
   for (int j = 0; j < major; ++j) {
@@ -313,46 +313,20 @@ std::vector<Surface> makeGlassOfWaterSurfaces(int level) {
   };
   const glm::vec2 outward(1.0f, 0.0f), inward(-1.0f, 0.0f), up(0.0f, 1.0f);
 
-  std::vector<Surface> surfaces(4);
-  Surface& outer = surfaces[0];
-  outer.name = "glass-outer";
-  outer.innerMedium = kGlass;
-  outer.outerMedium = kAir;
-  {
-    SurfaceBuilder b(outer);
-    lathe.disk(b, kCupOuterRadius, kCupBase, steps(kCupOuterRadius), /*up=*/false);
-    lathe.band(b, {kCupOuterRadius, kCupBase}, {kCupOuterRadius, kCupRim}, steps(kCupRim - kCupBase),
-               outward);
-    lathe.band(b, {kCupInnerRadius, kCupRim}, {kCupOuterRadius, kCupRim},
-               steps(kCupOuterRadius - kCupInnerRadius), up);
-  }
-  Surface& dry = surfaces[1];
-  dry.name = "glass-inner-dry";  // cavity wall above the water; normals into the cavity
-  dry.innerMedium = kGlass;
-  dry.outerMedium = kAir;
-  {
-    SurfaceBuilder b(dry);
-    lathe.band(b, {kCupInnerRadius, kWaterLine}, {kCupInnerRadius, kCupRim},
-               steps(kCupRim - kWaterLine), inward);
-  }
-  Surface& wet = surfaces[2];
-  wet.name = "glass-inner-wet";  // cavity wall and floor below the water line; normals into the water
-  wet.innerMedium = kGlass;
-  wet.outerMedium = kWater;
-  {
-    SurfaceBuilder b(wet);
-    lathe.band(b, {kCupInnerRadius, kCupFloor}, {kCupInnerRadius, kWaterLine},
-               steps(kWaterLine - kCupFloor), inward);
-    lathe.disk(b, kCupInnerRadius, kCupFloor, steps(kCupInnerRadius), /*up=*/true);
-  }
-  Surface& top = surfaces[3];
-  top.name = "water-surface";
-  top.innerMedium = kWater;
-  top.outerMedium = kAir;
-  {
-    SurfaceBuilder b(top);
-    lathe.disk(b, kCupInnerRadius, kWaterLine, steps(kCupInnerRadius), /*up=*/true);
-  }
+  // The inner walls: above the water line (dry) normals into the cavity; the wall and floor below
+  // it (wet) normals into the water.
+  std::vector<Surface> surfaces = {
+      surfaceBetween("glass-outer", kGlass, kAir), surfaceBetween("glass-inner-dry", kGlass, kAir),
+      surfaceBetween("glass-inner-wet", kGlass, kWater), surfaceBetween("water-surface", kWater, kAir)};
+  SurfaceBuilder outer(surfaces[0]), dry(surfaces[1]), wet(surfaces[2]), top(surfaces[3]);
+  lathe.disk(outer, kCupOuterRadius, kCupBase, steps(kCupOuterRadius), /*up=*/false);
+  lathe.band(outer, {kCupOuterRadius, kCupBase}, {kCupOuterRadius, kCupRim}, steps(kCupRim - kCupBase), outward);
+  lathe.band(outer, {kCupInnerRadius, kCupRim}, {kCupOuterRadius, kCupRim}, steps(kCupOuterRadius - kCupInnerRadius),
+             up);
+  lathe.band(dry, {kCupInnerRadius, kWaterLine}, {kCupInnerRadius, kCupRim}, steps(kCupRim - kWaterLine), inward);
+  lathe.band(wet, {kCupInnerRadius, kCupFloor}, {kCupInnerRadius, kWaterLine}, steps(kWaterLine - kCupFloor), inward);
+  lathe.disk(wet, kCupInnerRadius, kCupFloor, steps(kCupInnerRadius), /*up=*/true);
+  lathe.disk(top, kCupInnerRadius, kWaterLine, steps(kCupInnerRadius), /*up=*/true);
   return surfaces;
 }
 

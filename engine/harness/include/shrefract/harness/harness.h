@@ -118,9 +118,10 @@ class Harness {
 
  private:
   Harness() = default;
-  // Memory for `req` of a type with `preferred` flags, else (when `required` is 0) of any type.
-  Result<VkDeviceMemory> allocate(const VkMemoryRequirements& req, VkMemoryPropertyFlags preferred,
-                                  VkMemoryPropertyFlags required) const;
+  // Memory for `buffer` or, when it is null, `image`, of a type with `preferred` flags, else with
+  // `required` ones (0: any type), bound at offset 0 into `memory`.
+  Result<void> bindMemory(VkBuffer buffer, VkImage image, VkMemoryPropertyFlags preferred,
+                          VkMemoryPropertyFlags required, VkDeviceMemory& memory) const;
   static VKAPI_ATTR VkBool32 VKAPI_CALL debugCallback(VkDebugUtilsMessageSeverityFlagBitsEXT,
                                                       VkDebugUtilsMessageTypeFlagsEXT,
                                                       const VkDebugUtilsMessengerCallbackDataEXT*,
