@@ -34,15 +34,7 @@ struct FidelityResult {
   std::string markdown;  // the section of report.md
 };
 
-struct FidelityOptions {
-  ReportSize size = ReportSize::Default;
-  std::vector<std::string> scenes;  // empty: the defaults of the size (see fidelity_profile.cpp)
-  std::string outputDirectory;
-  uint32_t width = 0, height = 0;   // 0: by size
-  uint32_t frames = 0;              // GPU frames timed per row; 0: by size
-  uint32_t threads = 0;
-  uint64_t samples = 0;             // sample budget of every bake; 0: by size
-};
+using FidelityOptions = SectionOptions;  // outputDirectory: where its images go
 
 // Runs the section on `session` (validation messages are the caller's to check). Images and plots
 // go to the output directory and are appended to `files`. Errors: unreadable scenes (a default

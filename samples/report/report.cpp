@@ -595,16 +595,8 @@ Result<std::vector<FlickerScene>> measureFlicker(ReportRun& run) {
 }
 
 Result<FidelityResult> measureFidelity(ReportRun& run) {
-  const ReportOptions& options = run.options;
-  FidelityOptions fo;
-  fo.size = options.size;
-  fo.scenes = options.scenes;
+  FidelityOptions fo = run.options;  // the report's own options, less what only the report reads
   fo.outputDirectory = run.dir;
-  fo.width = options.width;
-  fo.height = options.height;
-  fo.frames = options.frames;
-  fo.threads = options.threads;
-  fo.samples = options.samples;
   return runFidelity(fo, run.session, run.result.files);
 }
 

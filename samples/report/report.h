@@ -22,7 +22,8 @@ enum class ReportSize {
   Full,     // hours: the settings sweeps, stability cases, flicker orbits and every fidelity row
 };
 
-struct ReportOptions {
+// What the report and each of its sections are run with.
+struct SectionOptions {
   std::vector<std::string> scenes;  // scene specs (builtin:NAME[?options] or glTF); empty: defaults
   std::string outputDirectory;
   ReportSize size = ReportSize::Default;
@@ -30,6 +31,9 @@ struct ReportOptions {
   uint32_t frames = 0;              // GPU frames timed per setting; 0: by size
   uint32_t threads = 0;             // bake and CPU reference threads; 0: all
   uint64_t samples = 0;             // sample budget of the bakes (stiff cases: at most 1500); 0: by size
+};
+
+struct ReportOptions : SectionOptions {
   int deviceIndex = -1;
   bool validation = true;
   bool fidelityOnly = false;        // only the fidelity section (report/fidelity.h)
