@@ -1,16 +1,14 @@
 // The report's fidelity section: how far the field and the usual shortcuts are from the
 // physical answer, and where the error comes from.
 //
-// Physical reference: the full Fresnel tree (every branch at every interface) to depth 8, 4x4
-// stratified samples per pixel (bake/reference_render.h). Every render is 4x4 supersampled; errors
-// are PSNR over the object's pixels (coverage > 0.5 in the physical reference), colours clamped to
-// [0, 1]; every row also against the same tree at 8x8, which shares no sample positions with the
-// 4x4 renders. Per scene: exact single paths (highest-energy, first-refraction, each with and without
-// the path's Fresnel throughput), single-interface refraction, and fields baked at several
-// encodings and budgets; then the error decomposition of the default field (order 8, 32x64
-// directions, split layout, u8):
+// Physical reference: the full Fresnel tree (every branch at every interface) to depth 8,
+// supersampled (trace/reference_render.h); errors are PSNR over the object's pixels, colours
+// clamped to [0, 1], also against a denser tree that shares no sample positions with the renders.
+// Per scene: exact single paths (highest-energy, first-refraction, each with and without the
+// path's Fresnel throughput), single-interface refraction, the default field and, by the size,
+// fields at other encodings and budgets; then the error decomposition of the default field:
 //   physical -> exact path (path rule) -> exact path at the sample texels (spatial sampling)
-//   -> f16 field (angular encoding) -> u8 field (quantization) -> u8 field at 1 spp (pixel sampling).
+//   -> f16 field (angular encoding) -> GPU -> u8 field (quantization) -> 1 spp (pixel sampling).
 #pragma once
 
 #include <shrefract/bake/bake_settings.h>
@@ -25,8 +23,8 @@
 
 namespace shrefract::report {
 
-// The tool's default bake (`shrefract bake` without --order; docs/encodings.md): Pca K=324 over
-// 64x64 tables (bake::kDefaultPcaTableSize) traced at their nodes, u8, the layout's default sample budget.
+// The tool's default bake (`shrefract bake SCENE` with no flags): the scene decides the encoding
+// and its budget (bake::settingsForScene).
 BakeSettings defaultFieldSettings();
 
 struct FidelityResult {
