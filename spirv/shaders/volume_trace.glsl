@@ -23,7 +23,8 @@ uint volumeFarWord(bool inside) {
 // The 8 voxels around grid point g (voxel units), clamped to the grid, as volume_trace.cpp cornersAt:
 // corner k is c0 + (k & 1, (k >> 1) & 1, k >> 2), read through c0's brick (gpu_layout.h: a stored
 // brick holds its cells' far corners too; a brick beyond the band reads its far word at all 8).
-void corners(vec3 g, out uint words[8], out float weight[8]) {
+// Returns c0's brick entry, and the brick in `brick`.
+uint corners(vec3 g, out uint words[8], out float weight[8], out uvec3 brick) {
   uint n = head.grid.x;
   float hi = float(n - 1u);
   g = clamp(g, vec3(0.0), vec3(hi));
@@ -36,6 +37,7 @@ void corners(vec3 g, out uint words[8], out float weight[8]) {
   uint per = (n + kVolumeBrickSide - 1u) / kVolumeBrickSide;
   uvec3 b = c0 / kVolumeBrickSide, l = c0 % kVolumeBrickSide;
   uint entry = volumeWord((b.z * per + b.y) * per + b.x);
+  brick = b;
   uint far = volumeFarWord((entry & 1u) == 0u);
   for (uint k = 0u; k < 8u; ++k) words[k] = far;
   if (entry < kVolumeBrickFar) {
@@ -44,19 +46,27 @@ void corners(vec3 g, out uint words[8], out float weight[8]) {
       words[k] = volumeWord(base + (k & 1u) + ((k >> 1u) & 1u) * kVolumeApronSide +
                             (k >> 2u) * (kVolumeApronSide * kVolumeApronSide));
   }
+  return entry;
 }
 
 float voxelDistance(uint word) {
   return (float(word & kVolumeDistanceMask) - float(kVolumeDistanceZero)) * (kVolumeBandVoxels / float(kVolumeDistanceZero));
 }
 
-float distanceAt(vec3 g) {
+// The trilinear distance at g, with the brick read and its entry (for farSkip).
+float distanceAt(vec3 g, out uvec3 brick, out uint entry) {
   uint words[8];
   float weight[8];
-  corners(g, words, weight);
+  entry = corners(g, words, weight, brick);
   float d = 0.0;
   for (uint k = 0u; k < 8u; ++k) d += weight[k] * voxelDistance(words[k]);
   return d;
+}
+
+float distanceAt(vec3 g) {
+  uvec3 brick;
+  uint entry;
+  return distanceAt(g, brick, entry);
 }
 
 vec3 unpackNormal(uint word) {
@@ -76,7 +86,8 @@ vec3 unpackNormal(uint word) {
 vec3 normalAt(vec3 g) {
   uint words[8];
   float weight[8];
-  corners(g, words, weight);
+  uvec3 brick;
+  corners(g, words, weight, brick);
   vec3 u[8];
   uint nearest = 0u;
   for (uint k = 0u; k < 8u; ++k) {
@@ -90,15 +101,12 @@ vec3 normalAt(vec3 g) {
 }
 
 // As volume_trace.cpp farSkip: how far along d from grid point g the cube of far bricks around
-// g's brick reaches (gpu_layout.h kVolumeBrickFar); 0 in a stored brick or off the grid.
-float farSkip(vec3 g, vec3 d) {
+// g's brick b (entry: its entry, as distanceAt read them; gpu_layout.h kVolumeBrickFar) reaches;
+// 0 in a stored brick or off the grid.
+float farSkip(vec3 g, vec3 d, uvec3 b, uint entry) {
   uint n = head.grid.x;
   float hi = float(n - 1u);
-  if (min(g.x, min(g.y, g.z)) < 0.0 || max(g.x, max(g.y, g.z)) > hi) return 0.0;
-  uint per = (n + kVolumeBrickSide - 1u) / kVolumeBrickSide;
-  uvec3 b = min(uvec3(g), uvec3(n - 2u)) / kVolumeBrickSide;
-  uint entry = volumeWord((b.z * per + b.y) * per + b.x);
-  if (entry < kVolumeBrickFar) return 0.0;
+  if (entry < kVolumeBrickFar || min(g.x, min(g.y, g.z)) < 0.0 || max(g.x, max(g.y, g.z)) > hi) return 0.0;
   uint reach = (entry - kVolumeBrickFar) >> 1u;
   vec3 lo = vec3((b + 1u - reach) * kVolumeBrickSide), up = vec3((b + reach) * kVolumeBrickSide);
   float t = 4.0 * float(n);
@@ -117,7 +125,9 @@ float crossing(vec3 g, vec3 d, bool outside) {
   for (uint step = 0u; step < kVolumeMaxSteps && t < limit; ++step) {
     vec3 q = g + t * d;
     if (outside && (min(q.x, min(q.y, q.z)) < 0.0 || max(q.x, max(q.y, q.z)) > hi)) return -1.0;
-    float s = m * distanceAt(q);
+    uvec3 brick;
+    uint entry;
+    float s = m * distanceAt(q, brick, entry);
     if (s < 0.0) {
       seen = true;
     } else if (seen) {
@@ -138,7 +148,7 @@ float crossing(vec3 g, vec3 d, bool outside) {
     }
     previous = t;
     before = s;
-    t += max(max(kVolumeStepScale * abs(s), kVolumeMinStep), farSkip(q, d));
+    t += max(max(kVolumeStepScale * abs(s), kVolumeMinStep), farSkip(q, d, brick, entry));
   }
   return -1.0;
 }

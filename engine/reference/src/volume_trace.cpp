@@ -30,6 +30,8 @@ using glm::dot;
 struct Corners {
   uint32_t words[8];  // corner k is (x0, y0, z0) + (k & 1, (k >> 1) & 1, k >> 2)
   float weight[8];
+  uint32_t brick[3];  // the brick read through, and its index among the bricks (for farSkip)
+  size_t brickIndex;
 };
 
 Corners cornersAt(const FieldVolume& v, V3 g) {
@@ -41,7 +43,11 @@ Corners cornersAt(const FieldVolume& v, V3 g) {
   const float fx = g.x - float(x0), fy = g.y - float(y0), fz = g.z - float(z0);
   Corners c{};
   const uint32_t per = volumeBricksPerSide(n), s = kVolumeBrickSide;
-  const uint32_t entry = v.bricks[(size_t(z0 / s) * per + y0 / s) * per + x0 / s];
+  c.brick[0] = x0 / s;
+  c.brick[1] = y0 / s;
+  c.brick[2] = z0 / s;
+  c.brickIndex = (size_t(c.brick[2]) * per + c.brick[1]) * per + c.brick[0];
+  const uint32_t entry = v.bricks[c.brickIndex];
   for (uint32_t k = 0; k < 8; ++k) {
     const uint32_t dx = k & 1u, dy = (k >> 1) & 1u, dz = (k >> 2) & 1u;
     c.weight[k] = (dx ? fx : 1.0f - fx) * (dy ? fy : 1.0f - fy) * (dz ? fz : 1.0f - fz);
@@ -55,8 +61,10 @@ float voxelDistance(uint32_t word) {
   return (float(word & gpu::kVolumeDistanceMask) - float(gpu::kVolumeDistanceZero)) * (kVolumeBandVoxels / float(gpu::kVolumeDistanceZero));
 }
 
-float distanceAt(const FieldVolume& v, V3 g) {
+// The trilinear distance at g; `read` (optional) receives the corners it was read from.
+float distanceAt(const FieldVolume& v, V3 g, Corners* read = nullptr) {
   const Corners c = cornersAt(v, g);
+  if (read) *read = c;
   float d = 0.0f;
   for (uint32_t k = 0; k < 8; ++k) d += c.weight[k] * voxelDistance(c.words[k]);
   return d;
@@ -80,18 +88,15 @@ V3 normalAt(const FieldVolume& v, V3 g) {
   return unitOrZ(n);
 }
 
-// How far along d from grid point g the cube of far bricks around g's brick reaches
-// (FieldVolume::farReach): no interface lies inside it, so the march may cross it in one step. 0
-// in a stored brick or off the grid.
-float farSkip(const FieldVolume& v, V3 g, V3 d) {
-  const uint32_t n = v.size;
+// How far along d from grid point g the cube of far bricks around g's brick (as distanceAt read
+// it into `c`) reaches (FieldVolume::farReach): no interface lies inside it, so the march may
+// cross it in one step. 0 in a stored brick or off the grid.
+float farSkip(const FieldVolume& v, V3 g, V3 d, const Corners& c) {
+  const uint32_t n = v.size, s = kVolumeBrickSide;
   const float hi = float(n - 1);
-  if (std::min({g.x, g.y, g.z}) < 0.0f || std::max({g.x, g.y, g.z}) > hi) return 0.0f;
-  const uint32_t per = volumeBricksPerSide(n), s = kVolumeBrickSide;
-  const uint32_t bx = std::min(uint32_t(g.x), n - 2) / s, by = std::min(uint32_t(g.y), n - 2) / s,
-                 bz = std::min(uint32_t(g.z), n - 2) / s;
-  const uint32_t reach = volumeFarReach(v, (size_t(bz) * per + by) * per + bx);
-  if (reach == 0) return 0.0f;
+  const uint32_t reach = volumeFarReach(v, c.brickIndex);
+  if (reach == 0 || std::min({g.x, g.y, g.z}) < 0.0f || std::max({g.x, g.y, g.z}) > hi) return 0.0f;
+  const uint32_t bx = c.brick[0], by = c.brick[1], bz = c.brick[2];
   const V3 lo(float((bx + 1 - reach) * s), float((by + 1 - reach) * s), float((bz + 1 - reach) * s));
   const V3 up(float((bx + reach) * s), float((by + reach) * s), float((bz + reach) * s));
   float t = 4.0f * float(n);
@@ -116,7 +121,8 @@ float crossing(const FieldVolume& v, V3 g, V3 d, bool outside, uint32_t& steps) 
   for (uint32_t step = 0; step < gpu::kVolumeMaxSteps && t < limit; ++step) {
     const V3 q = g + t * d;
     if (outside && (std::min({q.x, q.y, q.z}) < 0.0f || std::max({q.x, q.y, q.z}) > hi)) return -1.0f;
-    const float s = m * distanceAt(v, q);
+    Corners read;
+    const float s = m * distanceAt(v, q, &read);
     ++steps;
     if (s < 0.0f) {
       seen = true;
@@ -141,7 +147,7 @@ float crossing(const FieldVolume& v, V3 g, V3 d, bool outside, uint32_t& steps) 
     }
     previous = t;
     before = s;
-    t += std::max(std::max(gpu::kVolumeStepScale * std::fabs(s), gpu::kVolumeMinStep), farSkip(v, q, d));
+    t += std::max(std::max(gpu::kVolumeStepScale * std::fabs(s), gpu::kVolumeMinStep), farSkip(v, q, d, read));
   }
   return -1.0f;
 }

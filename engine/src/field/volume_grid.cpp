@@ -105,7 +105,7 @@ void setVolumeVoxels(FieldVolume& v, const std::vector<uint32_t>& dense) {
 void setVolumeFarReach(FieldVolume& v) {
   const int per = int(volumeBricksPerSide(v.size));
   const auto at = [per](int a, int b, int c) { return (size_t(c) * per + b) * per + a; };
-  v.farReach.assign(v.bricks.size(), 0);
+  v.farReach.resize(v.bricks.size());
   for (size_t i = 0; i < v.bricks.size(); ++i) v.farReach[i] = v.bricks[i] >= kVolumeBrickInside ? 1 : 0;
   std::vector<uint8_t> next = v.farReach;
   for (uint32_t reach = 1; reach < 255; ++reach) {
